@@ -1,0 +1,429 @@
+"""Request/reply over a pyserial port: the one way the package talks to a robot.
+
+The port comes from a URL through :func:`serial.serial_for_url`: a device path
+(``/dev/ttyUSB0``, ``COM3``), ``socket://host:port`` (an emulator in another process) or
+``emu://`` (an emulator in this process, see :mod:`autonomy.emulator`). The client code is
+the same for all of them.
+
+One request is in flight at a time (a lock makes the client safe to share between
+threads). Before each request stale input is discarded. Commands that are harmless to
+repeat (``G X F M S``) are asked again after a time-out, a framing error or a ``NO``;
+relative moves (``T D``) never are, since a repeat after a lost ``OK`` would move twice.
+"""
+
+from __future__ import annotations
+
+import errno
+import threading
+from dataclasses import dataclass
+from types import TracebackType
+from typing import Any, Callable
+
+import serial
+from serial.tools import list_ports
+
+from autonomy.clock import Clock, RealClock
+from autonomy.errors import (
+    AutonomyError,
+    CommandRefused,
+    FramingError,
+    LinkError,
+    LinkLost,
+    PortError,
+    ReplyTimeout,
+)
+from autonomy.protocol import (
+    Ack,
+    Beep,
+    Command,
+    Get,
+    Health,
+    Move,
+    Parameter,
+    Reply,
+    ReplyDecoder,
+    ServoBy,
+    ServoTo,
+    Status,
+    Stop,
+    Turn,
+)
+
+# pyserial imports ``autonomy.urlhandler.protocol_emu`` only when an emu:// URL is opened,
+# so the client does not depend on the emulator.
+if "autonomy.urlhandler" not in serial.protocol_handler_packages:
+    serial.protocol_handler_packages.append("autonomy.urlhandler")
+
+DEFAULT_BAUD = 57600
+SUPPORTED_BAUD_RATES = (57600, 115200)
+DEFAULT_TIMEOUT_S = 0.25
+DEFAULT_RETRIES = 3
+DEFAULT_READY_TIMEOUT_S = 3.0
+DEFAULT_STOP_TRIES = 5
+
+#: Called after every exchange with the frame sent and the reply (or error) it got.
+ExchangeListener = Callable[[bytes, "Reply | AutonomyError"], None]
+
+
+@dataclass
+class LinkStats:
+    """Counters of what happened on the link since it was opened."""
+
+    requests: int = 0
+    attempts: int = 0
+    retries: int = 0
+    timeouts: int = 0
+    framing_errors: int = 0
+    refusals: int = 0
+    bytes_sent: int = 0
+    bytes_received: int = 0
+
+
+def open_port(url: str, baud: int = DEFAULT_BAUD, clock: Clock | None = None) -> serial.SerialBase:
+    """Opens the pyserial port behind ``url``.
+
+    Args:
+        url: A device path, ``socket://host:port`` or ``emu://[?options]``.
+        baud: 57600 or 115200.
+        clock: For ``emu://`` ports, the clock the emulator runs on.
+
+    Raises:
+        PortError: the URL is not understood or the port cannot be opened.
+    """
+    if baud not in SUPPORTED_BAUD_RATES:
+        raise PortError(f"baud rate {baud} is not supported; the robot speaks 57600 or 115200")
+    try:
+        port = serial.serial_for_url(url, baudrate=baud, timeout=DEFAULT_TIMEOUT_S, do_not_open=True)
+        if clock is not None and hasattr(port, "clock"):
+            port.clock = clock
+        port.open()
+    except (serial.SerialException, OSError, ValueError) as err:
+        raise PortError(f"cannot open {url}: {_open_reason(err)}") from err
+    return port
+
+
+def _reason(err: BaseException) -> str:
+    text = str(err).strip() or type(err).__name__
+    return text.splitlines()[0]
+
+
+def _open_reason(err: BaseException) -> str:
+    """Says why a port did not open, in terms of what to do about it."""
+    code = getattr(err, "errno", None)
+    if code == errno.ENOENT:
+        ports = ", ".join(sorted(info.device for info in list_ports.comports())) or "none found"
+        return f"no such port (serial ports on this machine: {ports})"
+    if code in (errno.EACCES, errno.EPERM):
+        return "permission denied (on Linux, join the 'dialout' group and log in again)"
+    if code == errno.EBUSY:
+        return "the port is in use by another program"
+    if code == errno.ECONNREFUSED or f"[Errno {errno.ECONNREFUSED}]" in str(err):  # pyserial drops errno here
+        return "connection refused (is the emulator running there?)"
+    return _reason(err)
+
+
+class Client:
+    """Talks to one robot over an open pyserial port.
+
+    Args:
+        port: An open pyserial port (anything with ``read``, ``write``,
+            ``reset_input_buffer`` and ``close``).
+        clock: The clock for time-outs and waits; by default the port's own clock
+            (emulator ports carry one) or real time.
+        timeout_s: How long one attempt waits for its reply.
+        retries: How many more attempts a repeatable command gets.
+        stop_tries: How many ``X`` frames :meth:`safe_stop` sends at most.
+        name: How the link is named in error messages (the URL).
+    """
+
+    def __init__(
+        self,
+        port: Any,
+        *,
+        clock: Clock | None = None,
+        timeout_s: float = DEFAULT_TIMEOUT_S,
+        retries: int = DEFAULT_RETRIES,
+        stop_tries: int = DEFAULT_STOP_TRIES,
+        name: str = "",
+    ) -> None:
+        self.port = port
+        self.clock: Clock = clock or getattr(port, "clock", None) or RealClock()
+        self.timeout_s = timeout_s
+        self.retries = retries
+        self.stop_tries = stop_tries
+        self.name = name or str(getattr(port, "port", "") or "robot")
+        self.stats = LinkStats()
+        self.listeners: list[ExchangeListener] = []
+        self.firmware_version = ""
+        self._lock = threading.RLock()
+        self._closed = False
+        port.timeout = timeout_s
+
+    # ------------------------------------------------------------------ lifecycle
+
+    @classmethod
+    def open(
+        cls,
+        url: str,
+        *,
+        baud: int = DEFAULT_BAUD,
+        clock: Clock | None = None,
+        timeout_s: float = DEFAULT_TIMEOUT_S,
+        retries: int = DEFAULT_RETRIES,
+        ready_timeout_s: float = DEFAULT_READY_TIMEOUT_S,
+    ) -> Client:
+        """Opens ``url`` and waits until the robot answers.
+
+        Boards that reset when the port opens stay silent for up to ~2 s, so this polls
+        ``GF000`` until a valid reply comes or ``ready_timeout_s`` has passed.
+
+        Raises:
+            PortError: the port cannot be opened.
+            ReplyTimeout: the robot did not answer in time.
+        """
+        port = open_port(url, baud, clock)
+        client = cls(port, clock=clock, timeout_s=timeout_s, retries=retries, name=url)
+        try:
+            client.wait_ready(ready_timeout_s)
+        except BaseException:
+            client._close_port()
+            raise
+        return client
+
+    def wait_ready(self, ready_timeout_s: float = DEFAULT_READY_TIMEOUT_S) -> str:
+        """Polls ``GF000`` until the robot answers; returns its firmware version.
+
+        Raises:
+            ReplyTimeout: no valid answer within ``ready_timeout_s``; the message tells
+                a silent port (robot off, wrong port) from one that sends bytes that
+                never form a reply (wrong baud rate).
+            LinkLost: the port failed while waiting.
+        """
+        deadline = self.clock.now() + ready_timeout_s
+        received_before = self.stats.bytes_received
+        while True:
+            try:
+                reply = self.request(Get("F"), retries=0)
+            except (ReplyTimeout, FramingError, CommandRefused):
+                if self.clock.now() < deadline:
+                    continue
+                received = self.stats.bytes_received - received_before
+                baud = getattr(self.port, "baudrate", DEFAULT_BAUD)
+                if received:
+                    other = " or ".join(str(b) for b in SUPPORTED_BAUD_RATES if b != baud)
+                    hint = f"{received} bytes came back but none formed a reply: is the robot set to {other} baud?"
+                else:
+                    hint = "nothing came back: is the robot on, and is this its port?"
+                raise ReplyTimeout(
+                    f"no answer from {self.name} at {baud} baud within {ready_timeout_s:g} s; {hint}",
+                    received,
+                ) from None
+            assert isinstance(reply, Parameter)
+            self.firmware_version = str(reply.value)
+            return self.firmware_version
+
+    def safe_stop(self) -> bool:
+        """Sends ``X`` until it is acknowledged or ``stop_tries`` ran out. Never raises.
+
+        Returns:
+            True when the robot acknowledged the stop.
+        """
+        for _ in range(self.stop_tries):
+            try:
+                self.request(Stop(), retries=0)
+                return True
+            except LinkLost:
+                return False
+            except AutonomyError:
+                continue
+        return False
+
+    def close(self) -> bool:
+        """Stops the robot (see :meth:`safe_stop`) and closes the port.
+
+        Returns:
+            True when the stop was acknowledged.
+        """
+        with self._lock:
+            if self._closed:
+                return True
+            stopped = self.safe_stop()
+            self._close_port()
+            return stopped
+
+    def _close_port(self) -> None:
+        self._closed = True
+        try:
+            self.port.close()
+        except (serial.SerialException, OSError):
+            pass
+
+    @property
+    def closed(self) -> bool:
+        """True once :meth:`close` ran."""
+        return self._closed
+
+    def __enter__(self) -> Client:
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        self.close()
+
+    # ------------------------------------------------------------------ requests
+
+    def request(self, command: Command, *, retries: int | None = None) -> Reply:
+        """Sends ``command`` and returns its reply.
+
+        Args:
+            command: The command to send.
+            retries: Overrides the client's retry count for this request (repeatable
+                commands only; ``T`` and ``D`` are never repeated).
+
+        Returns:
+            The decoded reply. A ``NO`` to anything but ``GR`` raises instead.
+
+        Raises:
+            CommandRefused: the robot answered ``NO`` (to every attempt).
+            ReplyTimeout: no valid reply (to every attempt).
+            LinkLost: the port failed.
+            LinkError: the client is closed.
+        """
+        with self._lock:
+            if self._closed:
+                raise LinkError(f"the link to {self.name} is closed")
+            frame = command.encode()
+            extra = (self.retries if retries is None else retries) if command.retryable else 0
+            self.stats.requests += 1
+            failure: AutonomyError | None = None
+            for attempt in range(extra + 1):
+                if attempt:
+                    self.stats.retries += 1
+                try:
+                    reply = self._exchange(command, frame)
+                except (ReplyTimeout, FramingError) as err:
+                    failure = err
+                    self._notify(frame, err)
+                    continue
+                self._notify(frame, reply)
+                if isinstance(reply, Ack) and not reply.ok:
+                    self.stats.refusals += 1
+                    failure = CommandRefused(
+                        f"the robot refused {frame[:-1].decode('ascii')} (answered NO)", frame
+                    )
+                    continue
+                return reply
+            assert failure is not None
+            if isinstance(failure, FramingError):
+                raise ReplyTimeout(
+                    f"no valid reply to {frame[:-1].decode('ascii')} from {self.name}: {failure}"
+                ) from failure
+            raise failure
+
+    def _notify(self, frame: bytes, outcome: Reply | AutonomyError) -> None:
+        for listener in self.listeners:
+            listener(frame, outcome)
+
+    def _exchange(self, command: Command, frame: bytes) -> Reply:
+        """One attempt: discard stale input, send, read until a reply or the time-out."""
+        self.stats.attempts += 1
+        self._io(self.port.reset_input_buffer)
+        self._io(self.port.write, frame)
+        self.stats.bytes_sent += len(frame)
+        decoder = ReplyDecoder.for_command(command)
+        deadline = self.clock.now() + self.timeout_s
+        received = 0
+        while True:
+            try:
+                reply = decoder.next_reply()
+            except FramingError:
+                self.stats.framing_errors += 1
+                if command.retryable:
+                    raise
+                continue  # T and D cannot be asked again: keep looking for their reply
+            if reply is not None:
+                return reply
+            data = self._io(self.port.read, decoder.bytes_needed()) if self.clock.now() < deadline else b""
+            if not data:
+                self.stats.timeouts += 1
+                raise ReplyTimeout(
+                    f"no reply to {frame[:-1].decode('ascii')} from {self.name} "
+                    f"within {self.timeout_s:g} s",
+                    received,
+                )
+            received += len(data)
+            self.stats.bytes_received += len(data)
+            decoder.feed(data)
+
+    def _io(self, operation: Callable[..., Any], *args: Any) -> Any:
+        try:
+            return operation(*args)
+        except (serial.SerialException, OSError) as err:
+            raise LinkLost(f"lost the link to {self.name}: {_reason(err)}") from err
+
+    # ------------------------------------------------------------------ commands
+
+    def beep(self, tones: tuple[int, int, int] = (5, 7, 9), volume: int = 3) -> None:
+        """Beeps three tones (1 lowest .. 9 highest) at ``volume`` 0..5."""
+        self.request(Beep(tones, volume))
+
+    def stop(self) -> None:
+        """Cancels every movement (``X``)."""
+        self.request(Stop())
+
+    def move(self, speed: int, *, backward: bool = False) -> None:
+        """Starts moving at speed setting 1..4 until told otherwise (``F``)."""
+        self.request(Move(speed, backward))
+
+    def servo_to(self, servo_id: int, angle_deg: int) -> None:
+        """Moves servo 0..2 to an absolute angle, -99..+99 degrees (``M``)."""
+        self.request(ServoTo(servo_id, angle_deg))
+
+    def servo_by(self, servo_id: int, delta_deg: int) -> None:
+        """Moves servo 0..2 by -9..+9 degrees from where it is (``D``; never repeated)."""
+        self.request(ServoBy(servo_id, delta_deg))
+
+    def turn(self, angle_deg: int) -> None:
+        """Turns in place: positive left, negative right, |angle| <= 999 (``T``; never repeated)."""
+        self.request(Turn(angle_deg))
+
+    def status(self) -> Status:
+        """Returns the binary status packet (``Gb000``)."""
+        reply = self.request(Get("b"))
+        assert isinstance(reply, Status)
+        return reply
+
+    def _parameter(self, letter: str) -> int | str:
+        reply = self.request(Get(letter))
+        assert isinstance(reply, Parameter)
+        return reply.value
+
+    def front_distance_mm(self) -> int:
+        """Returns the front distance sensor, 0..255 mm (``GD``)."""
+        return int(self._parameter("D"))
+
+    def battery(self) -> int:
+        """Returns the battery level, 0..255 (``GB``)."""
+        return int(self._parameter("B"))
+
+    def firmware(self) -> str:
+        """Returns the firmware version, three characters (``GF``)."""
+        return str(self._parameter("F"))
+
+    def velocity(self) -> int:
+        """Returns the average wheel velocity, -99..+99; 20 = one wheel turn per second (``GV``)."""
+        return int(self._parameter("V"))
+
+    def tilt_deg(self) -> int:
+        """Returns the tilt angle, -99..+99 degrees (``GA``)."""
+        return int(self._parameter("A"))
+
+    def healthy(self) -> bool:
+        """Returns True when the platform reports itself healthy (``GR``)."""
+        reply = self.request(Get("R"))
+        assert isinstance(reply, Health)
+        return reply.ok

@@ -1,0 +1,82 @@
+"""The one place that reads or waits on time.
+
+Everything else asks a :class:`Clock`, so the same code runs in real time (a robot on a
+cable, a demo someone watches) or in virtual time (tests, ``--fast`` runs), where waiting
+costs nothing and runs are exactly repeatable.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from typing import Protocol
+
+
+class Clock(Protocol):
+    """What the rest of the package needs to know about time."""
+
+    def now(self) -> float:
+        """Returns seconds since an arbitrary, fixed origin; never goes backward."""
+        ...
+
+    def sleep(self, seconds: float) -> None:
+        """Waits ``seconds`` (returns at once when ``seconds <= 0``)."""
+        ...
+
+    @property
+    def is_virtual(self) -> bool:
+        """True when waiting costs no real time."""
+        ...
+
+
+class RealClock:
+    """Wall-clock time: ``time.monotonic`` and ``time.sleep``."""
+
+    is_virtual = False
+
+    def now(self) -> float:
+        """Returns the monotonic clock in seconds."""
+        return time.monotonic()
+
+    def sleep(self, seconds: float) -> None:
+        """Sleeps for real."""
+        if seconds > 0:
+            time.sleep(seconds)
+
+
+class VirtualClock:
+    """Simulated time that only moves when somebody waits on it.
+
+    ``sleep`` advances the clock at once, so a ten-minute mission takes as long as its
+    computation. Thread-safe: several threads may sleep, each moves time forward.
+
+    Args:
+        start_s: The clock's first reading.
+    """
+
+    is_virtual = True
+
+    def __init__(self, start_s: float = 0.0) -> None:
+        self._now_s = start_s
+        self._lock = threading.Lock()
+
+    def now(self) -> float:
+        """Returns the simulated time in seconds."""
+        return self._now_s
+
+    def sleep(self, seconds: float) -> None:
+        """Advances simulated time by ``seconds`` without waiting."""
+        if seconds > 0:
+            with self._lock:
+                self._now_s += seconds
+
+    def advance_to(self, when_s: float) -> None:
+        """Moves simulated time forward to ``when_s`` (never backward)."""
+        with self._lock:
+            if when_s > self._now_s:
+                self._now_s = when_s
+
+
+def make_clock(virtual: bool) -> Clock:
+    """Returns a new virtual clock when ``virtual`` is true, else a real one."""
+    return VirtualClock() if virtual else RealClock()

@@ -1,0 +1,27 @@
+"""An emulator of the robot: world, physics, firmware, wire faults, and ways to reach it.
+
+Reach it in-process with the ``emu://`` URL, over TCP with ``socket://`` (see
+:mod:`autonomy.emulator.servers`), or through a pseudo-terminal.
+"""
+
+from autonomy.emulator.core import OPTIONS, Emulator, Exchange, emulator_from_options
+from autonomy.emulator.faults import FaultSpec, FaultSpecError
+from autonomy.emulator.robot import Robot, RobotParams
+from autonomy.emulator.world import Box, Circle, Pose, World, WorldError, load_world
+
+__all__ = [
+    "OPTIONS",
+    "Box",
+    "Circle",
+    "Emulator",
+    "Exchange",
+    "FaultSpec",
+    "FaultSpecError",
+    "Pose",
+    "Robot",
+    "RobotParams",
+    "World",
+    "WorldError",
+    "emulator_from_options",
+    "load_world",
+]

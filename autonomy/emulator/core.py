@@ -1,0 +1,283 @@
+"""The emulator as a byte stream: bytes in at a time, reply bytes out when they are due.
+
+:class:`Emulator` joins the robot model, its firmware and the wire between them (faults,
+baud-rate pacing) on one clock. It is lazy: every call first catches the physics up with
+the clock, so it needs no thread of its own. The ``emu://`` port, the TCP server and the
+pty server are thin shells around it.
+"""
+
+from __future__ import annotations
+
+import random
+import threading
+from collections import deque
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+from autonomy.clock import Clock, RealClock, VirtualClock
+from autonomy.emulator.faults import FaultSpec
+from autonomy.emulator.firmware import Firmware
+from autonomy.emulator.robot import Robot, RobotParams
+from autonomy.emulator.world import World, load_world
+from autonomy.protocol import NO, Command
+
+DEFAULT_EMULATOR_BAUD = 57600
+#: Received frames kept in :attr:`Emulator.log`; older ones are dropped.
+LOG_LIMIT = 100_000
+
+
+@dataclass(frozen=True)
+class Exchange:
+    """One frame the emulator received and what it answered.
+
+    Attributes:
+        time_s: Simulated time the frame was complete, seconds since the emulator started.
+        frame: The frame's bytes as received (after any injected faults).
+        command: The parsed command, or None when the frame was invalid.
+        reply: The reply bytes sent (before any injected faults).
+        executed: False when the command was not carried out (invalid, refused, or an
+            injected ``NO``).
+    """
+
+    time_s: float
+    frame: bytes
+    command: Command | None
+    reply: bytes
+    executed: bool
+
+
+class Emulator:
+    """A robot on the other end of a serial line.
+
+    Args:
+        world: A :class:`World`, a shipped world's name or a path to a world file.
+        params: The robot's settings.
+        faults: What to inject on the wire, as a :class:`FaultSpec` or its text form.
+        seed: Seeds faults and sensor noise, so a run can be repeated exactly.
+        clock: The clock it runs on; real time by default.
+        baud: The baud rate the robot is set to. Bytes sent at another rate turn into
+            noise both ways, as they do on a real serial line.
+    """
+
+    def __init__(
+        self,
+        world: World | str | Path = "box",
+        *,
+        params: RobotParams | None = None,
+        faults: FaultSpec | str = "",
+        seed: int = 0,
+        clock: Clock | None = None,
+        baud: int = DEFAULT_EMULATOR_BAUD,
+    ) -> None:
+        self.world = world if isinstance(world, World) else load_world(world)
+        self.clock: Clock = clock or RealClock()
+        self.robot = Robot(self.world, params or RobotParams(), seed)
+        self.firmware = Firmware(self.robot)
+        self.faults = faults if isinstance(faults, FaultSpec) else FaultSpec.parse(faults)
+        self.baud = baud
+        self.seed = seed
+        self.log: deque[Exchange] = deque(maxlen=LOG_LIMIT)
+        self._rng = random.Random(seed)
+        self._origin_s = self.clock.now()
+        self._inbox: deque[tuple[float, bytes]] = deque()
+        self._outbox: deque[tuple[float, bytes]] = deque()
+        self._in_free_s = 0.0  # when the incoming line is free for the next byte
+        self._out_free_s = 0.0
+        self._lock = threading.RLock()
+
+    # ------------------------------------------------------------------ time
+
+    def now_s(self) -> float:
+        """Simulated seconds since the emulator started."""
+        return self.clock.now() - self._origin_s
+
+    def byte_time_s(self) -> float:
+        """What one byte costs on the wire when pacing is on (10 bits), else 0."""
+        return 10.0 / self.baud if self.faults.pace else 0.0
+
+    def next_event_s(self) -> float | None:
+        """Clock time of the next byte to arrive or leave, or None when nothing is under way."""
+        with self._lock:
+            due = [queue[0][0] for queue in (self._inbox, self._outbox) if queue]
+            return min(due) + self._origin_s if due else None
+
+    def advance(self) -> None:
+        """Catches up with the clock: delivers due input to the firmware, steps the physics."""
+        with self._lock:
+            now = self.now_s()
+            while self._inbox and self._inbox[0][0] <= now:
+                due, data = self._inbox.popleft()
+                self.robot.advance_to(due)
+                for frame in self.firmware.frames(data):
+                    self._answer(frame, due)
+            self.robot.advance_to(now)
+
+    # ------------------------------------------------------------------ wire
+
+    def receive(self, data: bytes, baud: int | None = None) -> None:
+        """Takes bytes sent to the robot now.
+
+        Args:
+            data: The bytes, as written by the other end.
+            baud: The rate the other end sends at; None means the robot's own rate.
+        """
+        with self._lock:
+            self.advance()
+            now = self.now_s()
+            if baud is not None and baud != self.baud:
+                # A UART at the wrong rate sees noise, and what it sends back is noise too.
+                data = bytes(0x80 | (b * 37 + 11) & 0x7F for b in data)
+                self._send(bytes(0x80 | self._rng.randrange(128) for _ in range(max(1, len(data) // 2))), now)
+            else:
+                data = self._damage(data)
+            if not data:
+                return
+            byte_s = self.byte_time_s()
+            if byte_s:
+                start = max(now, self._in_free_s)
+                for i, byte in enumerate(data):
+                    self._inbox.append((start + (i + 1) * byte_s, bytes([byte])))
+                self._in_free_s = start + len(data) * byte_s
+            else:
+                self._inbox.append((now, data))
+            self.advance()
+
+    def ready_count(self) -> int:
+        """How many reply bytes have arrived and wait to be read."""
+        with self._lock:
+            self.advance()
+            now = self.now_s()
+            return sum(len(chunk) for due, chunk in self._outbox if due <= now)
+
+    def read_ready(self, limit: int | None = None) -> bytes:
+        """Takes up to ``limit`` reply bytes that have arrived (all of them when None)."""
+        with self._lock:
+            self.advance()
+            now = self.now_s()
+            out = bytearray()
+            while self._outbox and self._outbox[0][0] <= now and (limit is None or len(out) < limit):
+                due, chunk = self._outbox.popleft()
+                room = len(chunk) if limit is None else limit - len(out)
+                out += chunk[:room]
+                if room < len(chunk):
+                    self._outbox.appendleft((due, chunk[room:]))
+            return bytes(out)
+
+    def discard_ready(self) -> int:
+        """Drops every reply byte that has arrived; returns how many."""
+        with self._lock:
+            return len(self.read_ready())
+
+    def _answer(self, frame: bytes, due: float) -> None:
+        command, reply = None, NO
+        executed = False
+        faults = self.faults
+        if faults.no and self._rng.random() < faults.no:
+            reply = NO
+        else:
+            command, reply = self.firmware.execute(frame)
+            executed = command is not None and reply != NO
+        self.log.append(Exchange(due, frame, command, reply, executed))
+        when = due
+        if faults.delay and self._rng.random() < faults.delay:
+            when += faults.delay_s
+        self._send(self._damage(reply), when)
+        if faults.garbage and self._rng.random() < faults.garbage:
+            noise = bytes(self._rng.randrange(256) for _ in range(self._rng.randint(1, 4)))
+            self._send(noise, when + self._rng.uniform(0.0, 0.05))
+
+    def _send(self, data: bytes, when: float) -> None:
+        if not data:
+            return
+        byte_s = self.byte_time_s()
+        if not byte_s:
+            self._outbox.append((when, data))
+        else:
+            start = max(when, self._out_free_s)
+            for i, byte in enumerate(data):
+                self._outbox.append((start + (i + 1) * byte_s, bytes([byte])))
+            self._out_free_s = start + len(data) * byte_s
+        if len(self._outbox) > 1 and self._outbox[-1][0] < self._outbox[-2][0]:
+            self._outbox = deque(sorted(self._outbox, key=lambda item: item[0]))
+
+    def _damage(self, data: bytes) -> bytes:
+        faults = self.faults
+        if not (faults.drop or faults.corrupt):
+            return data
+        out = bytearray()
+        for byte in data:
+            if faults.drop and self._rng.random() < faults.drop:
+                continue
+            if faults.corrupt and self._rng.random() < faults.corrupt:
+                byte ^= self._rng.randrange(1, 256)
+            out.append(byte)
+        return bytes(out)
+
+    # ------------------------------------------------------------------ conveniences
+
+    def commands(self) -> list[Command]:
+        """The commands received and carried out, in order."""
+        with self._lock:
+            return [e.command for e in self.log if e.executed and e.command is not None]
+
+    def set_auto_mode(self, auto: bool) -> None:
+        """Switches between auto mode and manual mode (the handheld remote took over)."""
+        with self._lock:
+            self.advance()
+            self.robot.auto_mode = auto
+            if not auto:
+                self.robot.stop()
+
+
+#: Options an emu:// URL and ``autonomy emulator`` accept, with what each means.
+OPTIONS = {
+    "world": "arena: a shipped world's name or a world file's path (default box)",
+    "seed": "seed for faults and sensor noise (default 0)",
+    "faults": "fault spec, e.g. drop=0.01,pace (default none)",
+    "time": "real or virtual (default real)",
+    "baud": "the baud rate the emulated robot is set to (default 57600)",
+    "battery": "battery level at start, 0..255 (default 230)",
+    "noise": "front sensor noise, standard deviation in mm (default 0)",
+    "mode": "auto or manual (default auto)",
+}
+
+
+def emulator_from_options(options: dict[str, str], clock: Clock | None = None) -> Emulator:
+    """Builds an emulator from string options (an emu:// query or the CLI).
+
+    Raises:
+        ValueError: an unknown option or a value that cannot be used; the message says which.
+    """
+    unknown = set(options) - set(OPTIONS)
+    if unknown:
+        raise ValueError(f"unknown emulator option '{sorted(unknown)[0]}': use {', '.join(OPTIONS)}")
+
+    def number(key: str, kind: type, default: float) -> float:
+        try:
+            return kind(options.get(key, default))
+        except ValueError:
+            raise ValueError(f"emulator option {key} must be a number, got '{options[key]}'") from None
+
+    params = RobotParams()
+    if "battery" in options:
+        params = replace(params, battery_start=number("battery", float, 230))
+    if "noise" in options:
+        params = replace(params, sensor_noise_mm=number("noise", float, 0))
+    time_mode = options.get("time", "real")
+    if time_mode not in ("real", "virtual"):
+        raise ValueError(f"emulator option time must be real or virtual, got '{time_mode}'")
+    if clock is None and time_mode == "virtual":
+        clock = VirtualClock()
+    emulator = Emulator(
+        options.get("world", "box"),
+        params=params,
+        faults=options.get("faults", ""),
+        seed=int(number("seed", int, 0)),
+        clock=clock,
+        baud=int(number("baud", int, DEFAULT_EMULATOR_BAUD)),
+    )
+    mode = options.get("mode", "auto")
+    if mode not in ("auto", "manual"):
+        raise ValueError(f"emulator option mode must be auto or manual, got '{mode}'")
+    emulator.robot.auto_mode = mode == "auto"
+    return emulator

@@ -1,0 +1,125 @@
+"""The robot's firmware: command frames in, reply bytes out, exactly as docs/protocol.md says.
+
+It splits the incoming byte stream into frames at each ``\\n`` and answers every frame.
+A frame that is not 6 bytes, has an unknown letter or an argument out of range is answered
+``NO``; since each ``\\n`` ends a frame, garbage costs one ``NO`` and the next frame is
+read normally (resynchronisation). It reuses :mod:`autonomy.protocol` for both directions.
+"""
+
+from __future__ import annotations
+
+from autonomy.emulator.robot import Robot
+from autonomy.errors import ProtocolError
+from autonomy.protocol import (
+    FRAME_LENGTH,
+    NEWLINE,
+    NO,
+    OK,
+    Beep,
+    Command,
+    Get,
+    Health,
+    Move,
+    Parameter,
+    ServoBy,
+    ServoTo,
+    Status,
+    Stop,
+    Turn,
+    encode_heading,
+    parse_command,
+)
+
+#: Commands that move something: refused in manual mode, fallen, or on a flat battery.
+MOTION = (Move, Turn, ServoTo, ServoBy)
+
+
+class Firmware:
+    """Answers command frames for one :class:`Robot`.
+
+    Args:
+        robot: The robot the commands act on.
+    """
+
+    def __init__(self, robot: Robot) -> None:
+        self.robot = robot
+        self._line = bytearray()
+
+    def frames(self, data: bytes) -> list[bytes]:
+        """Splits received bytes into frames; a frame ends at each ``\\n``.
+
+        Bytes after the last ``\\n`` wait for the next call. A run longer than a frame
+        keeps only its first bytes: it will be answered ``NO`` either way.
+        """
+        frames = []
+        for byte in data:
+            if len(self._line) <= FRAME_LENGTH:
+                self._line.append(byte)
+            if byte == NEWLINE:
+                frames.append(bytes(self._line))
+                self._line.clear()
+        return frames
+
+    def execute(self, frame: bytes) -> tuple[Command | None, bytes]:
+        """Carries out one frame.
+
+        Returns:
+            The parsed command (None when the frame was refused as invalid) and the
+            reply bytes.
+        """
+        try:
+            command = parse_command(frame)
+        except ProtocolError:
+            return None, NO
+        return command, self.answer(command)
+
+    def answer(self, command: Command) -> bytes:
+        """Acts on ``command`` and returns the reply bytes."""
+        robot = self.robot
+        if isinstance(command, MOTION) and not robot.can_move:
+            return NO
+        if isinstance(command, Get):
+            return self._get(command.parameter)
+        if isinstance(command, Beep):
+            robot.beep(command.tones, command.volume)
+        elif isinstance(command, Stop):
+            robot.stop()
+        elif isinstance(command, Move):
+            robot.move(command.speed, command.backward)
+        elif isinstance(command, Turn):
+            robot.turn(command.angle_deg)
+        elif isinstance(command, ServoTo):
+            robot.servo_to(command.servo_id, command.angle_deg)
+        elif isinstance(command, ServoBy):
+            robot.servo_by(command.servo_id, command.delta_deg)
+        return OK
+
+    def _get(self, parameter: str) -> bytes:
+        robot = self.robot
+        if parameter == "b":
+            return self.status().encode()
+        if parameter == "R":
+            return Health(robot.healthy).encode()
+        if parameter == "F":
+            return Parameter("F", robot.params.firmware_version).encode()
+        if parameter == "D":
+            return Parameter("D", robot.front_distance_mm()).encode()
+        if parameter == "B":
+            return Parameter("B", int(robot.battery)).encode()
+        if parameter == "V":
+            return Parameter("V", robot.velocity_v()).encode()
+        return Parameter("A", max(-99, min(99, round(robot.tilt_deg)))).encode()
+
+    def status(self) -> Status:
+        """Returns the robot's state as a status packet."""
+        robot = self.robot
+        return Status(
+            mode=robot.mode,
+            auto_mode=robot.auto_mode,
+            collided=robot.collided,
+            moving=robot.moving,
+            tilt_deg=max(-127, min(127, round(robot.tilt_deg))),
+            heading_deg=encode_heading(robot.heading_deg),
+            front_distance_mm=robot.front_distance_mm(),
+            odometer_mm=round(robot.odometer_mm) % 65536,
+        )

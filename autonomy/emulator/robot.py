@@ -1,0 +1,288 @@
+"""The emulated robot's physics: wheels, turning, servos, sensor, tilt, battery, collisions.
+
+No bytes and no clock here: :meth:`Robot.advance_to` is handed simulated time and steps the
+model in fixed steps, so a run depends only on when commands arrived, never on how often
+somebody looked. Every constant is a field of :class:`RobotParams`, documented in
+docs/emulator.md.
+"""
+
+from __future__ import annotations
+
+import math
+import random
+from dataclasses import dataclass, field
+
+from autonomy.emulator.world import Pose, World
+
+MODE_IDLE = 0
+MODE_MOVING = 1
+MODE_TURNING = 2
+MODE_FALLEN = 3
+GRAVITY_MM_S2 = 9810.0
+
+
+@dataclass(frozen=True)
+class RobotParams:
+    """The emulator's settings. None of these are protocol facts; all are documented defaults."""
+
+    #: Wheel diameter; one revolution moves the robot ``pi * wheel_diameter_mm``.
+    wheel_diameter_mm: float = 68.0
+    #: Wheel velocity of speed settings 1..4, in the ``V`` units (20 = one revolution per second).
+    speed_setting_v: tuple[int, int, int, int] = (10, 20, 30, 40)
+    #: How fast the robot speeds up and slows down.
+    acceleration_mm_s2: float = 1500.0
+    #: Turn-in-place rate.
+    turn_rate_deg_s: float = 90.0
+    #: Radius of the robot's footprint (a circle) used for collisions.
+    body_radius_mm: float = 60.0
+    #: Servo slew rate.
+    servo_speed_deg_s: float = 120.0
+    #: Largest distance the front sensor reports; anything further reads this.
+    sensor_max_mm: int = 255
+    #: Standard deviation of the sensor's noise (0: exact, rounded to whole mm).
+    sensor_noise_mm: float = 0.0
+    #: Battery level at power-on, 0..255.
+    battery_start: float = 230.0
+    #: Battery drain while idle and the extra drain while driving or turning, in levels per second.
+    battery_idle_drain_per_s: float = 0.02
+    battery_motion_drain_per_s: float = 0.1
+    #: Below this battery level ``GR`` answers ``NO``.
+    battery_unhealthy_below: float = 40.0
+    #: Below this battery level motion commands are refused.
+    battery_cutoff_below: float = 10.0
+    #: How long the collision flag stays set after an impact.
+    collision_hold_s: float = 0.5
+    #: Extra lean (degrees) per mm/s of speed lost in an impact.
+    impact_tilt_deg_per_mm_s: float = 0.04
+    #: How quickly the tilt follows its target (first-order time constant).
+    tilt_time_constant_s: float = 0.15
+    #: Physics step.
+    step_s: float = 0.005
+    #: What ``GF`` answers.
+    firmware_version: str = "E10"
+
+    @property
+    def wheel_circumference_mm(self) -> float:
+        """Distance one wheel revolution moves the robot."""
+        return math.pi * self.wheel_diameter_mm
+
+    def speed_mm_s(self, setting: int) -> float:
+        """Ground speed of speed setting 1..4."""
+        return self.speed_setting_v[setting - 1] / 20.0 * self.wheel_circumference_mm
+
+
+@dataclass
+class Impact:
+    """One collision: when, where, and how fast the robot was going."""
+
+    time_s: float
+    pose: Pose
+    speed_mm_s: float
+
+
+@dataclass
+class Robot:
+    """The robot's state and its physics.
+
+    Args:
+        world: The arena it drives in.
+        params: Its settings.
+        seed: Seeds the sensor noise.
+    """
+
+    world: World
+    params: RobotParams = field(default_factory=RobotParams)
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        start = self.world.start
+        self.x_mm, self.y_mm, self.heading_deg = start.x_mm, start.y_mm, start.heading_deg
+        self.time_s = 0.0
+        self.speed_mm_s = 0.0  # signed, forward positive
+        self.target_speed_mm_s = 0.0
+        self.turn_remaining_deg = 0.0  # signed, left positive
+        self.odometer_mm = 0.0
+        self.tilt_deg = 0.0
+        self.tilt_kick_deg = 0.0
+        self.battery = self.params.battery_start
+        self.servo_deg = [0.0, 0.0, 0.0]
+        self.servo_target_deg = [0.0, 0.0, 0.0]
+        self.auto_mode = True
+        self.fallen = False
+        self.collided_until_s = -math.inf
+        self.impacts: list[Impact] = []
+        self.beeps: list[tuple[float, tuple[int, int, int], int]] = []
+        self._accel_mm_s2 = 0.0
+        self._rng = random.Random(self.seed)
+
+    # ------------------------------------------------------------------ readings
+
+    @property
+    def pose(self) -> Pose:
+        """Where the robot is now."""
+        return Pose(self.x_mm, self.y_mm, self.heading_deg)
+
+    @property
+    def mode(self) -> int:
+        """0 idle, 1 moving at a fixed velocity, 2 turning, 3 fallen."""
+        if self.fallen:
+            return MODE_FALLEN
+        if self.turn_remaining_deg:
+            return MODE_TURNING
+        if self.target_speed_mm_s:
+            return MODE_MOVING
+        return MODE_IDLE
+
+    @property
+    def moving(self) -> bool:
+        """True while the wheels turn or the robot turns in place."""
+        return bool(self.speed_mm_s or self.turn_remaining_deg)
+
+    @property
+    def collided(self) -> bool:
+        """The collision flag: set on impact and held ``collision_hold_s``."""
+        return self.time_s < self.collided_until_s
+
+    @property
+    def healthy(self) -> bool:
+        """What ``GR`` reports: not fallen and the battery above its health level."""
+        return not self.fallen and self.battery >= self.params.battery_unhealthy_below
+
+    @property
+    def can_move(self) -> bool:
+        """Whether motion commands (F T M D) are accepted."""
+        return self.auto_mode and not self.fallen and self.battery >= self.params.battery_cutoff_below
+
+    def true_front_gap_mm(self) -> float:
+        """Distance from the robot's front edge along its heading to the first obstacle."""
+        radius = self.params.body_radius_mm
+        rad = math.radians(self.heading_deg)
+        sx, sy = self.x_mm + radius * math.cos(rad), self.y_mm + radius * math.sin(rad)
+        return self.world.ray_distance(sx, sy, self.heading_deg)
+
+    def front_distance_mm(self) -> int:
+        """The front sensor's reading, 0..``sensor_max_mm``."""
+        gap = self.true_front_gap_mm()
+        if self.params.sensor_noise_mm:
+            gap += self._rng.gauss(0.0, self.params.sensor_noise_mm)
+        return int(min(self.params.sensor_max_mm, max(0.0, round(gap))))
+
+    def velocity_v(self) -> int:
+        """Average wheel velocity in ``V`` units (20 = one revolution per second), -99..99."""
+        v = round(self.speed_mm_s / self.params.wheel_circumference_mm * 20.0)
+        return max(-99, min(99, v))
+
+    # ------------------------------------------------------------------ commands
+
+    def move(self, setting: int, backward: bool = False) -> None:
+        """Drives at speed setting 1..4; replaces a turn in progress."""
+        self.turn_remaining_deg = 0.0
+        speed = self.params.speed_mm_s(setting)
+        self.target_speed_mm_s = -speed if backward else speed
+
+    def turn(self, angle_deg: float) -> None:
+        """Turns in place by ``angle_deg`` (left positive); replaces a move in progress."""
+        self.target_speed_mm_s = 0.0
+        self.speed_mm_s = 0.0
+        self.turn_remaining_deg = float(angle_deg)
+
+    def stop(self) -> None:
+        """Cancels every movement; the wheels slow down at the acceleration limit."""
+        self.target_speed_mm_s = 0.0
+        self.turn_remaining_deg = 0.0
+
+    def servo_to(self, servo_id: int, angle_deg: float) -> None:
+        """Sends servo ``servo_id`` towards an absolute angle."""
+        self.servo_target_deg[servo_id] = max(-99.0, min(99.0, float(angle_deg)))
+
+    def servo_by(self, servo_id: int, delta_deg: float) -> None:
+        """Sends servo ``servo_id`` ``delta_deg`` from where it is now."""
+        self.servo_to(servo_id, self.servo_deg[servo_id] + delta_deg)
+
+    def beep(self, tones: tuple[int, int, int], volume: int) -> None:
+        """Records a beep."""
+        self.beeps.append((self.time_s, tones, volume))
+
+    def knock_over(self) -> None:
+        """The robot falls: everything stops, motion is refused until :meth:`stand_up`."""
+        self.stop()
+        self.speed_mm_s = 0.0
+        self.fallen = True
+        self.tilt_deg = 90.0
+
+    def stand_up(self) -> None:
+        """Puts a fallen robot back on its wheels."""
+        self.fallen = False
+        self.tilt_deg = 0.0
+
+    # ------------------------------------------------------------------ physics
+
+    def advance_to(self, time_s: float) -> None:
+        """Steps the model in fixed steps up to ``time_s`` (never backward)."""
+        step = self.params.step_s
+        while self.time_s + step <= time_s + 1e-12:
+            self._step(step)
+
+    def _step(self, dt: float) -> None:
+        p = self.params
+        self.time_s += dt
+        previous_speed = self.speed_mm_s
+        if self.turn_remaining_deg:
+            turn = math.copysign(min(abs(self.turn_remaining_deg), p.turn_rate_deg_s * dt), self.turn_remaining_deg)
+            self.heading_deg += turn
+            self.turn_remaining_deg -= turn
+            if abs(self.turn_remaining_deg) < 1e-9:
+                self.turn_remaining_deg = 0.0
+        delta_v = self.target_speed_mm_s - self.speed_mm_s
+        max_dv = p.acceleration_mm_s2 * dt
+        self.speed_mm_s += max(-max_dv, min(max_dv, delta_v))
+        if self.speed_mm_s:
+            self._drive(self.speed_mm_s * dt)
+        self._accel_mm_s2 = (self.speed_mm_s - previous_speed) / dt
+        self._update_tilt(dt)
+        for i in range(3):
+            gap = self.servo_target_deg[i] - self.servo_deg[i]
+            self.servo_deg[i] += max(-p.servo_speed_deg_s * dt, min(p.servo_speed_deg_s * dt, gap))
+        drain = p.battery_idle_drain_per_s + (p.battery_motion_drain_per_s if self.moving else 0.0)
+        self.battery = max(0.0, self.battery - drain * dt)
+
+    def _drive(self, distance_mm: float) -> None:
+        """Moves along the heading, stopping at the first contact."""
+        rad = math.radians(self.heading_deg)
+        dx, dy = math.cos(rad), math.sin(rad)
+        radius = self.params.body_radius_mm
+        x, y = self.x_mm + dx * distance_mm, self.y_mm + dy * distance_mm
+        if self.world.circle_fits(x, y, radius):
+            self.x_mm, self.y_mm = x, y
+            self.odometer_mm += distance_mm
+            return
+        # Find how far it can go before touching (bisection on the fraction of the step).
+        low, high = 0.0, 1.0
+        for _ in range(30):
+            mid = (low + high) / 2
+            if self.world.circle_fits(self.x_mm + dx * distance_mm * mid, self.y_mm + dy * distance_mm * mid, radius):
+                low = mid
+            else:
+                high = mid
+        self.x_mm += dx * distance_mm * low
+        self.y_mm += dy * distance_mm * low
+        self.odometer_mm += distance_mm * low
+        self._impact()
+
+    def _impact(self) -> None:
+        p = self.params
+        speed = self.speed_mm_s
+        self.impacts.append(Impact(self.time_s, self.pose, abs(speed)))
+        self.collided_until_s = self.time_s + p.collision_hold_s
+        self.tilt_kick_deg += math.copysign(abs(speed) * p.impact_tilt_deg_per_mm_s, speed)
+        self.speed_mm_s = 0.0
+        self.target_speed_mm_s = 0.0
+
+    def _update_tilt(self, dt: float) -> None:
+        if self.fallen:
+            return
+        # A balancing robot leans into its acceleration: atan(a / g).
+        target = math.degrees(math.atan2(self._accel_mm_s2, GRAVITY_MM_S2)) + self.tilt_kick_deg
+        alpha = min(1.0, dt / self.params.tilt_time_constant_s)
+        self.tilt_deg += (target - self.tilt_deg) * alpha
+        self.tilt_kick_deg -= self.tilt_kick_deg * alpha
