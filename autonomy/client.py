@@ -49,6 +49,17 @@ from autonomy.protocol import (
     Turn,
 )
 
+try:
+    from termios import error as _TermiosError  # pyserial lets this through when a pty goes away
+except ImportError:  # pragma: no cover - not on Windows
+
+    class _TermiosError(Exception):  # type: ignore[no-redef]
+        """Never raised where termios does not exist."""
+
+
+#: What a pyserial port raises when the device or connection fails under it.
+PORT_ERRORS = (serial.SerialException, OSError, _TermiosError)
+
 # pyserial imports ``autonomy.urlhandler.protocol_emu`` only when an emu:// URL is opened,
 # so the client does not depend on the emulator.
 if "autonomy.urlhandler" not in serial.protocol_handler_packages:
@@ -255,7 +266,7 @@ class Client:
         self._closed = True
         try:
             self.port.close()
-        except (serial.SerialException, OSError):
+        except PORT_ERRORS:
             pass
 
     @property
@@ -362,7 +373,7 @@ class Client:
     def _io(self, operation: Callable[..., Any], *args: Any) -> Any:
         try:
             return operation(*args)
-        except (serial.SerialException, OSError) as err:
+        except PORT_ERRORS as err:
             raise LinkLost(f"lost the link to {self.name}: {_reason(err)}") from err
 
     # ------------------------------------------------------------------ commands

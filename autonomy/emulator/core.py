@@ -57,6 +57,8 @@ class Emulator:
         clock: The clock it runs on; real time by default.
         baud: The baud rate the robot is set to. Bytes sent at another rate turn into
             noise both ways, as they do on a real serial line.
+        boot_s: For this long after start the robot ignores everything it is sent, like a
+            board that resets when its port is opened.
     """
 
     def __init__(
@@ -68,6 +70,7 @@ class Emulator:
         seed: int = 0,
         clock: Clock | None = None,
         baud: int = DEFAULT_EMULATOR_BAUD,
+        boot_s: float = 0.0,
     ) -> None:
         self.world = world if isinstance(world, World) else load_world(world)
         self.clock: Clock = clock or RealClock()
@@ -75,6 +78,7 @@ class Emulator:
         self.firmware = Firmware(self.robot)
         self.faults = faults if isinstance(faults, FaultSpec) else FaultSpec.parse(faults)
         self.baud = baud
+        self.boot_s = boot_s
         self.seed = seed
         self.log: deque[Exchange] = deque(maxlen=LOG_LIMIT)
         self._rng = random.Random(seed)
@@ -124,6 +128,8 @@ class Emulator:
         with self._lock:
             self.advance()
             now = self.now_s()
+            if now < self.boot_s:
+                return  # still booting: the bytes are lost
             if baud is not None and baud != self.baud:
                 # A UART at the wrong rate sees noise, and what it sends back is noise too.
                 data = bytes(0x80 | (b * 37 + 11) & 0x7F for b in data)
@@ -239,6 +245,7 @@ OPTIONS = {
     "battery": "battery level at start, 0..255 (default 230)",
     "noise": "front sensor noise, standard deviation in mm (default 0)",
     "mode": "auto or manual (default auto)",
+    "boot": "seconds the robot ignores input after start, like a board that resets on open (default 0)",
 }
 
 
@@ -275,6 +282,7 @@ def emulator_from_options(options: dict[str, str], clock: Clock | None = None) -
         seed=int(number("seed", int, 0)),
         clock=clock,
         baud=int(number("baud", int, DEFAULT_EMULATOR_BAUD)),
+        boot_s=number("boot", float, 0.0),
     )
     mode = options.get("mode", "auto")
     if mode not in ("auto", "manual"):

@@ -1,0 +1,136 @@
+"""The same client over every way in: emu:// (virtual time), a real TCP socket, a real pty."""
+
+import pytest
+
+from autonomy.client import Client
+from autonomy.clock import VirtualClock
+from autonomy.emulator import Emulator
+from autonomy.emulator.servers import PtyServer, TcpServer
+from autonomy.errors import LinkLost, PortError, ReplyTimeout
+from autonomy.protocol import Beep, Get, Move, Stop
+
+
+@pytest.fixture(params=["emu", "tcp", "pty"])
+def link(request):
+    """Yields (client, emulator) over each transport."""
+    if request.param == "emu":
+        client = Client.open("emu://?world=corridor&time=virtual")
+        yield client, client.port.emulator
+        client.close()
+        return
+    emulator = Emulator("corridor")
+    server = TcpServer(emulator, port=0) if request.param == "tcp" else PtyServer(emulator)
+    with server:
+        client = Client.open(server.url)
+        yield client, emulator
+        client.close()
+
+
+def test_every_parameter_answers(link):
+    client, _ = link
+    assert client.firmware() == "E10"
+    assert client.battery() == 230
+    assert client.healthy() is True
+    assert client.velocity() == 0
+    assert client.tilt_deg() == 0
+    assert client.front_distance_mm() == 255
+    status = client.status()
+    assert (status.mode, status.auto_mode, status.heading_deg, status.odometer_mm) == (0, True, 0, 0)
+
+
+def test_driving_moves_the_odometer_and_the_emulator_sees_each_command(link):
+    client, emulator = link
+    client.beep((1, 6, 2), 5)
+    client.move(2)
+    client.clock.sleep(0.3)
+    moving = client.status()
+    client.stop()
+    assert moving.moving and moving.mode == 1 and moving.odometer_mm > 20
+    assert [c for c in emulator.commands() if not isinstance(c, Get)] == [Beep((1, 6, 2), 5), Move(2), Stop()]
+    assert emulator.robot.beeps[0][1:] == ((1, 6, 2), 5)
+
+
+def test_tcp_server_serves_one_peer_at_a_time():
+    with TcpServer(Emulator("box"), port=0) as server:
+        first = Client.open(server.url)
+        with pytest.raises((LinkLost, ReplyTimeout)):
+            Client.open(server.url, ready_timeout_s=0.5)
+        assert first.firmware() == "E10"
+        first.close()
+        second = Client.open(server.url)  # the line is free again
+        assert second.firmware() == "E10"
+        second.close()
+
+
+@pytest.mark.parametrize("kind", ["tcp", "pty"])
+def test_server_going_away_is_a_lost_link(kind):
+    emulator = Emulator("box")
+    server = (TcpServer(emulator, port=0) if kind == "tcp" else PtyServer(emulator)).start()
+    client = Client.open(server.url)
+    server.stop()
+    with pytest.raises(LinkLost):
+        for _ in range(5):  # a write may still be buffered; a read cannot succeed
+            client.status()
+    assert client.close() is False
+
+
+def test_lost_delayed_and_refused_replies_are_survived_by_retries():
+    client = Client.open("emu://?time=virtual&seed=3&faults=drop=0.003,garbage=0.05,delay=0.02,no=0.02")
+    headings = {client.status().heading_deg for _ in range(400)}
+    assert headings == {0}  # every packet that got through is the true one
+    stats = client.stats
+    assert stats.attempts > stats.requests > 400  # 400 statuses, firmware polls on open, retries on top
+    assert stats.retries > 0 and stats.framing_errors > 0 and stats.timeouts > 0 and stats.refusals > 0
+    client.close()
+
+
+def test_corrupted_bytes_are_caught_where_the_frame_shows_them():
+    # The protocol has no checksum: a corrupted byte inside a packet whose first and last bytes
+    # are intact cannot be seen. Corrupted framing bytes are caught, counted and asked again.
+    client = Client.open("emu://?time=virtual&seed=5&faults=corrupt=0.01")
+    statuses = [client.status() for _ in range(400)]
+    assert client.stats.framing_errors > 0 and client.stats.retries > 0
+    assert sum(s.heading_deg == 0 and s.front_distance_mm == 255 for s in statuses) > 350
+    client.close()
+
+
+def test_same_seed_same_faults():
+    def run() -> tuple:
+        client = Client.open("emu://?time=virtual&seed=11&faults=drop=0.005,corrupt=0.005")
+        for _ in range(100):
+            client.status()
+        return (client.stats.retries, client.stats.framing_errors, client.clock.now())
+
+    assert run() == run()
+
+
+@pytest.mark.parametrize(("baud", "expected_s"), [(57600, 15 * 10 / 57600), (115200, 15 * 10 / 115200)])
+def test_pacing_makes_a_status_poll_cost_its_wire_time(baud, expected_s):
+    client = Client.open(f"emu://?time=virtual&faults=pace&baud={baud}", baud=baud)
+    start = client.clock.now()
+    client.status()
+    assert client.clock.now() - start == pytest.approx(expected_s, rel=1e-9)
+
+
+def test_wrong_baud_rate_gives_noise_and_a_clear_error():
+    with pytest.raises(ReplyTimeout, match="none formed a reply: is the robot set to 57600 baud"):
+        Client.open("emu://?time=virtual", baud=115200)
+
+
+def test_open_errors_are_one_line_port_errors():
+    with pytest.raises(PortError, match="no such port"):
+        Client.open("/dev/does-not-exist")
+    with pytest.raises(PortError, match="baud rate 9600 is not supported"):
+        Client.open("emu://", baud=9600)
+    with pytest.raises(PortError, match="unknown emulator option 'wrold'"):
+        Client.open("emu://?wrold=box")
+    with pytest.raises(PortError, match="no world named 'mars'"):
+        Client.open("emu://?world=mars")
+
+
+def test_client_can_run_on_a_clock_of_its_own():
+    clock = VirtualClock(100.0)
+    client = Client.open("emu://?boot=1.5", clock=clock)
+    assert client.clock is clock and client.port.emulator.clock is clock
+    assert clock.now() >= 101.5  # it polled through the boot time, on this clock
+    client.close()
