@@ -236,9 +236,11 @@ class Robot:
         delta_v = self.target_speed_mm_s - self.speed_mm_s
         max_dv = p.acceleration_mm_s2 * dt
         self.speed_mm_s += max(-max_dv, min(max_dv, delta_v))
+        impacts = len(self.impacts)
         if self.speed_mm_s:
             self._drive(self.speed_mm_s * dt)
-        self._accel_mm_s2 = (self.speed_mm_s - previous_speed) / dt
+        # An impact is not braking: the body pitches forward (the kick), it does not lean back.
+        self._accel_mm_s2 = 0.0 if len(self.impacts) > impacts else (self.speed_mm_s - previous_speed) / dt
         self._update_tilt(dt)
         for i in range(3):
             gap = self.servo_target_deg[i] - self.servo_deg[i]

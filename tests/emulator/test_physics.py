@@ -1,0 +1,257 @@
+"""The emulator's physics, checked against geometry and against the protocol."""
+
+import math
+
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from autonomy.client import Client
+from autonomy.emulator import Emulator, RobotParams, load_world
+from autonomy.emulator.robot import Robot
+from autonomy.emulator.world import Circle, Pose, World
+from autonomy.protocol import odometer_delta_mm
+
+RADIUS = RobotParams().body_radius_mm
+
+
+def emu_client(query: str = "") -> Client:
+    return Client.open(f"emu://?time=virtual{'&' if query else ''}{query}")
+
+
+def wait_until_still(client: Client, limit_s: float = 20.0):
+    start = client.clock.now()
+    while client.clock.now() - start < limit_s:
+        client.clock.sleep(0.05)
+        status = client.status()
+        if not status.moving:
+            return status, client.clock.now() - start
+    raise AssertionError("the robot never stopped")
+
+
+def marched_gap(world: World, x: float, y: float, heading_deg: float, step: float = 0.25) -> float:
+    """Walks along the ray in small steps until it leaves free space: independent of the ray casts."""
+    dx, dy = math.cos(math.radians(heading_deg)), math.sin(math.radians(heading_deg))
+    t = 0.0
+    while t < 400:
+        px, py = x + dx * t, y + dy * t
+        if world.clearance(px, py) <= 0:
+            return t
+        t += step
+    return math.inf
+
+
+# ----------------------------------------------------------------------------- turning
+
+
+@pytest.mark.parametrize(("angle", "expected"), [(90, 90), (-90, 270), (45, 45), (450, 90), (-720, 0), (181, 181)])
+def test_turns_end_within_3_degrees(angle, expected):
+    client = emu_client()
+    client.turn(angle)
+    status, took_s = wait_until_still(client)
+    error = (status.heading_deg - expected + 180) % 360 - 180
+    assert abs(error) <= 3
+    assert took_s == pytest.approx(abs(angle) / RobotParams().turn_rate_deg_s, abs=0.1)
+    assert status.odometer_mm == 0  # turning in place moves no distance
+
+
+def test_heading_grows_on_left_turns():
+    client = emu_client()
+    client.turn(30)
+    client.clock.sleep(0.2)
+    assert 0 < client.status().heading_deg < 30
+    assert client.status().mode == 2  # turning
+
+
+# ----------------------------------------------------------------------------- driving
+
+
+def test_speed_settings_match_wheel_geometry():
+    params = RobotParams()
+    client = emu_client("world=empty")
+    client.move(2)
+    client.clock.sleep(1.0)  # past the acceleration
+    assert client.velocity() == 20  # V units: 20 = one wheel revolution per second
+    before = client.status().odometer_mm
+    client.clock.sleep(2.0)
+    travelled = odometer_delta_mm(before, client.status().odometer_mm)
+    assert travelled == pytest.approx(2 * math.pi * params.wheel_diameter_mm, abs=2)
+
+
+def test_backward_odometer_counts_down_and_wraps():
+    client = emu_client("world=empty")
+    client.move(1, backward=True)
+    client.clock.sleep(1.0)
+    status = client.status()
+    assert status.odometer_mm > 60000  # wrapped below zero
+    assert odometer_delta_mm(0, status.odometer_mm) < -50
+    assert client.velocity() < 0
+
+
+def test_stop_slows_down_then_stands_still():
+    client = emu_client("world=empty")
+    client.move(4)
+    client.clock.sleep(1.0)
+    client.stop()
+    status = client.status()
+    assert status.mode == 0 and status.moving  # commanded to stop, still rolling
+    status, took_s = wait_until_still(client)
+    assert took_s < 0.5
+
+
+def test_driving_at_a_wall_sets_collision_and_stops():
+    client = emu_client("world=box")
+    robot = client.port.emulator.robot
+    client.move(3)
+    hit = None
+    for _ in range(200):
+        client.clock.sleep(0.05)
+        status = client.status()
+        if status.collided:
+            hit = status
+            break
+    assert hit is not None, "never collided"
+    assert not hit.moving and hit.mode == 0 and hit.front_distance_mm == 0
+    assert robot.x_mm == pytest.approx(2000 - RADIUS, abs=0.5)  # touching the east wall
+    assert len(robot.impacts) == 1
+    impact_s = robot.impacts[0].time_s
+    client.clock.sleep(impact_s + 0.45 - client.port.emulator.now_s())
+    assert client.status().collided  # held for at least 0.5 s
+    client.clock.sleep(0.1)
+    assert not client.status().collided
+    client.move(1)  # pushing on: another impact, the flag comes back
+    client.clock.sleep(0.05)
+    assert client.status().collided and len(robot.impacts) == 2
+
+
+def test_impact_with_a_post_stops_the_robot_touching_it():
+    world = World("post", 3000, 3000, Pose(500, 500, 45.0), (Circle(1200, 1200, 100),))
+    robot = Robot(world)
+    robot.move(2)
+    robot.advance_to(10.0)
+    assert robot.impacts and robot.speed_mm_s == 0
+    centre_gap = math.hypot(robot.x_mm - 1200, robot.y_mm - 1200)
+    assert centre_gap == pytest.approx(100 + RADIUS, abs=0.5)
+
+
+def test_tilt_leans_into_acceleration_and_kicks_on_impact():
+    client = emu_client("world=box")
+    client.move(4)
+    client.clock.sleep(0.1)
+    assert client.tilt_deg() > 0  # leaning forward while speeding up
+    client.clock.sleep(1.0)
+    assert abs(client.tilt_deg()) <= 1  # upright while cruising
+    status = client.status()
+    while not status.collided and client.clock.now() < 10:
+        client.clock.sleep(0.01)
+        status = client.status()
+    assert status.collided and status.tilt_deg > 5  # the impact throws it forward
+
+
+# ----------------------------------------------------------------------------- sensor
+
+
+@pytest.mark.parametrize(("x", "heading", "gap"), [(1700, 0, 240), (1800, 0, 140), (1935, 0, 5), (250, 180, 190), (1000, 0, 255)])
+def test_sensor_reads_the_true_gap_to_a_wall(x, heading, gap):
+    world = World("box", 2000, 2000, Pose(x, 1000, heading))
+    assert Robot(world).front_distance_mm() == pytest.approx(gap, abs=2)
+
+
+def test_sensor_sees_a_post_through_the_protocol():
+    world = World("post", 3000, 3000, Pose(500, 500, 0.0), (Circle(800, 500, 50),))
+    client = Client.open("emu://?time=virtual")
+    client.port.emulator.robot = Robot(world)
+    client.port.emulator.firmware.robot = client.port.emulator.robot
+    assert client.front_distance_mm() == 800 - 50 - (500 + RADIUS)
+
+
+obstacles = load_world("obstacles")
+
+
+@settings(max_examples=150, deadline=None)
+@given(
+    st.floats(RADIUS, obstacles.width_mm - RADIUS),
+    st.floats(RADIUS, obstacles.height_mm - RADIUS),
+    st.floats(0, 360, exclude_max=True),
+)
+def test_sensor_agrees_with_a_ray_march(x, y, heading):
+    robot = Robot(World("o", obstacles.width_mm, obstacles.height_mm, Pose(x, y, heading), obstacles.obstacles))
+    if not obstacles.circle_fits(x, y, RADIUS):
+        return  # a start pose inside an obstacle is not a place the robot can be
+    sx, sy = x + RADIUS * math.cos(math.radians(heading)), y + RADIUS * math.sin(math.radians(heading))
+    expected = min(255.0, marched_gap(obstacles, sx, sy, heading))
+    assert abs(robot.front_distance_mm() - expected) <= 2
+
+
+# ----------------------------------------------------------------------------- servos, battery, modes
+
+
+def test_servos_move_at_their_speed_and_step_relative():
+    client = emu_client()
+    robot = client.port.emulator.robot
+    client.servo_to(0, 90)
+    client.clock.sleep(0.375)
+    client.port.emulator.advance()  # the emulator catches up lazily; reading robot state directly needs this
+    assert robot.servo_deg[0] == pytest.approx(45, abs=1)  # 120 deg/s
+    client.clock.sleep(0.5)
+    client.port.emulator.advance()
+    assert robot.servo_deg[0] == pytest.approx(90)
+    client.servo_by(0, -5)
+    client.servo_by(2, 9)
+    client.clock.sleep(0.5)
+    client.port.emulator.advance()
+    assert robot.servo_deg[0] == pytest.approx(85) and robot.servo_deg[2] == pytest.approx(9)
+
+
+def test_battery_drains_faster_when_moving():
+    idle, driving = Robot(load_world("empty")), Robot(load_world("empty"))
+    driving.move(2)
+    idle.advance_to(30.0)
+    driving.advance_to(30.0)  # 6.4 m: far from any wall of the 20 m hall
+    params = RobotParams()
+    assert not driving.impacts
+    assert idle.battery == pytest.approx(params.battery_start - 30 * params.battery_idle_drain_per_s, abs=0.01)
+    assert driving.battery == pytest.approx(idle.battery - 30 * params.battery_motion_drain_per_s, abs=0.01)
+
+
+def test_low_battery_is_unhealthy_and_flat_battery_refuses_motion():
+    client = emu_client("battery=30")
+    assert client.battery() == 30 and client.healthy() is False
+    flat = emu_client("battery=5")
+    with pytest.raises(Exception, match="refused F"):
+        flat.move(1)
+
+
+def test_manual_mode_refuses_motion_but_answers_the_rest():
+    client = emu_client("mode=manual")
+    assert client.status().auto_mode is False
+    for call in (lambda: client.move(1), lambda: client.turn(5), lambda: client.servo_to(0, 1), lambda: client.servo_by(0, 1)):
+        with pytest.raises(Exception, match="refused"):
+            call()
+    client.beep((1, 2, 3), 1)
+    client.stop()
+    client.port.emulator.set_auto_mode(True)
+    client.move(1)
+    assert client.status().mode == 1
+
+
+def test_fallen_robot_reports_it_and_refuses_motion():
+    client = emu_client()
+    client.port.emulator.robot.knock_over()
+    status = client.status()
+    assert status.mode == 3 and status.tilt_deg == 90
+    assert client.healthy() is False
+    with pytest.raises(Exception, match="refused"):
+        client.move(1)
+
+
+def test_physics_does_not_depend_on_how_often_it_is_asked():
+    def final_pose(poll_s: float):
+        client = emu_client("world=obstacles")
+        client.move(3)
+        while client.clock.now() < 3.0:
+            client.clock.sleep(poll_s)
+            client.status()
+        return client.port.emulator.robot.pose
+
+    assert final_pose(0.01) == final_pose(0.37)
