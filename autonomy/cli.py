@@ -10,7 +10,8 @@ import argparse
 import json
 import signal
 import sys
-from typing import Any, Sequence
+from collections.abc import Sequence
+from typing import Any
 
 from autonomy.client import DEFAULT_BAUD, SUPPORTED_BAUD_RATES, Client
 from autonomy.clock import VirtualClock
@@ -75,8 +76,7 @@ def cmd_emulator(args: argparse.Namespace) -> int:
         return _fail(f"cannot serve on {args.tcp[0]}:{args.tcp[1]}: {err.strerror or err}", EXIT_LINK)
     print(server.url, flush=True)
     print(
-        f"emulated robot in world '{emulator.world.name}', {args.baud} baud, faults: {emulator.faults}; "
-        "Ctrl-C to stop",
+        f"emulated robot in world '{emulator.world.name}', {args.baud} baud, faults: {emulator.faults}; Ctrl-C to stop",
         file=sys.stderr,
         flush=True,
     )
@@ -178,24 +178,34 @@ def build_parser() -> argparse.ArgumentParser:
     emu = sub.add_parser("emulator", help="serve an emulated robot over TCP or a pseudo-terminal")
     where = emu.add_mutually_exclusive_group()
     where.add_argument(
-        "--tcp", type=_host_port, default=("127.0.0.1", 7777), metavar="HOST:PORT",
+        "--tcp",
+        type=_host_port,
+        default=("127.0.0.1", 7777),
+        metavar="HOST:PORT",
         help="listen on TCP (default 127.0.0.1:7777; port 0 picks a free one)",
     )
     where.add_argument("--pty", action="store_true", help="serve on a pseudo-terminal and print its path")
     emu.add_argument("--world", default="box", metavar="NAME|PATH", help="arena (default box)")
     emu.add_argument("--seed", type=int, default=0, help="seed for faults and sensor noise (default 0)")
     emu.add_argument("--faults", type=_faults, default="", metavar="SPEC", help="e.g. drop=0.01,corrupt=0.01,pace")
-    emu.add_argument("--baud", type=int, choices=SUPPORTED_BAUD_RATES, default=DEFAULT_BAUD,
-                     help="the baud rate the emulated robot is set to (pacing, mismatch)")
+    emu.add_argument(
+        "--baud",
+        type=int,
+        choices=SUPPORTED_BAUD_RATES,
+        default=DEFAULT_BAUD,
+        help="the baud rate the emulated robot is set to (pacing, mismatch)",
+    )
     emu.set_defaults(func=cmd_emulator)
 
     probe = sub.add_parser("probe", help="check that a robot answers and print what it reports")
-    probe.add_argument("--port", required=True, metavar="URL",
-                       help="/dev/ttyUSB0, COM3, socket://HOST:PORT or emu://[?options]")
+    probe.add_argument(
+        "--port", required=True, metavar="URL", help="/dev/ttyUSB0, COM3, socket://HOST:PORT or emu://[?options]"
+    )
     probe.add_argument("--baud", type=int, choices=SUPPORTED_BAUD_RATES, default=DEFAULT_BAUD)
     probe.add_argument("--json", action="store_true", help="print one JSON object")
-    probe.add_argument("--wait", type=float, default=3.0, metavar="S",
-                       help="how long to wait for the robot to answer (default 3 s)")
+    probe.add_argument(
+        "--wait", type=float, default=3.0, metavar="S", help="how long to wait for the robot to answer (default 3 s)"
+    )
     probe.set_defaults(func=cmd_probe)
 
     demo = sub.add_parser("demo", help="drive a short square, printing telemetry")

@@ -15,9 +15,10 @@ from __future__ import annotations
 
 import errno
 import threading
+from collections.abc import Callable
 from dataclasses import dataclass
 from types import TracebackType
-from typing import Any, Callable
+from typing import Any
 
 import serial
 from serial.tools import list_ports
@@ -323,9 +324,7 @@ class Client:
                 self._notify(frame, reply)
                 if isinstance(reply, Ack) and not reply.ok:
                     self.stats.refusals += 1
-                    failure = CommandRefused(
-                        f"the robot refused {frame[:-1].decode('ascii')} (answered NO)", frame
-                    )
+                    failure = CommandRefused(f"the robot refused {frame[:-1].decode('ascii')} (answered NO)", frame)
                     continue
                 return reply
             assert failure is not None
@@ -362,8 +361,7 @@ class Client:
             if not data:
                 self.stats.timeouts += 1
                 raise ReplyTimeout(
-                    f"no reply to {frame[:-1].decode('ascii')} from {self.name} "
-                    f"within {self.timeout_s:g} s",
+                    f"no reply to {frame[:-1].decode('ascii')} from {self.name} within {self.timeout_s:g} s",
                     received,
                 )
             received += len(data)

@@ -350,10 +350,7 @@ class Status:
     def encode(self) -> bytes:
         """Returns the 9-byte packet."""
         flags = (
-            self.mode
-            | (0x10 if self.auto_mode else 0)
-            | (0x20 if self.collided else 0)
-            | (0x40 if self.moving else 0)
+            self.mode | (0x10 if self.auto_mode else 0) | (0x20 if self.collided else 0) | (0x40 if self.moving else 0)
         )
         return bytes(
             [

@@ -52,7 +52,7 @@ class RobotParams:
     battery_cutoff_below: float = 10.0
     #: How long the collision flag stays set after an impact.
     collision_hold_s: float = 0.5
-    #: Extra lean (degrees) per mm/s of speed lost in an impact.
+    #: Sudden forward pitch (degrees) per mm/s of speed lost in an impact.
     impact_tilt_deg_per_mm_s: float = 0.04
     #: How quickly the tilt follows its target (first-order time constant).
     tilt_time_constant_s: float = 0.15
@@ -103,7 +103,6 @@ class Robot:
         self.turn_remaining_deg = 0.0  # signed, left positive
         self.odometer_mm = 0.0
         self.tilt_deg = 0.0
-        self.tilt_kick_deg = 0.0
         self.battery = self.params.battery_start
         self.servo_deg = [0.0, 0.0, 0.0]
         self.servo_target_deg = [0.0, 0.0, 0.0]
@@ -276,7 +275,7 @@ class Robot:
         speed = self.speed_mm_s
         self.impacts.append(Impact(self.time_s, self.pose, abs(speed)))
         self.collided_until_s = self.time_s + p.collision_hold_s
-        self.tilt_kick_deg += math.copysign(abs(speed) * p.impact_tilt_deg_per_mm_s, speed)
+        self.tilt_deg += speed * p.impact_tilt_deg_per_mm_s  # the body pitches on, the wheels stop
         self.speed_mm_s = 0.0
         self.target_speed_mm_s = 0.0
 
@@ -284,7 +283,5 @@ class Robot:
         if self.fallen:
             return
         # A balancing robot leans into its acceleration: atan(a / g).
-        target = math.degrees(math.atan2(self._accel_mm_s2, GRAVITY_MM_S2)) + self.tilt_kick_deg
-        alpha = min(1.0, dt / self.params.tilt_time_constant_s)
-        self.tilt_deg += (target - self.tilt_deg) * alpha
-        self.tilt_kick_deg -= self.tilt_kick_deg * alpha
+        target = math.degrees(math.atan2(self._accel_mm_s2, GRAVITY_MM_S2))
+        self.tilt_deg += (target - self.tilt_deg) * min(1.0, dt / self.params.tilt_time_constant_s)

@@ -13,7 +13,7 @@ import selectors
 import socket
 import threading
 import tty
-from typing import Callable
+from collections.abc import Callable
 
 from autonomy.emulator.core import Emulator
 

@@ -183,7 +183,10 @@ def parse_world(document: Any, name: str) -> World:
         if not isinstance(spec, dict):
             raise WorldError(f"{where}: {kind} needs a mapping of parameters")
         if kind == "box":
-            (x1, y1), (x2, y2) = _pair(spec.get("from_mm"), f"{where}.from_mm"), _pair(spec.get("to_mm"), f"{where}.to_mm")
+            (x1, y1), (x2, y2) = (
+                _pair(spec.get("from_mm"), f"{where}.from_mm"),
+                _pair(spec.get("to_mm"), f"{where}.to_mm"),
+            )
             obstacles.append(Box(min(x1, x2), min(y1, y2), max(x1, x2), max(y1, y2)))
         elif kind == "circle":
             cx, cy = _pair(spec.get("center_mm"), f"{where}.center_mm")

@@ -46,7 +46,20 @@ def test_binary_status_is_nine_bytes(emu):
 
 @pytest.mark.parametrize(
     "frame",
-    [b"Q0000\n", b"S0625\n", b"S1626\n", b"F+500\n", b"F+000\n", b"M3+10\n", b"D0+a0\n", b"T+9a9\n", b"GZ000\n", b"X000\n", b"X00000\n", b"\n"],
+    [
+        b"Q0000\n",
+        b"S0625\n",
+        b"S1626\n",
+        b"F+500\n",
+        b"F+000\n",
+        b"M3+10\n",
+        b"D0+a0\n",
+        b"T+9a9\n",
+        b"GZ000\n",
+        b"X000\n",
+        b"X00000\n",
+        b"\n",
+    ],
 )
 def test_bad_frames_are_answered_no(emu, frame):
     assert exchange(emu, frame) == b"NO\n"
@@ -122,7 +135,12 @@ def test_fault_spec_parses_and_prints():
 
 @pytest.mark.parametrize(
     ("text", "message"),
-    [("drip=0.1", "unknown fault 'drip'"), ("drop=2", "probability 0..1"), ("drop=lots", "needs a number"), ("delay_s=-1", "negative")],
+    [
+        ("drip=0.1", "unknown fault 'drip'"),
+        ("drop=2", "probability 0..1"),
+        ("drop=lots", "needs a number"),
+        ("delay_s=-1", "negative"),
+    ],
 )
 def test_fault_spec_errors_say_what_is_wrong(text, message):
     with pytest.raises(FaultSpecError, match=message):

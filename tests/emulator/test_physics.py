@@ -7,7 +7,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from autonomy.client import Client
-from autonomy.emulator import Emulator, RobotParams, load_world
+from autonomy.emulator import RobotParams, load_world
 from autonomy.emulator.robot import Robot
 from autonomy.emulator.world import Circle, Pose, World
 from autonomy.protocol import odometer_delta_mm
@@ -151,7 +151,9 @@ def test_tilt_leans_into_acceleration_and_kicks_on_impact():
 # ----------------------------------------------------------------------------- sensor
 
 
-@pytest.mark.parametrize(("x", "heading", "gap"), [(1700, 0, 240), (1800, 0, 140), (1935, 0, 5), (250, 180, 190), (1000, 0, 255)])
+@pytest.mark.parametrize(
+    ("x", "heading", "gap"), [(1700, 0, 240), (1800, 0, 140), (1935, 0, 5), (250, 180, 190), (1000, 0, 255)]
+)
 def test_sensor_reads_the_true_gap_to_a_wall(x, heading, gap):
     world = World("box", 2000, 2000, Pose(x, 1000, heading))
     assert Robot(world).front_distance_mm() == pytest.approx(gap, abs=2)
@@ -225,7 +227,12 @@ def test_low_battery_is_unhealthy_and_flat_battery_refuses_motion():
 def test_manual_mode_refuses_motion_but_answers_the_rest():
     client = emu_client("mode=manual")
     assert client.status().auto_mode is False
-    for call in (lambda: client.move(1), lambda: client.turn(5), lambda: client.servo_to(0, 1), lambda: client.servo_by(0, 1)):
+    for call in (
+        lambda: client.move(1),
+        lambda: client.turn(5),
+        lambda: client.servo_to(0, 1),
+        lambda: client.servo_by(0, 1),
+    ):
         with pytest.raises(Exception, match="refused"):
             call()
     client.beep((1, 2, 3), 1)

@@ -87,7 +87,9 @@ def test_dont_care_bytes_are_ignored():
     assert parse_command(b"D2-5z\n") == ServoBy(2, -5)
 
 
-@pytest.mark.parametrize("frame", [b"Q0000\n", b"S0625\n", b"S1626\n", b"F+500\n", b"M3+10\n", b"M0+1a\n", b"T+0a5\n", b"GZ000\n"])
+@pytest.mark.parametrize(
+    "frame", [b"Q0000\n", b"S0625\n", b"S1626\n", b"F+500\n", b"M3+10\n", b"M0+1a\n", b"T+0a5\n", b"GZ000\n"]
+)
 def test_firmware_parse_rejects_bad_arguments(frame):
     with pytest.raises(InvalidCommand):
         parse_command(frame)

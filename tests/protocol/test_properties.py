@@ -45,9 +45,10 @@ statuses = st.builds(
 parameters = st.one_of(
     st.builds(Parameter, st.sampled_from("DB"), st.integers(0, 255)),
     st.builds(Parameter, st.sampled_from("VA"), st.integers(-99, 99)),
-    st.builds(Parameter, st.just("F"), st.text(st.characters(min_codepoint=0x20, max_codepoint=0x7E), min_size=3, max_size=3)),
+    st.builds(
+        Parameter, st.just("F"), st.text(st.characters(min_codepoint=0x20, max_codepoint=0x7E), min_size=3, max_size=3)
+    ),
 )
-
 
 
 @given(commands)
@@ -70,9 +71,7 @@ def test_parameter_round_trip(parameter):
 
 @given(st.binary(max_size=200), st.sampled_from(["ack", "health", "status", *"DBFVA"]), st.integers(1, 17))
 def test_arbitrary_bytes_raise_only_framing_errors(data, kind, chunk):
-    decoder = (
-        ReplyDecoder(ReplyKind.PARAMETER, kind) if len(kind) == 1 else ReplyDecoder(ReplyKind(kind))
-    )
+    decoder = ReplyDecoder(ReplyKind.PARAMETER, kind) if len(kind) == 1 else ReplyDecoder(ReplyKind(kind))
     for start in range(0, len(data), chunk):
         decoder.feed(data[start : start + chunk])
         for _ in range(len(data) + 2):  # each call consumes bytes or returns None
@@ -86,7 +85,9 @@ def test_arbitrary_bytes_raise_only_framing_errors(data, kind, chunk):
 
 @given(st.binary(max_size=60), parameters)
 def test_ascii_decoder_resyncs_on_the_next_frame_after_a_newline(garbage, parameter):
-    replies, _ = decode_all(ReplyDecoder(ReplyKind.PARAMETER, parameter.parameter), garbage + b"\n" + parameter.encode())
+    replies, _ = decode_all(
+        ReplyDecoder(ReplyKind.PARAMETER, parameter.parameter), garbage + b"\n" + parameter.encode()
+    )
     assert replies and replies[-1] == parameter
 
 

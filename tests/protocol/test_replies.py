@@ -88,7 +88,9 @@ def test_status_packet_full_of_newlines_is_read_by_length():
     assert replies[0].front_distance_mm == 10 and replies[0].tilt_deg == 10 and replies[0].mode == 10
 
 
-@pytest.mark.parametrize(("raw", "heading"), [(0x0000, 0), (0x0167, 359), (0x0168, 0), (0xFFFF, 359), (0xFF4C, 180), (0x02D0, 0)])
+@pytest.mark.parametrize(
+    ("raw", "heading"), [(0x0000, 0), (0x0167, 359), (0x0168, 0), (0xFFFF, 359), (0xFF4C, 180), (0x02D0, 0)]
+)
 def test_heading_is_signed_16_bit_normalised_to_0_359(raw, heading):
     packet = bytes([0x62, 0, 0, raw >> 8, raw & 0xFF, 255, 0, 0, 0x0A])
     assert decode_status(packet).heading_deg == heading
@@ -147,7 +149,9 @@ def test_ascii_decoder_bounds_a_line_without_newline():
     assert decoder.buffered <= ReplyDecoder.MAX_LINE
 
 
-@pytest.mark.parametrize(("wire", "reason"), [(b"D256\n", "over 255"), (b"V+2x\n", "not a digit"), (b"F\x01ab\n", "not printable")])
+@pytest.mark.parametrize(
+    ("wire", "reason"), [(b"D256\n", "over 255"), (b"V+2x\n", "not a digit"), (b"F\x01ab\n", "not printable")]
+)
 def test_invalid_parameter_values_are_framing_errors(wire, reason):
     parameter = chr(wire[0])
     replies, errors = decode_all(ReplyDecoder.for_command(Get(parameter)), wire)
