@@ -26,7 +26,8 @@ class _Server:
 
     def __init__(self, emulator: Emulator) -> None:
         self.emulator = emulator
-        self._selector = selectors.DefaultSelector()
+        # select() keeps microsecond time-outs (epoll rounds up to whole ms, too coarse for byte pacing).
+        self._selector = selectors.SelectSelector()
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
 

@@ -1,0 +1,157 @@
+"""The ``autonomy`` command run as a subprocess, as a student runs it."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def autonomy(*args: str, timeout: float = 60) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, "-m", "autonomy", *args],
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        cwd=ROOT,
+    )
+
+
+def assert_one_line_error(result: subprocess.CompletedProcess, code: int, *fragments: str) -> None:
+    assert result.returncode == code, result.stderr
+    assert "Traceback" not in result.stderr
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1, result.stderr
+    for fragment in fragments:
+        assert fragment in lines[0]
+
+
+@pytest.fixture
+def served(request):
+    """Starts ``autonomy emulator`` with the given arguments; yields (process, first line)."""
+    process = subprocess.Popen(
+        [sys.executable, "-m", "autonomy", "emulator", *request.param],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        cwd=ROOT,
+    )
+    url = process.stdout.readline().strip()
+    yield process, url
+    if process.poll() is None:
+        process.kill()
+        process.wait()
+
+
+def test_probe_json_has_every_field():
+    result = autonomy("probe", "--port", "emu://?time=virtual&world=corridor", "--json")
+    assert result.returncode == 0, result.stderr
+    report = json.loads(result.stdout)
+    assert report["firmware"] == "E10" and report["battery"] == 230 and report["healthy"] is True
+    assert set(report["status"]) == {
+        "mode",
+        "auto_mode",
+        "collided",
+        "moving",
+        "tilt_deg",
+        "heading_deg",
+        "front_distance_mm",
+        "odometer_mm",
+        "raw",
+    }
+    assert report["status"]["raw"].startswith("62 10")
+
+
+def test_probe_text_names_what_it_shows():
+    result = autonomy("probe", "--port", "emu://?time=virtual&battery=30")
+    assert result.returncode == 0, result.stderr
+    assert "battery         30 / 255" in result.stdout
+    assert "health          NOT OK" in result.stdout
+    assert "front_distance_mm 255" in result.stdout
+
+
+def test_probe_missing_port_is_one_line_and_exit_3():
+    result = autonomy("probe", "--port", "/dev/ttyNOPE0")
+    assert_one_line_error(result, 3, "cannot open /dev/ttyNOPE0: no such port")
+
+
+def test_probe_wrong_baud_rate_is_one_line_and_exit_3():
+    result = autonomy("probe", "--port", "emu://?time=virtual", "--baud", "115200")
+    assert_one_line_error(result, 3, "no answer", "115200 baud", "is the robot set to 57600 baud?")
+
+
+def test_probe_silent_robot_is_one_line_and_exit_3():
+    result = autonomy("probe", "--port", "emu://?time=virtual&boot=60", "--wait", "1")
+    assert_one_line_error(result, 3, "nothing came back")
+
+
+def test_unsupported_baud_rate_is_a_usage_error():
+    result = autonomy("probe", "--port", "emu://", "--baud", "9600")
+    assert_one_line_error(result, 2, "invalid choice: 9600")
+
+
+def test_probe_needs_a_port():
+    result = autonomy("probe")
+    assert result.returncode == 2 and "--port" in result.stderr and "Traceback" not in result.stderr
+
+
+def test_demo_fast_drives_a_square():
+    result = autonomy("demo", "--fast")
+    assert result.returncode == 0, result.stderr
+    assert "corner 4: turning left" in result.stdout
+    done = result.stdout.strip().splitlines()[-1]
+    assert done.startswith("done: heading 0 deg")
+
+
+@pytest.mark.parametrize("served", [["--tcp", "127.0.0.1:0", "--world", "corridor"]], indirect=True)
+def test_emulator_over_tcp_answers_a_probe_from_another_process(served):
+    process, url = served
+    assert url.startswith("socket://127.0.0.1:")
+    result = autonomy("probe", "--port", url, "--json")
+    assert result.returncode == 0, result.stderr
+    assert json.loads(result.stdout)["firmware"] == "E10"
+    process.send_signal(signal.SIGTERM)
+    assert process.wait(timeout=10) == 0
+
+
+@pytest.mark.parametrize("served", [["--pty", "--faults", "pace"]], indirect=True)
+def test_emulator_on_a_pty_answers_a_probe(served):
+    process, device = served
+    assert device.startswith("/dev/") and os.path.exists(device)
+    result = autonomy("probe", "--port", device)
+    assert result.returncode == 0, result.stderr
+    assert "firmware        E10" in result.stdout
+    process.send_signal(signal.SIGINT)
+    assert process.wait(timeout=10) == 0
+    assert not os.path.exists(device) or device.startswith("/dev/pts/")
+
+
+@pytest.mark.parametrize(
+    ("args", "fragment"),
+    [
+        (["--world", "mars"], "no world named 'mars'"),
+        (["--faults", "drip=1"], "unknown fault 'drip'"),
+        (["--tcp", "localhost:notaport"], "expected HOST:PORT"),
+    ],
+)
+def test_emulator_bad_arguments_are_one_line_and_exit_2(args, fragment):
+    result = autonomy("emulator", *args, timeout=20)
+    assert_one_line_error(result, 2, fragment)
+
+
+def test_emulator_port_in_use_is_one_line_and_exit_3():
+    import socket
+
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        sock.listen()
+        port = sock.getsockname()[1]
+        result = autonomy("emulator", "--tcp", f"127.0.0.1:{port}", timeout=20)
+    assert_one_line_error(result, 3, f"cannot serve on 127.0.0.1:{port}")
