@@ -15,7 +15,7 @@ $(STAMP): pyproject.toml | $(BIN)/python
 
 ## run: drive the default job on the built-in emulator, in real time
 run: $(STAMP)
-	$(BIN)/autonomy demo
+	$(BIN)/autonomy run missions/square.yaml
 
 ## test: lint and the whole test suite
 test: $(STAMP)

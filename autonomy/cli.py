@@ -1,7 +1,7 @@
 """The ``autonomy`` command: parses arguments, calls the library, turns errors into exit codes.
 
-This is the only module that prints or exits. Exit codes: 0 success, 2 bad usage or input,
-3 robot link error, 130 interrupted.
+This is the only module that prints or exits. Exit codes: 0 success, 1 mission failed,
+2 invalid mission or usage, 3 robot link error, 130 interrupted (Ctrl-C or SIGTERM).
 """
 
 from __future__ import annotations
@@ -17,7 +17,6 @@ from autonomy.client import DEFAULT_BAUD, SUPPORTED_BAUD_RATES, Client
 from autonomy.clock import VirtualClock
 from autonomy.emulator import FaultSpec, FaultSpecError, WorldError, emulator_from_options
 from autonomy.errors import AutonomyError, LinkError
-from autonomy.protocol import Status
 
 EXIT_OK = 0
 EXIT_FAILED = 1
@@ -52,6 +51,16 @@ def _host_port(text: str) -> tuple[str, int]:
     if not 0 <= number <= 65535:
         raise argparse.ArgumentTypeError(f"port must be 0..65535, got {number}")
     return host or "127.0.0.1", number
+
+
+def _positive(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number of seconds, got '{text}'") from None
+    if value <= 0:
+        raise argparse.ArgumentTypeError(f"must be above 0, got {text}")
+    return value
 
 
 def _faults(text: str) -> str:
@@ -92,7 +101,7 @@ def cmd_emulator(args: argparse.Namespace) -> int:
 # --------------------------------------------------------------------------- probe
 
 
-def _status_lines(status: Status) -> list[str]:
+def _status_lines(status: Any) -> list[str]:
     names = {True: "yes", False: "no"}
     return [
         f"    {key:<18}{names.get(value, value) if isinstance(value, bool) else value}"
@@ -134,36 +143,146 @@ def cmd_probe(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-# --------------------------------------------------------------------------- demo
+# --------------------------------------------------------------------------- missions
 
 
-def cmd_demo(args: argparse.Namespace) -> int:
-    """Drives a short square on the emulator (or a robot), printing telemetry."""
-    from autonomy.demo import square_drive
-
-    clock = VirtualClock() if args.fast else None
-    last = [""]
-
-    def report(step: str, status: Status) -> None:
-        line = (
-            f"{step:<34} heading {status.heading_deg:3d} deg  front {status.front_distance_mm:3d} mm  "
-            f"odometer {status.odometer_mm:5d} mm  tilt {status.tilt_deg:+3d} deg"
-        )
-        if step != last[0] or args.verbose:
-            print(line, flush=True)
-            last[0] = step
+def _load(path: str) -> Any:
+    """Validates a mission file; prints its problems and returns None when it has any."""
+    from autonomy.mission import MissionInvalid, load_mission
 
     try:
-        with Client.open(args.port, baud=args.baud, clock=clock) as client:
-            status = square_drive(client, report)
-            print(
-                f"done: heading {status.heading_deg} deg, odometer {status.odometer_mm} mm, "
-                f"{client.stats.requests} requests, {client.stats.retries} retries"
+        return load_mission(path)
+    except MissionInvalid as err:
+        for problem in err.problems:
+            print(problem, file=sys.stderr)
+        return None
+
+
+def _interrupt(*_: object) -> None:
+    raise KeyboardInterrupt
+
+
+def cmd_run(args: argparse.Namespace) -> int:
+    """Runs a mission on the robot or the built-in emulator."""
+    from autonomy.mission import build_tree
+    from autonomy.runner import FAILED, INTERRUPTED, LINK_LOST, SUCCEEDED, Runner, TickReport
+
+    spec = _load(args.mission)
+    if spec is None:
+        return EXIT_USAGE
+    port = args.port or "emu://"
+    emulated = port.lower().startswith("emu://")
+    if args.fast and not emulated:
+        return _fail("--fast runs in virtual time, which needs the built-in emulator (leave out --port)", EXIT_USAGE)
+    if emulated and "world=" not in port:
+        port += ("&" if "?" in port else "?") + f"world={args.world or spec.world or 'box'}"
+    trace = None
+    if args.trace:
+        try:
+            trace = open(args.trace, "w", encoding="utf-8")  # noqa: SIM115 - closed in finally
+        except OSError as err:
+            return _fail(f"cannot write the trace to {args.trace}: {err.strerror}", EXIT_USAGE)
+    signal.signal(signal.SIGTERM, _interrupt)
+    shown = {"path": "", "at_s": -10.0}
+
+    def on_tick(report: TickReport) -> None:
+        path = " > ".join(report.active) or "(idle)"
+        if path == shown["path"] and report.time_s - shown["at_s"] < 2.0:
+            return
+        shown.update(path=path, at_s=report.time_s)
+        s = report.status
+        print(
+            f"{report.time_s:7.2f} s  {path:<48} front {s.front_distance_mm:3d} mm  heading {s.heading_deg:3d}  "
+            f"odometer {s.odometer_mm:5d} mm  tilt {s.tilt_deg:+3d}  battery {report.battery:3d}"
+            + ("  COLLIDED" if s.collided else ""),
+            flush=True,
+        )
+
+    try:
+        try:
+            client = Client.open(port, baud=args.baud, clock=VirtualClock() if args.fast else None)
+        except KeyboardInterrupt:
+            return _fail("interrupted while connecting", EXIT_INTERRUPTED)
+        except AutonomyError as err:
+            return _fail(str(err), EXIT_LINK)
+        try:
+            runner = Runner(
+                build_tree(spec),
+                client,
+                mission=spec.name,
+                tick_hz=spec.tick_hz,
+                max_seconds=args.max_seconds,
+                trace=trace,
+                on_tick=None if args.quiet else on_tick,
+                on_message=lambda message: print(f"          log: {message}", flush=True),
             )
-    except KeyboardInterrupt:
-        return _fail("interrupted; the robot was told to stop", EXIT_INTERRUPTED)
-    except AutonomyError as err:
-        return _fail(str(err), EXIT_LINK)
+            summary = runner.run()
+        finally:
+            client.close()
+    finally:
+        if trace is not None:
+            trace.close()
+    print(summary.paragraph)
+    return {SUCCEEDED: EXIT_OK, FAILED: EXIT_FAILED, LINK_LOST: EXIT_LINK, INTERRUPTED: EXIT_INTERRUPTED}.get(
+        summary.outcome, EXIT_FAILED
+    )
+
+
+def cmd_check(args: argparse.Namespace) -> int:
+    """Validates mission files; every problem of every file, then ok or not."""
+    from autonomy.behaviours.tree import preorder
+    from autonomy.mission import build_tree
+
+    bad = 0
+    for path in args.missions:
+        spec = _load(path)
+        if spec is None:
+            bad += 1
+            continue
+        count = sum(1 for _ in preorder(build_tree(spec)))
+        print(f"{path}: ok (mission '{spec.name}', {count} nodes)")
+    return EXIT_USAGE if bad else EXIT_OK
+
+
+def cmd_show(args: argparse.Namespace) -> int:
+    """Prints a mission's tree as text, DOT or SVG."""
+    from autonomy.mission import build_tree
+    from autonomy.mission.render import dot_tree, svg_tree, unicode_tree
+
+    spec = _load(args.mission)
+    if spec is None:
+        return EXIT_USAGE
+    root = build_tree(spec)
+    render = {
+        "unicode": lambda: unicode_tree(root),
+        "dot": lambda: dot_tree(root, spec.name),
+        "svg": lambda: svg_tree(root, spec.name),
+    }
+    sys.stdout.write(render[args.format]())
+    return EXIT_OK
+
+
+def cmd_behaviours(args: argparse.Namespace) -> int:
+    """Lists every node type with its parameters (with a mission: its plugins' too)."""
+    from autonomy.mission import BUILTINS
+    from autonomy.mission.catalogue import catalogue_markdown, catalogue_text
+
+    registry = BUILTINS
+    if args.mission:
+        spec = _load(args.mission)
+        if spec is None:
+            return EXIT_USAGE
+        registry = spec.registry
+    sys.stdout.write(catalogue_markdown(registry) if args.markdown else catalogue_text(registry))
+    return EXIT_OK
+
+
+def cmd_schema(args: argparse.Namespace) -> int:
+    """Prints the JSON Schema of mission files."""
+    from autonomy.mission import BUILTINS
+    from autonomy.mission.catalogue import json_schema
+
+    print(json.dumps(json_schema(BUILTINS), indent=2))
     return EXIT_OK
 
 
@@ -208,12 +327,33 @@ def build_parser() -> argparse.ArgumentParser:
     )
     probe.set_defaults(func=cmd_probe)
 
-    demo = sub.add_parser("demo", help="drive a short square, printing telemetry")
-    demo.add_argument("--port", default="emu://", metavar="URL", help="default: the built-in emulator")
-    demo.add_argument("--baud", type=int, choices=SUPPORTED_BAUD_RATES, default=DEFAULT_BAUD)
-    demo.add_argument("--fast", action="store_true", help="virtual time: as fast as the machine allows")
-    demo.add_argument("--verbose", action="store_true", help="a line for every status poll")
-    demo.set_defaults(func=cmd_demo)
+    run = sub.add_parser("run", help="run a mission on the robot or the built-in emulator")
+    run.add_argument("mission", metavar="MISSION", help="a mission file (.yaml)")
+    run.add_argument("--port", metavar="URL", help="the robot (default: the built-in emulator, in the mission's world)")
+    run.add_argument("--baud", type=int, choices=SUPPORTED_BAUD_RATES, default=DEFAULT_BAUD)
+    run.add_argument("--world", metavar="NAME|PATH", help="the emulator's arena (overrides the mission's world)")
+    run.add_argument("--fast", action="store_true", help="virtual time: as fast as the machine allows (emulator only)")
+    run.add_argument("--max-seconds", type=_positive, metavar="S", help="stop the mission after this long")
+    run.add_argument("--trace", metavar="FILE", help="write one JSON line per tick")
+    run.add_argument("--quiet", action="store_true", help="only the summary")
+    run.set_defaults(func=cmd_run)
+
+    check = sub.add_parser("check", help="validate mission files, reporting every problem")
+    check.add_argument("missions", nargs="+", metavar="MISSION")
+    check.set_defaults(func=cmd_check)
+
+    show = sub.add_parser("show", help="print a mission's tree")
+    show.add_argument("mission", metavar="MISSION")
+    show.add_argument("--format", choices=("unicode", "dot", "svg"), default="unicode")
+    show.set_defaults(func=cmd_show)
+
+    behaviours = sub.add_parser("behaviours", help="list every node type and its parameters")
+    behaviours.add_argument("mission", nargs="?", metavar="MISSION", help="also list this mission's plugin behaviours")
+    behaviours.add_argument("--markdown", action="store_true", help="as the reference of docs/missions.md")
+    behaviours.set_defaults(func=cmd_behaviours)
+
+    schema = sub.add_parser("schema", help="print the JSON Schema of mission files, for editors")
+    schema.set_defaults(func=cmd_schema)
     return parser
 
 

@@ -102,14 +102,6 @@ def test_probe_needs_a_port():
     assert result.returncode == 2 and "--port" in result.stderr and "Traceback" not in result.stderr
 
 
-def test_demo_fast_drives_a_square():
-    result = autonomy("demo", "--fast")
-    assert result.returncode == 0, result.stderr
-    assert "corner 4: turning left" in result.stdout
-    done = result.stdout.strip().splitlines()[-1]
-    assert done.startswith("done: heading 0 deg")
-
-
 @pytest.mark.parametrize("served", [["--tcp", "127.0.0.1:0", "--world", "corridor"]], indirect=True)
 def test_emulator_over_tcp_answers_a_probe_from_another_process(served):
     process, url = served

@@ -1,0 +1,276 @@
+"""Built-in actions: move, turn, stop, beep, servo, wait, log.
+
+None of them blocks a tick: each sends at most one command per tick and returns at once.
+Motion actions stop the robot themselves when they end, and when they are halted.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from py_trees.common import Status
+
+from autonomy.behaviours.base import Param, RobotAction
+from autonomy.protocol import odometer_delta_mm
+
+
+class Move(RobotAction):
+    """Drive straight until an ending condition holds, then stop.
+
+    It fails on a new collision, and when the robot is not moving ``STALL_S`` after it
+    was told to: blocked against something (pushing on an obstacle keeps the collision
+    flag set, so no *new* collision shows), or taken over by its remote.
+    """
+
+    #: How long the robot may stand still after F before the move counts as blocked.
+    STALL_S = 0.5
+
+    node_type = "move"
+    doc = "Drive straight (F) until distance_mm, seconds or until_obstacle_mm holds, then stop (X)."
+    params = (
+        Param("speed", "int", "speed setting, 1 slow .. 4 very fast", required=True, minimum=1, maximum=4, example=2),
+        Param("direction", "choice", "which way to drive", default="forward", choices=("forward", "backward")),
+        Param("distance_mm", "number", "stop after this distance, by the odometer", unit="mm", positive=True),
+        Param("seconds", "number", "stop after this long", unit="s", positive=True),
+        Param(
+            "until_obstacle_mm",
+            "int",
+            "stop when the front sensor reads less than this",
+            unit="mm",
+            minimum=1,
+            maximum=255,
+        ),
+    )
+
+    @staticmethod
+    def label(args: dict[str, Any]) -> str:
+        """Display name, e.g. ``move 300 mm`` or ``move backward until < 150 mm``."""
+        parts = ["move"] + (["backward"] if args.get("direction") == "backward" else [])
+        if args.get("distance_mm") is not None:
+            parts.append(f"{args['distance_mm']} mm")
+        if args.get("seconds") is not None:
+            parts.append(f"{args['seconds']} s")
+        if args.get("until_obstacle_mm") is not None:
+            parts.append(f"until < {args['until_obstacle_mm']} mm")
+        return " ".join(parts)
+
+    def __init__(self, name: str, **args: Any) -> None:
+        super().__init__(name, **args)
+        self._start_odometer_mm = 0
+        self._start_s = 0.0
+        self._collision_armed = True
+        self._failed = False
+
+    def initialise(self) -> None:
+        """Notes where it starts and sends ``F``."""
+        status = self.robot_status
+        self._start_odometer_mm = status.odometer_mm
+        self._start_s = self.clock.now()
+        # A collision flag still held from an earlier impact is not this move's collision.
+        self._collision_armed = not status.collided
+        self._failed = not self.send(
+            lambda: self.client.move(self.args["speed"], backward=self.args["direction"] == "backward")
+        )
+        if not self._failed:
+            self.started_motion()
+
+    def travelled_mm(self) -> int:
+        """Distance covered since the move started (always positive)."""
+        return abs(odometer_delta_mm(self._start_odometer_mm, self.robot_status.odometer_mm))
+
+    def update(self) -> Status:
+        """RUNNING until an ending condition holds; FAILURE on a new collision or a NO."""
+        if self._failed:
+            return Status.FAILURE
+        status = self.robot_status
+        if status.collided and self._collision_armed:
+            self.stop_motion()
+            self.feedback_message = f"collided after {self.travelled_mm()} mm"
+            return Status.FAILURE
+        if not status.collided:
+            self._collision_armed = True
+        if not status.moving and self.clock.now() - self._start_s >= self.STALL_S:
+            self.stop_motion()
+            blocked = "pushing against an obstacle" if status.collided else "not moving"
+            self.feedback_message = f"blocked after {self.travelled_mm()} mm: the robot is {blocked}"
+            return Status.FAILURE
+        reason = self._ending()
+        if reason:
+            return Status.SUCCESS if self.stop_motion() else Status.FAILURE
+        self.feedback_message = f"{self.travelled_mm()} mm, front {status.front_distance_mm} mm"
+        return Status.RUNNING
+
+    def _ending(self) -> str:
+        args, status = self.args, self.robot_status
+        if args.get("distance_mm") is not None and self.travelled_mm() >= args["distance_mm"]:
+            self.feedback_message = f"drove {self.travelled_mm()} mm"
+        elif args.get("seconds") is not None and self.clock.now() - self._start_s >= args["seconds"]:
+            self.feedback_message = f"drove for {args['seconds']} s"
+        elif args.get("until_obstacle_mm") is not None and status.front_distance_mm < args["until_obstacle_mm"]:
+            self.feedback_message = f"obstacle at {status.front_distance_mm} mm"
+        else:
+            return ""
+        return self.feedback_message
+
+
+class Turn(RobotAction):
+    """Turn in place by an angle, following the heading until the robot has stopped there."""
+
+    node_type = "turn"
+    doc = "Turn in place (T) left or right by 0..999 degrees; succeeds within 3 degrees once stopped."
+    params = (
+        Param("left", "int", "turn counter-clockwise by this much", unit="deg", minimum=0, maximum=999, example=90),
+        Param("right", "int", "turn clockwise by this much", unit="deg", minimum=0, maximum=999),
+    )
+    exactly_one_of = (("left", "right"),)
+
+    #: How close to the target heading counts as there.
+    TOLERANCE_DEG = 3.0
+    #: Time-out: this many times the expected duration, plus the margin.
+    TIMEOUT_FACTOR = 2.0
+    TIMEOUT_MARGIN_S = 2.0
+
+    @staticmethod
+    def label(args: dict[str, Any]) -> str:
+        """Display name, e.g. ``turn left 90 deg``."""
+        side = "left" if args.get("left") is not None else "right"
+        return f"turn {side} {args.get(side)} deg"
+
+    def __init__(self, name: str, **args: Any) -> None:
+        super().__init__(name, **args)
+        left = args.get("left")
+        self.angle_deg = int(left) if left is not None else -int(args.get("right") or 0)
+        self._turned_deg = 0.0
+        self._last_heading = 0
+        self._deadline_s = 0.0
+        self._failed = False
+
+    def initialise(self) -> None:
+        """Sends ``T`` and starts following the heading."""
+        self._turned_deg = 0.0
+        self._last_heading = self.robot_status.heading_deg
+        assert self.robot is not None
+        expected_s = abs(self.angle_deg) / self.robot.turn_rate_deg_s
+        self._deadline_s = self.clock.now() + expected_s * self.TIMEOUT_FACTOR + self.TIMEOUT_MARGIN_S
+        self._failed = not self.send(lambda: self.client.turn(self.angle_deg))
+        if not self._failed:
+            self.started_motion()
+
+    def update(self) -> Status:
+        """RUNNING until within tolerance and stopped; FAILURE on collision, NO or time-out."""
+        if self._failed:
+            return Status.FAILURE
+        status = self.robot_status
+        step = (status.heading_deg - self._last_heading + 180) % 360 - 180  # unwrap: turns past 180 add up
+        self._turned_deg += step
+        self._last_heading = status.heading_deg
+        remaining = self.angle_deg - self._turned_deg
+        if status.collided:
+            self.stop_motion()
+            self.feedback_message = f"collided with {remaining:.0f} deg to go"
+            return Status.FAILURE
+        if abs(remaining) <= self.TOLERANCE_DEG and not status.moving:
+            self.release_motion()
+            self.feedback_message = f"turned {self._turned_deg:.0f} deg"
+            return Status.SUCCESS
+        if self.clock.now() > self._deadline_s:
+            self.stop_motion()
+            self.feedback_message = f"timed out with {remaining:.0f} deg to go"
+            return Status.FAILURE
+        self.feedback_message = f"{remaining:.0f} deg to go"
+        return Status.RUNNING
+
+
+class Stop(RobotAction):
+    """Stop every movement."""
+
+    node_type = "stop"
+    doc = "Stop every movement (X)."
+
+    def update(self) -> Status:
+        """Sends ``X``."""
+        return Status.SUCCESS if self.send(self.client.stop) else Status.FAILURE
+
+
+class Beep(RobotAction):
+    """Beep three tones."""
+
+    node_type = "beep"
+    doc = "Beep three tones (S)."
+    params = (
+        Param("tones", "tones", "three tones, 1 lowest .. 9 highest", default=[5, 7, 9]),
+        Param("volume", "int", "0 silent .. 5 loudest", default=3, minimum=0, maximum=5),
+    )
+
+    def update(self) -> Status:
+        """Sends ``S``."""
+        ok = self.send(lambda: self.client.beep(tuple(self.args["tones"]), self.args["volume"]))
+        return Status.SUCCESS if ok else Status.FAILURE
+
+
+class Servo(RobotAction):
+    """Move a servo to an angle, or by a step; succeeds once the robot accepted it."""
+
+    node_type = "servo"
+    doc = "Move servo id to an absolute angle (M) or by a step (D); done when accepted (add a wait to let it arrive)."
+    params = (
+        Param("id", "int", "which servo", required=True, minimum=0, maximum=2),
+        Param("angle", "int", "absolute angle from centre", unit="deg", minimum=-99, maximum=99),
+        Param("by", "int", "step from where it is", unit="deg", minimum=-9, maximum=9),
+    )
+    exactly_one_of = (("angle", "by"),)
+
+    @staticmethod
+    def label(args: dict[str, Any]) -> str:
+        """Display name, e.g. ``servo 0 to 45 deg``."""
+        if args.get("angle") is not None:
+            return f"servo {args['id']} to {args['angle']} deg"
+        return f"servo {args['id']} by {args.get('by')} deg"
+
+    def update(self) -> Status:
+        """Sends ``M`` or ``D``."""
+        servo_id, angle, step = self.args["id"], self.args.get("angle"), self.args.get("by")
+        if angle is not None:
+            ok = self.send(lambda: self.client.servo_to(servo_id, angle))
+        else:
+            ok = self.send(lambda: self.client.servo_by(servo_id, step))
+        return Status.SUCCESS if ok else Status.FAILURE
+
+
+class Wait(RobotAction):
+    """Wait a while without sending anything."""
+
+    node_type = "wait"
+    doc = "Stay RUNNING for a number of seconds, then succeed."
+    params = (Param("seconds", "number", "how long", unit="s", required=True, positive=True, example=1.5),)
+
+    def __init__(self, name: str, **args: Any) -> None:
+        super().__init__(name, **args)
+        self._end_s = 0.0
+
+    def initialise(self) -> None:
+        """Notes when the wait ends."""
+        self._end_s = self.clock.now() + self.args["seconds"]
+
+    def update(self) -> Status:
+        """RUNNING until the time is up."""
+        left = self._end_s - self.clock.now()
+        self.feedback_message = f"{max(0.0, left):.1f} s left"
+        return Status.SUCCESS if left <= 1e-9 else Status.RUNNING
+
+
+class Log(RobotAction):
+    """Show a message to the person watching."""
+
+    node_type = "log"
+    doc = "Show a message in the run's output and trace, then succeed."
+    params = (Param("message", "string", "what to show", required=True, example="'hello'"),)
+
+    def update(self) -> Status:
+        """Logs the message."""
+        assert self.robot is not None
+        self.robot.log(self.args["message"])
+        return Status.SUCCESS
+
+
+BUILTIN_ACTIONS = (Move, Turn, Stop, Beep, Servo, Wait, Log)

@@ -1,0 +1,257 @@
+"""What every leaf behaviour builds on, built-in or written in a plugin.
+
+A leaf is a py_trees behaviour, with its lifecycle as the contract: ``__init__`` only
+configures (no I/O), ``setup(robot=...)`` receives the :class:`RobotContext`,
+``initialise()`` starts work, ``update()`` returns at once, ``terminate()`` cleans up.
+
+A leaf class declares what a mission file may pass it, and the validator, the catalogue
+(``autonomy behaviours``), the JSON Schema and docs/missions.md all read that declaration::
+
+    class SpinUntilClear(RobotAction):
+        node_type = "spin_until_clear"
+        doc = "Turn left in steps until nothing is closer than mm."
+        params = (Param("mm", "int", "clearance to wait for", unit="mm", required=True, minimum=1, maximum=255),)
+
+        def update(self) -> Status:
+            if self.robot_status.front_distance_mm >= self.args["mm"]:
+                return Status.SUCCESS
+            self.send(lambda: self.client.turn(15))
+            return Status.RUNNING
+
+Actions reach the robot through ``self.client``; conditions only read ``self.robot_status``,
+the status packet the runner polled before this tick (the same snapshot for every node).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
+
+import py_trees
+from py_trees.common import Access, Status
+
+from autonomy.client import Client
+from autonomy.clock import Clock
+from autonomy.errors import CommandRefused
+from autonomy.protocol import Status as Packet
+
+#: Blackboard keys the runner writes before every tick.
+STATUS_KEY = "/robot/status"
+BATTERY_KEY = "/robot/battery"
+HEALTHY_KEY = "/robot/healthy"
+ROBOT_KEYS = (STATUS_KEY, BATTERY_KEY, HEALTHY_KEY)
+
+#: Parameter kinds a node type may declare.
+KINDS = ("int", "number", "bool", "string", "choice", "tones", "node", "nodes")
+
+
+@dataclass(frozen=True)
+class Param:
+    """One parameter a node type takes, as a mission file writes it.
+
+    Attributes:
+        name: The key in the mission file.
+        kind: One of :data:`KINDS`: ``int``, ``number`` (int or float), ``bool``,
+            ``string``, ``choice`` (one of ``choices``), ``tones`` (three tones 1-9),
+            ``node`` (one child node), ``nodes`` (a list of child nodes).
+        doc: One line for the catalogue and the docs.
+        unit: The unit, when it has one (``mm``, ``deg``, ``s``).
+        required: Whether the node needs it.
+        default: The value when it is left out.
+        minimum: Smallest value allowed (numbers).
+        maximum: Largest value allowed (numbers).
+        positive: The value must be above zero (for durations).
+        choices: The values a ``choice`` takes.
+        example: A value to show in hints and docs.
+    """
+
+    name: str
+    kind: str
+    doc: str
+    unit: str = ""
+    required: bool = False
+    default: Any = None
+    minimum: float | None = None
+    maximum: float | None = None
+    positive: bool = False
+    choices: tuple[str, ...] = ()
+    example: Any = None
+
+    def __post_init__(self) -> None:
+        if self.kind not in KINDS:
+            raise ValueError(f"parameter {self.name}: kind must be one of {KINDS}, got {self.kind!r}")
+
+    def describe_range(self) -> str:
+        """The allowed values in words, e.g. ``1..4`` or ``forward | backward``."""
+        if self.kind == "choice":
+            return " | ".join(self.choices)
+        if self.kind == "tones":
+            return "[t1, t2, t3], each 1..9"
+        if self.minimum is not None and self.maximum is not None:
+            return f"{_num(self.minimum)}..{_num(self.maximum)}"
+        if self.positive:
+            return "> 0"
+        if self.minimum is not None:
+            return f">= {_num(self.minimum)}"
+        return ""
+
+
+def _num(value: float) -> str:
+    return str(int(value)) if float(value).is_integer() else str(value)
+
+
+@dataclass
+class RobotContext:
+    """What a run gives its behaviours: the robot link, the clock, and a place to log.
+
+    Attributes:
+        client: The open client.
+        clock: The run's clock (real or virtual).
+        log: Called with a message for the person watching (the ``log`` node, events).
+        turn_rate_deg_s: Expected turn-in-place rate, for turn time-outs.
+        motion_owner: The action whose motion command the robot is carrying out, if any.
+    """
+
+    client: Client
+    clock: Clock
+    log: Callable[[str], None] = field(default=lambda message: None)
+    turn_rate_deg_s: float = 90.0
+    motion_owner: object | None = None
+
+
+class RobotBehaviour(py_trees.behaviour.Behaviour):
+    """Base of every leaf: declares its node type and parameters, reaches the robot.
+
+    Args:
+        name: The node's display name.
+        **args: The validated parameters, as declared in :attr:`params` (defaults filled).
+    """
+
+    #: The node type's name in mission files (empty: not a node type of its own).
+    node_type: ClassVar[str] = ""
+    #: One line for the catalogue and the docs.
+    doc: ClassVar[str] = ""
+    #: The parameters the node type takes.
+    params: ClassVar[tuple[Param, ...]] = ()
+    #: Groups of parameters of which exactly one must be given, e.g. (("left", "right"),).
+    exactly_one_of: ClassVar[tuple[tuple[str, ...], ...]] = ()
+    #: "action" or "condition".
+    category: ClassVar[str] = "action"
+
+    def __init__(self, name: str, **args: Any) -> None:
+        super().__init__(name)
+        self.args = args
+        self.robot: RobotContext | None = None
+        self.blackboard = self.attach_blackboard_client(name=name)
+        for key in ROBOT_KEYS:
+            self.blackboard.register_key(key=key, access=Access.READ)
+
+    def setup(self, **kwargs: Any) -> None:
+        """Takes the run's :class:`RobotContext` (keyword ``robot``)."""
+        robot = kwargs.get("robot")
+        if not isinstance(robot, RobotContext):
+            raise TypeError(f"{self.name}: setup() needs robot=RobotContext(...)")
+        self.robot = robot
+
+    @property
+    def client(self) -> Client:
+        """The robot link."""
+        assert self.robot is not None, "setup() was not called"
+        return self.robot.client
+
+    @property
+    def clock(self) -> Clock:
+        """The run's clock."""
+        assert self.robot is not None, "setup() was not called"
+        return self.robot.clock
+
+    @property
+    def robot_status(self) -> Packet:
+        """The status packet polled before this tick."""
+        return self.blackboard.get(STATUS_KEY)
+
+    @property
+    def battery(self) -> int:
+        """The battery level, polled about once a second."""
+        return self.blackboard.get(BATTERY_KEY)
+
+    @property
+    def healthy(self) -> bool:
+        """The ``GR`` reply, polled about once a second."""
+        return self.blackboard.get(HEALTHY_KEY)
+
+    def send(self, request: Callable[[], object]) -> bool:
+        """Runs one client request; a ``NO`` becomes False and the feedback message.
+
+        Link errors (time-outs, a lost link) are not caught: they end the run.
+        """
+        try:
+            request()
+        except CommandRefused as err:
+            self.feedback_message = f"{err}; is the robot in manual mode, fallen or out of battery?"
+            return False
+        return True
+
+
+class RobotAction(RobotBehaviour):
+    """An action: it may send commands. One that starts a motion stops it when halted.
+
+    Subclasses call :meth:`started_motion` after a motion command was accepted and
+    :meth:`stop_motion` when they end it themselves. If the node is halted (preempted,
+    timed out, the mission ends) while the robot is still carrying out *its* motion, ``X``
+    is sent. If another node has started a motion since, nothing is sent: the robot
+    already replaced this node's motion with the newer one, and a stop would cancel it
+    (a selector halts the preempted child after ticking the one that preempts it).
+    """
+
+    category: ClassVar[str] = "action"
+
+    def started_motion(self) -> None:
+        """Marks that the robot is carrying out this node's motion."""
+        assert self.robot is not None
+        self.robot.motion_owner = self
+
+    def owns_motion(self) -> bool:
+        """True while the robot carries out this node's motion."""
+        return self.robot is not None and self.robot.motion_owner is self
+
+    def release_motion(self) -> None:
+        """Marks that this node's motion has ended (without sending anything)."""
+        if self.owns_motion():
+            assert self.robot is not None
+            self.robot.motion_owner = None
+
+    def stop_motion(self) -> bool:
+        """Sends ``X`` now (in this tick); returns whether the robot accepted it."""
+        self.release_motion()
+        return self.send(self.client.stop)
+
+    def terminate(self, new_status: Status) -> None:
+        """Stops the robot when halted while it still carries out this node's motion."""
+        if self.owns_motion():
+            self.release_motion()
+            try:
+                self.client.stop()
+            except Exception as err:  # noqa: BLE001 - terminate must not raise; the runner stops again
+                self.feedback_message = f"could not stop: {err}"
+
+
+class RobotCondition(RobotBehaviour):
+    """A condition: SUCCESS when :meth:`check` holds on the polled status, else FAILURE."""
+
+    category: ClassVar[str] = "condition"
+
+    def check(self) -> bool:
+        """Returns whether the condition holds; reads only the polled values."""
+        raise NotImplementedError
+
+    def describe(self) -> str:
+        """The values the condition looked at, for the feedback message."""
+        return ""
+
+    def update(self) -> Status:
+        """SUCCESS or FAILURE, at once."""
+        holds = self.check()
+        self.feedback_message = self.describe()
+        return Status.SUCCESS if holds else Status.FAILURE

@@ -1,0 +1,52 @@
+"""Decorators the mission compiler needs beyond py_trees' own.
+
+py_trees' ``Timeout`` reads ``time.monotonic``; :class:`ClockTimeout` reads the run's
+clock instead, so a time-out works the same in real and in virtual time.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import py_trees
+from py_trees.common import Status
+
+from autonomy.behaviours.base import RobotContext
+from autonomy.clock import Clock
+
+
+class ClockTimeout(py_trees.decorators.Decorator):
+    """FAILURE if the child is still RUNNING ``seconds`` after it started; the child is halted.
+
+    Args:
+        name: The node's display name.
+        child: The decorated behaviour.
+        seconds: How long the child may run.
+    """
+
+    def __init__(self, name: str, child: py_trees.behaviour.Behaviour, seconds: float) -> None:
+        super().__init__(name=name, child=child)
+        self.seconds = seconds
+        self._clock: Clock | None = None
+        self._deadline_s = 0.0
+
+    def setup(self, **kwargs: Any) -> None:
+        """Takes the run's clock from ``robot=RobotContext``."""
+        robot = kwargs.get("robot")
+        if not isinstance(robot, RobotContext):
+            raise TypeError(f"{self.name}: setup() needs robot=RobotContext(...)")
+        self._clock = robot.clock
+
+    def initialise(self) -> None:
+        """Starts the countdown."""
+        assert self._clock is not None, "setup() was not called"
+        self._deadline_s = self._clock.now() + self.seconds
+
+    def update(self) -> Status:
+        """The child's status, or FAILURE once the time is up (halting the child)."""
+        assert self._clock is not None
+        if self.decorated.status == Status.RUNNING and self._clock.now() >= self._deadline_s:
+            self.feedback_message = f"timed out after {self.seconds:g} s"
+            self.decorated.stop(Status.INVALID)
+            return Status.FAILURE
+        return self.decorated.status

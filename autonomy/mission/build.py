@@ -1,0 +1,28 @@
+"""Validated mission -> py_trees behaviour tree.
+
+Every node is built fresh, so a subtree used twice becomes two independent copies. A
+subtree's root is shown under the subtree's name unless the file named it.
+"""
+
+from __future__ import annotations
+
+import py_trees
+
+from autonomy.mission.validate import MissionSpec, NodeSpec
+
+
+def build_node(spec: NodeSpec, mission: MissionSpec) -> py_trees.behaviour.Behaviour:
+    """Builds one node and everything below it."""
+    if spec.type.category == "reference":
+        target = mission.subtrees[spec.args["subtree"]]
+        root = build_node(target, mission)
+        if target.name is None:
+            root.name = spec.args["subtree"]
+        return root
+    children = [build_node(child, mission) for child in spec.children]
+    return spec.type.build(spec.display_name, spec.args, children)
+
+
+def build_tree(mission: MissionSpec) -> py_trees.behaviour.Behaviour:
+    """Builds the mission's tree (the root node; nothing is set up or connected)."""
+    return build_node(mission.tree, mission)

@@ -1,0 +1,118 @@
+"""YAML with positions: every value keeps the line and column it came from.
+
+Parsing uses PyYAML's safe loader (``yaml.safe_load`` semantics: plain data, no tags that
+build objects), but keeps the node tree so that an error can name ``FILE:LINE:COL``.
+Duplicate keys, which ``safe_load`` silently resolves to the last one, are errors here.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import yaml
+
+#: Most YAML nodes one file may expand to (aliases can multiply a small file).
+MAX_NODES = 100_000
+
+
+@dataclass
+class Located:
+    """A value from the file and where it stands (1-based line and column).
+
+    ``value`` is a dict of str to :class:`Located` for a mapping, a list of
+    :class:`Located` for a sequence, and a plain Python value for a scalar. For
+    mappings, ``keys`` holds where each key stands.
+    """
+
+    value: Any
+    line: int
+    column: int
+    keys: dict[str, tuple[int, int]] = field(default_factory=dict)
+
+    @property
+    def plain(self) -> Any:
+        """The value with positions stripped, all the way down."""
+        if isinstance(self.value, dict):
+            return {k: v.plain for k, v in self.value.items()}
+        if isinstance(self.value, list):
+            return [v.plain for v in self.value]
+        return self.value
+
+
+@dataclass(frozen=True)
+class SourceError:
+    """One problem at a place in the file."""
+
+    line: int
+    column: int
+    message: str
+
+
+def _where(node: yaml.Node) -> tuple[int, int]:
+    return node.start_mark.line + 1, node.start_mark.column + 1
+
+
+def parse(text: str) -> tuple[Located | None, list[SourceError]]:
+    """Parses one YAML document.
+
+    Returns:
+        The document (None when it could not be read at all) and the problems found.
+    """
+    loader = yaml.SafeLoader(text)
+    errors: list[SourceError] = []
+    count = 0
+    try:
+        root = loader.get_single_node()
+        if root is None:
+            return None, [SourceError(1, 1, "the file is empty")]
+
+        def convert(node: yaml.Node, stack: tuple[int, ...]) -> Located:
+            nonlocal count
+            count += 1
+            line, column = _where(node)
+            if count > MAX_NODES:
+                raise _TooLarge(line, column)
+            if id(node) in stack:
+                errors.append(SourceError(line, column, "an alias refers to itself"))
+                return Located(None, line, column)
+            stack = (*stack, id(node))
+            if isinstance(node, yaml.SequenceNode):
+                return Located([convert(item, stack) for item in node.value], line, column)
+            if isinstance(node, yaml.MappingNode):
+                loader.flatten_mapping(node)  # apply '<<' merge keys as safe_load does
+                located = Located({}, line, column)
+                for key_node, value_node in node.value:
+                    key = loader.construct_object(key_node, deep=True)
+                    key_line, key_column = _where(key_node)
+                    if not isinstance(key, str):
+                        errors.append(SourceError(key_line, key_column, f"keys must be names, got {key!r}"))
+                        continue
+                    if key in located.value:
+                        first = located.keys[key]
+                        errors.append(
+                            SourceError(key_line, key_column, f"'{key}' is given twice (first on line {first[0]})")
+                        )
+                        continue
+                    located.keys[key] = (key_line, key_column)
+                    located.value[key] = convert(value_node, stack)
+                return located
+            return Located(loader.construct_object(node, deep=True), line, column)
+
+        return convert(root, ()), errors
+    except _TooLarge as err:
+        return None, [SourceError(err.line, err.column, f"the file expands to more than {MAX_NODES} values")]
+    except yaml.MarkedYAMLError as err:
+        mark = err.problem_mark or err.context_mark
+        line, column = (mark.line + 1, mark.column + 1) if mark else (1, 1)
+        problem = err.problem or err.context or "not valid YAML"
+        return None, [SourceError(line, column, f"not valid YAML: {problem}")]
+    except yaml.YAMLError as err:
+        return None, [SourceError(1, 1, f"not valid YAML: {err}")]
+    finally:
+        loader.dispose()
+
+
+class _TooLarge(Exception):
+    def __init__(self, line: int, column: int) -> None:
+        self.line, self.column = line, column

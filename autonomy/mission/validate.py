@@ -1,0 +1,521 @@
+"""Mission file -> validated :class:`MissionSpec`, reporting every problem at once.
+
+Nothing is built until the whole file is valid. Each problem is a :class:`Problem` that
+prints as ``FILE:LINE:COL: PATH: message``, where PATH is the YAML path
+(``tree.repeat.do.sequence[1].turn``).
+"""
+
+from __future__ import annotations
+
+import difflib
+import importlib
+import sys
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from autonomy.behaviours import Param
+from autonomy.errors import AutonomyError
+from autonomy.mission.registry import BUILTINS, NodeType, Registry, leaf_classes_in, leaf_type
+from autonomy.mission.source import Located, parse
+
+TOP_LEVEL = ("mission", "description", "tick_hz", "world", "subtrees", "tree", "plugins")
+DEFAULT_TICK_HZ = 20.0
+MAX_TICK_HZ = 200.0
+
+
+@dataclass(frozen=True)
+class Problem:
+    """One thing wrong with a mission file."""
+
+    file: str
+    line: int
+    column: int
+    path: str
+    message: str
+
+    def __str__(self) -> str:
+        where = f"{self.path}: " if self.path else ""
+        return f"{self.file}:{self.line}:{self.column}: {where}{self.message}"
+
+
+class MissionInvalid(AutonomyError):
+    """A mission file with problems; :attr:`problems` lists all of them, in file order."""
+
+    def __init__(self, problems: list[Problem]) -> None:
+        self.problems = sorted(problems, key=lambda p: (p.file, p.line, p.column))
+        super().__init__("\n".join(str(p) for p in self.problems))
+
+
+@dataclass
+class NodeSpec:
+    """A validated node: its type, arguments (defaults filled in) and child nodes."""
+
+    type: NodeType
+    args: dict[str, Any]
+    children: list[NodeSpec]
+    name: str | None
+    path: str
+    line: int
+    column: int
+
+    @property
+    def display_name(self) -> str:
+        """The ``name:`` given in the file, or one made from the type and arguments."""
+        return self.name or self.type.label(self.args)
+
+
+@dataclass
+class MissionSpec:
+    """A validated mission file, ready to build."""
+
+    name: str
+    description: str
+    tick_hz: float
+    world: str | None
+    tree: NodeSpec
+    subtrees: dict[str, NodeSpec]
+    registry: Registry
+    source: str
+    plugins: list[str] = field(default_factory=list)
+
+
+def _suggest(word: str, options: list[str]) -> str:
+    close = difflib.get_close_matches(word, options, n=1, cutoff=0.6)
+    return f" (did you mean '{close[0]}'?)" if close else ""
+
+
+def _type_name(value: Any) -> str:
+    if value is None:
+        return "nothing"
+    if isinstance(value, bool):
+        return f"{str(value).lower()} (true/false)"
+    if isinstance(value, str):
+        return f"'{value}' (text)"
+    if isinstance(value, (list, dict)):
+        return "a list" if isinstance(value, list) else "a mapping"
+    return repr(value)
+
+
+class _Validator:
+    def __init__(self, source: str, registry: Registry) -> None:
+        self.source = source
+        self.registry = registry
+        self.problems: list[Problem] = []
+        self.references: list[tuple[str, str, Located, str]] = []  # (owner, subtree name, where, path)
+
+    def problem(self, where: Located | tuple[int, int], path: str, message: str) -> None:
+        line, column = (where.line, where.column) if isinstance(where, Located) else where
+        self.problems.append(Problem(self.source, line, column, path, message))
+
+    # ------------------------------------------------------------------ top level
+
+    def mission(self, root: Located, base_dir: Path) -> MissionSpec | None:
+        if not isinstance(root.value, dict):
+            self.problem(root, "", "a mission file is a mapping with at least 'mission:' and 'tree:'")
+            return None
+        doc: dict[str, Located] = root.value
+        for key in doc:
+            if key not in TOP_LEVEL:
+                self.problem(root.keys[key], key, f"unknown key '{key}'{_suggest(key, list(TOP_LEVEL))}")
+        name = self.text(doc, "mission", root, required=True)
+        description = self.text(doc, "description", root) or ""
+        world = self.text(doc, "world", root)
+        tick_hz = DEFAULT_TICK_HZ
+        if "tick_hz" in doc:
+            value = doc["tick_hz"].value
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                self.problem(doc["tick_hz"], "tick_hz", f"tick_hz must be a number, got {_type_name(value)}")
+            elif not 0 < value <= MAX_TICK_HZ:
+                self.problem(
+                    doc["tick_hz"], "tick_hz", f"tick_hz must be above 0 and at most {MAX_TICK_HZ:g}, got {value}"
+                )
+            else:
+                tick_hz = float(value)
+        plugins = self.plugins(doc.get("plugins"), base_dir)
+        subtrees: dict[str, NodeSpec] = {}
+        if "subtrees" in doc:
+            block = doc["subtrees"]
+            if not isinstance(block.value, dict):
+                self.problem(block, "subtrees", "subtrees is a mapping of names to trees")
+            else:
+                for sub_name, sub in block.value.items():
+                    spec = self.node(sub, f"subtrees.{sub_name}", owner=sub_name)
+                    if spec is not None:
+                        subtrees[sub_name] = spec
+                known = list(block.value)
+        else:
+            known = []
+        tree = None
+        if "tree" not in doc:
+            self.problem(root, "", "missing 'tree:', the root node of the mission")
+        else:
+            tree = self.node(doc["tree"], "tree", owner="")
+        self.check_references(known)
+        if self.problems or tree is None or name is None:
+            return None
+        return MissionSpec(name, description, tick_hz, world, tree, subtrees, self.registry, self.source, plugins)
+
+    def text(self, doc: dict[str, Located], key: str, root: Located, required: bool = False) -> str | None:
+        if key not in doc:
+            if required:
+                self.problem(root, "", f"missing '{key}:'")
+            return None
+        value = doc[key].value
+        if not isinstance(value, str) or not value.strip():
+            self.problem(doc[key], key, f"{key} must be text, got {_type_name(value)}")
+            return None
+        return value
+
+    def plugins(self, block: Located | None, base_dir: Path) -> list[str]:
+        if block is None:
+            return []
+        if not isinstance(block.value, list):
+            self.problem(block, "plugins", "plugins is a list of Python module names, e.g. [my_behaviours]")
+            return []
+        names = []
+        for index, item in enumerate(block.value):
+            path = f"plugins[{index}]"
+            if not isinstance(item.value, str):
+                self.problem(item, path, f"a plugin is a module name, got {_type_name(item.value)}")
+                continue
+            try:
+                module = import_plugin(item.value, base_dir)
+            except Exception as err:  # noqa: BLE001 - any failure to import is the file's problem to report
+                self.problem(item, path, f"cannot import plugin '{item.value}': {type(err).__name__}: {err}")
+                continue
+            classes = leaf_classes_in(module)
+            if not classes:
+                self.problem(
+                    item,
+                    path,
+                    f"plugin '{item.value}' declares no behaviours "
+                    "(RobotAction/RobotCondition subclasses with a node_type)",
+                )
+            for cls in classes:
+                try:
+                    self.registry.add(leaf_type(cls, origin=f"plugin {item.value}"))
+                except ValueError as err:
+                    self.problem(item, path, f"plugin '{item.value}': {err}")
+            names.append(item.value)
+        return names
+
+    # ------------------------------------------------------------------ nodes
+
+    def node(self, where: Located, path: str, owner: str) -> NodeSpec | None:
+        value = where.value
+        if isinstance(value, str):
+            return self.bare(where, path)
+        if not isinstance(value, dict):
+            self.problem(
+                where,
+                path,
+                f"expected a node (a mapping like 'move: {{...}}' or a name like 'stop'), got {_type_name(value)}",
+            )
+            return None
+        if len(value) != 1:
+            keys = list(value)
+            hint = ""
+            if keys and self.registry.get(keys[0]) is not None:
+                hint = f"; are the parameters of '{keys[0]}' indented under it?"
+            self.problem(where, path, f"a node has exactly one key, its type; found {', '.join(keys) or 'none'}{hint}")
+            return None
+        type_name, body = next(iter(value.items()))
+        key_where = where.keys[type_name]
+        node_type = self.registry.get(type_name)
+        node_path = f"{path}.{type_name}"
+        if node_type is None:
+            self.problem(
+                key_where, node_path, f"unknown node '{type_name}'{_suggest(type_name, self.registry.names())}"
+            )
+            return None
+        if node_type.category == "reference":
+            return self.reference(node_type, body, node_path, key_where, owner)
+        short_form = bool(node_type.children_param) and isinstance(body.value, list)
+        if short_form:
+            args_where: dict[str, Located] = {node_type.children_param: body}
+            arg_keys: dict[str, tuple[int, int]] = {node_type.children_param: (body.line, body.column)}
+        elif isinstance(body.value, dict):
+            args_where, arg_keys = body.value, body.keys
+        elif body.value is None and not node_type.needs_parameters:
+            args_where, arg_keys = {}, {}
+        else:
+            self.problem(body, node_path, self.shape_hint(node_type, body))
+            return None
+        return self.arguments(node_type, args_where, arg_keys, node_path, key_where, owner, short_form)
+
+    def shape_hint(self, node_type: NodeType, body: Located) -> str:
+        if node_type.category == "composite":
+            return f"{node_type.name} takes a list of children, or {{children: [...], ...}}"
+        if node_type.category == "decorator":
+            first = node_type.params[0].name
+            return f"{node_type.name} takes a mapping, e.g. {node_type.name}: {{{first}: ..., do: NODE}}"
+        if body.value is None:
+            return f"'{node_type.name}' needs parameters: {self.required_text(node_type)}"
+        return (
+            f"{node_type.name} takes its parameters as a mapping, e.g. {node_type.name}: {{{self.example(node_type)}}}"
+        )
+
+    def required_text(self, node_type: NodeType) -> str:
+        parts = [p.name for p in node_type.params if p.required]
+        parts += [" or ".join(group) for group in node_type.exactly_one_of]
+        return ", ".join(parts)
+
+    def example(self, node_type: NodeType) -> str:
+        return example_arguments(node_type)
+
+    def bare(self, where: Located, path: str) -> NodeSpec | None:
+        type_name = where.value
+        node_type = self.registry.get(type_name)
+        node_path = f"{path}.{type_name}" if path else type_name
+        if node_type is None:
+            self.problem(where, path, f"unknown node '{type_name}'{_suggest(type_name, self.registry.names())}")
+            return None
+        if node_type.needs_parameters:
+            self.problem(
+                where,
+                node_path,
+                f"'{type_name}' needs parameters ({self.required_text(node_type) or 'children'}); "
+                f"write it as {type_name}: {{{self.example(node_type)}}}",
+            )
+            return None
+        return self.arguments(node_type, {}, {}, node_path, (where.line, where.column), owner="")
+
+    def reference(
+        self, node_type: NodeType, body: Located, path: str, key_where: tuple[int, int], owner: str
+    ) -> NodeSpec | None:
+        if not isinstance(body.value, str):
+            self.problem(
+                body, path, f"subtree takes the name of a subtree, e.g. subtree: corner; got {_type_name(body.value)}"
+            )
+            return None
+        self.references.append((owner, body.value, body, path))
+        return NodeSpec(node_type, {"subtree": body.value}, [], None, path, *key_where)
+
+    def arguments(
+        self,
+        node_type: NodeType,
+        given: dict[str, Located],
+        key_at: dict[str, tuple[int, int]],
+        path: str,
+        key_where: tuple[int, int],
+        owner: str,
+        short_form: bool = False,
+    ) -> NodeSpec | None:
+        ok = True
+        args: dict[str, Any] = {}
+        name = None
+        known = [p.name for p in node_type.params] + ["name"]
+        for key, located in given.items():
+            where = key_at.get(key, (located.line, located.column))
+            param = node_type.param(key)
+            if key == "name":
+                if not isinstance(located.value, str) or not located.value.strip():
+                    self.problem(located, f"{path}.name", f"name must be text, got {_type_name(located.value)}")
+                    ok = False
+                else:
+                    name = located.value
+            elif param is None:
+                self.problem(
+                    where,
+                    f"{path}.{key}",
+                    f"unknown parameter '{key}' for {node_type.name}{_suggest(key, known)}; "
+                    f"it takes {', '.join(known)}",
+                )
+                ok = False
+            elif param.kind not in ("node", "nodes"):
+                value = self.value(param, located, f"{path}.{key}", node_type)
+                ok = ok and value is not _INVALID
+                args[key] = value
+        children: list[NodeSpec] = []
+        for param in node_type.params:  # children in declared order: a while's condition before its do
+            if param.kind not in ("node", "nodes") or param.name not in given:
+                continue
+            located = given[param.name]
+            child_path = path if short_form else f"{path}.{param.name}"
+            if param.kind == "node":
+                child = self.node(located, child_path, owner) if self.single(located, child_path, param.name) else None
+                kids = [child] if child is not None else None
+            else:
+                kids = self.children(node_type, located, child_path, owner)
+            ok = ok and kids is not None
+            children.extend(kids or [])
+        for param in node_type.params:
+            if param.required and param.name not in given:
+                self.problem(key_where, path, f"{node_type.name} needs '{param.name}' ({param.doc})")
+                ok = False
+            elif param.kind not in ("node", "nodes"):
+                args.setdefault(param.name, param.default)
+        for group in node_type.exactly_one_of:
+            present = [g for g in group if g in given]
+            if len(present) != 1:
+                said = "only one of" if present else "one of"
+                self.problem(key_where, path, f"{node_type.name} takes {said} {', '.join(group)}")
+                ok = False
+        return NodeSpec(node_type, args, children, name, path, *key_where) if ok else None
+
+    def single(self, located: Located, path: str, key: str) -> bool:
+        if isinstance(located.value, list):
+            self.problem(
+                located, path, f"{key} takes one node; to do several things, wrap them: {key}: {{sequence: [...]}}"
+            )
+            return False
+        return True
+
+    def children(self, node_type: NodeType, located: Located, path: str, owner: str) -> list[NodeSpec] | None:
+        if not isinstance(located.value, list):
+            self.problem(located, path, f"{node_type.name} takes a list of children, got {_type_name(located.value)}")
+            return None
+        if not located.value:
+            self.problem(located, path, f"{node_type.name} needs at least one child")
+            return None
+        kids = [self.node(item, f"{path}[{i}]", owner) for i, item in enumerate(located.value)]
+        return None if any(k is None for k in kids) else kids  # type: ignore[misc]
+
+    def value(self, param: Param, located: Located, path: str, node_type: NodeType) -> Any:
+        value = located.plain
+        kind = param.kind
+        what = f"{node_type.name} {param.name}"
+        if kind == "bool":
+            if not isinstance(value, bool):
+                self.problem(located, path, f"{what} must be true or false, got {_type_name(value)}")
+                return _INVALID
+            return value
+        if kind == "string":
+            if not isinstance(value, str):
+                self.problem(located, path, f"{what} must be text, got {_type_name(value)}")
+                return _INVALID
+            return value
+        if kind == "choice":
+            if value not in param.choices:
+                self.problem(
+                    located,
+                    path,
+                    f"{what} must be {' or '.join(param.choices)}, "
+                    f"got {_type_name(value)}{_suggest(str(value), list(param.choices))}",
+                )
+                return _INVALID
+            return value
+        if kind == "tones":
+            if not (
+                isinstance(value, list)
+                and len(value) == 3
+                and all(isinstance(t, int) and not isinstance(t, bool) and 1 <= t <= 9 for t in value)
+            ):
+                self.problem(located, path, f"{what} must be three tones 1..9, as in [5, 7, 9]; got {located.plain!r}")
+                return _INVALID
+            return list(value)
+        if (
+            isinstance(value, bool)
+            or not isinstance(value, (int, float))
+            or (kind == "int" and not isinstance(value, int))
+        ):
+            expected = "a whole number" if kind == "int" else "a number"
+            self.problem(located, path, f"{what} must be {expected}, got {_type_name(value)}")
+            return _INVALID
+        low, high = param.minimum, param.maximum
+        if (low is not None and value < low) or (high is not None and value > high) or (param.positive and value <= 0):
+            unit = f" {param.unit}" if param.unit else ""
+            self.problem(located, path, f"{what} must be {param.describe_range()}{unit}, got {value} ({param.doc})")
+            return _INVALID
+        return value
+
+    def check_references(self, known: list[str]) -> None:
+        graph: dict[str, set[str]] = {}
+        for owner, target, where, path in self.references:
+            if target not in known:
+                listed = f"; the subtrees are {', '.join(known)}" if known else "; this mission defines no subtrees"
+                self.problem(where, path, f"unknown subtree '{target}'{_suggest(target, known)}{listed}")
+            else:
+                graph.setdefault(owner, set()).add(target)
+        reported: set[str] = set()
+        for _owner, target, where, path in self.references:
+            if target in known and target not in reported and _reaches(graph, target, target):
+                reported.add(target)
+                self.problem(where, path, f"subtree '{target}' includes itself (directly or through other subtrees)")
+
+
+def _reaches(graph: dict[str, set[str]], start: str, goal: str) -> bool:
+    seen: set[str] = set()
+    todo = list(graph.get(start, ()))
+    while todo:
+        name = todo.pop()
+        if name == goal:
+            return True
+        if name not in seen:
+            seen.add(name)
+            todo.extend(graph.get(name, ()))
+    return False
+
+
+def example_arguments(node_type: NodeType) -> str:
+    """A short, valid-looking argument list for hints, e.g. ``left: 90``."""
+    wanted = [p for p in node_type.params if p.required]
+    wanted += [node_type.param(group[0]) for group in node_type.exactly_one_of]  # type: ignore[misc]
+    parts = []
+    for param in wanted:
+        if param.example is not None:
+            sample = param.example
+        elif param.kind in ("int", "number"):
+            sample = _number(param.minimum if param.minimum is not None else 1)
+        else:
+            sample = {"bool": "true", "choice": param.choices[0] if param.choices else "..."}.get(param.kind, "...")
+        parts.append(f"{param.name}: {sample}")
+    return ", ".join(parts)
+
+
+def _number(value: float) -> str:
+    return str(int(value)) if float(value).is_integer() else str(value)
+
+
+class _Invalid:
+    pass
+
+
+_INVALID = _Invalid()
+
+
+def import_plugin(module_name: str, base_dir: Path) -> Any:
+    """Imports a plugin module, looking next to the mission file first."""
+    path = str(base_dir.resolve())
+    added = path not in sys.path
+    if added:
+        sys.path.insert(0, path)
+    try:
+        return importlib.import_module(module_name)
+    finally:
+        if added:
+            sys.path.remove(path)
+
+
+def validate_text(
+    text: str, source: str = "<mission>", base_dir: Path | None = None, registry: Registry | None = None
+) -> MissionSpec:
+    """Validates a mission given as text.
+
+    Raises:
+        MissionInvalid: with every problem found.
+    """
+    root, errors = parse(text)
+    problems = [Problem(source, e.line, e.column, "", e.message) for e in errors]
+    validator = _Validator(source, (registry or BUILTINS).copy())
+    spec = validator.mission(root, base_dir or Path.cwd()) if root is not None else None
+    problems += validator.problems
+    if problems or spec is None:
+        raise MissionInvalid(problems or [Problem(source, 1, 1, "", "not a mission")])
+    return spec
+
+
+def validate_file(path: str | Path) -> MissionSpec:
+    """Reads and validates a mission file.
+
+    Raises:
+        MissionInvalid: the file cannot be read, or has problems (all of them listed).
+    """
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as err:
+        reason = err.strerror if isinstance(err, OSError) and err.strerror else str(err)
+        raise MissionInvalid([Problem(str(path), 1, 1, "", f"cannot read the file: {reason}")]) from err
+    return validate_text(text, str(path), path.parent)
