@@ -136,6 +136,10 @@ class Runner:
             self._blackboard.register_key(key=key, access=Access.WRITE)
         self._ids = {id(node): index for index, node in enumerate(preorder(root))}
         self._last: Packet | None = None
+        self._start_s = 0.0
+        self._last_slow_s = -float("inf")
+        self._battery, self._healthy = 0, True
+        self.context = RobotContext(client, self.clock, log=self._log)
 
     # ------------------------------------------------------------------ events
 
@@ -172,15 +176,9 @@ class Runner:
         say what happened. The robot is stopped in every case.
         """
         summary = self.summary
-        self.client.listeners.append(self._record)
-        context = RobotContext(self.client, self.clock, log=self._log)
-        start_s = self.clock.now()
         try:
-            for node in self.root.iterate():
-                node.setup(robot=context)
-            if self.trace is not None:
-                self._write_header()
-            summary.outcome = self._loop(start_s)
+            self.setup()
+            summary.outcome = self._loop()
         except KeyboardInterrupt:
             summary.outcome = INTERRUPTED
             summary.reason = "Ctrl-C or SIGTERM"
@@ -191,10 +189,11 @@ class Runner:
             summary.outcome = CRASHED
             summary.reason = f"{type(err).__name__}: {err}"
         finally:
-            summary.time_s = self.clock.now() - start_s
+            summary.time_s = self.clock.now() - self._start_s
             self._halt()
             summary.stopped = self._final_stop()
-            self.client.listeners.remove(self._record)
+            if self._record in self.client.listeners:
+                self.client.listeners.remove(self._record)
             stats = self.client.stats
             summary.requests, summary.retries, summary.framing_errors = (
                 stats.requests,
@@ -203,30 +202,46 @@ class Runner:
             )
         return summary
 
-    def _loop(self, start_s: float) -> str:
+    def setup(self) -> None:
+        """Hands every node the run's context and starts the clock; :meth:`run` calls it."""
+        self.client.listeners.append(self._record)
+        for node in self.root.iterate():
+            node.setup(robot=self.context)
+        self._start_s = self.clock.now()
+        if self.trace is not None:
+            self._write_header()
+
+    def tick(self) -> Status:
+        """One tick: poll the status (battery and health about once a second), tick the tree.
+
+        Returns:
+            The root's status after the tick.
+        """
+        now = self.clock.now()
+        status = self.client.status()
+        if now - self._last_slow_s >= SLOW_POLL_S:
+            self._battery, self._healthy = self.client.battery(), self.client.healthy()
+            self._last_slow_s = now
+        self._blackboard.set(STATUS_KEY, status)
+        self._blackboard.set(BATTERY_KEY, self._battery)
+        self._blackboard.set(HEALTHY_KEY, self._healthy)
+        self._observe(status)
+        self.root.tick_once()
+        self.summary.ticks += 1
+        self._after_tick(now - self._start_s, status, self._battery)
+        return self.root.status
+
+    def _loop(self) -> str:
         period_s = 1.0 / self.tick_hz
-        next_tick_s = start_s
-        last_slow_s = -float("inf")
-        battery, healthy = 0, True
+        next_tick_s = self._start_s
         while True:
-            now = self.clock.now()
-            status = self.client.status()
-            if now - last_slow_s >= SLOW_POLL_S:
-                battery, healthy = self.client.battery(), self.client.healthy()
-                last_slow_s = now
-            self._blackboard.set(STATUS_KEY, status)
-            self._blackboard.set(BATTERY_KEY, battery)
-            self._blackboard.set(HEALTHY_KEY, healthy)
-            self._observe(status)
-            self.root.tick_once()
-            self.summary.ticks += 1
-            self._after_tick(now - start_s, status, battery)
-            if self.root.status == Status.SUCCESS:
+            status = self.tick()
+            if status == Status.SUCCESS:
                 return SUCCEEDED
-            if self.root.status == Status.FAILURE:
+            if status == Status.FAILURE:
                 self.summary.reason = self._why_failed()
                 return FAILED
-            if self.max_seconds is not None and self.clock.now() - start_s >= self.max_seconds:
+            if self.max_seconds is not None and self.clock.now() - self._start_s >= self.max_seconds:
                 self.summary.reason = f"the mission was still running after {self.max_seconds:g} s"
                 return TIME_LIMIT
             next_tick_s += period_s

@@ -91,8 +91,8 @@ class Move(RobotAction):
             self._collision_armed = True
         if not status.moving and self.clock.now() - self._start_s >= self.STALL_S:
             self.stop_motion()
-            blocked = "pushing against an obstacle" if status.collided else "not moving"
-            self.feedback_message = f"blocked after {self.travelled_mm()} mm: the robot is {blocked}"
+            why = "pushing against an obstacle" if status.collided else "not moving (an obstacle, or its remote?)"
+            self.feedback_message = f"blocked after {self.travelled_mm()} mm: the robot is {why}"
             return Status.FAILURE
         reason = self._ending()
         if reason:

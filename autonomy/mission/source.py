@@ -14,6 +14,8 @@ import yaml
 
 #: Most YAML nodes one file may expand to (aliases can multiply a small file).
 MAX_NODES = 100_000
+SEQ_TAG = "tag:yaml.org,2002:seq"
+MAP_TAG = "tag:yaml.org,2002:map"
 
 
 @dataclass
@@ -77,6 +79,9 @@ def parse(text: str) -> tuple[Located | None, list[SourceError]]:
                 errors.append(SourceError(line, column, "an alias refers to itself"))
                 return Located(None, line, column)
             stack = (*stack, id(node))
+            if isinstance(node, (yaml.SequenceNode, yaml.MappingNode)) and node.tag not in (SEQ_TAG, MAP_TAG):
+                errors.append(SourceError(line, column, f"the tag {node.tag} is not allowed: plain YAML only"))
+                return Located(None, line, column)
             if isinstance(node, yaml.SequenceNode):
                 return Located([convert(item, stack) for item in node.value], line, column)
             if isinstance(node, yaml.MappingNode):
