@@ -6,6 +6,8 @@ the validator.
 
 from __future__ import annotations
 
+import json
+from pathlib import Path
 from typing import Any
 
 from autonomy.behaviours import Param
@@ -25,6 +27,11 @@ def _by_category(registry: Registry) -> list[tuple[str, list[NodeType]]]:
     return [(c, [t for t in registry if t.category == c]) for c in CATEGORIES if any(t.category == c for t in registry)]
 
 
+def _yaml(value: Any) -> str:
+    """A default as a mission file writes it."""
+    return json.dumps(value) if isinstance(value, (bool, list)) else str(value)
+
+
 def _param_facts(param: Param) -> str:
     facts = [param.kind]
     if param.unit:
@@ -34,7 +41,7 @@ def _param_facts(param: Param) -> str:
     if param.required:
         facts.append("required")
     elif param.default is not None:
-        facts.append(f"default {param.default}")
+        facts.append(f"default {_yaml(param.default)}")
     return ", ".join(facts)
 
 
@@ -70,8 +77,9 @@ def catalogue_markdown(registry: Registry) -> str:
                 out.append("| parameter | kind | unit | values | default | meaning |")
                 out.append("|---|---|---|---|---|---|")
                 for p in node_type.params:
-                    default = "required" if p.required else ("" if p.default is None else f"`{p.default}`")
-                    out.append(f"| `{p.name}` | {p.kind} | {p.unit} | {p.describe_range()} | {default} | {p.doc} |")
+                    default = "required" if p.required else ("" if p.default is None else f"`{_yaml(p.default)}`")
+                    values = p.describe_range().replace("|", "\\|")  # a bare | would split the cell
+                    out.append(f"| `{p.name}` | {p.kind} | {p.unit} | {values} | {default} | {p.doc} |")
                 out.append("")
             for group in node_type.exactly_one_of:
                 out.append(f"Give exactly one of {', '.join(f'`{g}`' for g in group)}.\n")
@@ -86,10 +94,29 @@ def _example(node_type: NodeType) -> str:
         return f"{node_type.name}: [stop, beep]"
     if node_type.category == "decorator":
         extra = example_arguments(node_type).replace("do: ..., ", "").replace(", do: ...", "").replace("do: ...", "")
-        extra = extra.replace("condition: ...", "condition: {obstacle_within: {mm: 150}}")
+        extra = extra.replace("condition: ...", "condition: healthy")
         return f"{node_type.name}: {{{extra + ', ' if extra else ''}do: {{move: {{speed: 2}}}}}}"
     arguments = example_arguments(node_type)
     return f"{node_type.name}: {{{arguments}}}" if arguments else node_type.name
+
+
+REFERENCE_START = "<!-- reference:start -->\n"
+REFERENCE_END = "<!-- reference:end -->"
+
+
+def with_reference(document: str, registry: Registry) -> str:
+    """``document`` (docs/missions.md) with its node reference made anew from ``registry``."""
+    start = document.index(REFERENCE_START) + len(REFERENCE_START)
+    end = document.index(REFERENCE_END)
+    return document[:start] + "\n" + catalogue_markdown(registry) + "\n" + document[end:]
+
+
+def update_reference(path: str | Path, registry: Registry | None = None) -> None:
+    """Rewrites the node reference in the docs file at ``path`` (``make docs``)."""
+    from autonomy.mission.registry import BUILTINS
+
+    path = Path(path)
+    path.write_text(with_reference(path.read_text(encoding="utf-8"), registry or BUILTINS), encoding="utf-8")
 
 
 # --------------------------------------------------------------------------- JSON Schema

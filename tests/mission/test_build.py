@@ -59,7 +59,8 @@ def test_subtrees_are_fresh_copies_named_after_the_subtree():
 
 def test_display_names():
     root = tree_of(
-        "  sequence:\n    - move: {speed: 2, distance_mm: 300}\n    - move: {speed: 1, direction: backward, seconds: 2}\n"
+        "  sequence:\n    - move: {speed: 2, distance_mm: 300}\n"
+        "    - move: {speed: 1, direction: backward, seconds: 2}\n"
         "    - move: {speed: 3, until_obstacle_mm: 100, name: to the wall}\n    - turn: {right: 45}\n"
         "    - servo: {id: 1, by: -3}\n    - obstacle_within: {mm: 120}\n    - battery_above: {level: 60}\n"
     )

@@ -10,8 +10,7 @@ from tests.harness import Rig, tree_of
 
 def test_selector_preempts_a_lower_branch_and_stops_its_motion():
     root = tree_of(
-        "  selector:\n    - sequence: [{obstacle_within: {mm: 200}}, {turn: {left: 90}}]\n"
-        "    - move: {speed: 2}\n"
+        "  selector:\n    - sequence: [{obstacle_within: {mm: 200}}, {turn: {left: 90}}]\n    - move: {speed: 2}\n"
     )
     rig = Rig(root, "world=box")
     while not rig.sent() or rig.sent()[-1] != TurnCommand(90):
@@ -23,7 +22,9 @@ def test_selector_preempts_a_lower_branch_and_stops_its_motion():
 
 
 def test_while_halts_its_child_when_the_condition_fails():
-    root = tree_of("  while:\n    condition: {invert: {do: {obstacle_within: {mm: 150}}}}\n    do: {move: {speed: 2}}\n")
+    root = tree_of(
+        "  while:\n    condition: {invert: {do: {obstacle_within: {mm: 150}}}}\n    do: {move: {speed: 2}}\n"
+    )
     rig = Rig(root, "world=box")
     assert rig.tick_until_done() == Status.FAILURE
     assert rig.sent() == [MoveCommand(2), StopCommand()]
@@ -39,7 +40,10 @@ def test_timeout_runs_on_the_virtual_clock_and_halts_the_child():
 
 
 def test_parallel_one_ends_when_the_first_child_does_and_halts_the_rest():
-    rig = Rig(tree_of("  parallel:\n    policy: one\n    children: [{wait: {seconds: 1}}, {move: {speed: 1}}]\n"), "world=empty")
+    rig = Rig(
+        tree_of("  parallel:\n    policy: one\n    children: [{wait: {seconds: 1}}, {move: {speed: 1}}]\n"),
+        "world=empty",
+    )
     assert rig.tick_until_done() == Status.SUCCESS
     assert rig.sent() == [MoveCommand(1), StopCommand()]
 

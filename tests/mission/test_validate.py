@@ -22,12 +22,15 @@ def one(text: str) -> str:
 
 
 def test_unknown_node_suggests_the_right_one():
-    assert one("""\
+    assert (
+        one("""\
         mission: t
         tree:
           sequence:
             - trun: {left: 90}
-        """) == "m.yaml:4:7: tree.sequence[0].trun: unknown node 'trun' (did you mean 'turn'?)"
+        """)
+        == "m.yaml:4:7: tree.sequence[0].trun: unknown node 'trun' (did you mean 'turn'?)"
+    )
 
 
 def test_unknown_parameter_suggests_and_lists():
@@ -43,7 +46,11 @@ def test_unknown_parameter_suggests_and_lists():
         ("move: {speed: fast}", 17, "tree.move.speed: move speed must be a whole number, got 'fast' (text)"),
         ("move: {speed: 2.5}", 17, "tree.move.speed: move speed must be a whole number, got 2.5"),
         ("move: {speed: true}", 17, "tree.move.speed: move speed must be a whole number, got true (true/false)"),
-        ("sequence: {memory: yes please, children: [stop]}", 22, "tree.sequence.memory: sequence memory must be true or false"),
+        (
+            "sequence: {memory: yes please, children: [stop]}",
+            22,
+            "tree.sequence.memory: sequence memory must be true or false",
+        ),
         ("beep: {tones: 5}", 17, "tree.beep.tones: beep tones must be three tones 1..9, as in [5, 7, 9]; got 5"),
         ("log: {message: 12}", 18, "tree.log.message: log message must be text, got 12"),
         ("parallel: {policy: some, children: [stop]}", 22, "tree.parallel.policy: parallel policy must be all or one"),
@@ -148,7 +155,7 @@ def test_top_level_problems():
 
 
 def test_yaml_syntax_errors_have_a_position():
-    assert one("mission: t\ntree:\n  sequence: [stop, beep\n") .startswith("m.yaml:4:1: not valid YAML")
+    assert one("mission: t\ntree:\n  sequence: [stop, beep\n").startswith("m.yaml:4:1: not valid YAML")
     assert one("mission: t\ntree: stop\nmission: u\n") == "m.yaml:3:1: 'mission' is given twice (first on line 1)"
     assert one("") == "m.yaml:1:1: the file is empty"
     assert one("- just a list\n") == "m.yaml:1:1: a mission file is a mapping with at least 'mission:' and 'tree:'"
@@ -174,7 +181,10 @@ def test_unreadable_file(tmp_path):
 
 def test_only_safe_yaml():
     found = problems("mission: !!python/object/apply:os.system ['true']\ntree: stop\n")
-    assert found[0] == "m.yaml:1:10: the tag tag:yaml.org,2002:python/object/apply:os.system is not allowed: plain YAML only"
+    assert (
+        found[0]
+        == "m.yaml:1:10: the tag tag:yaml.org,2002:python/object/apply:os.system is not allowed: plain YAML only"
+    )
     assert "not valid YAML" in one("mission: !!python/name:os.system\ntree: stop\n")
 
 
@@ -183,9 +193,32 @@ def test_valid_mission_fills_defaults():
     assert spec.tick_hz == 20 and spec.tree.args["direction"] == "forward" and spec.tree.args["seconds"] is None
 
 
-yaml_scalars = st.one_of(st.none(), st.booleans(), st.integers(-2000, 2000), st.floats(allow_nan=False), st.text(max_size=8))
-words = st.sampled_from(["move", "turn", "speed", "left", "do", "sequence", "selector", "repeat", "times", "children",
-                         "beep", "tones", "subtree", "while", "condition", "stop", "collided", "name", "x"])
+yaml_scalars = st.one_of(
+    st.none(), st.booleans(), st.integers(-2000, 2000), st.floats(allow_nan=False), st.text(max_size=8)
+)
+words = st.sampled_from(
+    [
+        "move",
+        "turn",
+        "speed",
+        "left",
+        "do",
+        "sequence",
+        "selector",
+        "repeat",
+        "times",
+        "children",
+        "beep",
+        "tones",
+        "subtree",
+        "while",
+        "condition",
+        "stop",
+        "collided",
+        "name",
+        "x",
+    ]
+)
 documents = st.recursive(
     yaml_scalars | words,
     lambda inner: st.lists(inner, max_size=4) | st.dictionaries(words, inner, max_size=3),
