@@ -23,9 +23,10 @@ test: $(STAMP)
 	$(BIN)/ruff format --check .
 	$(BIN)/python -m pytest -q
 
-## bench: the link and emulator benchmarks (figures for the README)
+## bench: the link, emulator and mission benchmarks (figures for the README)
 bench: $(STAMP)
 	$(BIN)/python benchmarks/link.py
+	$(BIN)/python benchmarks/missions.py
 
 ## docs: make the node reference in docs/missions.md anew from the registry
 docs: $(STAMP)
