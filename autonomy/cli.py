@@ -174,6 +174,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     emulated = port.lower().startswith("emu://")
     if args.fast and not emulated:
         return _fail("--fast runs in virtual time, which needs the built-in emulator (leave out --port)", EXIT_USAGE)
+    if args.world and not emulated:
+        print(f"note: --world applies to the built-in emulator; {port} has its own", file=sys.stderr)
     if emulated and "world=" not in port:
         port += ("&" if "?" in port else "?") + f"world={args.world or spec.world or 'box'}"
     trace = None

@@ -248,8 +248,8 @@ class _Validator:
         if node_type.category == "composite":
             return f"{node_type.name} takes a list of children, or {{children: [...], ...}}"
         if node_type.category == "decorator":
-            first = node_type.params[0].name
-            return f"{node_type.name} takes a mapping, e.g. {node_type.name}: {{{first}: ..., do: NODE}}"
+            own = [f"{p.name}: ..." for p in node_type.params if p.name != "do"]
+            return f"{node_type.name} takes a mapping, e.g. {node_type.name}: {{{', '.join([*own, 'do: NODE'])}}}"
         if body.value is None:
             return f"'{node_type.name}' needs parameters: {self.required_text(node_type)}"
         return (

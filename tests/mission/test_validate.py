@@ -102,7 +102,9 @@ def test_exactly_one_of():
         ("selector: {children: []}", "tree.selector.children: selector needs at least one child"),
         ("repeat: {do: [stop, beep]}", "tree.repeat.do: do takes one node; to do several things, wrap them"),
         ("sequence: stop", "tree.sequence: sequence takes a list of children"),
-        ("invert: stop", "tree.invert: invert takes a mapping, e.g. invert: {do: ..., do: NODE}"),
+        ("invert: stop", "tree.invert: invert takes a mapping, e.g. invert: {do: NODE}"),
+        ("repeat: 3", "tree.repeat: repeat takes a mapping, e.g. repeat: {times: ..., do: NODE}"),
+        ("while: collided", "tree.while: while takes a mapping, e.g. while: {condition: ..., do: NODE}"),
     ],
 )
 def test_wrong_number_or_shape_of_children(tree, message):
