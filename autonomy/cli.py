@@ -101,11 +101,10 @@ def cmd_emulator(args: argparse.Namespace) -> int:
 # --------------------------------------------------------------------------- probe
 
 
-def _status_lines(status: Any) -> list[str]:
-    names = {True: "yes", False: "no"}
+def _status_lines(status: dict[str, Any]) -> list[str]:
     return [
-        f"    {key:<18}{names.get(value, value) if isinstance(value, bool) else value}"
-        for key, value in status.as_dict().items()
+        f"    {key:<18}{('yes' if value else 'no') if isinstance(value, bool) else value}"
+        for key, value in status.items()
         if key != "raw"
     ]
 
@@ -124,7 +123,6 @@ def cmd_probe(args: argparse.Namespace) -> int:
                 "tilt_deg": client.tilt_deg(),
                 "status": client.status().as_dict(),
             }
-            status = client.status()
     except LinkError as err:
         return _fail(str(err), EXIT_LINK)
     except AutonomyError as err:
@@ -139,7 +137,7 @@ def cmd_probe(args: argparse.Namespace) -> int:
     print(f"  velocity        {report['velocity']:+d} ({report['velocity'] / 20:.2f} wheel turns/s)")
     print(f"  tilt            {report['tilt_deg']:+d} deg")
     print(f"  status packet   {report['status']['raw']}")
-    print("\n".join(_status_lines(status)))
+    print("\n".join(_status_lines(report["status"])))
     return EXIT_OK
 
 

@@ -420,6 +420,15 @@ def odometer_delta_mm(earlier_mm: int, later_mm: int) -> int:
     return delta - 65536 if delta >= 32768 else delta
 
 
+def heading_delta_deg(earlier_deg: int, later_deg: int) -> int:
+    """Returns the signed turn between two headings, -180..179 (left positive).
+
+    Headings wrap at 360, so 350 -> 10 is +20, not -340. Summing the deltas of readings
+    taken less than half a turn apart follows a turn of any size.
+    """
+    return (later_deg - earlier_deg + 180) % 360 - 180
+
+
 Reply = Union[Ack, Parameter, Health, Status]
 
 
@@ -555,13 +564,10 @@ class ReplyDecoder:
                 return decode_status(self._take(STATUS_LENGTH))
             raise self._junk(1)
         if buf[0] == ord("N"):
-            if len(buf) < 3:
-                return None if NO.startswith(bytes(buf)) else self._raise_junk(1)
+            if len(buf) < 3 and NO.startswith(bytes(buf)):
+                return None  # the start of a NO
             if buf[:3] == NO:
                 self._take(3)
                 return Ack(False)
         starts = [i for i in (buf.find(b"b", 1), buf.find(b"N", 1)) if i > 0]
         raise self._junk(min(starts) if starts else len(buf))
-
-    def _raise_junk(self, count: int) -> None:
-        raise self._junk(count)

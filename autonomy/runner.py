@@ -22,7 +22,7 @@ from autonomy.behaviours import BATTERY_KEY, HEALTHY_KEY, STATUS_KEY, RobotConte
 from autonomy.behaviours.tree import preorder
 from autonomy.client import Client
 from autonomy.errors import AutonomyError, LinkError
-from autonomy.protocol import Reply, odometer_delta_mm
+from autonomy.protocol import Reply, heading_delta_deg, odometer_delta_mm
 from autonomy.protocol import Status as Packet
 
 #: How often battery and health are polled.
@@ -159,7 +159,7 @@ class Runner:
         last = self._last
         if last is not None:
             self.summary.distance_mm += abs(odometer_delta_mm(last.odometer_mm, status.odometer_mm))
-            self.summary.turned_deg += abs((status.heading_deg - last.heading_deg + 180) % 360 - 180)
+            self.summary.turned_deg += abs(heading_delta_deg(last.heading_deg, status.heading_deg))
             if status.collided and not last.collided:
                 self.summary.collisions += 1
                 self._log(f"collision (front sensor {status.front_distance_mm} mm, heading {status.heading_deg} deg)")

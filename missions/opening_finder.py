@@ -12,6 +12,7 @@ from typing import Any
 from py_trees.common import Status
 
 from autonomy.behaviours import Param, RobotAction, RobotCondition
+from autonomy.protocol import heading_delta_deg
 
 
 class TurnUntilClear(RobotAction):
@@ -69,7 +70,7 @@ class HeadingNear(RobotCondition):
 
     def check(self) -> bool:
         """Shortest angle between the heading and the target, within the tolerance."""
-        gap = (self.robot_status.heading_deg - self.args["heading_deg"] + 180) % 360 - 180
+        gap = heading_delta_deg(self.args["heading_deg"], self.robot_status.heading_deg)
         return abs(gap) <= self.args["tolerance_deg"]
 
     def describe(self) -> str:

@@ -11,7 +11,7 @@ from typing import Any
 from py_trees.common import Status
 
 from autonomy.behaviours.base import Param, RobotAction
-from autonomy.protocol import odometer_delta_mm
+from autonomy.protocol import heading_delta_deg, odometer_delta_mm
 
 
 class Move(RobotAction):
@@ -161,8 +161,7 @@ class Turn(RobotAction):
         if self._failed:
             return Status.FAILURE
         status = self.robot_status
-        step = (status.heading_deg - self._last_heading + 180) % 360 - 180  # unwrap: turns past 180 add up
-        self._turned_deg += step
+        self._turned_deg += heading_delta_deg(self._last_heading, status.heading_deg)  # turns past 180 add up
         self._last_heading = status.heading_deg
         remaining = self.angle_deg - self._turned_deg
         if status.collided:

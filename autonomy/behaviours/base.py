@@ -82,6 +82,16 @@ class Param:
         if self.kind not in KINDS:
             raise ValueError(f"parameter {self.name}: kind must be one of {KINDS}, got {self.kind!r}")
 
+    def sample(self) -> str:
+        """A value to show in hints and docs: ``example``, else one made from the kind and range."""
+        if self.example is not None:
+            return str(self.example)
+        if self.kind in ("int", "number"):
+            return _num(self.minimum if self.minimum is not None else 1)
+        if self.kind == "choice" and self.choices:
+            return self.choices[0]
+        return "true" if self.kind == "bool" else "..."
+
     def describe_range(self) -> str:
         """The allowed values in words, e.g. ``1..4`` or ``forward | backward``."""
         if self.kind == "choice":

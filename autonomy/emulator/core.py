@@ -13,6 +13,7 @@ import threading
 from collections import deque
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import Any
 
 from autonomy.clock import Clock, RealClock, VirtualClock
 from autonomy.emulator.faults import FaultSpec
@@ -259,7 +260,7 @@ def emulator_from_options(options: dict[str, str], clock: Clock | None = None) -
     if unknown:
         raise ValueError(f"unknown emulator option '{sorted(unknown)[0]}': use {', '.join(OPTIONS)}")
 
-    def number(key: str, kind: type, default: float) -> float:
+    def number(key: str, kind: type, default: float) -> Any:
         try:
             return kind(options.get(key, default))
         except ValueError:
@@ -279,9 +280,9 @@ def emulator_from_options(options: dict[str, str], clock: Clock | None = None) -
         options.get("world", "box"),
         params=params,
         faults=options.get("faults", ""),
-        seed=int(number("seed", int, 0)),
+        seed=number("seed", int, 0),
         clock=clock,
-        baud=int(number("baud", int, DEFAULT_EMULATOR_BAUD)),
+        baud=number("baud", int, DEFAULT_EMULATOR_BAUD),
         boot_s=number("boot", float, 0.0),
     )
     mode = options.get("mode", "auto")

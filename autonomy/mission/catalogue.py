@@ -92,10 +92,6 @@ def _example(node_type: NodeType) -> str:
         return "subtree: corner"
     if node_type.category == "composite":
         return f"{node_type.name}: [stop, beep]"
-    if node_type.category == "decorator":
-        extra = example_arguments(node_type).replace("do: ..., ", "").replace(", do: ...", "").replace("do: ...", "")
-        extra = extra.replace("condition: ...", "condition: healthy")
-        return f"{node_type.name}: {{{extra + ', ' if extra else ''}do: {{move: {{speed: 2}}}}}}"
     arguments = example_arguments(node_type)
     return f"{node_type.name}: {{{arguments}}}" if arguments else node_type.name
 

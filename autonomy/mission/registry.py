@@ -92,7 +92,7 @@ def leaf_type(cls: type[RobotBehaviour], origin: str = "built-in") -> NodeType:
 # --------------------------------------------------------------------------- composites, decorators
 
 NAME = Param("name", "string", "display name in the tree, the live view and the trace")
-DO = Param("do", "node", "the child", required=True)
+DO = Param("do", "node", "the child", required=True, example="{move: {speed: 2}}")
 CHILDREN = Param("children", "nodes", "the children, in order", required=True)
 
 
@@ -199,7 +199,7 @@ BUILTIN_STRUCTURE = (
         "while",
         "decorator",
         "Run do while condition holds, re-checking it every tick; when it fails, do is halted and while fails.",
-        (Param("condition", "node", "checked before do on every tick", required=True), DO),
+        (Param("condition", "node", "checked before do on every tick", required=True, example="healthy"), DO),
         # A sequence without memory is exactly this: the condition first, every tick.
         lambda n, a, c: py_trees.composites.Sequence(n, memory=False, children=c),
         lambda a: "while",

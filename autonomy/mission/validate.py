@@ -252,17 +252,13 @@ class _Validator:
             return f"{node_type.name} takes a mapping, e.g. {node_type.name}: {{{', '.join([*own, 'do: NODE'])}}}"
         if body.value is None:
             return f"'{node_type.name}' needs parameters: {self.required_text(node_type)}"
-        return (
-            f"{node_type.name} takes its parameters as a mapping, e.g. {node_type.name}: {{{self.example(node_type)}}}"
-        )
+        example = example_arguments(node_type)
+        return f"{node_type.name} takes its parameters as a mapping, e.g. {node_type.name}: {{{example}}}"
 
     def required_text(self, node_type: NodeType) -> str:
         parts = [p.name for p in node_type.params if p.required]
         parts += [" or ".join(group) for group in node_type.exactly_one_of]
         return ", ".join(parts)
-
-    def example(self, node_type: NodeType) -> str:
-        return example_arguments(node_type)
 
     def bare(self, where: Located, path: str) -> NodeSpec | None:
         type_name = where.value
@@ -276,7 +272,7 @@ class _Validator:
                 where,
                 node_path,
                 f"'{type_name}' needs parameters ({self.required_text(node_type) or 'children'}); "
-                f"write it as {type_name}: {{{self.example(node_type)}}}",
+                f"write it as {type_name}: {{{example_arguments(node_type)}}}",
             )
             return None
         return self.arguments(node_type, {}, {}, node_path, (where.line, where.column), owner="")
@@ -452,20 +448,7 @@ def example_arguments(node_type: NodeType) -> str:
     """A short, valid-looking argument list for hints, e.g. ``left: 90``."""
     wanted = [p for p in node_type.params if p.required]
     wanted += [node_type.param(group[0]) for group in node_type.exactly_one_of]  # type: ignore[misc]
-    parts = []
-    for param in wanted:
-        if param.example is not None:
-            sample = param.example
-        elif param.kind in ("int", "number"):
-            sample = _number(param.minimum if param.minimum is not None else 1)
-        else:
-            sample = {"bool": "true", "choice": param.choices[0] if param.choices else "..."}.get(param.kind, "...")
-        parts.append(f"{param.name}: {sample}")
-    return ", ".join(parts)
-
-
-def _number(value: float) -> str:
-    return str(int(value)) if float(value).is_integer() else str(value)
+    return ", ".join(f"{param.name}: {param.sample()}" for param in wanted)
 
 
 class _Invalid:
