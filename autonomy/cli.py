@@ -13,8 +13,8 @@ import sys
 from collections.abc import Sequence
 from typing import Any
 
+from autonomy import __version__
 from autonomy.client import DEFAULT_BAUD, SUPPORTED_BAUD_RATES, Client
-from autonomy.clock import VirtualClock
 from autonomy.emulator import FaultSpec, FaultSpecError, WorldError, emulator_from_options
 from autonomy.errors import AutonomyError, LinkError
 
@@ -76,6 +76,9 @@ def cmd_emulator(args: argparse.Namespace) -> int:
     from autonomy.emulator.servers import PtyServer, TcpServer
 
     options = {"world": args.world, "seed": str(args.seed), "faults": args.faults, "baud": str(args.baud)}
+    for key in ("battery", "noise", "mode", "boot"):
+        if getattr(args, key) is not None:
+            options[key] = str(getattr(args, key))
     try:
         emulator = emulator_from_options(options)
         server = PtyServer(emulator) if args.pty else TcpServer(emulator, *args.tcp)
@@ -160,47 +163,142 @@ def _interrupt(*_: object) -> None:
     raise KeyboardInterrupt
 
 
+class _Output:
+    """Writes lines to standard output; once the reader has gone (``| head -1``), asks the run to end."""
+
+    def __init__(self) -> None:
+        self.closed = False
+        self.on_close: list = []
+
+    def __call__(self, line: str) -> None:
+        if self.closed:
+            return
+        try:
+            print(line, flush=True)
+        except BrokenPipeError:
+            self.closed = True
+            _silence_stdout()
+            for callback in self.on_close:
+                callback("its output was closed")
+
+
+def _silence_stdout() -> None:
+    """Points standard output at /dev/null, so that the interpreter's last flush cannot fail."""
+    import os
+
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError):
+        pass
+
+
+def _choose_port(args: argparse.Namespace, spec: Any) -> tuple[str, str, str]:
+    """Decides where the mission runs and in which world.
+
+    Returns:
+        (port URL, what to say about the world, an error message or empty).
+    """
+    from autonomy.urlhandler.protocol_emu import parse_emu_url
+
+    port = args.port or "emu://"
+    if not port.lower().startswith("emu://"):
+        if args.fast:
+            return port, "", "--fast runs in virtual time, which needs the built-in emulator (leave out --port)"
+        if args.world:
+            return (
+                port,
+                "",
+                (
+                    f"--world applies to the built-in emulator; {port} has its own world "
+                    "(give it to `autonomy emulator --world`, or leave out --port)"
+                ),
+            )
+        note = f"on {port}"
+        if spec.world:
+            note += f"; the mission's world '{spec.world}' is not applied there (that robot or emulator has its own)"
+        return port, note, ""
+    try:
+        options = parse_emu_url(port)
+    except Exception as err:  # noqa: BLE001 - pyserial's SerialException: a bad URL is a usage error
+        return port, "", str(err)
+    in_port = options.get("world")
+    if in_port and args.world and in_port != args.world:
+        return port, "", f"--world {args.world} and world={in_port} in --port disagree: give one of them"
+    if in_port:
+        world, origin = in_port, "from --port"
+        if spec.world and spec.world != in_port:
+            origin += f", not the mission's '{spec.world}'"
+    elif args.world:
+        world, origin = args.world, "from --world" + (f", not the mission's '{spec.world}'" if spec.world else "")
+    elif spec.world:
+        world, origin = spec.world, "the mission's"
+    else:
+        world, origin = "box", "the default; the mission names none"
+    if not in_port:
+        port += ("&" if "?" in port else "?") + f"world={world}"
+    if args.fast and "time=" not in port:
+        port += "&time=virtual"
+    time_text = "virtual time" if "time=virtual" in port else "real time"
+    return port, f"in world '{world}' ({origin}) on the built-in emulator, in {time_text}", ""
+
+
+def _print_crash(end: Any, debug: bool) -> None:
+    for event in end.events if end is not None else []:
+        if event.kind != "exception":
+            continue
+        if debug and event.traceback:
+            print(event.traceback.rstrip(), file=sys.stderr)
+        else:
+            for frame in event.frames:
+                print(f"  {frame}", file=sys.stderr)
+            print("  (--debug prints the whole traceback)", file=sys.stderr)
+
+
 def cmd_run(args: argparse.Namespace) -> int:
     """Runs a mission on the robot or the built-in emulator."""
     from autonomy.mission import build_tree
-    from autonomy.runner import FAILED, INTERRUPTED, LINK_LOST, SUCCEEDED, Runner, TickReport
+    from autonomy.record import RunEnd
+    from autonomy.runner import FAILED, INTERRUPTED, LINK_LOST, SUCCEEDED, Runner
+    from autonomy.trace import TraceWriter
+    from autonomy.views.lines import LinePrinter
 
     spec = _load(args.mission)
     if spec is None:
         return EXIT_USAGE
-    port = args.port or "emu://"
-    emulated = port.lower().startswith("emu://")
-    if args.fast and not emulated:
-        return _fail("--fast runs in virtual time, which needs the built-in emulator (leave out --port)", EXIT_USAGE)
-    if args.world and not emulated:
-        print(f"note: --world applies to the built-in emulator; {port} has its own", file=sys.stderr)
-    if emulated and "world=" not in port:
-        port += ("&" if "?" in port else "?") + f"world={args.world or spec.world or 'box'}"
+    port, where, error = _choose_port(args, spec)
+    if error:
+        return _fail(error, EXIT_USAGE)
+    signal.signal(signal.SIGTERM, _interrupt)
+    output = _Output()
+    if not args.quiet and not args.live:
+        output(f"Running '{spec.name}' {where}.")
     trace = None
     if args.trace:
         try:
-            trace = open(args.trace, "w", encoding="utf-8")  # noqa: SIM115 - closed in finally
+            trace = open(args.trace, "w", encoding="utf-8", buffering=1)  # noqa: SIM115 - closed in finally
         except OSError as err:
             return _fail(f"cannot write the trace to {args.trace}: {err.strerror}", EXIT_USAGE)
-    signal.signal(signal.SIGTERM, _interrupt)
-    shown = {"path": "", "at_s": -10.0}
-
-    def on_tick(report: TickReport) -> None:
-        path = " > ".join(report.active) or "(idle)"
-        if path == shown["path"] and report.time_s - shown["at_s"] < 2.0:
-            return
-        shown.update(path=path, at_s=report.time_s)
-        s = report.status
-        print(
-            f"{report.time_s:7.2f} s  {path:<48} front {s.front_distance_mm:3d} mm  heading {s.heading_deg:3d}  "
-            f"odometer {s.odometer_mm:5d} mm  tilt {s.tilt_deg:+3d}  battery {report.battery:3d}"
-            + ("  COLLIDED" if s.collided else ""),
-            flush=True,
-        )
-
+    ends: list[RunEnd] = []
+    listeners: list[Any] = [lambda record: ends.append(record) if isinstance(record, RunEnd) else None]
+    if trace is not None:
+        listeners.append(TraceWriter(trace))
+    server = live = None
     try:
+        if args.view:
+            server, error = _start_view(args)
+            if server is None:
+                return _fail(error, EXIT_USAGE)
+            listeners.append(server.hub)
+        if args.live:
+            from autonomy.views.terminal import LiveView
+
+            live = LiveView(title="live")
+            listeners.append(live)
+        else:
+            listeners.append(LinePrinter(output, quiet=args.quiet))
         try:
-            client = Client.open(port, baud=args.baud, clock=VirtualClock() if args.fast else None)
+            client = Client.open(port, baud=args.baud)
         except KeyboardInterrupt:
             return _fail("interrupted while connecting", EXIT_INTERRUPTED)
         except AutonomyError as err:
@@ -210,28 +308,158 @@ def cmd_run(args: argparse.Namespace) -> int:
                 build_tree(spec),
                 client,
                 mission=spec.name,
+                mission_file=spec.source,
+                mission_sha256=spec.sha256,
                 tick_hz=spec.tick_hz,
                 max_seconds=args.max_seconds,
-                trace=trace,
-                on_tick=None if args.quiet else on_tick,
-                on_message=lambda message: print(f"          log: {message}", flush=True),
+                listeners=listeners,
             )
-            summary = runner.run()
+            output.on_close.append(runner.request_stop)
+            if live is not None:
+                with live:
+                    summary = runner.run()
+            else:
+                summary = runner.run()
         finally:
             client.close()
+        output(summary.paragraph)
+        _print_crash(ends[-1] if ends else None, args.debug)
+        if server is not None and not output.closed:
+            _serve_until_interrupted(server, "the run is over")
     finally:
         if trace is not None:
             trace.close()
-    print(summary.paragraph)
+        if server is not None:
+            server.stop()
     return {SUCCEEDED: EXIT_OK, FAILED: EXIT_FAILED, LINK_LOST: EXIT_LINK, INTERRUPTED: EXIT_INTERRUPTED}.get(
         summary.outcome, EXIT_FAILED
     )
+
+
+def _start_view(args: argparse.Namespace, mode: str = "live") -> tuple[Any, str]:
+    """Starts the browser view's server; returns it, or None and why not."""
+    from autonomy.views.web import ViewServer
+
+    host = args.view_host
+    try:
+        server = ViewServer(host, args.view_port, mode=mode)
+        server.start()
+    except OSError as err:
+        return None, f"cannot serve the view on {host}:{args.view_port}: {err.strerror or err}"
+    if host not in ("127.0.0.1", "localhost", "::1"):
+        print(
+            f"warning: the view is served on {host}: anyone who can reach this machine can watch the run",
+            file=sys.stderr,
+        )
+    print(f"view: {server.url}", file=sys.stderr, flush=True)
+    return server, ""
+
+
+def _serve_until_interrupted(server: Any, why: str) -> None:
+    print(f"{why}; the view stays at {server.url} until Ctrl-C", file=sys.stderr, flush=True)
+    try:
+        server.wait()
+    except KeyboardInterrupt:
+        pass
+
+
+def cmd_replay(args: argparse.Namespace) -> int:
+    """Plays a trace back: in the terminal view, or in the browser with --view."""
+    from autonomy.clock import RealClock
+    from autonomy.trace import TraceError, read_trace, replay
+    from autonomy.views.lines import LinePrinter
+
+    try:
+        trace = read_trace(args.trace)
+    except TraceError as err:
+        return _fail(str(err), EXIT_USAGE)
+    if trace.cut_off_line:
+        print(f"note: {args.trace} was cut off at line {trace.cut_off_line}; playing what came before", file=sys.stderr)
+    signal.signal(signal.SIGTERM, _interrupt)
+    if args.view:
+        server, error = _start_view(args, "replay")
+        if server is None:
+            return _fail(error, EXIT_USAGE)
+        try:
+            for record in trace.records():
+                server.hub(record)
+            _serve_until_interrupted(server, f"replaying {args.trace}")
+        finally:
+            server.stop()
+        return EXIT_OK
+    output = _Output()
+    try:
+        if sys.stdout.isatty() and not args.lines:
+            from autonomy.views.terminal import LiveView
+
+            with LiveView(title=f"replay x{args.speed:g}") as live:
+                replay(trace, live, RealClock(), args.speed)
+                RealClock().sleep(args.hold)
+        else:
+            printer = LinePrinter(output)
+            replay(trace, printer, RealClock() if args.speed < 1000 else None, args.speed)
+            if trace.end is not None:
+                output(trace.end.paragraph)
+    except KeyboardInterrupt:
+        return EXIT_INTERRUPTED
+    return EXIT_OK
+
+
+def cmd_plot(args: argparse.Namespace) -> int:
+    """Draws a recorded run: PNG or SVG with matplotlib, or a self-contained HTML page."""
+    from autonomy.trace import TraceError, read_trace
+
+    out = args.output
+    suffix = out.rsplit(".", 1)[-1].lower() if "." in out else ""
+    if suffix not in ("png", "svg", "html"):
+        return _fail(f"-o must end in .png, .svg or .html, got '{out}'", EXIT_USAGE)
+    try:
+        trace = read_trace(args.trace)
+    except TraceError as err:
+        return _fail(str(err), EXIT_USAGE)
+    try:
+        if suffix == "html":
+            from autonomy.views.web import standalone_html
+
+            with open(out, "w", encoding="utf-8") as stream:
+                stream.write(standalone_html(trace))
+        else:
+            from autonomy.views.plot import plot_run
+
+            plot_run(trace, out)
+    except OSError as err:
+        return _fail(f"cannot write {out}: {err.strerror or err}", EXIT_USAGE)
+    print(f"{out}: {len(trace.ticks)} ticks of '{trace.header.mission}'")
+    return EXIT_OK
+
+
+def cmd_world_show(args: argparse.Namespace) -> int:
+    """Draws a world (a built-in name or a file) with its start pose, as SVG."""
+    from autonomy.emulator import load_world
+    from autonomy.views.mapsvg import world_svg
+
+    try:
+        world = load_world(args.world)
+    except WorldError as err:
+        return _fail(str(err), EXIT_USAGE)
+    svg = world_svg(world.as_dict())
+    if args.output in (None, "-"):
+        sys.stdout.write(svg)
+        return EXIT_OK
+    try:
+        with open(args.output, "w", encoding="utf-8") as stream:
+            stream.write(svg)
+    except OSError as err:
+        return _fail(f"cannot write {args.output}: {err.strerror or err}", EXIT_USAGE)
+    print(f"{args.output}: world '{world.name}', {world.width_mm:g} x {world.height_mm:g} mm")
+    return EXIT_OK
 
 
 def cmd_check(args: argparse.Namespace) -> int:
     """Validates mission files; every problem of every file, then ok or not."""
     from autonomy.behaviours.tree import preorder
     from autonomy.mission import build_tree
+    from autonomy.runner import plural
 
     bad = 0
     for path in args.missions:
@@ -240,23 +468,27 @@ def cmd_check(args: argparse.Namespace) -> int:
             bad += 1
             continue
         count = sum(1 for _ in preorder(build_tree(spec)))
-        print(f"{path}: ok (mission '{spec.name}', {count} nodes)")
+        print(f"{path}: ok (mission '{spec.name}', {plural(count, 'node')})")
     return EXIT_USAGE if bad else EXIT_OK
 
 
 def cmd_show(args: argparse.Namespace) -> int:
-    """Prints a mission's tree as text, DOT or SVG."""
+    """Prints a mission's tree as text, DOT or SVG; each node says what it is."""
+    from autonomy.behaviours.tree import describe_tree
     from autonomy.mission import build_tree
-    from autonomy.mission.render import dot_tree, svg_tree, unicode_tree
+    from autonomy.mission.render import dot_tree
+    from autonomy.record import RunHeader
+    from autonomy.views.treesvg import svg_tree
+    from autonomy.views.treetext import tree_text
 
     spec = _load(args.mission)
     if spec is None:
         return EXIT_USAGE
-    root = build_tree(spec)
+    nodes = describe_tree(build_tree(spec))
     render = {
-        "unicode": lambda: unicode_tree(root),
-        "dot": lambda: dot_tree(root, spec.name),
-        "svg": lambda: svg_tree(root, spec.name),
+        "unicode": lambda: tree_text(RunHeader(spec.name, nodes, spec.tick_hz)),
+        "dot": lambda: dot_tree(nodes, spec.name),
+        "svg": lambda: svg_tree(nodes, spec.name),
     }
     sys.stdout.write(render[args.format]())
     return EXIT_OK
@@ -289,9 +521,33 @@ def cmd_schema(args: argparse.Namespace) -> int:
 # --------------------------------------------------------------------------- parser
 
 
+def _view_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--view", action="store_true", help="serve a live page of the run (see --view-port)")
+    parser.add_argument(
+        "--view-port", type=_tcp_port, default=8765, metavar="PORT", help="the page's port (default 8765; 0: any free)"
+    )
+    parser.add_argument(
+        "--view-host",
+        default="127.0.0.1",
+        metavar="HOST",
+        help="the interface to serve on (default 127.0.0.1, this machine only)",
+    )
+
+
+def _tcp_port(text: str) -> int:
+    try:
+        number = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a port number, got '{text}'") from None
+    if not 0 <= number <= 65535:
+        raise argparse.ArgumentTypeError(f"port must be 0..65535, got {number}")
+    return number
+
+
 def build_parser() -> argparse.ArgumentParser:
     """Returns the argument parser for every subcommand."""
     parser = _Parser(prog="autonomy", description="Missions as behaviour trees on a small self-balancing robot.")
+    parser.add_argument("--version", action="version", version=f"autonomy {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
 
     emu = sub.add_parser("emulator", help="serve an emulated robot over TCP or a pseudo-terminal")
@@ -314,6 +570,10 @@ def build_parser() -> argparse.ArgumentParser:
         default=DEFAULT_BAUD,
         help="the baud rate the emulated robot is set to (pacing, mismatch)",
     )
+    emu.add_argument("--battery", type=float, metavar="LEVEL", help="battery level at start, 0..255 (default 230)")
+    emu.add_argument("--noise", type=float, metavar="MM", help="front sensor noise, standard deviation (default 0)")
+    emu.add_argument("--mode", choices=("auto", "manual"), help="auto or manual mode at start (default auto)")
+    emu.add_argument("--boot", type=float, metavar="S", help="seconds the robot ignores input after start (default 0)")
     emu.set_defaults(func=cmd_emulator)
 
     probe = sub.add_parser("probe", help="check that a robot answers and print what it reports")
@@ -334,9 +594,33 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--world", metavar="NAME|PATH", help="the emulator's arena (overrides the mission's world)")
     run.add_argument("--fast", action="store_true", help="virtual time: as fast as the machine allows (emulator only)")
     run.add_argument("--max-seconds", type=_positive, metavar="S", help="stop the mission after this long")
-    run.add_argument("--trace", metavar="FILE", help="write one JSON line per tick")
-    run.add_argument("--quiet", action="store_true", help="only the summary")
+    run.add_argument("--trace", metavar="FILE", help="record the run: a header, one JSON line per tick, an end")
+    shown = run.add_mutually_exclusive_group()
+    shown.add_argument("--quiet", action="store_true", help="only the summary")
+    shown.add_argument("--live", action="store_true", help="a full-screen view of the tree and the robot")
+    _view_arguments(run)
+    run.add_argument("--debug", action="store_true", help="print the whole traceback when a behaviour raises")
     run.set_defaults(func=cmd_run)
+
+    replay = sub.add_parser("replay", help="play a recorded run back, in the terminal or the browser")
+    replay.add_argument("trace", metavar="TRACE", help="a trace file written by run --trace")
+    _view_arguments(replay)
+    replay.add_argument("--speed", type=_positive, default=1.0, metavar="X", help="playback speed (default 1)")
+    replay.add_argument("--lines", action="store_true", help="line output even on a terminal")
+    replay.add_argument("--hold", type=float, default=2.0, metavar="S", help=argparse.SUPPRESS)
+    replay.set_defaults(func=cmd_replay)
+
+    plot = sub.add_parser("plot", help="draw a recorded run: map, telemetry, timeline")
+    plot.add_argument("trace", metavar="TRACE", help="a trace file written by run --trace")
+    plot.add_argument("-o", "--output", required=True, metavar="FILE", help="FILE.png, FILE.svg or FILE.html")
+    plot.set_defaults(func=cmd_plot)
+
+    world = sub.add_parser("world", help="look at worlds")
+    world_sub = world.add_subparsers(dest="world_command", required=True, parser_class=_Parser)
+    world_show = world_sub.add_parser("show", help="draw a world with its start pose as SVG")
+    world_show.add_argument("world", metavar="WORLD", help="a built-in world's name or a world file")
+    world_show.add_argument("-o", "--output", metavar="FILE.svg", help="where to write it (default: standard output)")
+    world_show.set_defaults(func=cmd_world_show)
 
     check = sub.add_parser("check", help="validate mission files, reporting every problem")
     check.add_argument("missions", nargs="+", metavar="MISSION")
@@ -365,7 +649,15 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 def run() -> None:
     """Console-script entry point."""
-    sys.exit(main())
+    try:
+        code = main()
+        sys.stdout.flush()
+    except BrokenPipeError:  # the reader went away (| head): nothing more to say
+        _silence_stdout()
+        code = EXIT_OK
+    except KeyboardInterrupt:  # before or after a run, when there is no robot to stop
+        code = EXIT_INTERRUPTED
+    sys.exit(code)
 
 
 __all__ = ["build_parser", "main", "run"]

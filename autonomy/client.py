@@ -73,8 +73,9 @@ DEFAULT_RETRIES = 3
 DEFAULT_READY_TIMEOUT_S = 3.0
 DEFAULT_STOP_TRIES = 5
 
-#: Called after every exchange with the frame sent and the reply (or error) it got.
-ExchangeListener = Callable[[bytes, "Reply | AutonomyError"], None]
+#: Called after every attempt with the frame sent, the reply (or error) it got, and the
+#: attempt number (0 for a request's first attempt, 1.. for its retries).
+ExchangeListener = Callable[[bytes, "Reply | AutonomyError", int], None]
 
 
 @dataclass
@@ -319,9 +320,9 @@ class Client:
                     reply = self._exchange(command, frame)
                 except (ReplyTimeout, FramingError) as err:
                     failure = err
-                    self._notify(frame, err)
+                    self._notify(frame, err, attempt)
                     continue
-                self._notify(frame, reply)
+                self._notify(frame, reply, attempt)
                 if isinstance(reply, Ack) and not reply.ok:
                     self.stats.refusals += 1
                     failure = CommandRefused(f"the robot refused {frame[:-1].decode('ascii')} (answered NO)", frame)
@@ -334,9 +335,9 @@ class Client:
                 ) from failure
             raise failure
 
-    def _notify(self, frame: bytes, outcome: Reply | AutonomyError) -> None:
+    def _notify(self, frame: bytes, outcome: Reply | AutonomyError, attempt: int) -> None:
         for listener in self.listeners:
-            listener(frame, outcome)
+            listener(frame, outcome, attempt)
 
     def _exchange(self, command: Command, frame: bytes) -> Reply:
         """One attempt: discard stale input, send, read until a reply or the time-out."""

@@ -7,6 +7,7 @@ costs nothing and runs are exactly repeatable.
 
 from __future__ import annotations
 
+import datetime
 import threading
 import time
 from typing import Protocol
@@ -80,3 +81,8 @@ class VirtualClock:
 def make_clock(virtual: bool) -> Clock:
     """Returns a new virtual clock when ``virtual`` is true, else a real one."""
     return VirtualClock() if virtual else RealClock()
+
+
+def wall_date() -> str:
+    """Today's date and time of day, ISO 8601 with the local offset (for trace headers)."""
+    return datetime.datetime.now().astimezone().isoformat(timespec="seconds")

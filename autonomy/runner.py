@@ -1,29 +1,49 @@
-"""Ticks a mission's tree against the robot and guarantees the final stop.
+"""Ticks a mission's tree against the robot, produces its tick records, guarantees the final stop.
 
 Before every tick the runner polls the status packet once (``Gb000``) and puts it on the
 py_trees blackboard, so every node of the tick sees the same snapshot; battery and health
 are polled about once a second. Whatever way the run ends (success, failure, Ctrl-C,
 SIGTERM, an exception, a lost link) the running nodes are halted and ``X`` is sent until
 it is acknowledged or the link is gone.
+
+The runner is the producer of the run's records (:mod:`autonomy.record`): a header when
+the run starts, a :class:`~autonomy.record.TickRecord` after every tick, a
+:class:`~autonomy.record.RunEnd` at the end. Its listeners (the trace writer, the views)
+never reach back into it.
 """
 
 from __future__ import annotations
 
-import json
+import math
+import os
+import traceback
 from collections import Counter
-from collections.abc import Callable
-from dataclasses import dataclass, field
-from typing import Any, TextIO
+from collections.abc import Iterable
+from dataclasses import asdict, dataclass, field
+from types import TracebackType
 
 import py_trees
 from py_trees.common import Access, Status
 
+import autonomy
 from autonomy.behaviours import BATTERY_KEY, HEALTHY_KEY, STATUS_KEY, RobotContext
-from autonomy.behaviours.tree import preorder
+from autonomy.behaviours.tree import describe_tree, preorder
 from autonomy.client import Client
+from autonomy.clock import wall_date
 from autonomy.errors import AutonomyError, LinkError
 from autonomy.protocol import Reply, heading_delta_deg, odometer_delta_mm
 from autonomy.protocol import Status as Packet
+from autonomy.record import (
+    Event,
+    Exchange,
+    Listener,
+    NodeState,
+    Pose,
+    Record,
+    RunEnd,
+    RunHeader,
+    TickRecord,
+)
 
 #: How often battery and health are polled.
 SLOW_POLL_S = 1.0
@@ -35,22 +55,28 @@ INTERRUPTED = "interrupted"
 LINK_LOST = "lost the link"
 CRASHED = "stopped by an error"
 
+_COMMAND_NAMES = {"F": "move", "T": "turn", "S": "beep", "M": "servo move", "D": "servo step", "X": "stop"}
+_LIBRARY_DIRS = tuple(os.path.dirname(m.__file__ or "") + os.sep for m in (autonomy, py_trees))
 
-@dataclass
-class TickReport:
-    """What one tick saw and did, for a live view."""
 
-    tick: int
-    time_s: float
-    status: Packet
-    battery: int
-    active: list[str]
-    messages: list[str]
+def _short_path(filename: str) -> str:
+    """A file's path relative to the working directory when it is under it, else as it is."""
+    here = os.getcwd() + os.sep
+    return filename[len(here) :] if filename.startswith(here) else filename
+
+
+def plural(count: int, word: str) -> str:
+    """``1 tick``, ``2 ticks``."""
+    return f"{count} {word}{'' if count == 1 else 's'}"
 
 
 @dataclass
 class RunSummary:
-    """How a run went."""
+    """How a run went.
+
+    ``commands`` counts the commands the mission meant to send (one per request, whatever
+    the reply); ``retries`` counts the extra attempts the link made apart.
+    """
 
     mission: str
     outcome: str
@@ -65,24 +91,46 @@ class RunSummary:
     reason: str = ""
     requests: int = 0
     retries: int = 0
+    refused: int = 0
     framing_errors: int = 0
+
+    def to_json(self) -> dict:
+        """The counts as plain JSON."""
+        out = asdict(self)
+        out["commands"] = dict(sorted(self.commands.items()))
+        return out
 
     @property
     def paragraph(self) -> str:
         """The run in a few sentences, for the person who started it."""
         head = f"Mission '{self.mission}' {self.outcome} after {self.time_s:.1f} s "
-        head += f"({self.ticks} ticks at {self.tick_hz:g} Hz)"
+        head += f"({plural(self.ticks, 'tick')} at {self.tick_hz:g} Hz)"
         head += f": {self.reason}." if self.reason else "."
-        names = {"F": "move", "T": "turn", "S": "beep", "M": "servo move", "D": "servo step"}
-        sent = [f"{n} {names[c]}{'s' if n != 1 else ''}" for c, n in sorted(self.commands.items()) if c in names]
+        motion = {c: n for c, n in self.commands.items() if c in _COMMAND_NAMES and c != "X"}
+        sent = [plural(n, _COMMAND_NAMES[c]) for c, n in sorted(motion.items())]
         collisions = {0: "no collisions", 1: "1 collision"}.get(self.collisions, f"{self.collisions} collisions")
         body = (
             f" The robot drove {self.distance_mm / 1000:.2f} m and turned {self.turned_deg:.0f} degrees, "
             f"with {collisions}; it was sent {', '.join(sent) if sent else 'no motion commands'}."
         )
         end = " It was stopped at the end." if self.stopped else " The stop could NOT be confirmed: check the robot."
-        link = f" Link: {self.requests} requests, {self.retries} retries, {self.framing_errors} framing errors."
+        link = (
+            f" Link: {plural(self.requests, 'request')}, {plural(self.retries, 'retry').replace('retrys', 'retries')}, "
+            f"{self.refused} refused, {plural(self.framing_errors, 'framing error')}."
+        )
         return head + body + end + link
+
+
+class BehaviourCrashed(AutonomyError):
+    """A behaviour raised an exception; :attr:`event` names the node, its file and line.
+
+    Attributes:
+        event: The ``exception`` event, as the trace records it.
+    """
+
+    def __init__(self, event: Event) -> None:
+        super().__init__(event.message)
+        self.event = event
 
 
 def _reply_text(outcome: Reply | AutonomyError) -> str:
@@ -95,17 +143,17 @@ def _reply_text(outcome: Reply | AutonomyError) -> str:
 
 
 class Runner:
-    """Runs one tree on one robot.
+    """Runs one tree on one robot, handing its records to listeners.
 
     Args:
         root: The tree's root (built, not yet set up).
         client: An open client.
         mission: The mission's name, for the summary.
+        mission_file: The mission file, for the header.
+        mission_sha256: The SHA-256 of the mission file's text, for the header.
         tick_hz: Ticks per second.
         max_seconds: Stop the run after this long (None: no limit).
-        trace: Where to write one JSON line per tick, or None.
-        on_tick: Called after every tick with a :class:`TickReport`.
-        on_message: Called with each ``log`` message and event as it happens.
+        listeners: Receive every record (header, ticks, end), in order.
     """
 
     def __init__(
@@ -114,58 +162,91 @@ class Runner:
         client: Client,
         *,
         mission: str = "mission",
+        mission_file: str = "",
+        mission_sha256: str = "",
         tick_hz: float = 20.0,
         max_seconds: float | None = None,
-        trace: TextIO | None = None,
-        on_tick: Callable[[TickReport], None] | None = None,
-        on_message: Callable[[str], None] | None = None,
+        listeners: Iterable[Listener] = (),
     ) -> None:
         self.root = root
         self.client = client
         self.clock = client.clock
         self.tick_hz = tick_hz
         self.max_seconds = max_seconds
-        self.trace = trace
-        self.on_tick = on_tick
-        self.on_message = on_message
+        self.listeners: list[Listener] = list(listeners)
+        self.mission_file = mission_file
+        self.mission_sha256 = mission_sha256
         self.summary = RunSummary(mission, FAILED, tick_hz=tick_hz)
-        self._messages: list[str] = []
-        self._exchanges: list[dict[str, str]] = []
+        self.header: RunHeader | None = None
+        self._events: list[Event] = []
+        self._wire: list[Exchange] = []
         self._blackboard = py_trees.blackboard.Client(name=f"runner:{mission}")
         for key in (STATUS_KEY, BATTERY_KEY, HEALTHY_KEY):
             self._blackboard.register_key(key=key, access=Access.WRITE)
-        self._ids = {id(node): index for index, node in enumerate(preorder(root))}
+        self._nodes = list(preorder(root))
+        self._ids = {id(node): index for index, node in enumerate(self._nodes)}
+        self._states: list[tuple[str, str]] = [("INVALID", "")] * len(self._nodes)
+        self._emulator = getattr(getattr(client, "port", None), "emulator", None)
         self._last: Packet | None = None
+        self._last_time_s = 0.0
+        self._pose = Pose(0.0, 0.0, 0.0)
         self._start_s = 0.0
+        self._framing_before = 0
         self._last_slow_s = -float("inf")
         self._battery, self._healthy = 0, True
+        self._stop_reason = ""
         self.context = RobotContext(client, self.clock, log=self._log)
 
     # ------------------------------------------------------------------ events
 
-    def _log(self, message: str) -> None:
-        self._messages.append(message)
-        if self.on_message is not None:
-            self.on_message(message)
+    def _emit(self, record: Record) -> None:
+        for listener in self.listeners:
+            listener(record)
 
-    def _record(self, frame: bytes, outcome: Reply | AutonomyError) -> None:
-        command = frame[:1].decode("ascii", "replace")
-        if not isinstance(outcome, AutonomyError) and command != "G":
-            self.summary.commands[command] += 1
-        if self.trace is not None:
-            self._exchanges.append({"sent": frame[:-1].decode("ascii", "replace"), "reply": _reply_text(outcome)})
+    def _log(self, message: str, kind: str = "log") -> None:
+        self._events.append(Event(kind, message))
 
-    def _observe(self, status: Packet) -> None:
+    def _on_exchange(self, frame: bytes, outcome: Reply | AutonomyError, attempt: int) -> None:
+        sent = frame[:-1].decode("ascii", "replace")
+        self._wire.append(Exchange(sent, _reply_text(outcome), attempt))
+        if attempt:
+            self.summary.retries += 1
+            return
+        self.summary.requests += 1
+        if sent[:1] != "G":
+            self.summary.commands[sent[:1]] += 1
+        if not isinstance(outcome, AutonomyError) and _reply_text(outcome) == "NO":
+            self.summary.refused += 1
+
+    def _observe(self, status: Packet, time_s: float) -> float:
+        """Counts distance, turns and collisions; moves the dead-reckoned pose. Returns the speed."""
         last = self._last
-        if last is not None:
-            self.summary.distance_mm += abs(odometer_delta_mm(last.odometer_mm, status.odometer_mm))
-            self.summary.turned_deg += abs(heading_delta_deg(last.heading_deg, status.heading_deg))
+        speed_mm_s = 0.0
+        if last is None:
+            self._pose = Pose(self._pose.x_mm, self._pose.y_mm, float(status.heading_deg))
+            if status.collided:
+                self.summary.collisions += 1
+        else:
+            moved_mm = odometer_delta_mm(last.odometer_mm, status.odometer_mm)
+            turned_deg = heading_delta_deg(last.heading_deg, status.heading_deg)
+            self.summary.distance_mm += abs(moved_mm)
+            self.summary.turned_deg += abs(turned_deg)
+            mid_rad = math.radians(last.heading_deg + turned_deg / 2)
+            self._pose = Pose(
+                self._pose.x_mm + moved_mm * math.cos(mid_rad),
+                self._pose.y_mm + moved_mm * math.sin(mid_rad),
+                float(status.heading_deg),
+            )
+            if time_s > self._last_time_s:
+                speed_mm_s = moved_mm / (time_s - self._last_time_s)
             if status.collided and not last.collided:
                 self.summary.collisions += 1
-                self._log(f"collision (front sensor {status.front_distance_mm} mm, heading {status.heading_deg} deg)")
-        elif status.collided:
-            self.summary.collisions += 1
-        self._last = status
+                self._log(
+                    f"collision (front sensor {status.front_distance_mm} mm, heading {status.heading_deg} deg)",
+                    "collision",
+                )
+        self._last, self._last_time_s = status, time_s
+        return speed_mm_s
 
     # ------------------------------------------------------------------ running
 
@@ -185,37 +266,62 @@ class Runner:
         except LinkError as err:
             summary.outcome = LINK_LOST
             summary.reason = str(err)
-        except Exception as err:  # noqa: BLE001 - a behaviour's bug must still end in a stopped robot
+        except BehaviourCrashed as err:
+            summary.outcome = CRASHED
+            summary.reason = err.event.message
+            self._events.append(err.event)
+        except Exception as err:  # noqa: BLE001 - a bug anywhere must still end in a stopped robot
             summary.outcome = CRASHED
             summary.reason = f"{type(err).__name__}: {err}"
+            self._events.append(Event("exception", summary.reason, traceback="".join(traceback.format_exc())))
         finally:
             summary.time_s = self.clock.now() - self._start_s
             self._halt()
             summary.stopped = self._final_stop()
-            if self._record in self.client.listeners:
-                self.client.listeners.remove(self._record)
-            stats = self.client.stats
-            summary.requests, summary.retries, summary.framing_errors = (
-                stats.requests,
-                stats.retries,
-                stats.framing_errors,
-            )
+            if self._on_exchange in self.client.listeners:
+                self.client.listeners.remove(self._on_exchange)
+            summary.framing_errors = self.client.stats.framing_errors - self._framing_before
+            self._finish()
         return summary
 
     def setup(self) -> None:
-        """Hands every node the run's context and starts the clock; :meth:`run` calls it."""
-        self.client.listeners.append(self._record)
+        """Hands every node the run's context, starts the clock, sends the header; :meth:`run` calls it."""
+        self.client.listeners.append(self._on_exchange)
+        self._framing_before = self.client.stats.framing_errors
         for node in self.root.iterate():
             node.setup(robot=self.context)
         self._start_s = self.clock.now()
-        if self.trace is not None:
-            self._write_header()
+        emulator = self._emulator
+        world = emulator.world.as_dict() if emulator is not None else None
+        if world is not None:
+            start = world["start"]
+            self._pose = Pose(float(start["x_mm"]), float(start["y_mm"]), float(start["heading_deg"]))
+        self.header = RunHeader(
+            mission=self.summary.mission,
+            nodes=describe_tree(self.root),
+            tick_hz=self.tick_hz,
+            mission_file=self.mission_file,
+            mission_sha256=self.mission_sha256,
+            world=world,
+            seed=emulator.seed if emulator is not None else None,
+            faults=str(emulator.faults) if emulator is not None else "",
+            port=self.client.name,
+            baud=int(getattr(self.client.port, "baudrate", 0) or 0),
+            clock="virtual" if self.clock.is_virtual else "real",
+            autonomy_version=autonomy.__version__,
+            date=wall_date(),
+        )
+        self._emit(self.header)
 
     def tick(self) -> Status:
         """One tick: poll the status (battery and health about once a second), tick the tree.
 
         Returns:
             The root's status after the tick.
+
+        Raises:
+            BehaviourCrashed: a behaviour raised (the event names the node).
+            LinkError: the link failed.
         """
         now = self.clock.now()
         status = self.client.status()
@@ -225,11 +331,59 @@ class Runner:
         self._blackboard.set(STATUS_KEY, status)
         self._blackboard.set(BATTERY_KEY, self._battery)
         self._blackboard.set(HEALTHY_KEY, self._healthy)
-        self._observe(status)
-        self.root.tick_once()
+        time_s = now - self._start_s
+        speed_mm_s = self._observe(status, time_s)
+        try:
+            self.root.tick_once()
+        except LinkError:
+            raise
+        except Exception as err:
+            raise BehaviourCrashed(self._crash_event(err)) from err
         self.summary.ticks += 1
-        self._after_tick(now - self._start_s, status, self._battery)
+        self._emit(
+            TickRecord(
+                tick=self.summary.ticks,
+                time_s=time_s,
+                status=status,
+                battery=self._battery,
+                healthy=self._healthy,
+                speed_mm_s=speed_mm_s,
+                dead_reckoning=self._pose,
+                truth=self._truth(),
+                nodes=self._changes(),
+                wire=self._take_wire(),
+                events=self._take_events(),
+            )
+        )
         return self.root.status
+
+    def _truth(self) -> Pose | None:
+        if self._emulator is None:
+            return None
+        pose = self._emulator.pose()
+        return Pose(pose.x_mm, pose.y_mm, pose.heading_deg)
+
+    def request_stop(self, reason: str) -> None:
+        """Ends the run after the current tick, as interrupted, for ``reason`` (thread-safe)."""
+        self._stop_reason = reason or "stop requested"
+
+    def _take_wire(self) -> list[Exchange]:
+        wire, self._wire = self._wire, []
+        return wire
+
+    def _take_events(self) -> list[Event]:
+        events, self._events = self._events, []
+        return events
+
+    def _changes(self) -> dict[int, NodeState]:
+        changes: dict[int, NodeState] = {}
+        states = self._states
+        for index, node in enumerate(self._nodes):
+            now = (node.status.value, node.feedback_message or "")
+            if now != states[index]:
+                states[index] = now
+                changes[index] = NodeState(*now)
+        return changes
 
     def _loop(self) -> str:
         period_s = 1.0 / self.tick_hz
@@ -241,6 +395,9 @@ class Runner:
             if status == Status.FAILURE:
                 self.summary.reason = self._why_failed()
                 return FAILED
+            if self._stop_reason:
+                self.summary.reason = self._stop_reason
+                return INTERRUPTED
             if self.max_seconds is not None and self.clock.now() - self._start_s >= self.max_seconds:
                 self.summary.reason = f"the mission was still running after {self.max_seconds:g} s"
                 return TIME_LIMIT
@@ -251,49 +408,52 @@ class Runner:
             else:
                 next_tick_s = self.clock.now()  # behind: do not try to catch up in a burst
 
-    def _after_tick(self, time_s: float, status: Packet, battery: int) -> None:
-        if self.on_tick is not None:
-            active = [node.name for node in self._active_path()]
-            self.on_tick(TickReport(self.summary.ticks, time_s, status, battery, active, self._messages))
-        if self.trace is not None:
-            line: dict[str, Any] = {
-                "tick": self.summary.ticks,
-                "time_s": round(time_s, 4),
-                "status": status.as_dict(),
-                "nodes": {
-                    str(self._ids[id(node)]): node.status.value
-                    for node in preorder(self.root)
-                    if node.status != Status.INVALID
-                },
-                "commands": self._exchanges,
-            }
-            if self._messages:
-                line["log"] = self._messages
-            self.trace.write(json.dumps(line) + "\n")
-            self._exchanges = []
-        self._messages = []
+    def _finish(self) -> None:
+        if self.header is None:  # setup itself failed: still say how the run began
+            self.header = RunHeader(self.summary.mission, describe_tree(self.root), self.tick_hz)
+            self._emit(self.header)
+        summary = self.summary
+        self._emit(
+            RunEnd(
+                outcome=summary.outcome,
+                reason=summary.reason,
+                stopped=summary.stopped,
+                time_s=summary.time_s,
+                summary=summary.to_json(),
+                paragraph=summary.paragraph,
+                wire=self._take_wire(),
+                events=self._take_events(),
+            )
+        )
 
-    def _write_header(self) -> None:
-        assert self.trace is not None
-        parents = {id(child): self._ids[id(node)] for node in preorder(self.root) for child in node.children}
-        nodes = [
-            {"id": self._ids[id(node)], "name": node.name, "kind": type(node).__name__, "parent": parents.get(id(node))}
-            for node in preorder(self.root)
-        ]
-        self.trace.write(json.dumps({"mission": self.summary.mission, "tick_hz": self.tick_hz, "nodes": nodes}) + "\n")
-
-    def _active_path(self) -> list[py_trees.behaviour.Behaviour]:
-        path, node = [], self.root
-        while node is not None and node.status == Status.RUNNING:
-            path.append(node)
-            running = [child for child in node.children if child.status == Status.RUNNING]
-            node = running[0] if running else None
-        return path
+    def _crash_event(self, err: Exception) -> Event:
+        """Names the node whose code raised, its mission file and line, and the last frames."""
+        node = None
+        tb: TracebackType | None = err.__traceback__
+        while tb is not None:
+            candidate = tb.tb_frame.f_locals.get("self")
+            if candidate is not None and id(candidate) in self._ids:
+                node = candidate
+            tb = tb.tb_next
+        frames = traceback.extract_tb(err.__traceback__)
+        own = [f for f in frames if not f.filename.startswith(_LIBRARY_DIRS)] or list(frames)
+        lines = tuple(f"{_short_path(f.filename)}:{f.lineno} in {f.name}: {(f.line or '').strip()}" for f in own[-3:])
+        error = f"{type(err).__name__}: {err}"
+        full = "".join(traceback.format_exception(type(err), err, err.__traceback__))
+        if node is None:
+            return Event("exception", f"{error} (at {lines[-1]})" if lines else error, frames=lines, traceback=full)
+        node_id = self._ids[id(node)]
+        info = describe_tree(self.root)[node_id] if self.header is None else self.header.nodes[node_id]
+        where = info.where
+        message = f"node '{node.name}' ({info.type}{', ' + where if where else ''}) raised {error}"
+        if lines:
+            message += f" at {lines[-1].split(': ', 1)[0]}"
+        return Event("exception", message, node_id, where, lines, full)
 
     def _why_failed(self) -> str:
         failed = [
             node
-            for node in preorder(self.root)
+            for node in self._nodes
             if node.status == Status.FAILURE and not any(c.status == Status.FAILURE for c in node.children)
         ]
         if not failed:
@@ -307,10 +467,9 @@ class Runner:
             try:
                 self.root.stop(Status.INVALID)
             except Exception as err:  # noqa: BLE001 - the final stop below still runs
-                self._log(f"halting the tree raised {type(err).__name__}: {err}")
+                self._log(f"halting the tree raised {type(err).__name__}: {err}", "warning")
 
     def _final_stop(self) -> bool:
         stopped = self.client.safe_stop()
-        if not stopped:
-            self._log("the robot did not acknowledge the stop")
+        self._log("the robot acknowledged the stop" if stopped else "the robot did not acknowledge the stop", "stop")
         return stopped

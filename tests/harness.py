@@ -9,6 +9,7 @@ from autonomy.client import Client
 from autonomy.emulator import Emulator
 from autonomy.mission import build_tree, validate_text
 from autonomy.protocol import Command, Get
+from autonomy.record import RunEnd, RunHeader, TickRecord
 from autonomy.runner import Runner
 
 
@@ -47,6 +48,31 @@ class Rig:
     def robot(self):
         self.emulator.advance()
         return self.emulator.robot
+
+
+class Recorder:
+    """A listener that keeps every record, with shortcuts to what tests look at."""
+
+    def __init__(self) -> None:
+        self.records: list = []
+
+    def __call__(self, record) -> None:
+        self.records.append(record)
+
+    @property
+    def header(self) -> RunHeader:
+        return self.records[0]
+
+    @property
+    def ticks(self) -> list[TickRecord]:
+        return [r for r in self.records if isinstance(r, TickRecord)]
+
+    @property
+    def end(self) -> RunEnd:
+        return self.records[-1]
+
+    def events(self, kind: str = "log") -> list[str]:
+        return [e.message for r in self.records if not isinstance(r, RunHeader) for e in r.events if e.kind == kind]
 
 
 def tree_of(yaml_tree: str, subtrees: str = "") -> py_trees.behaviour.Behaviour:

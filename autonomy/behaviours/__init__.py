@@ -17,12 +17,14 @@ from autonomy.behaviours.base import (
 )
 from autonomy.behaviours.conditions import BUILTIN_CONDITIONS
 from autonomy.behaviours.decorators import ClockTimeout
+from autonomy.behaviours.tree import NodeSource, describe_tree, kind_of, preorder
 
 __all__ = [
     "BATTERY_KEY",
     "BUILTIN_ACTIONS",
     "BUILTIN_CONDITIONS",
     "HEALTHY_KEY",
+    "NodeSource",
     "STATUS_KEY",
     "ClockTimeout",
     "Param",
@@ -30,4 +32,7 @@ __all__ = [
     "RobotBehaviour",
     "RobotCondition",
     "RobotContext",
+    "describe_tree",
+    "kind_of",
+    "preorder",
 ]

@@ -19,7 +19,7 @@ from autonomy.clock import Clock, RealClock, VirtualClock
 from autonomy.emulator.faults import FaultSpec
 from autonomy.emulator.firmware import Firmware
 from autonomy.emulator.robot import Robot, RobotParams
-from autonomy.emulator.world import World, load_world
+from autonomy.emulator.world import Pose, World, load_world
 from autonomy.protocol import NO, Command
 
 DEFAULT_EMULATOR_BAUD = 57600
@@ -221,6 +221,12 @@ class Emulator:
         return bytes(out)
 
     # ------------------------------------------------------------------ conveniences
+
+    def pose(self) -> Pose:
+        """Where the robot truly is now (the emulator's own state, caught up with the clock)."""
+        with self._lock:
+            self.advance()
+            return self.robot.pose
 
     def commands(self) -> list[Command]:
         """The commands received and carried out, in order."""

@@ -132,6 +132,22 @@ class World:
             nearest = min(nearest, obstacle.gap(x, y))
         return nearest
 
+    def as_dict(self) -> dict[str, Any]:
+        """The world as a world file writes it (``parse_world`` reads it back)."""
+        obstacles: list[dict[str, Any]] = []
+        for item in self.obstacles:
+            if isinstance(item, Box):
+                box = {"from_mm": [item.x_min_mm, item.y_min_mm], "to_mm": [item.x_max_mm, item.y_max_mm]}
+                obstacles.append({"box": box})
+            else:
+                obstacles.append({"circle": {"center_mm": [item.x_mm, item.y_mm], "radius_mm": item.radius_mm}})
+        return {
+            "name": self.name,
+            "arena_mm": [self.width_mm, self.height_mm],
+            "start": {"x_mm": self.start.x_mm, "y_mm": self.start.y_mm, "heading_deg": self.start.heading_deg},
+            "obstacles": obstacles,
+        }
+
     def circle_fits(self, x: float, y: float, radius_mm: float) -> bool:
         """True when a circle of ``radius_mm`` at (x, y) touches nothing (contact allowed)."""
         return self.clearance(x, y) >= radius_mm - EPSILON_MM

@@ -1,13 +1,16 @@
 """Validated mission -> py_trees behaviour tree.
 
 Every node is built fresh, so a subtree used twice becomes two independent copies. A
-subtree's root is shown under the subtree's name unless the file named it.
+subtree's root is shown under the subtree's name unless the file named it. Every node
+carries a :class:`~autonomy.behaviours.tree.NodeSource` as ``mission_source``: its node
+type, parameters and ``file:line``, for traces, views and error messages.
 """
 
 from __future__ import annotations
 
 import py_trees
 
+from autonomy.behaviours.tree import NodeSource
 from autonomy.mission.validate import MissionSpec, NodeSpec
 
 
@@ -20,7 +23,11 @@ def build_node(spec: NodeSpec, mission: MissionSpec) -> py_trees.behaviour.Behav
             root.name = spec.args["subtree"]
         return root
     children = [build_node(child, mission) for child in spec.children]
-    return spec.type.build(spec.display_name, spec.args, children)
+    node = spec.type.build(spec.display_name, spec.args, children)
+    node.mission_source = NodeSource(
+        spec.type.name, spec.type.category, dict(spec.args), mission.source, spec.line, spec.column
+    )
+    return node
 
 
 def build_tree(mission: MissionSpec) -> py_trees.behaviour.Behaviour:

@@ -8,6 +8,7 @@ prints as ``FILE:LINE:COL: PATH: message``, where PATH is the YAML path
 from __future__ import annotations
 
 import difflib
+import hashlib
 import importlib
 import sys
 from dataclasses import dataclass, field
@@ -78,6 +79,7 @@ class MissionSpec:
     registry: Registry
     source: str
     plugins: list[str] = field(default_factory=list)
+    sha256: str = ""
 
 
 def _suggest(word: str, options: list[str]) -> str:
@@ -486,6 +488,7 @@ def validate_text(
     problems += validator.problems
     if problems or spec is None:
         raise MissionInvalid(problems or [Problem(source, 1, 1, "", "not a mission")])
+    spec.sha256 = hashlib.sha256(text.encode("utf-8")).hexdigest()
     return spec
 
 

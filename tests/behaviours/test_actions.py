@@ -9,7 +9,7 @@ from autonomy.protocol import Move as MoveCommand
 from autonomy.protocol import ServoBy, ServoTo
 from autonomy.protocol import Stop as StopCommand
 from autonomy.protocol import Turn as TurnCommand
-from tests.harness import Rig, tree_of
+from tests.harness import Recorder, Rig, tree_of
 
 
 def move(**args) -> Move:
@@ -98,16 +98,16 @@ def test_turn_times_out_when_the_robot_turns_slower_than_expected():
 
 
 def test_stop_beep_servo_and_log_succeed_at_once():
-    messages = []
+    recorder = Recorder()
     root = tree_of(
         "  sequence:\n    - stop\n    - beep: {tones: [1, 6, 2], volume: 5}\n"
         "    - servo: {id: 1, angle: -45}\n    - servo: {id: 2, by: 7}\n    - log: {message: hello}\n"
     )
     rig = Rig(root)
-    rig.runner.on_message = messages.append
+    rig.runner.listeners.append(recorder)
     assert rig.tick() == Status.SUCCESS
     assert rig.sent() == [StopCommand(), BeepCommand((1, 6, 2), 5), ServoTo(1, -45), ServoBy(2, 7)]
-    assert messages == ["hello"]
+    assert recorder.events("log") == ["hello"]
 
 
 def test_wait_runs_for_its_seconds_in_virtual_time():

@@ -17,8 +17,11 @@ def test_run_fast_succeeds_with_a_live_view_and_a_summary():
     result = autonomy("run", "missions/square.yaml", "--fast")
     assert result.returncode == 0, result.stderr
     lines = result.stdout.strip().splitlines()
-    assert "repeat x4 > sequence > move 300 mm" in lines[0]
-    assert "turn left 90 deg" in result.stdout
+    assert lines[0] == "Running 'square' in world 'box' (the mission's) on the built-in emulator, in virtual time."
+    assert lines[1].endswith("move 300 mm (0 mm, front 255 mm)")
+    assert "turn left 90 deg (90 deg to go)" in result.stdout
+    ticks = lines[1:-1]
+    assert all(len(line) <= 100 and line[7:9] == " s" and line.index("front") == 11 for line in ticks)
     assert lines[-1].startswith("Mission 'square' succeeded after 10.2 s")
     assert "It was stopped at the end." in lines[-1]
 
@@ -64,9 +67,12 @@ def test_run_writes_a_trace(tmp_path):
     result = autonomy("run", "missions/move_until_wall.yaml", "--fast", "--quiet", "--trace", str(trace))
     assert result.returncode == 0
     lines = [json.loads(line) for line in trace.read_text().splitlines()]
-    assert lines[0]["mission"] == "move until wall"
-    sent = [c["sent"] for line in lines[1:] for c in line["commands"] if not c["sent"].startswith("G")]
+    assert lines[0]["type"] == "header" and lines[0]["mission"] == "move until wall"
+    assert lines[0]["mission_file"] == "missions/move_until_wall.yaml" and len(lines[0]["mission_sha256"]) == 64
+    assert lines[-1]["type"] == "end" and lines[-1]["outcome"] == "succeeded" and lines[-1]["stopped"]
+    sent = [c[0] for line in lines[1:] for c in line["wire"] if not c[0].startswith("G")]
     assert sent[:3] == ["F+300", "X0000", "S9992"]
+    assert sum(1 for line in lines[1:] for c in line["wire"] if len(c) == 2) == lines[-1]["summary"]["requests"]
 
 
 def test_ctrl_c_stops_the_robot_and_exits_130(tmp_path):
@@ -78,13 +84,15 @@ def test_ctrl_c_stops_the_robot_and_exits_130(tmp_path):
         text=True,
         cwd=ROOT,
     )
+    process.stdout.readline()  # Running 'patrol' ...
     assert "move until < 150 mm" in process.stdout.readline()  # driving, in real time
     process.send_signal(signal.SIGINT)
     out, err = process.communicate(timeout=20)
     assert process.returncode == 130, err
     assert "interrupted" in out and "It was stopped at the end." in out
-    commands = [c for line in trace.read_text().splitlines()[1:] for c in json.loads(line)["commands"]]
-    assert {"sent": "F+300", "reply": "OK"} in commands
+    records = [json.loads(line) for line in trace.read_text().splitlines()]
+    assert ["F+300", "OK"] in [c for record in records[1:] for c in record["wire"]]
+    assert records[-1]["type"] == "end" and records[-1]["outcome"] == "interrupted" and records[-1]["stopped"]
 
 
 def test_sigterm_is_handled_like_ctrl_c():
@@ -95,7 +103,8 @@ def test_sigterm_is_handled_like_ctrl_c():
         text=True,
         cwd=ROOT,
     )
-    process.stdout.readline()
+    process.stdout.readline()  # Running 'patrol' ...
+    assert "move until" in process.stdout.readline()  # driving
     process.send_signal(signal.SIGTERM)
     out, _ = process.communicate(timeout=20)
     assert process.returncode == 130 and "It was stopped at the end." in out
@@ -122,13 +131,36 @@ def test_show_formats(fmt):
     result = autonomy("show", "missions/square.yaml", "--format", fmt)
     assert result.returncode == 0, result.stderr
     if fmt == "unicode":
-        assert "repeat x4" in result.stdout and "turn left 90 deg" in result.stdout
+        assert result.stdout.splitlines()[:6] == [
+            "◈ repeat x4  [repeat 4 times]",
+            "    → sequence, memory",
+            "        • move 300 mm  [move speed=2 distance_mm=300 direction=forward]",
+            "        → corner  [sequence, memory]",
+            "            • turn left 90 deg  [turn left=90]",
+            "            • beep tones=[5, 7, 9] volume=3",
+        ]
+        assert result.stdout.rstrip().splitlines()[-1].startswith("legend: → sequence  ? selector  ⇉ parallel")
     elif fmt == "dot":
         assert result.stdout.startswith('digraph "square"') and "n0 -> n1;" in result.stdout
+        assert 'label="◈ repeat x4\\nrepeat 4 times"' in result.stdout
     else:
         svg = ET.fromstring(result.stdout)
-        texts = [t.text for t in svg.iter("{http://www.w3.org/2000/svg}text")]
-        assert texts == ["move 300 mm", "turn left 90 deg", "beep", "corner", "sequence", "repeat x4"]
+        ns = "{http://www.w3.org/2000/svg}"
+        texts = [t.text for g in svg.iter(f"{ns}g") if g.get("class") == "node" for t in g.iter(f"{ns}text")]
+        assert texts == [
+            "• move 300 mm",
+            "move speed=2 distance_mm=300 direction=forward",
+            "• turn left 90 deg",
+            "turn left=90",
+            "• beep tones=[5, 7, 9] volume=3",
+            "→ corner",
+            "sequence, memory",
+            "→ sequence, memory",
+            "◈ repeat x4",
+            "repeat 4 times",
+        ]
+        legend = [t.text for g in svg.iter(f"{ns}g") if g.get("class") == "legend" for t in g.iter(f"{ns}text")]
+        assert legend[0].startswith("symbols: → sequence") and "condition" in legend
 
 
 def test_behaviours_and_schema():

@@ -155,9 +155,9 @@ def test_listeners_see_every_exchange():
     port = ScriptedPort([None, b"OK\n"])
     seen = []
     client = client_for(port)
-    client.listeners.append(lambda frame, outcome: seen.append((frame, type(outcome).__name__)))
+    client.listeners.append(lambda frame, outcome, attempt: seen.append((frame, type(outcome).__name__, attempt)))
     client.stop()
-    assert seen == [(b"X0000\n", "ReplyTimeout"), (b"X0000\n", "Ack")]
+    assert seen == [(b"X0000\n", "ReplyTimeout", 0), (b"X0000\n", "Ack", 1)]
 
 
 def test_one_request_in_flight_across_threads():

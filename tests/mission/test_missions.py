@@ -12,6 +12,7 @@ from autonomy.emulator import Emulator
 from autonomy.mission import build_tree, load_mission
 from autonomy.protocol import Beep, Get, Move, ServoBy, ServoTo, Stop, Turn
 from autonomy.runner import SUCCEEDED, Runner, RunSummary
+from tests.harness import Recorder
 
 MISSIONS = Path(__file__).resolve().parents[2] / "missions"
 
@@ -21,13 +22,11 @@ def run(name: str, query: str = "", before=None) -> tuple[RunSummary, Emulator, 
     client = Client.open(f"emu://?time=virtual&world={spec.world or 'box'}{'&' + query if query else ''}")
     if before is not None:
         before(client.port.emulator)
-    messages: list[str] = []
-    summary = Runner(
-        build_tree(spec), client, mission=spec.name, tick_hz=spec.tick_hz, on_message=messages.append
-    ).run()
+    recorder = Recorder()
+    summary = Runner(build_tree(spec), client, mission=spec.name, tick_hz=spec.tick_hz, listeners=[recorder]).run()
     emulator = client.port.emulator
     emulator.advance()
-    return summary, emulator, messages
+    return summary, emulator, recorder.events("log")
 
 
 def motions(emulator: Emulator) -> list:

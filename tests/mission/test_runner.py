@@ -1,7 +1,6 @@
 """The runner ends every run with the robot stopped, and says how it went."""
 
-import io
-import json
+import math
 
 from py_trees.common import Status
 
@@ -9,9 +8,11 @@ from autonomy.behaviours import RobotAction
 from autonomy.client import Client
 from autonomy.emulator import Emulator
 from autonomy.emulator.servers import TcpServer
+from autonomy.mission import build_tree, load_mission
 from autonomy.protocol import Get, Move, Stop
+from autonomy.record import TickRecord
 from autonomy.runner import CRASHED, FAILED, INTERRUPTED, LINK_LOST, SUCCEEDED, TIME_LIMIT, Runner
-from tests.harness import tree_of
+from tests.harness import Recorder, tree_of
 
 
 def run(tree: str, query: str = "world=empty", **kwargs):
@@ -76,7 +77,8 @@ def test_ctrl_c_stops_the_robot():
 
 def test_an_exception_in_a_behaviour_stops_the_robot_and_is_reported():
     summary, emulator = run_with(Explodes("boom", ZeroDivisionError("plugin bug"), after_ticks=5))
-    assert summary.outcome == CRASHED and summary.reason == "ZeroDivisionError: plugin bug"
+    assert summary.outcome == CRASHED
+    assert summary.reason.startswith("node 'boom' (explodes) raised ZeroDivisionError: plugin bug at tests/mission/")
     assert summary.stopped and last_motion(emulator) == Stop()
 
 
@@ -84,30 +86,91 @@ def test_a_lost_link_ends_the_run_without_hanging():
     server = TcpServer(Emulator("empty"), port=0).start()
     client = Client.open(server.url, timeout_s=0.1)
     root = tree_of("  sequence: [{move: {speed: 1}}]\n")
-    runner = Runner(root, client, mission="t", on_tick=lambda r: server.stop() if r.tick == 3 else None)
+    stop_at_tick_3 = lambda r: server.stop() if isinstance(r, TickRecord) and r.tick == 3 else None  # noqa: E731
+    runner = Runner(root, client, mission="t", listeners=[stop_at_tick_3])
     summary = runner.run()
     assert summary.outcome == LINK_LOST and "lost the link" in summary.reason
     assert summary.stopped is False and "NOT be confirmed" in summary.paragraph
 
 
-def test_trace_has_a_header_and_a_line_per_tick():
-    trace = io.StringIO()
-    summary, _ = run("  sequence: [beep, {wait: {seconds: 0.2}}, {log: {message: done}}]\n", trace=trace)
-    lines = [json.loads(line) for line in trace.getvalue().splitlines()]
-    header, ticks = lines[0], lines[1:]
-    assert [n["name"] for n in header["nodes"]] == ["sequence", "beep", "wait 0.2 s", "log done"]
-    assert header["nodes"][1]["parent"] == 0
-    assert len(ticks) == summary.ticks
-    first = ticks[0]
-    assert first["nodes"] == {"0": "RUNNING", "1": "SUCCESS", "2": "RUNNING"}
-    assert first["commands"][:4] == [
-        {"sent": "Gb000", "reply": "status"},
-        {"sent": "GB000", "reply": "B230"},
-        {"sent": "GR000", "reply": "OK"},
-        {"sent": "S5793", "reply": "OK"},
+def test_records_a_header_a_record_per_tick_and_an_end():
+    recorder = Recorder()
+    summary, _ = run("  sequence: [beep, {wait: {seconds: 0.2}}, {log: {message: done}}]\n", listeners=[recorder])
+    header, ticks, end = recorder.header, recorder.ticks, recorder.end
+    assert [n.name for n in header.nodes] == ["sequence", "beep", "wait 0.2 s", "log done"]
+    assert [(n.type, n.parent, n.file, n.line) for n in header.nodes] == [
+        ("sequence", None, "test.yaml", 3),
+        ("beep", 0, "test.yaml", 3),
+        ("wait", 0, "test.yaml", 3),
+        ("log", 0, "test.yaml", 3),
     ]
-    assert set(first["status"]) >= {"heading_deg", "front_distance_mm", "odometer_mm", "collided"}
-    assert ticks[-1]["log"] == ["done"] and ticks[-1]["nodes"]["0"] == "SUCCESS"
+    assert header.world["name"] == "empty" and header.seed == 0 and header.clock == "virtual"
+    assert header.port.startswith("emu://") and header.baud == 57600 and header.date[:2] == "20"
+    assert len(ticks) == summary.ticks and [t.tick for t in ticks] == list(range(1, summary.ticks + 1))
+    first = ticks[0]
+    assert {k: v.status for k, v in first.nodes.items()} == {0: "RUNNING", 1: "SUCCESS", 2: "RUNNING"}
+    assert first.nodes[2].feedback.endswith("s left")
+    assert [(e.sent, e.reply) for e in first.wire[:4]] == [
+        ("Gb000", "status"),
+        ("GB000", "B230"),
+        ("GR000", "OK"),
+        ("S5793", "OK"),
+    ]
+    assert 0 not in ticks[1].nodes and 1 not in ticks[1].nodes  # only what changed is recorded
+    assert ticks[-1].events[0].message == "done" and ticks[-1].nodes[0].status == "SUCCESS"
+    assert end.outcome == SUCCEEDED and end.stopped and [e.sent for e in end.wire] == ["X0000"]
+    assert end.summary["requests"] == summary.requests == sum(1 for r in [*ticks, end] for e in r.wire if not e.attempt)
+
+
+def test_every_request_and_retry_the_summary_counts_is_recorded():
+    recorder = Recorder()
+    summary, _ = run("  move: {speed: 2, seconds: 1}\n", "world=empty&faults=drop=0.05&seed=4", listeners=[recorder])
+    wire = [e for r in recorder.records[1:] for e in r.wire]
+    assert summary.retries > 0
+    assert summary.requests == sum(1 for e in wire if e.attempt == 0)
+    assert summary.retries == sum(1 for e in wire if e.attempt > 0)
+    assert summary.commands["F"] == sum(1 for e in wire if e.sent.startswith("F") and e.attempt == 0)
+
+
+def test_manual_mode_counts_intended_commands_and_retries_apart():
+    summary, _ = run("  move: {speed: 2, seconds: 1}\n", "world=empty&mode=manual")
+    assert summary.commands["F"] == 1 and summary.retries == 3 and summary.refused == 1
+    assert "1 move" in summary.paragraph and "3 retries, 1 refused" in summary.paragraph
+
+
+def test_dead_reckoning_follows_the_truth_on_a_square():
+    recorder = Recorder()
+    tree = (
+        "  repeat:\n    times: 4\n    do:\n      sequence: [{move: {speed: 2, distance_mm: 300}}, {turn: {left: 90}}]\n"
+    )
+    run(tree, "world=box", listeners=[recorder])
+    for tick in recorder.ticks:
+        assert abs(tick.dead_reckoning.x_mm - tick.truth.x_mm) < 15
+        assert abs(tick.dead_reckoning.y_mm - tick.truth.y_mm) < 15
+    xs = [t.truth.x_mm for t in recorder.ticks]
+    assert max(xs) - min(xs) > 300  # it drove a square of about 325 mm sides
+    last = recorder.ticks[-1]
+    assert math.hypot(last.truth.x_mm - 1000, last.truth.y_mm - 1000) < 40
+
+
+def test_a_plugin_exception_names_the_node_file_and_line(tmp_path):
+    (tmp_path / "crashing.py").write_text(
+        "from py_trees.common import Status\nfrom autonomy.behaviours import RobotAction\n\n\n"
+        "class Divide(RobotAction):\n    node_type = 'divide'\n    doc = 'Divides by zero.'\n\n"
+        "    def update(self):\n        self.feedback_message = 'dividing'\n        return 1 / 0\n"
+    )
+    mission = tmp_path / "m.yaml"
+    mission.write_text("mission: m\nplugins: [crashing]\ntree:\n  sequence:\n    - beep\n    - divide\n")
+    spec = load_mission(mission)
+    recorder = Recorder()
+    client = Client.open("emu://?time=virtual")
+    summary = Runner(build_tree(spec), client, mission="m", listeners=[recorder]).run()
+    assert summary.outcome == CRASHED and summary.stopped
+    [event] = [e for e in recorder.end.events if e.kind == "exception"]
+    assert event.node == 2 and event.where == f"{mission}:6"
+    assert event.message.startswith(f"node 'divide' (divide, {mission}:6) raised ZeroDivisionError: division by zero")
+    assert event.frames[-1].endswith("crashing.py:11 in update: return 1 / 0")
+    assert "Traceback (most recent call last)" in event.traceback
 
 
 def test_summary_paragraph_reads_well():

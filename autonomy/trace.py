@@ -1,0 +1,140 @@
+"""Trace files: tick records as JSON lines, written as a run goes and read back for a replay.
+
+A trace is one :class:`~autonomy.record.RunHeader` line, one line per tick, and one
+:class:`~autonomy.record.RunEnd` line. Each line is written whole and flushed, so a trace
+cut off by a crash or ``kill -9`` can still be read up to its last whole line;
+:func:`read_trace` says when the end is missing. docs/trace.md describes every field.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TextIO
+
+from autonomy.clock import Clock
+from autonomy.errors import AutonomyError
+from autonomy.record import Listener, Record, RecordError, RunEnd, RunHeader, TickRecord, record_from_json, to_line
+
+#: Largest trace line read back (a 200-node tree's first tick is well under 100 kB).
+MAX_LINE_CHARS = 4_000_000
+
+
+class TraceError(AutonomyError):
+    """A trace file that cannot be read; the message names the file and line."""
+
+
+class TraceWriter:
+    """A listener that writes each record as one line of a trace file, flushed at once.
+
+    Args:
+        stream: A text file open for writing (line-buffered is best).
+    """
+
+    def __init__(self, stream: TextIO) -> None:
+        self.stream = stream
+
+    def __call__(self, record: Record) -> None:
+        """Writes one record."""
+        self.stream.write(to_line(record) + "\n")
+        self.stream.flush()
+
+
+@dataclass
+class Trace:
+    """A whole trace, read back.
+
+    Attributes:
+        header: The run's header.
+        ticks: The tick records, in order.
+        end: The closing record, or None when the trace was cut off.
+        cut_off_line: The line number of a partial last line that was left out (0: none).
+    """
+
+    header: RunHeader
+    ticks: list[TickRecord]
+    end: RunEnd | None
+    cut_off_line: int = 0
+
+    def records(self) -> Iterator[Record]:
+        """The header, every tick, and the end when there is one."""
+        yield self.header
+        yield from self.ticks
+        if self.end is not None:
+            yield self.end
+
+
+def read_trace(path: str | Path) -> Trace:
+    """Reads a trace file.
+
+    A last line without its newline, or one that is not whole JSON, is taken as the point
+    where the run was cut off, and left out.
+
+    Raises:
+        TraceError: the file cannot be read, does not start with a header, or has a bad
+            line before its last; the message says ``FILE:LINE: what``.
+    """
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as err:
+        reason = err.strerror if isinstance(err, OSError) and err.strerror else str(err)
+        raise TraceError(f"{path}: cannot read the trace: {reason}") from err
+    lines = text.split("\n")
+    complete = text.endswith("\n")
+    if complete:
+        lines.pop()
+    header: RunHeader | None = None
+    ticks: list[TickRecord] = []
+    end: RunEnd | None = None
+    cut_off = 0
+    for number, line in enumerate(lines, start=1):
+        last = number == len(lines)
+        if not line.strip():
+            continue
+        try:
+            if len(line) > MAX_LINE_CHARS:
+                raise RecordError(f"the line is longer than {MAX_LINE_CHARS} characters")
+            record = record_from_json(json.loads(line))
+        except (json.JSONDecodeError, RecordError, RecursionError) as err:
+            if last and not complete and isinstance(err, json.JSONDecodeError):
+                cut_off = number
+                break
+            what = f"not JSON ({err.msg})" if isinstance(err, json.JSONDecodeError) else str(err)
+            raise TraceError(f"{path}:{number}: {what}") from None
+        if header is None:
+            if not isinstance(record, RunHeader):
+                raise TraceError(f"{path}:{number}: a trace starts with its header; this is a {type(record).__name__}")
+            header = record
+        elif isinstance(record, TickRecord):
+            if end is not None:
+                raise TraceError(f"{path}:{number}: a tick after the run's end")
+            ticks.append(record)
+        elif isinstance(record, RunEnd):
+            end = record
+        else:
+            raise TraceError(f"{path}:{number}: a second header")
+    if header is None:
+        raise TraceError(f"{path}: empty: no header line")
+    return Trace(header, ticks, end, cut_off)
+
+
+def replay(trace: Trace, listener: Listener, clock: Clock | None = None, speed: float = 1.0) -> None:
+    """Hands a trace's records to ``listener`` as a run would have, paced on ``clock``.
+
+    Args:
+        trace: The trace to play.
+        listener: Receives every record in order.
+        clock: Waits between ticks on this clock (None: no waiting at all).
+        speed: 2.0 plays twice as fast as the run went.
+    """
+    listener(trace.header)
+    start_s = clock.now() if clock is not None else 0.0
+    for tick in trace.ticks:
+        if clock is not None:
+            clock.sleep(start_s + tick.time_s / speed - clock.now())
+        listener(tick)
+    if trace.end is not None:
+        listener(trace.end)

@@ -1,0 +1,82 @@
+"""The plain output of a run: one aligned line when what runs changes, and the log as it comes.
+
+Each line starts with fixed-width columns (time and telemetry), so they stay aligned, and
+ends with every RUNNING leaf and its feedback, cut to fit :data:`WIDTH` characters.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+from autonomy.record import RUNNING, Record, RunEnd, RunHeader, TickRecord, TreeState
+
+#: Longest line written.
+WIDTH = 100
+#: A line is repeated at least this often (seconds of run time) while nothing changes.
+REPEAT_S = 2.0
+
+
+def fit(text: str, width: int) -> str:
+    """``text`` cut to ``width`` characters, with ``…`` when cut."""
+    return text if len(text) <= width else text[: width - 1] + "…"
+
+
+def leaf_text(name: str, feedback: str) -> str:
+    """A running leaf as the views show it: its name, and its feedback in parentheses."""
+    return f"{name} ({feedback})" if feedback else name
+
+
+class LinePrinter:
+    """A listener that writes the line output.
+
+    Args:
+        write: Takes one line (without newline).
+        quiet: Write nothing (the caller prints the summary).
+    """
+
+    def __init__(self, write: Callable[[str], None], quiet: bool = False) -> None:
+        self.write = write
+        self.quiet = quiet
+        self.header: RunHeader | None = None
+        self.state: TreeState | None = None
+        self._leaves: set[int] = set()
+        self._shown = ("", -REPEAT_S * 10)
+
+    def __call__(self, record: Record) -> None:
+        """Takes one record."""
+        if isinstance(record, RunHeader):
+            self.header = record
+            self.state = TreeState(record)
+            parents = {n.parent for n in record.nodes}
+            self._leaves = {n.id for n in record.nodes if n.id not in parents}
+            return
+        if self.quiet or self.header is None or self.state is None:
+            return
+        if isinstance(record, TickRecord):
+            self.state.apply(record)
+            self._tick(record)
+        for event in record.events:
+            if event.kind not in ("stop",) and not (isinstance(record, RunEnd) and event.kind == "exception"):
+                self.write(fit(f"{'':10}{event.kind}: {event.message}", WIDTH))
+
+    def _tick(self, record: TickRecord) -> None:
+        assert self.header is not None and self.state is not None
+        nodes = self.state.nodes
+        running = [
+            leaf_text(self.header.nodes[i].name, nodes[i].feedback)
+            for i in sorted(self._leaves)
+            if nodes[i].status == RUNNING
+        ]
+        if not running:
+            return
+        what = " | ".join(running)
+        key = " | ".join(self.header.nodes[i].name for i in sorted(self._leaves) if nodes[i].status == RUNNING)
+        if key == self._shown[0] and record.time_s - self._shown[1] < REPEAT_S:
+            return
+        self._shown = (key, record.time_s)
+        s = record.status
+        columns = (
+            f"{record.time_s:7.2f} s  front {s.front_distance_mm:3d} mm  hdg {s.heading_deg:3d}  "
+            f"odo {s.odometer_mm:5d} mm  bat {record.battery:3d}  "
+        )
+        self.write(fit(columns + what, WIDTH))

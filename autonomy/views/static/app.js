@@ -1,0 +1,290 @@
+// The browser view of a run: the same page for a live run, a replay and a saved .html file.
+// Data: a header (the tree, the world), tick records, an end record (docs/trace.md).
+"use strict";
+
+const SVG_NS = "http://www.w3.org/2000/svg";
+const PLOTS = [
+  ["front distance", "mm", (t) => t.status.front_distance_mm],
+  ["heading", "deg", (t) => t.status.heading_deg],
+  ["tilt", "deg", (t) => t.status.tilt_deg],
+  ["speed", "mm/s", (t) => t.speed_mm_s],
+  ["battery", "/255", (t) => t.battery],
+];
+const CHECKPOINT_EVERY = 100;
+
+const view = {
+  mode: "live", header: null, ticks: [], end: null, index: -1,
+  playing: false, speed: 1, playTime: 0, lastFrame: 0, dirty: false,
+  checkpoints: [], events: [], collisions: [],
+};
+
+const $ = (id) => document.getElementById(id);
+
+function svgEl(name, attrs, parent) {
+  const el = document.createElementNS(SVG_NS, name);
+  for (const [k, v] of Object.entries(attrs || {})) el.setAttribute(k, v);
+  if (parent) parent.appendChild(el);
+  return el;
+}
+
+// ------------------------------------------------------------------ loading
+
+function load(payload) {
+  view.mode = payload.mode;
+  view.header = payload.header;
+  view.ticks = [];
+  view.end = null;
+  view.checkpoints = [];
+  view.events = [];
+  view.collisions = [];
+  $("mission").textContent = payload.header ? payload.header.mission : "waiting for the run";
+  document.title = "autonomy: " + (payload.header ? payload.header.mission : "a run");
+  $("tree").innerHTML = payload.tree_svg || "";
+  for (const g of document.querySelectorAll("#tree .node")) {
+    const rect = g.querySelector("rect");
+    const y = parseFloat(rect.getAttribute("y")) + parseFloat(rect.getAttribute("height")) + 11;
+    const x = parseFloat(rect.getAttribute("x")) + parseFloat(rect.getAttribute("width")) / 2;
+    svgEl("text", { x, y, "text-anchor": "middle", class: "feedback" }, g);
+  }
+  setupMap(payload);
+  setupPlots();
+  const h = payload.header;
+  if (h) {
+    const world = h.world ? `world ${h.world.name}` : "world unknown (dead reckoning only)";
+    $("where").textContent = `${world} · ${h.port} · ${h.clock} time · ${h.date}`;
+  }
+  for (const t of payload.ticks || []) addTick(t);
+  if (payload.end) addEnd(payload.end);
+  $("controls").hidden = view.mode !== "replay";
+  view.index = view.mode === "replay" ? (view.ticks.length ? 0 : -1) : view.ticks.length - 1;
+  view.playTime = view.index >= 0 ? view.ticks[view.index].time_s : 0;
+  render();
+}
+
+function addTick(t) {
+  const i = view.ticks.length;
+  view.ticks.push(t);
+  for (const e of t.events || []) {
+    view.events.push([i, e]);
+    if (e.kind === "collision") view.collisions.push(i);
+  }
+  if (i % CHECKPOINT_EVERY === 0) view.checkpoints.push(stateAt(i, true));
+  $("slider").max = Math.max(0, view.ticks.length - 1);
+}
+
+function addEnd(end) {
+  view.end = end;
+  for (const e of end.events || []) view.events.push([view.ticks.length, e]);
+}
+
+// Every node's [status, feedback] after tick i.
+function stateAt(i, building) {
+  const cp = Math.floor(i / CHECKPOINT_EVERY);
+  let state, from;
+  if (!building && cp < view.checkpoints.length) {
+    state = Object.assign({}, view.checkpoints[cp]);
+    from = cp * CHECKPOINT_EVERY + 1;
+  } else if (building && cp > 0) {
+    state = Object.assign({}, view.checkpoints[cp - 1]);
+    from = (cp - 1) * CHECKPOINT_EVERY + 1;
+  } else {
+    state = {};
+    from = 0;
+  }
+  for (let k = from; k <= i && k < view.ticks.length; k++) Object.assign(state, view.ticks[k].nodes);
+  return state;
+}
+
+// ------------------------------------------------------------------ map
+
+function setupMap(payload) {
+  const box = $("map");
+  if (payload.map_svg) {
+    box.innerHTML = payload.map_svg;
+  } else {
+    box.innerHTML = "";
+    const svg = svgEl("svg", { viewBox: "-500 -500 1000 1000", class: "map" }, box);
+    const g = svgEl("g", { id: "world", transform: "scale(1,-1)" }, svg);
+    svgEl("g", { id: "paths" }, g);
+  }
+  const paths = box.querySelector("#paths");
+  const common = { fill: "none", "vector-effect": "non-scaling-stroke", "stroke-linejoin": "round" };
+  svgEl("polyline", { ...common, id: "path-dr", stroke: "#1c7ed6", "stroke-width": 2.5 }, paths);
+  svgEl("polyline", { ...common, id: "path-truth", stroke: "#2b8a3e", "stroke-width": 2, "stroke-dasharray": "6 4" }, paths);
+  svgEl("g", { id: "collisions" }, paths);
+  const robot = svgEl("g", { id: "robot" }, paths);
+  svgEl("circle", { r: 60, fill: "rgba(250,176,5,.35)", stroke: "#e67700", "vector-effect": "non-scaling-stroke" }, robot);
+  svgEl("line", { x1: 0, y1: 0, x2: 90, y2: 0, stroke: "#e67700", "stroke-width": 3, "vector-effect": "non-scaling-stroke" }, robot);
+}
+
+function pose(t) { return t.truth || t.dead_reckoning; }
+
+function renderMap(i) {
+  const upto = view.ticks.slice(0, i + 1);
+  const pts = (key) => upto.filter((t) => t[key]).map((t) => `${t[key][0]},${t[key][1]}`).join(" ");
+  $("path-dr").setAttribute("points", pts("dead_reckoning"));
+  $("path-truth").setAttribute("points", pts("truth"));
+  const marks = $("collisions");
+  marks.innerHTML = "";
+  for (const k of view.collisions) {
+    if (k > i) break;
+    const [x, y] = pose(view.ticks[k]);
+    svgEl("path", { d: `M${x - 50},${y - 50}L${x + 50},${y + 50}M${x - 50},${y + 50}L${x + 50},${y - 50}`,
+      stroke: "#e03131", "stroke-width": 3, "vector-effect": "non-scaling-stroke", class: "collision" }, marks);
+  }
+  const robot = $("robot");
+  if (i < 0) { robot.setAttribute("visibility", "hidden"); return; }
+  const [x, y, h] = pose(view.ticks[i]);
+  robot.setAttribute("visibility", "visible");
+  robot.setAttribute("transform", `translate(${x},${y}) rotate(${h})`);
+  if (!view.header || !view.header.world) {  // no arena: frame the path
+    let xs = upto.map((t) => t.dead_reckoning[0]), ys = upto.map((t) => t.dead_reckoning[1]);
+    const minX = Math.min(...xs, 0) - 300, maxX = Math.max(...xs, 0) + 300;
+    const minY = Math.min(...ys, 0) - 300, maxY = Math.max(...ys, 0) + 300;
+    const side = Math.max(maxX - minX, maxY - minY);
+    document.querySelector("#map svg").setAttribute("viewBox", `${minX} ${-maxY} ${side} ${side}`);
+  }
+}
+
+// ------------------------------------------------------------------ plots
+
+function setupPlots() {
+  const box = $("plots");
+  box.innerHTML = "";
+  for (const [name, unit] of PLOTS) {
+    const svg = svgEl("svg", { viewBox: "0 0 420 64", class: "plot", "data-name": name }, box);
+    svgEl("rect", { x: 0, y: 0, width: 420, height: 64, fill: "#fff", stroke: "#dee2e6" }, svg);
+    svgEl("text", { x: 4, y: 12, "font-size": 11 }, svg).textContent = `${name} (${unit})`;
+    svgEl("text", { x: 416, y: 12, "font-size": 11, "text-anchor": "end", class: "value" }, svg);
+    svgEl("text", { x: 4, y: 60, "font-size": 9, fill: "#868e96", class: "range" }, svg);
+    svgEl("polyline", { fill: "none", stroke: "#1c7ed6", "stroke-width": 1.5, class: "series" }, svg);
+  }
+}
+
+function renderPlots(i) {
+  const ticks = view.ticks;
+  const tMax = Math.max(1, ticks.length ? ticks[ticks.length - 1].time_s : 1);
+  PLOTS.forEach(([name, unit, get], p) => {
+    const svg = $("plots").children[p];
+    const values = ticks.map(get);
+    const lo = Math.min(...values, 0), hi = Math.max(...values, 1);
+    const pts = [];
+    for (let k = 0; k <= i && k < ticks.length; k++) {
+      const x = 4 + (ticks[k].time_s / tMax) * 412;
+      const y = 58 - ((values[k] - lo) / (hi - lo || 1)) * 42;
+      pts.push(`${x.toFixed(1)},${y.toFixed(1)}`);
+    }
+    svg.querySelector(".series").setAttribute("points", pts.join(" "));
+    svg.querySelector(".value").textContent = i >= 0 ? `${Math.round(values[i] * 10) / 10} ${unit}` : "";
+    svg.querySelector(".range").textContent = `${lo} .. ${hi} ${unit}, 0 .. ${tMax.toFixed(1)} s`;
+  });
+}
+
+// ------------------------------------------------------------------ tree, log, header
+
+function renderTree(i) {
+  const state = i >= 0 ? stateAt(i, false) : {};
+  for (const g of document.querySelectorAll("#tree .node")) {
+    const s = state[g.dataset.node] || ["INVALID"];
+    g.setAttribute("data-status", s[0]);
+    const fb = g.querySelector(".feedback");
+    fb.textContent = s[0] === "RUNNING" || s[0] === "FAILURE" ? (s[1] || "") : "";
+  }
+}
+
+function renderLog(i) {
+  const list = $("log");
+  list.innerHTML = "";
+  const shown = view.events.filter(([k]) => k <= i || (view.end && i === view.ticks.length - 1)).slice(-200);
+  for (const [k, e] of shown) {
+    const li = document.createElement("li");
+    const t = view.ticks[Math.min(k, view.ticks.length - 1)];
+    li.value = k + 1;
+    li.className = e.kind;
+    li.textContent = `${t ? t.time_s.toFixed(2) : "end"} s  ${e.kind}: ${e.message}`;
+    list.appendChild(li);
+  }
+  list.scrollTop = list.scrollHeight;
+  const atEnd = view.end && i === view.ticks.length - 1;
+  $("summary").textContent = atEnd ? view.end.paragraph : "";
+}
+
+function renderHeader(i) {
+  const t = i >= 0 ? view.ticks[i] : null;
+  $("clock").textContent = `${t ? t.time_s.toFixed(1) : "0.0"} s`;
+  $("tickno").textContent = `tick ${t ? t.tick : 0}`;
+  const badge = $("state");
+  let state = view.end ? view.end.outcome : (view.header ? "running" : "waiting");
+  if (view.mode === "replay") state = view.end && i === view.ticks.length - 1 ? view.end.outcome : "replay";
+  badge.textContent = state;
+  badge.className = "badge " + state.split(" ")[0];
+  $("slider").value = Math.max(0, i);
+  $("slider-label").textContent = `tick ${t ? t.tick : 0} / ${view.ticks.length}`;
+}
+
+function render() {
+  const i = view.index;
+  renderTree(i);
+  renderMap(i);
+  renderPlots(i);
+  renderLog(i);
+  renderHeader(i);
+  view.dirty = false;
+}
+
+// Shows tick index i (0-based); returns how long it took in ms.
+function show(i) {
+  const started = performance.now();
+  view.index = Math.max(-1, Math.min(i, view.ticks.length - 1));
+  view.playTime = view.index >= 0 ? view.ticks[view.index].time_s : 0;
+  render();
+  return performance.now() - started;
+}
+
+// ------------------------------------------------------------------ replay controls
+
+function frame(now) {
+  if (view.playing) {
+    const dt = view.lastFrame ? (now - view.lastFrame) / 1000 : 0;
+    view.playTime += dt * view.speed;
+    let i = view.index;
+    while (i + 1 < view.ticks.length && view.ticks[i + 1].time_s <= view.playTime) i++;
+    if (i !== view.index) { view.index = i; view.dirty = true; }
+    if (i >= view.ticks.length - 1) setPlaying(false);
+  }
+  view.lastFrame = now;
+  if (view.dirty) render();
+  requestAnimationFrame(frame);
+}
+
+function setPlaying(on) {
+  view.playing = on;
+  if (on && view.index >= view.ticks.length - 1) show(0);
+  $("play").textContent = on ? "❚❚ pause" : "▶ play";
+}
+
+$("play").addEventListener("click", () => setPlaying(!view.playing));
+$("speed").addEventListener("change", (e) => { view.speed = parseFloat(e.target.value); });
+$("slider").addEventListener("input", (e) => { setPlaying(false); show(parseInt(e.target.value, 10)); });
+
+// ------------------------------------------------------------------ live
+
+function connect() {
+  fetch("api/run").then((r) => r.json()).then((payload) => {
+    load(payload);
+    if (payload.mode !== "live" || payload.end) return;
+    const source = new EventSource(`api/stream?from=${view.ticks.length}`);
+    source.addEventListener("header", () => { source.close(); connect(); });
+    source.addEventListener("tick", (e) => {
+      addTick(JSON.parse(e.data));
+      view.index = view.ticks.length - 1;
+      view.dirty = true;
+    });
+    source.addEventListener("end", (e) => { addEnd(JSON.parse(e.data)); view.dirty = true; source.close(); });
+  });
+}
+
+window.autonomyView = { show, view, stateAt: (i) => stateAt(i, false) };
+const inline = document.getElementById("run-data");
+if (inline) load(JSON.parse(inline.textContent)); else connect();
+requestAnimationFrame(frame);

@@ -1,0 +1,234 @@
+"""The browser view: a page that shows a run as it goes, or plays a recorded one back.
+
+Served with aiohttp (one well-kept package that has both the HTTP server and server-sent
+events, and runs in a thread of its own beside the runner). Every script, style and font
+comes from this package: the page loads nothing from the internet.
+
+The page gets everything from two addresses: ``api/run`` (the header, the tree and map
+pictures, and every record so far) and ``api/stream?from=N`` (server-sent events: each new
+tick record, then the end). :func:`standalone_html` freezes the same page on a whole run,
+in one file.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import threading
+from importlib import resources
+from typing import Any
+
+from aiohttp import web
+
+from autonomy.clock import Clock, RealClock
+from autonomy.record import Record, RunEnd, RunHeader, TickRecord
+from autonomy.trace import Trace
+from autonomy.views.mapsvg import world_svg
+from autonomy.views.treesvg import svg_tree
+
+STATIC_FILES = {"app.js": "text/javascript", "app.css": "text/css"}
+
+
+def _static(name: str) -> str:
+    return resources.files("autonomy.views").joinpath("static", name).read_text(encoding="utf-8")
+
+
+def _payload_head(header: RunHeader | None, mode: str) -> dict[str, Any]:
+    if header is None:
+        return {"mode": mode, "header": None, "tree_svg": "", "map_svg": None}
+    return {
+        "mode": mode,
+        "header": header.to_json(),
+        "tree_svg": svg_tree(header.nodes, header.mission, legend=False),
+        "map_svg": world_svg(header.world) if header.world else None,
+    }
+
+
+class RecordHub:
+    """A listener that keeps a run's records for the page and wakes its event streams.
+
+    Called from the runner's thread; read from the server's event loop.
+
+    Args:
+        mode: ``live`` or ``replay`` (the page shows replay controls).
+    """
+
+    def __init__(self, mode: str = "live") -> None:
+        self.mode = mode
+        self.header: RunHeader | None = None
+        self.ticks: list[str] = []
+        self.end: str | None = None
+        self.generation = 0
+        self.closed = False
+        self._lock = threading.Lock()
+        self._loop: asyncio.AbstractEventLoop | None = None
+        self._waiters: set[asyncio.Event] = set()
+
+    def __call__(self, record: Record) -> None:
+        """Takes one record."""
+        with self._lock:
+            if isinstance(record, RunHeader):
+                self.header, self.ticks, self.end = record, [], None
+                self.generation += 1
+            elif isinstance(record, TickRecord):
+                self.ticks.append(json.dumps(record.to_json(), separators=(",", ":")))
+            elif isinstance(record, RunEnd):
+                self.end = json.dumps(record.to_json(), separators=(",", ":"))
+        self.wake()
+
+    def wake(self) -> None:
+        """Wakes every waiting event stream (from any thread)."""
+        loop = self._loop
+        if loop is not None and self._waiters and not loop.is_closed():
+            loop.call_soon_threadsafe(self._wake_all)
+
+    def _wake_all(self) -> None:
+        for event in self._waiters:
+            event.set()
+
+    def payload(self) -> str:
+        """The whole run so far, as the page's ``api/run`` answer."""
+        with self._lock:
+            head = json.dumps(_payload_head(self.header, self.mode))
+            ticks, end = list(self.ticks), self.end
+        return head[:-1] + ',"ticks":[' + ",".join(ticks) + '],"end":' + (end or "null") + "}"
+
+
+class ViewServer:
+    """Serves the page in a thread of its own.
+
+    Args:
+        host: The interface (127.0.0.1 unless asked otherwise).
+        port: The TCP port (0: any free one).
+        mode: ``live`` or ``replay``.
+    """
+
+    def __init__(self, host: str = "127.0.0.1", port: int = 8765, mode: str = "live") -> None:
+        self.host, self.port = host, port
+        self.hub = RecordHub(mode)
+        self._loop = asyncio.new_event_loop()
+        self._thread: threading.Thread | None = None
+        self._runner: web.AppRunner | None = None
+        self._stopped = threading.Event()
+
+    @property
+    def url(self) -> str:
+        """Where the page is."""
+        host = f"[{self.host}]" if ":" in self.host else self.host
+        return f"http://{host}:{self.port}/"
+
+    def start(self) -> None:
+        """Binds the port and starts serving.
+
+        Raises:
+            OSError: the port cannot be bound.
+        """
+        app = web.Application()
+        app.router.add_get("/", self._index)
+        app.router.add_get("/static/{name}", self._static)
+        app.router.add_get("/api/run", self._run)
+        app.router.add_get("/api/stream", self._stream)
+        self._runner = web.AppRunner(app, handle_signals=False, access_log=None, shutdown_timeout=0.5)
+        loop = self._loop
+        loop.run_until_complete(self._runner.setup())
+        site = web.TCPSite(self._runner, self.host, self.port)
+        try:
+            loop.run_until_complete(site.start())
+        except OSError:
+            loop.run_until_complete(self._runner.cleanup())
+            loop.close()
+            raise
+        sockets = getattr(site._server, "sockets", None) or []  # noqa: SLF001 - the only way to learn port 0's pick
+        if sockets:
+            self.port = sockets[0].getsockname()[1]
+        self.hub._loop = loop  # noqa: SLF001 - the hub wakes streams on this loop
+        self._thread = threading.Thread(target=self._serve, name="autonomy-view", daemon=True)
+        self._thread.start()
+
+    def _serve(self) -> None:
+        asyncio.set_event_loop(self._loop)
+        self._loop.run_forever()
+        self._stopped.set()
+
+    def stop(self) -> None:
+        """Closes every stream and stops serving."""
+        self.hub.closed = True
+        if self._thread is None or self._loop.is_closed():
+            return
+        future = asyncio.run_coroutine_threadsafe(self._shutdown(), self._loop)
+        try:
+            future.result(timeout=5)
+        except Exception:  # noqa: BLE001, S110 - shutting down: nothing left to tell anyone
+            pass
+        self._loop.call_soon_threadsafe(self._loop.stop)
+        self._thread.join(timeout=5)
+        if not self._loop.is_running():
+            self._loop.close()
+
+    async def _shutdown(self) -> None:
+        self.hub._wake_all()  # noqa: SLF001
+        if self._runner is not None:
+            await self._runner.cleanup()
+
+    def wait(self, clock: Clock | None = None) -> None:
+        """Blocks until the server stops (or Ctrl-C), looking twice a second."""
+        clock = clock or RealClock()
+        while not self._stopped.is_set():
+            clock.sleep(0.5)
+
+    # ------------------------------------------------------------------ handlers
+
+    async def _index(self, request: web.Request) -> web.Response:
+        return web.Response(text=_static("index.html"), content_type="text/html")
+
+    async def _static(self, request: web.Request) -> web.Response:
+        name = request.match_info["name"]
+        if name not in STATIC_FILES:
+            raise web.HTTPNotFound()
+        return web.Response(text=_static(name), content_type=STATIC_FILES[name])
+
+    async def _run(self, request: web.Request) -> web.Response:
+        return web.Response(text=self.hub.payload(), content_type="application/json")
+
+    async def _stream(self, request: web.Request) -> web.StreamResponse:
+        hub = self.hub
+        try:
+            sent = max(0, int(request.query.get("from", "0")))
+        except ValueError:
+            raise web.HTTPBadRequest(text="from must be a tick count") from None
+        response = web.StreamResponse(headers={"Content-Type": "text/event-stream", "Cache-Control": "no-cache"})
+        await response.prepare(request)
+        event = asyncio.Event()
+        hub._waiters.add(event)  # noqa: SLF001
+        generation = hub.generation
+        try:
+            while not hub.closed:
+                event.clear()
+                if hub.generation != generation:
+                    await response.write(b"event: header\ndata: {}\n\n")
+                    break
+                ticks, end = hub.ticks[sent:], hub.end
+                if ticks:
+                    await response.write("".join(f"event: tick\ndata: {t}\n\n" for t in ticks).encode())
+                    sent += len(ticks)
+                if end is not None and sent >= len(hub.ticks):
+                    await response.write(f"event: end\ndata: {end}\n\n".encode())
+                    break
+                await event.wait()
+        except (ConnectionResetError, asyncio.CancelledError):
+            pass
+        finally:
+            hub._waiters.discard(event)  # noqa: SLF001
+        return response
+
+
+def standalone_html(trace: Trace) -> str:
+    """The page frozen on a whole recorded run, in one file with nothing to fetch."""
+    hub = RecordHub("replay")
+    for record in trace.records():
+        hub(record)
+    data = hub.payload().replace("</", "<\\/")
+    page = _static("index.html")
+    page = page.replace('<link rel="stylesheet" href="static/app.css">', f"<style>\n{_static('app.css')}</style>")
+    script = f'<script id="run-data" type="application/json">{data}</script>\n<script>\n{_static("app.js")}</script>'
+    return page.replace('<script src="static/app.js"></script>', script)
