@@ -4,7 +4,9 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: run test bench docs clean
+CHROMIUM ?= /usr/bin/chromium
+
+.PHONY: run test bench docs clean chromium
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -17,16 +19,26 @@ $(STAMP): pyproject.toml | $(BIN)/python
 run: $(STAMP)
 	$(BIN)/autonomy run missions/square.yaml
 
-## test: lint and the whole test suite
-test: $(STAMP)
+## chromium: the browser tests' headless Chromium (Debian's package), installed when root can
+chromium:
+	@if [ -x "$(CHROMIUM)" ]; then :; \
+	elif [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
+		echo "installing Debian's chromium for the browser tests"; \
+		(apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium) >/dev/null \
+		|| { echo "make test: apt-get could not install chromium; install it, or set CHROMIUM=/path/to/chromium"; exit 1; }; \
+	else echo "make test: the browser tests need Chromium: run 'sudo apt-get install chromium' or set CHROMIUM=/path/to/chromium"; exit 1; fi
+
+## test: lint and the whole test suite, browser tests in headless Chromium included
+test: $(STAMP) chromium
 	$(BIN)/ruff check .
 	$(BIN)/ruff format --check .
-	$(BIN)/python -m pytest -q
+	AUTONOMY_CHROMIUM="$(CHROMIUM)" $(BIN)/python -m pytest -q
 
 ## bench: the link, emulator and mission benchmarks (figures for the README)
 bench: $(STAMP)
 	$(BIN)/python benchmarks/link.py
 	$(BIN)/python benchmarks/missions.py
+	$(BIN)/python benchmarks/views.py
 
 ## docs: make the node reference in docs/missions.md anew from the registry
 docs: $(STAMP)

@@ -395,6 +395,8 @@ def cmd_replay(args: argparse.Namespace) -> int:
             with LiveView(title=f"replay x{args.speed:g}") as live:
                 replay(trace, live, RealClock(), args.speed)
                 RealClock().sleep(args.hold)
+            if trace.end is not None:
+                output(trace.end.paragraph)
         else:
             printer = LinePrinter(output)
             replay(trace, printer, RealClock() if args.speed < 1000 else None, args.speed)

@@ -117,7 +117,7 @@ class LiveView:
         if header is None or state is None:
             return Group(Text("waiting for the run to start..."))
         out = []
-        for line in tree_lines(header, state.nodes, rows - 1):
+        for line in tree_lines(header, state.nodes, rows):
             if line.node < 0:
                 out.append(Text(f"… {line.folded} more lines", style="dim"))
                 continue

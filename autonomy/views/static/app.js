@@ -154,9 +154,9 @@ function setupPlots() {
   for (const [name, unit] of PLOTS) {
     const svg = svgEl("svg", { viewBox: "0 0 420 64", class: "plot", "data-name": name }, box);
     svgEl("rect", { x: 0, y: 0, width: 420, height: 64, fill: "#fff", stroke: "#dee2e6" }, svg);
-    svgEl("text", { x: 4, y: 12, "font-size": 11 }, svg).textContent = `${name} (${unit})`;
-    svgEl("text", { x: 416, y: 12, "font-size": 11, "text-anchor": "end", class: "value" }, svg);
-    svgEl("text", { x: 4, y: 60, "font-size": 9, fill: "#868e96", class: "range" }, svg);
+    svgEl("text", { x: 4, y: 11, "font-size": 10 }, svg).textContent = `${name} (${unit})`;
+    svgEl("text", { x: 416, y: 11, "font-size": 10, "text-anchor": "end", class: "value" }, svg);
+    svgEl("text", { x: 210, y: 11, "font-size": 8, fill: "#868e96", "text-anchor": "middle", class: "range" }, svg);
     svgEl("polyline", { fill: "none", stroke: "#1c7ed6", "stroke-width": 1.5, class: "series" }, svg);
   }
 }
@@ -171,7 +171,7 @@ function renderPlots(i) {
     const pts = [];
     for (let k = 0; k <= i && k < ticks.length; k++) {
       const x = 4 + (ticks[k].time_s / tMax) * 412;
-      const y = 58 - ((values[k] - lo) / (hi - lo || 1)) * 42;
+      const y = 60 - ((values[k] - lo) / (hi - lo || 1)) * 44;
       pts.push(`${x.toFixed(1)},${y.toFixed(1)}`);
     }
     svg.querySelector(".series").setAttribute("points", pts.join(" "));

@@ -1,0 +1,103 @@
+"""The browser view as a person sees it, in a real headless Chromium: live, replayed, and saved."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+from autonomy.record import TreeState
+from autonomy.trace import read_trace
+from tests.views.conftest import ROOT
+
+YELLOW, GREEN, RED, GREY = "rgb(255, 212, 59)", "rgb(140, 233, 154)", "rgb(255, 135, 135)", "rgb(241, 243, 245)"
+FILL_OF = {"RUNNING": YELLOW, "SUCCESS": GREEN, "FAILURE": RED, "INVALID": GREY}
+
+
+def fill(page, node_id: int) -> str:
+    return page.eval_on_selector(f"#node-{node_id} rect", "el => getComputedStyle(el).fill")
+
+
+def path_points(page, which: str = "dr") -> int:
+    return page.eval_on_selector(f"#path-{which}", "el => el.points.numberOfItems")
+
+
+def record_trace(tmp_path, mission: str = "missions/wander.yaml") -> str:
+    trace = tmp_path / "run.jsonl"
+    result = subprocess.run(
+        [sys.executable, "-m", "autonomy", "run", mission, "--fast", "--quiet", "--trace", str(trace)],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        timeout=60,
+    )
+    assert result.returncode == 0, result.stderr
+    return str(trace)
+
+
+def test_a_live_run_colours_the_tree_and_draws_the_path(tmp_path, page, serve):
+    mission = tmp_path / "drive.yaml"
+    mission.write_text(
+        "mission: drive\nworld: box\ntree:\n  sequence:\n"
+        "    - move: {speed: 2, seconds: 3}\n    - turn: {left: 90}\n    - move: {speed: 2, seconds: 1}\n"
+    )
+    served = serve("run", str(mission), "--quiet", "--view")
+    page.goto(served.url)
+    page.wait_for_function("document.querySelector('#node-1').dataset.status === 'RUNNING'", timeout=10_000)
+    assert fill(page, 1) == YELLOW and fill(page, 2) == GREY  # driving; the turn has not started
+    early = path_points(page)
+    page.wait_for_function("document.querySelector('#node-2').dataset.status === 'RUNNING'", timeout=10_000)
+    assert fill(page, 1) == GREEN and fill(page, 2) == YELLOW
+    assert path_points(page) > early > 0  # the path grew
+    assert page.text_content("#node-2 .feedback").endswith("deg to go")
+    page.wait_for_function("document.querySelector('#state').textContent === 'succeeded'", timeout=10_000)
+    assert [fill(page, n) for n in range(4)] == [GREEN] * 4
+    assert path_points(page, "truth") == path_points(page)  # on the emulator, the truth is drawn too
+    assert "It was stopped at the end." in page.text_content("#summary")
+    assert page.eval_on_selector_all("#map .obstacle", "els => els.length") == 0
+    assert page.eval_on_selector("#map .arena", "el => el.getAttribute('width')") == "2000"
+    code, out, _ = served.interrupt()
+    assert code == 0 and "succeeded" in out
+
+
+def test_a_replay_slider_shows_the_tree_at_any_tick(tmp_path, page, serve):
+    path = record_trace(tmp_path)
+    trace = read_trace(path)
+    served = serve("replay", path, "--view")
+    page.goto(served.url)
+    page.wait_for_selector("#controls:not([hidden])")
+    assert page.text_content("#slider-label") == f"tick 1 / {len(trace.ticks)}"
+    for index in (40, 333, len(trace.ticks) - 1, 7):
+        page.locator("#slider").fill(str(index))
+        state = TreeState(trace.header)
+        for tick in trace.ticks[: index + 1]:
+            state.apply(tick)
+        seen = page.eval_on_selector_all(
+            "#tree .node", "els => els.map(e => [+e.dataset.node, getComputedStyle(e.querySelector('rect')).fill])"
+        )
+        assert dict(seen) == {n: FILL_OF[s.status] for n, s in state.nodes.items()}
+        assert page.text_content("#slider-label") == f"tick {index + 1} / {len(trace.ticks)}"
+        assert path_points(page) == index + 1
+        assert page.text_content("#clock") == f"{trace.ticks[index].time_s:.1f} s"
+    page.select_option("#speed", "16")
+    page.click("#play")
+    page.wait_for_function("+document.querySelector('#slider').value > 60", timeout=10_000)
+    assert page.text_content("#play") == "❚❚ pause"
+    page.click("#play")
+    assert served.interrupt()[0] == 0
+
+
+def test_a_saved_page_works_offline_from_one_file(tmp_path, page):
+    path = record_trace(tmp_path, "missions/square.yaml")
+    html = tmp_path / "run.html"
+    result = subprocess.run(
+        [sys.executable, "-m", "autonomy", "plot", path, "-o", str(html)], capture_output=True, text=True, cwd=ROOT
+    )
+    assert result.returncode == 0, result.stderr
+    requests: list[str] = []
+    page.on("request", lambda request: requests.append(request.url))
+    page.goto(html.as_uri())
+    page.wait_for_selector("#controls:not([hidden])")
+    assert [url for url in requests if not url.startswith(("file:", "data:"))] == []
+    page.locator("#slider").fill("203")
+    assert page.text_content("#state") == "succeeded" and fill(page, 0) == GREEN
+    assert "Mission 'square' succeeded" in page.text_content("#summary")

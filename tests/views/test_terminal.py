@@ -1,0 +1,159 @@
+"""The terminal views as a person sees them: the full-screen view in tmux at 80x24, the line output."""
+
+from __future__ import annotations
+
+import shlex
+import shutil
+import subprocess
+import sys
+import time
+
+import pytest
+
+from autonomy.record import NodeInfo, NodeState, RunHeader
+from autonomy.views.treetext import tree_lines
+from tests.views.conftest import ROOT
+
+pytestmark = pytest.mark.skipif(shutil.which("tmux") is None, reason="tmux is not installed")
+
+
+class Tmux:
+    def __init__(self, name: str, command: str) -> None:
+        self.name = name
+        subprocess.run(
+            ["tmux", "new-session", "-d", "-s", name, "-x", "80", "-y", "24", f"cd {ROOT} && {command}; sleep 30"],
+            check=True,
+        )
+
+    def screen(self) -> list[str]:
+        out = subprocess.run(["tmux", "capture-pane", "-p", "-t", self.name], capture_output=True, text=True)
+        return out.stdout.splitlines()
+
+    def wait_for(self, text: str, seconds: float = 15) -> list[str]:
+        deadline = time.monotonic() + seconds
+        while time.monotonic() < deadline:
+            screen = self.screen()
+            if any(text in line for line in screen):
+                return screen
+            time.sleep(0.1)
+        raise AssertionError(f"{text!r} never showed:\n" + "\n".join(self.screen()))
+
+    def keys(self, *keys: str) -> None:
+        subprocess.run(["tmux", "send-keys", "-t", self.name, *keys], check=True)
+
+    def close(self) -> None:
+        subprocess.run(["tmux", "kill-session", "-t", self.name], capture_output=True)
+
+
+@pytest.fixture
+def tmux(request):
+    sessions: list[Tmux] = []
+
+    def start(command: str) -> Tmux:
+        session = Tmux(f"autonomy-test-{len(sessions)}-{request.node.name[:20]}", command)
+        sessions.append(session)
+        return session
+
+    yield start
+    for session in sessions:
+        session.close()
+
+
+def command(*args: str) -> str:
+    return shlex.join([sys.executable, "-m", "autonomy", *args])
+
+
+def test_live_view_shows_the_whole_tree_and_the_robot_in_80x24_and_ctrl_c_stops(tmux):
+    session = tmux(command("run", "missions/wander.yaml", "--live"))
+    screen = session.wait_for("● • move until < 150 mm")
+    text = "\n".join(screen)
+    assert len(screen) <= 24 and all(len(line) <= 80 for line in screen)
+    assert screen[0].lstrip().startswith("wander") and "live" in screen[0] and "Ctrl-C stops the robot" in screen[0]
+    # both RUNNING branches of the parallel show, with their feedback
+    assert any("● ⇉ wander for a minute" in line for line in screen)
+    assert any("● • wait 60 s" in line and "s left" in line for line in screen)
+    assert any("● ◈ repeat forever" in line for line in screen)
+    for label in ("front", "heading", "odometer", "tilt", "speed", "battery", "health", "mode"):
+        assert f"│ {label}" in text
+    assert "● running  ✔ succeeded  ✘ failed" in text
+    session.keys("C-c")
+    screen = session.wait_for("It was stopped at the end.")
+    assert "Mission 'wander' interrupted" in "".join(screen)
+
+
+def test_replay_plays_a_trace_in_the_terminal_view(tmp_path, tmux):
+    trace = tmp_path / "run.jsonl"
+    subprocess.run(
+        [sys.executable, "-m", "autonomy", "run", "missions/square.yaml", "--fast", "--quiet", "--trace", str(trace)],
+        cwd=ROOT,
+        check=True,
+        capture_output=True,
+    )
+    session = tmux(command("replay", str(trace), "--speed", "4"))
+    screen = session.wait_for("replay x4")
+    assert any("repeat x4" in line for line in screen)
+    screen = session.wait_for("✔ ◈ repeat x4", seconds=20)
+    assert " square  succeeded " in screen[0]
+    screen = session.wait_for("Mission 'square' succeeded after 10.2 s")  # the screen is given back
+
+
+def test_replay_without_a_terminal_prints_the_lines(tmp_path):
+    trace = tmp_path / "run.jsonl"
+    subprocess.run(
+        [sys.executable, "-m", "autonomy", "run", "missions/square.yaml", "--fast", "--trace", str(trace)],
+        cwd=ROOT,
+        check=True,
+        capture_output=True,
+    )
+    live = subprocess.run(
+        [sys.executable, "-m", "autonomy", "run", "missions/square.yaml", "--fast"],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+    )
+    replayed = subprocess.run(
+        [sys.executable, "-m", "autonomy", "replay", str(trace), "--speed", "10000"],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+    )
+    assert replayed.returncode == 0, replayed.stderr
+    assert replayed.stdout.splitlines() == live.stdout.splitlines()[1:]  # the same lines, less "Running ..."
+
+
+def big_header(children_per_node: int = 4, depth: int = 4) -> RunHeader:
+    nodes: list[NodeInfo] = []
+
+    def add(parent: int | None, level: int) -> None:
+        node_id = len(nodes)
+        leaf = level == depth
+        nodes.append(
+            NodeInfo(
+                node_id, f"n{node_id}", "move" if leaf else "sequence", "action" if leaf else "composite", {}, parent
+            )
+        )
+        if not leaf:
+            for _ in range(children_per_node):
+                add(node_id, level + 1)
+
+    add(None, 0)
+    return RunHeader("big", nodes, 20.0)
+
+
+def test_a_big_tree_folds_to_fit_keeping_what_runs():
+    header = big_header()
+    assert len(header.nodes) == 341
+    states = {n.id: NodeState("SUCCESS") for n in header.nodes}
+    running_path = [0, 1, 2, 3, 4]  # the first child at each level, down to a leaf
+    for node_id in running_path:
+        states[node_id] = NodeState("RUNNING")
+    lines = tree_lines(header, states, 14)
+    assert len(lines) <= 14
+    shown = [line.node for line in lines]
+    assert shown[:5] == running_path  # the running branch, whole
+    assert all(
+        line.folded > 0
+        for line in lines
+        if line.node not in running_path and header.nodes[line.node].category == "composite"
+    )
+    assert len(tree_lines(header)) == 341  # unfolded when there is no limit
