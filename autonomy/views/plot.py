@@ -1,0 +1,152 @@
+"""One picture of a recorded run, with matplotlib: the map and path, telemetry, and a timeline.
+
+The map shows the world (when the run was on the emulator), the path by dead reckoning and,
+when known, the true path, with collisions marked. The telemetry is plotted against time.
+The timeline has one row per node: a bar while it was RUNNING, coloured by how it ended
+(green succeeded, red failed, grey halted), and a tick mark where it finished at once.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from matplotlib.figure import Figure
+from matplotlib.patches import Circle, Rectangle
+
+from autonomy.record import FAILURE, INVALID, RUNNING, SUCCESS, TreeState
+from autonomy.trace import Trace
+
+OUTCOME_COLOURS = {SUCCESS: "#2f9e44", FAILURE: "#e03131", INVALID: "#adb5bd", RUNNING: "#f59f00"}
+TELEMETRY = (
+    ("front distance (mm)", lambda t: t.status.front_distance_mm),
+    ("heading (deg)", lambda t: t.status.heading_deg),
+    ("tilt (deg)", lambda t: t.status.tilt_deg),
+    ("speed (mm/s)", lambda t: t.speed_mm_s),
+    ("battery (/255)", lambda t: t.battery),
+)
+MAX_TIMELINE_ROWS = 60
+
+
+def timeline(trace: Trace) -> list[tuple[int, list[tuple[float, float, str]], list[tuple[float, str]]]]:
+    """For each node: its RUNNING spans (start s, end s, how it ended) and its instant results (s, status)."""
+    header = trace.header
+    state = TreeState(header)
+    spans: dict[int, list[tuple[float, float, str]]] = {n.id: [] for n in header.nodes}
+    marks: dict[int, list[tuple[float, str]]] = {n.id: [] for n in header.nodes}
+    started: dict[int, float] = {}
+    end_s = trace.end.time_s if trace.end is not None else (trace.ticks[-1].time_s if trace.ticks else 0.0)
+    for tick in trace.ticks:
+        for node_id, new in tick.nodes.items():
+            old = state.nodes[node_id].status
+            if new.status == RUNNING and old != RUNNING:
+                started[node_id] = tick.time_s
+            elif old == RUNNING and new.status != RUNNING:
+                spans[node_id].append((started.pop(node_id), tick.time_s, new.status))
+            elif new.status in (SUCCESS, FAILURE) and old != RUNNING:
+                marks[node_id].append((tick.time_s, new.status))
+        state.apply(tick)
+    for node_id, start_s in started.items():
+        spans[node_id].append((start_s, end_s, RUNNING if trace.end is None else INVALID))
+    return [(n.id, spans[n.id], marks[n.id]) for n in header.nodes]
+
+
+def plot_run(trace: Trace, path: str | Path) -> None:
+    """Draws the run into ``path`` (.png or .svg)."""
+    header, ticks = trace.header, trace.ticks
+    rows = min(len(header.nodes), MAX_TIMELINE_ROWS)
+    figure = Figure(figsize=(14, 8 + rows * 0.22), layout="constrained")
+    top, bottom = figure.subfigures(2, 1, height_ratios=[8, 1 + rows * 0.22])
+    left, right = top.subfigures(1, 2, width_ratios=[1, 1.15])
+    outcome = trace.end.outcome if trace.end is not None else "cut off (no end record)"
+    figure.suptitle(f"{header.mission}: {outcome}, {len(ticks)} ticks, {header.date}", fontsize=13)
+    _map(left.add_subplot(), trace)
+    axes = right.subplots(len(TELEMETRY), 1, sharex=True)
+    times = [t.time_s for t in ticks]
+    for ax, (label, get) in zip(axes, TELEMETRY, strict=True):
+        ax.plot(times, [get(t) for t in ticks], color="#1c7ed6", linewidth=1.2)
+        ax.set_ylabel(label, fontsize=8)
+        ax.tick_params(labelsize=7)
+        ax.grid(alpha=0.3)
+    axes[-1].set_xlabel("time (s)")
+    _timeline(bottom.add_subplot(), trace, rows)
+    figure.savefig(str(path))
+
+
+def _map(ax: Any, trace: Trace) -> None:
+    world, ticks = trace.header.world, trace.ticks
+    if world:
+        width, height = world["arena_mm"]
+        ax.add_patch(Rectangle((0, 0), width, height, fill=False, linewidth=2, edgecolor="#222"))
+        for item in world.get("obstacles", []):
+            if "box" in item:
+                (x1, y1), (x2, y2) = item["box"]["from_mm"], item["box"]["to_mm"]
+                ax.add_patch(Rectangle((min(x1, x2), min(y1, y2)), abs(x2 - x1), abs(y2 - y1), color="#868e96"))
+            elif "circle" in item:
+                ax.add_patch(Circle(item["circle"]["center_mm"], item["circle"]["radius_mm"], color="#868e96"))
+        ax.set_xlim(-50, width + 50)
+        ax.set_ylim(-50, height + 50)
+        ax.set_title(f"world {world.get('name', '?')}", fontsize=10)
+    else:
+        ax.set_title("world unknown: dead reckoning from the start", fontsize=10)
+    ax.plot(
+        [t.dead_reckoning.x_mm for t in ticks],
+        [t.dead_reckoning.y_mm for t in ticks],
+        color="#1c7ed6",
+        linewidth=2,
+        label="dead reckoning",
+    )
+    truth = [t.truth for t in ticks if t.truth is not None]
+    if truth:
+        ax.plot(
+            [p.x_mm for p in truth],
+            [p.y_mm for p in truth],
+            color="#2b8a3e",
+            linestyle="--",
+            linewidth=1.5,
+            label="truth (emulator)",
+        )
+    hits = [t.truth or t.dead_reckoning for t in ticks if any(e.kind == "collision" for e in t.events)]
+    if hits:
+        ax.scatter(
+            [p.x_mm for p in hits],
+            [p.y_mm for p in hits],
+            marker="x",
+            s=80,
+            color="#e03131",
+            zorder=5,
+            label=f"collision ({len(hits)})",
+        )
+    if ticks:
+        ax.scatter(
+            [ticks[0].dead_reckoning.x_mm],
+            [ticks[0].dead_reckoning.y_mm],
+            marker="o",
+            color="#1971c2",
+            zorder=5,
+            label="start",
+        )
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (mm)")
+    ax.set_ylabel("y (mm)")
+    ax.legend(fontsize=8, loc="best")
+
+
+def _timeline(ax: Any, trace: Trace, rows: int) -> None:
+    header = trace.header
+    depth = {}
+    for node in header.nodes:
+        depth[node.id] = 0 if node.parent is None else depth[node.parent] + 1
+    for row, (_node_id, spans, marks) in enumerate(timeline(trace)[:rows]):
+        for start_s, end_s, how in spans:
+            ax.broken_barh([(start_s, max(end_s - start_s, 0.02))], (row - 0.35, 0.7), color=OUTCOME_COLOURS[how])
+        for when_s, how in marks:
+            ax.plot([when_s, when_s], [row - 0.35, row + 0.35], color=OUTCOME_COLOURS[how], linewidth=1)
+    ax.set_yticks(range(rows))
+    ax.set_yticklabels([("  " * depth[n.id]) + n.name for n in header.nodes[:rows]], fontsize=7, family="monospace")
+    ax.invert_yaxis()
+    ax.set_xlabel("time (s)")
+    ax.set_title(
+        "timeline: bars while RUNNING; green succeeded, red failed, grey halted; marks: instant results", fontsize=9
+    )
+    ax.grid(axis="x", alpha=0.3)
