@@ -273,6 +273,32 @@ class TickRecord:
     wire: list[Exchange] = field(default_factory=list)
     events: list[Event] = field(default_factory=list)
 
+    def to_line(self) -> str:
+        """:meth:`to_json` as one line of JSON, written out directly: a trace writes one per tick."""
+        s = self.status
+        raw = f',"raw":"{s.raw.hex()}"' if s.raw else ""
+        nodes = ",".join(
+            f'"{k}":["{v.status}",{_text(v.feedback)}]' if v.feedback else f'"{k}":["{v.status}"]'
+            for k, v in self.nodes.items()
+        )
+        wire = ",".join(
+            f"[{_text(e.sent)},{_text(e.reply)},{e.attempt}]" if e.attempt else f"[{_text(e.sent)},{_text(e.reply)}]"
+            for e in self.wire
+        )
+        line = (
+            f'{{"type":"tick","tick":{self.tick},"time_s":{_number(round(self.time_s, 4))},"status":{{"mode":{s.mode},'
+            f'"auto_mode":{_bool(s.auto_mode)},"collided":{_bool(s.collided)},"moving":{_bool(s.moving)},'
+            f'"tilt_deg":{s.tilt_deg},"heading_deg":{s.heading_deg},"front_distance_mm":{s.front_distance_mm},'
+            f'"odometer_mm":{s.odometer_mm}{raw}}},"battery":{int(self.battery)},"healthy":{_bool(self.healthy)},'
+            f'"speed_mm_s":{_number(round(self.speed_mm_s, 1))},"dead_reckoning":{_pose(self.dead_reckoning)},'
+            f'"nodes":{{{nodes}}},"wire":[{wire}]'
+        )
+        if self.truth is not None:
+            line += f',"truth":{_pose(self.truth)}'
+        if self.events:
+            line += ',"events":' + json.dumps([e.to_json() for e in self.events], separators=(",", ":"))
+        return line + "}"
+
     def to_json(self) -> dict[str, Any]:
         """The tick as one JSON object."""
         out: dict[str, Any] = {
@@ -353,8 +379,36 @@ def _status_from_json(value: dict[str, Any]) -> Packet:
 
 
 def to_line(record: Record) -> str:
-    """One record as one line of JSON (no newline); NaN and infinity are refused."""
-    return json.dumps(record.to_json(), separators=(",", ":"), allow_nan=False)
+    """One record as one line of JSON (no newline); NaN and infinity are refused.
+
+    The line is made once per record and kept on it, so the trace writer and the browser
+    view share the work.
+    """
+    line = record.__dict__.get("_line")
+    if line is None:
+        if isinstance(record, TickRecord):
+            line = record.to_line()
+        else:
+            line = json.dumps(record.to_json(), separators=(",", ":"), allow_nan=False)
+        record.__dict__["_line"] = line
+    return line
+
+
+_text = json.dumps
+
+
+def _bool(value: bool) -> str:
+    return "true" if value else "false"
+
+
+def _number(value: float) -> str:
+    if not math.isfinite(value):
+        raise ValueError(f"not a finite number: {value!r}")
+    return repr(value)
+
+
+def _pose(pose: Pose) -> str:
+    return f"[{_number(round(pose.x_mm, 1))},{_number(round(pose.y_mm, 1))},{_number(round(pose.heading_deg, 1))}]"
 
 
 def _finite(value: Any, what: str) -> float:

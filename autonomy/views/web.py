@@ -21,7 +21,7 @@ from typing import Any
 from aiohttp import web
 
 from autonomy.clock import Clock, RealClock
-from autonomy.record import Record, RunEnd, RunHeader, TickRecord
+from autonomy.record import Record, RunEnd, RunHeader, TickRecord, to_line
 from autonomy.trace import Trace
 from autonomy.views.mapsvg import world_svg
 from autonomy.views.treesvg import svg_tree
@@ -63,6 +63,12 @@ class RecordHub:
         self._lock = threading.Lock()
         self._loop: asyncio.AbstractEventLoop | None = None
         self._waiters: set[asyncio.Event] = set()
+        self._clock = RealClock()
+        self._wake_pending = False
+        self._woken_s = -1.0
+        self._new_header = False
+
+    WAKE_S = 0.02
 
     def __call__(self, record: Record) -> None:
         """Takes one record."""
@@ -70,19 +76,30 @@ class RecordHub:
             if isinstance(record, RunHeader):
                 self.header, self.ticks, self.end = record, [], None
                 self.generation += 1
+                self._new_header = True
             elif isinstance(record, TickRecord):
-                self.ticks.append(json.dumps(record.to_json(), separators=(",", ":")))
+                self.ticks.append(to_line(record))
             elif isinstance(record, RunEnd):
-                self.end = json.dumps(record.to_json(), separators=(",", ":"))
+                self.end = to_line(record)
         self.wake()
 
-    def wake(self) -> None:
-        """Wakes every waiting event stream (from any thread)."""
+    def wake(self, now_s: float | None = None) -> None:
+        """Wakes every waiting event stream (from any thread).
+
+        Ticks that come faster than :data:`WAKE_S` apart (a run in virtual time) are sent
+        together: a wake is asked for only when none is pending and the last one is old enough.
+        """
         loop = self._loop
-        if loop is not None and self._waiters and not loop.is_closed():
-            loop.call_soon_threadsafe(self._wake_all)
+        if loop is None or not self._waiters or loop.is_closed() or self._wake_pending:
+            return
+        now_s = self._clock.now() if now_s is None else now_s
+        if now_s - self._woken_s < self.WAKE_S and self.end is None and not self._new_header:
+            return
+        self._wake_pending, self._woken_s, self._new_header = True, now_s, False
+        loop.call_soon_threadsafe(self._wake_all)
 
     def _wake_all(self) -> None:
+        self._wake_pending = False
         for event in self._waiters:
             event.set()
 
@@ -129,25 +146,36 @@ class ViewServer:
         app.router.add_get("/api/run", self._run)
         app.router.add_get("/api/stream", self._stream)
         self._runner = web.AppRunner(app, handle_signals=False, access_log=None, shutdown_timeout=0.5)
+        ready = threading.Event()
+        failure: list[OSError] = []
+        self._thread = threading.Thread(target=self._serve, args=(ready, failure), name="autonomy-view", daemon=True)
+        self._thread.start()
+        ready.wait()
+        if failure:
+            self._thread.join()
+            self._thread = None
+            raise failure[0]
+
+    def _serve(self, ready: threading.Event, failure: list[OSError]) -> None:
         loop = self._loop
-        loop.run_until_complete(self._runner.setup())
-        site = web.TCPSite(self._runner, self.host, self.port)
+        asyncio.set_event_loop(loop)
+        assert self._runner is not None
         try:
+            loop.run_until_complete(self._runner.setup())
+            site = web.TCPSite(self._runner, self.host, self.port)
             loop.run_until_complete(site.start())
-        except OSError:
+        except OSError as err:
+            failure.append(err)
             loop.run_until_complete(self._runner.cleanup())
             loop.close()
-            raise
+            ready.set()
+            return
         sockets = getattr(site._server, "sockets", None) or []  # noqa: SLF001 - the only way to learn port 0's pick
         if sockets:
             self.port = sockets[0].getsockname()[1]
         self.hub._loop = loop  # noqa: SLF001 - the hub wakes streams on this loop
-        self._thread = threading.Thread(target=self._serve, name="autonomy-view", daemon=True)
-        self._thread.start()
-
-    def _serve(self) -> None:
-        asyncio.set_event_loop(self._loop)
-        self._loop.run_forever()
+        ready.set()
+        loop.run_forever()
         self._stopped.set()
 
     def stop(self) -> None:

@@ -170,3 +170,54 @@ def test_behaviours_and_schema():
     assert "turn_until_clear" in with_plugin.stdout and "[plugin opening_finder]" in with_plugin.stdout
     schema = json.loads(autonomy("schema").stdout)
     assert schema["required"] == ["mission", "tree"] and "move" in schema["$defs"]
+
+
+def test_version():
+    result = autonomy("--version")
+    assert result.returncode == 0 and result.stdout.strip() == "autonomy 0.1.0"
+
+
+def test_a_closed_pipe_ends_the_run_quietly_with_the_robot_stopped(tmp_path):
+    trace = tmp_path / "run.jsonl"
+    command = [sys.executable, "-m", "autonomy", "run", "missions/wander.yaml", "--trace", str(trace)]
+    first = subprocess.Popen(command, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    assert first.stdout.readline().startswith("Running 'wander'")
+    first.stdout.close()  # what `| head -1` does
+    _, err = first.communicate(timeout=20)
+    assert "Traceback" not in err and "BrokenPipeError" not in err
+    end = json.loads(trace.read_text().splitlines()[-1])
+    assert end["type"] == "end" and end["reason"] == "its output was closed" and end["stopped"]
+
+
+def test_the_world_in_use_is_said_and_a_conflict_refused(tmp_path):
+    world = tmp_path / "lab.yaml"
+    world.write_text("name: lab\narena_mm: [1000, 1000]\n")
+    ran = autonomy("run", "missions/square.yaml", "--fast", "--world", str(world), "--max-seconds", "0.1")
+    assert ran.stdout.startswith(f"Running 'square' in world '{world}' (from --world, not the mission's 'box')")
+    conflict = autonomy("run", "missions/square.yaml", "--world", str(world), "--port", "emu://?world=corridor")
+    assert_one_line_error(conflict, 2, f"--world {world} and world=corridor in --port disagree")
+    from_port = autonomy(
+        "run", "missions/square.yaml", "--fast", "--port", "emu://?world=corridor", "--max-seconds", "0.1"
+    )
+    assert from_port.stdout.startswith("Running 'square' in world 'corridor' (from --port, not the mission's 'box')")
+    remote = autonomy("run", "missions/square.yaml", "--port", "socket://127.0.0.1:9", "--world", "box")
+    assert_one_line_error(remote, 2, "--world applies to the built-in emulator; socket://127.0.0.1:9 has its own")
+
+
+def test_a_remote_emulator_is_told_to_not_get_the_missions_world():
+    process = subprocess.Popen(
+        [sys.executable, "-m", "autonomy", "emulator", "--tcp", "127.0.0.1:0", "--battery", "30", "--mode", "manual"],
+        cwd=ROOT,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        url = process.stdout.readline().strip()
+        result = autonomy("run", "missions/square.yaml", "--port", url, "--max-seconds", "0.5")
+        assert result.stdout.startswith(f"Running 'square' on {url}; the mission's world 'box' is not applied there")
+        probe = json.loads(autonomy("probe", "--port", url, "--json").stdout)
+        assert probe["battery"] <= 30 and probe["status"]["auto_mode"] is False  # --battery and --mode applied
+    finally:
+        process.send_signal(signal.SIGINT)
+        process.communicate(timeout=10)
