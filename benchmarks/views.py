@@ -124,9 +124,8 @@ def main() -> None:
         return f"{(1 - rate / plain) * 100:+.1f}%"
 
     print(f"ticks/s, wander (1201 ticks), no listener:          {plain:8,.0f}")
-    print(
-        f"ticks/s, with the trace writer:                     {traced:8,.0f}  tick time {plain / traced * 100 - 100:+.1f}%"
-    )
+    added = plain / traced * 100 - 100
+    print(f"ticks/s, with the trace writer:                     {traced:8,.0f}  tick time {added:+.1f}%")
     print(f"ticks/s, with the terminal view drawing (80x24):    {drawn:8,.0f}  ticks/s {cost(drawn)}")
     print(f"ticks/s, with the browser view and Chromium on it:  {watched:8,.0f}  ticks/s {cost(watched)}")
     print(
