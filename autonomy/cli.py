@@ -44,13 +44,7 @@ def _host_port(text: str) -> tuple[str, int]:
     host, sep, port = text.rpartition(":")
     if not sep:
         host, port = "127.0.0.1", text
-    try:
-        number = int(port)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected HOST:PORT or PORT, got '{text}'") from None
-    if not 0 <= number <= 65535:
-        raise argparse.ArgumentTypeError(f"port must be 0..65535, got {number}")
-    return host or "127.0.0.1", number
+    return host or "127.0.0.1", _tcp_port(port, f"expected HOST:PORT or PORT, got '{text}'")
 
 
 def _positive(text: str) -> float:
@@ -258,7 +252,6 @@ def _print_crash(end: Any, debug: bool) -> None:
 def cmd_run(args: argparse.Namespace) -> int:
     """Runs a mission on the robot or the built-in emulator."""
     from autonomy.mission import build_tree
-    from autonomy.record import RunEnd
     from autonomy.runner import FAILED, INTERRUPTED, LINK_LOST, SUCCEEDED, Runner
     from autonomy.trace import TraceWriter
     from autonomy.views.lines import LinePrinter
@@ -279,8 +272,7 @@ def cmd_run(args: argparse.Namespace) -> int:
             trace = open(args.trace, "w", encoding="utf-8", buffering=1)  # noqa: SIM115 - closed in finally
         except OSError as err:
             return _fail(f"cannot write the trace to {args.trace}: {err.strerror}", EXIT_USAGE)
-    ends: list[RunEnd] = []
-    listeners: list[Any] = [lambda record: ends.append(record) if isinstance(record, RunEnd) else None]
+    listeners: list[Any] = []
     if trace is not None:
         listeners.append(TraceWriter(trace))
     server = live = None
@@ -323,7 +315,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         finally:
             client.close()
         output(summary.paragraph)
-        _print_crash(ends[-1] if ends else None, args.debug)
+        _print_crash(runner.end, args.debug)
         if server is not None and not output.closed:
             _serve_until_interrupted(server, "the run is over")
     finally:
@@ -395,13 +387,10 @@ def cmd_replay(args: argparse.Namespace) -> int:
             with LiveView(title=f"replay x{args.speed:g}") as live:
                 replay(trace, live, RealClock(), args.speed)
                 RealClock().sleep(args.hold)
-            if trace.end is not None:
-                output(trace.end.paragraph)
         else:
-            printer = LinePrinter(output)
-            replay(trace, printer, RealClock() if args.speed < 1000 else None, args.speed)
-            if trace.end is not None:
-                output(trace.end.paragraph)
+            replay(trace, LinePrinter(output), RealClock(), args.speed)
+        if trace.end is not None:
+            output(trace.end.paragraph)
     except KeyboardInterrupt:
         return EXIT_INTERRUPTED
     return EXIT_OK
@@ -536,11 +525,11 @@ def _view_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def _tcp_port(text: str) -> int:
+def _tcp_port(text: str, not_a_number: str = "") -> int:
     try:
         number = int(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a port number, got '{text}'") from None
+        raise argparse.ArgumentTypeError(not_a_number or f"expected a port number, got '{text}'") from None
     if not 0 <= number <= 65535:
         raise argparse.ArgumentTypeError(f"port must be 0..65535, got {number}")
     return number

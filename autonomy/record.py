@@ -21,7 +21,7 @@ from __future__ import annotations
 import json
 import math
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from typing import Any, Union
 
 from autonomy.protocol import Status as Packet
@@ -201,35 +201,7 @@ class RunHeader:
 
     def to_json(self) -> dict[str, Any]:
         """The header as one JSON object."""
-        return {
-            "type": "header",
-            "version": self.version,
-            "mission": self.mission,
-            "mission_file": self.mission_file,
-            "mission_sha256": self.mission_sha256,
-            "tick_hz": self.tick_hz,
-            "world": self.world,
-            "seed": self.seed,
-            "faults": self.faults,
-            "port": self.port,
-            "baud": self.baud,
-            "clock": self.clock,
-            "autonomy_version": self.autonomy_version,
-            "date": self.date,
-            "nodes": [
-                {
-                    "id": n.id,
-                    "name": n.name,
-                    "type": n.type,
-                    "category": n.category,
-                    "params": n.params,
-                    "parent": n.parent,
-                    "file": n.file,
-                    "line": n.line,
-                }
-                for n in self.nodes
-            ],
-        }
+        return {"type": "header", **asdict(self)}
 
     def node(self, node_id: int) -> NodeInfo:
         """The node with id ``node_id``."""

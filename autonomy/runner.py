@@ -34,6 +34,7 @@ from autonomy.errors import AutonomyError, LinkError
 from autonomy.protocol import Reply, heading_delta_deg, odometer_delta_mm
 from autonomy.protocol import Status as Packet
 from autonomy.record import (
+    INVALID,
     Event,
     Exchange,
     Listener,
@@ -65,9 +66,9 @@ def _short_path(filename: str) -> str:
     return filename[len(here) :] if filename.startswith(here) else filename
 
 
-def plural(count: int, word: str) -> str:
-    """``1 tick``, ``2 ticks``."""
-    return f"{count} {word}{'' if count == 1 else 's'}"
+def plural(count: int, word: str, words: str = "") -> str:
+    """``1 tick``, ``2 ticks`` (``words`` for a plural not made with -s: ``retries``)."""
+    return f"{count} {word if count == 1 else words or word + 's'}"
 
 
 @dataclass
@@ -115,7 +116,7 @@ class RunSummary:
         )
         end = " It was stopped at the end." if self.stopped else " The stop could NOT be confirmed: check the robot."
         link = (
-            f" Link: {plural(self.requests, 'request')}, {plural(self.retries, 'retry').replace('retrys', 'retries')}, "
+            f" Link: {plural(self.requests, 'request')}, {plural(self.retries, 'retry', 'retries')}, "
             f"{self.refused} refused, {plural(self.framing_errors, 'framing error')}."
         )
         return head + body + end + link
@@ -178,6 +179,7 @@ class Runner:
         self.mission_sha256 = mission_sha256
         self.summary = RunSummary(mission, FAILED, tick_hz=tick_hz)
         self.header: RunHeader | None = None
+        self.end: RunEnd | None = None
         self._events: list[Event] = []
         self._wire: list[Exchange] = []
         self._blackboard = py_trees.blackboard.Client(name=f"runner:{mission}")
@@ -185,7 +187,7 @@ class Runner:
             self._blackboard.register_key(key=key, access=Access.WRITE)
         self._nodes = list(preorder(root))
         self._ids = {id(node): index for index, node in enumerate(self._nodes)}
-        self._states: list[tuple[str, str]] = [("INVALID", "")] * len(self._nodes)
+        self._states: list[tuple[str, str]] = [(INVALID, "")] * len(self._nodes)
         self._emulator = getattr(getattr(client, "port", None), "emulator", None)
         self._last: Packet | None = None
         self._last_time_s = 0.0
@@ -207,15 +209,15 @@ class Runner:
         self._events.append(Event(kind, message))
 
     def _on_exchange(self, frame: bytes, outcome: Reply | AutonomyError, attempt: int) -> None:
-        sent = frame[:-1].decode("ascii", "replace")
-        self._wire.append(Exchange(sent, _reply_text(outcome), attempt))
+        sent, reply = frame[:-1].decode("ascii", "replace"), _reply_text(outcome)
+        self._wire.append(Exchange(sent, reply, attempt))
         if attempt:
             self.summary.retries += 1
             return
         self.summary.requests += 1
         if sent[:1] != "G":
             self.summary.commands[sent[:1]] += 1
-        if not isinstance(outcome, AutonomyError) and _reply_text(outcome) == "NO":
+        if reply == "NO":
             self.summary.refused += 1
 
     def _observe(self, status: Packet, time_s: float) -> float:
@@ -413,18 +415,17 @@ class Runner:
             self.header = RunHeader(self.summary.mission, describe_tree(self.root), self.tick_hz)
             self._emit(self.header)
         summary = self.summary
-        self._emit(
-            RunEnd(
-                outcome=summary.outcome,
-                reason=summary.reason,
-                stopped=summary.stopped,
-                time_s=summary.time_s,
-                summary=summary.to_json(),
-                paragraph=summary.paragraph,
-                wire=self._take_wire(),
-                events=self._take_events(),
-            )
+        self.end = RunEnd(
+            outcome=summary.outcome,
+            reason=summary.reason,
+            stopped=summary.stopped,
+            time_s=summary.time_s,
+            summary=summary.to_json(),
+            paragraph=summary.paragraph,
+            wire=self._take_wire(),
+            events=self._take_events(),
         )
+        self._emit(self.end)
 
     def _crash_event(self, err: Exception) -> Event:
         """Names the node whose code raised, its mission file and line, and the last frames."""
@@ -443,7 +444,8 @@ class Runner:
         if node is None:
             return Event("exception", f"{error} (at {lines[-1]})" if lines else error, frames=lines, traceback=full)
         node_id = self._ids[id(node)]
-        info = describe_tree(self.root)[node_id] if self.header is None else self.header.nodes[node_id]
+        assert self.header is not None, "setup() sends the header before the first tick"
+        info = self.header.nodes[node_id]
         where = info.where
         message = f"node '{node.name}' ({info.type}{', ' + where if where else ''}) raised {error}"
         if lines:

@@ -17,12 +17,12 @@ def dot_tree(nodes: list[NodeInfo], title: str = "mission") -> str:
     """The tree in Graphviz DOT: each node's name, then its type and parameters."""
     lines = [f'digraph "{_dot(title)}" {{', "  graph [ordering=out];", '  node [fontname="sans-serif", style=filled];']
     for node in nodes:
-        label = f"{SHAPE_SYMBOLS[shape_of(node)]} {node.name}"
+        label = _dot(f"{SHAPE_SYMBOLS[shape_of(node)]} {node.name}")
         detail = type_text(node)
         if detail != node.name:
             label += f"\\n{_dot(detail)}"
         shape, fill = SHAPES.get(node.category, "box"), FILLS.get(node.category, "#eeeeee")
-        lines.append(f'  n{node.id} [label="{_dot_label(label)}", shape={shape}, fillcolor="{fill}"];')
+        lines.append(f'  n{node.id} [label="{label}", shape={shape}, fillcolor="{fill}"];')
     for node in nodes:
         if node.parent is not None:
             lines.append(f"  n{node.parent} -> n{node.id};")
@@ -32,7 +32,3 @@ def dot_tree(nodes: list[NodeInfo], title: str = "mission") -> str:
 
 def _dot(text: str) -> str:
     return text.replace("\\", "\\\\").replace('"', '\\"')
-
-
-def _dot_label(text: str) -> str:
-    return text.replace('"', '\\"')

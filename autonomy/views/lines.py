@@ -39,8 +39,8 @@ class LinePrinter:
         self.quiet = quiet
         self.header: RunHeader | None = None
         self.state: TreeState | None = None
-        self._leaves: set[int] = set()
-        self._shown = ("", -REPEAT_S * 10)
+        self._leaves: list[int] = []
+        self._shown: tuple[tuple[int, ...], float] = ((), -REPEAT_S * 10)
 
     def __call__(self, record: Record) -> None:
         """Takes one record."""
@@ -48,7 +48,7 @@ class LinePrinter:
             self.header = record
             self.state = TreeState(record)
             parents = {n.parent for n in record.nodes}
-            self._leaves = {n.id for n in record.nodes if n.id not in parents}
+            self._leaves = [n.id for n in record.nodes if n.id not in parents]
             return
         if self.quiet or self.header is None or self.state is None:
             return
@@ -62,18 +62,14 @@ class LinePrinter:
     def _tick(self, record: TickRecord) -> None:
         assert self.header is not None and self.state is not None
         nodes = self.state.nodes
-        running = [
-            leaf_text(self.header.nodes[i].name, nodes[i].feedback)
-            for i in sorted(self._leaves)
-            if nodes[i].status == RUNNING
-        ]
+        running = [i for i in self._leaves if nodes[i].status == RUNNING]
         if not running:
             return
-        what = " | ".join(running)
-        key = " | ".join(self.header.nodes[i].name for i in sorted(self._leaves) if nodes[i].status == RUNNING)
+        key = tuple(running)
         if key == self._shown[0] and record.time_s - self._shown[1] < REPEAT_S:
             return
         self._shown = (key, record.time_s)
+        what = " | ".join(leaf_text(self.header.nodes[i].name, nodes[i].feedback) for i in running)
         s = record.status
         columns = (
             f"{record.time_s:7.2f} s  front {s.front_distance_mm:3d} mm  hdg {s.heading_deg:3d}  "

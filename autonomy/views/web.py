@@ -83,7 +83,7 @@ class RecordHub:
                 self.end = to_line(record)
         self.wake()
 
-    def wake(self, now_s: float | None = None) -> None:
+    def wake(self) -> None:
         """Wakes every waiting event stream (from any thread).
 
         Ticks that come faster than :data:`WAKE_S` apart (a run in virtual time) are sent
@@ -92,7 +92,7 @@ class RecordHub:
         loop = self._loop
         if loop is None or not self._waiters or loop.is_closed() or self._wake_pending:
             return
-        now_s = self._clock.now() if now_s is None else now_s
+        now_s = self._clock.now()
         if now_s - self._woken_s < self.WAKE_S and self.end is None and not self._new_header:
             return
         self._wake_pending, self._woken_s, self._new_header = True, now_s, False
