@@ -11,6 +11,7 @@ import difflib
 import hashlib
 import importlib
 import sys
+import unicodedata
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -80,6 +81,17 @@ class MissionSpec:
     source: str
     plugins: list[str] = field(default_factory=list)
     sha256: str = ""
+
+
+def control_character(text: str) -> str:
+    """The first control or formatting character in ``text`` (escaped, as ``'\\x1b'``), or empty.
+
+    Tabs and newlines are whitespace, not control: a description may span lines.
+    """
+    for char in text:
+        if unicodedata.category(char) in ("Cc", "Cf") and char not in "\t\n":
+            return repr(char)
+    return ""
 
 
 def _suggest(word: str, options: list[str]) -> str:
@@ -166,6 +178,14 @@ class _Validator:
         value = doc[key].value
         if not isinstance(value, str) or not value.strip():
             self.problem(doc[key], key, f"{key} must be text, got {_type_name(value)}")
+            return None
+        return self.plain_text(value, doc[key], key)
+
+    def plain_text(self, value: str, where: Located, path: str) -> str | None:
+        """``value``, or None and a problem when it holds a control character (it would reach terminals)."""
+        bad = control_character(value)
+        if bad:
+            self.problem(where, path, f"contains the control character {bad}; write plain text")
             return None
         return value
 
@@ -311,6 +331,8 @@ class _Validator:
                 if not isinstance(located.value, str) or not located.value.strip():
                     self.problem(located, f"{path}.name", f"name must be text, got {_type_name(located.value)}")
                     ok = False
+                elif self.plain_text(located.value, located, f"{path}.name") is None:
+                    ok = False
                 else:
                     name = located.value
             elif param is None:
@@ -383,7 +405,7 @@ class _Validator:
             if not isinstance(value, str):
                 self.problem(located, path, f"{what} must be text, got {_type_name(value)}")
                 return _INVALID
-            return value
+            return _INVALID if self.plain_text(value, located, path) is None else value
         if kind == "choice":
             if value not in param.choices:
                 self.problem(

@@ -16,8 +16,16 @@ WIDTH = 100
 REPEAT_S = 2.0
 
 
+def printable(text: str) -> str:
+    """``text`` with control and formatting characters shown as ``�``: nothing reaches a terminal raw."""
+    if text.isprintable():
+        return text
+    return "".join(c if c.isprintable() else "�" for c in text)
+
+
 def fit(text: str, width: int) -> str:
-    """``text`` cut to ``width`` characters, with ``…`` when cut."""
+    """``text`` made printable and cut to ``width`` characters, with ``…`` when cut."""
+    text = printable(text)
     return text if len(text) <= width else text[: width - 1] + "…"
 
 

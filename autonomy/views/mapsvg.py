@@ -10,6 +10,8 @@ import math
 from typing import Any
 from xml.sax.saxutils import escape
 
+from autonomy.views.lines import printable
+
 MARGIN_PX = 24.0
 #: Longest side of the arena in pixels.
 SIZE_PX = 560.0
@@ -20,12 +22,12 @@ def world_svg(world: dict[str, Any], title: str = "") -> str:
     width_mm, height_mm = (float(v) for v in world["arena_mm"])
     scale = SIZE_PX / max(width_mm, height_mm)
     width_px, height_px = width_mm * scale + 2 * MARGIN_PX, height_mm * scale + 2 * MARGIN_PX + 18
-    name = world.get("name", "world")
+    name = printable(str(world.get("name", "world")))
     parts = [
         f'<svg xmlns="http://www.w3.org/2000/svg" width="{width_px:.0f}" height="{height_px:.0f}" '
         f'viewBox="0 0 {width_px:.0f} {height_px:.0f}" font-family="DejaVu Sans, sans-serif" font-size="11" '
         'class="map">',
-        f"<title>{escape(title or f'world {name}')}</title>",
+        f"<title>{escape(printable(title) or f'world {name}')}</title>",
         f'<text x="{MARGIN_PX}" y="16">{escape(f"world {name}: {width_mm:g} x {height_mm:g} mm")}</text>',
         f'<g id="world" transform="translate({MARGIN_PX},{MARGIN_PX + 18 + height_mm * scale:.2f}) '
         f'scale({scale:.6f},{-scale:.6f})" data-scale="{scale:.6f}">',

@@ -19,6 +19,7 @@ from rich.text import Text
 
 from autonomy.clock import Clock, RealClock
 from autonomy.record import Record, RunEnd, RunHeader, TickRecord, TreeState
+from autonomy.views.lines import printable
 from autonomy.views.treetext import (
     LEGEND_STATUS,
     SHAPE_SYMBOLS,
@@ -75,7 +76,7 @@ class LiveView:
         elif isinstance(record, RunEnd):
             self.end = record
         for event in getattr(record, "events", []):
-            self.log.append(f"{event.kind}: {event.message}")
+            self.log.append(printable(f"{event.kind}: {event.message}"))
         now = self.clock.now()
         if isinstance(record, RunEnd) or now - self._drawn_s >= 1.0 / MAX_REFRESH_HZ:
             self._drawn_s = now
@@ -99,7 +100,7 @@ class LiveView:
 
     def _title(self) -> Text:
         header, last = self.header, self.last
-        text = Text(f" {header.mission if header else '...'} ", style="bold reverse")
+        text = Text(printable(f" {header.mission if header else '...'} "), style="bold reverse")
         if self.end is not None:
             colour = "green" if self.end.outcome == "succeeded" else "red"
             text.append(f" {self.end.outcome} ", style=f"bold {colour}")
@@ -108,7 +109,7 @@ class LiveView:
         if last is not None:
             text.append(f" {last.time_s:6.1f} s  tick {last.tick}")
         if header is not None and header.world:
-            text.append(f"  world {header.world.get('name', '?')}")
+            text.append(printable(f"  world {header.world.get('name', '?')}"))
         text.append("   Ctrl-C stops the robot" if self.title == "live" and self.end is None else "   Ctrl-C quits")
         return text
 
@@ -127,11 +128,11 @@ class LiveView:
             text = Text("  " * line.depth)
             text.append(STATUS_SYMBOLS[node_state.status] + " ", style=f"bold {colour}")
             text.append(SHAPE_SYMBOLS[shape_of(info)] + " ", style="dim")
-            text.append(info.name, style=colour if node_state.status != "INVALID" else "")
+            text.append(printable(info.name), style=colour if node_state.status != "INVALID" else "")
             if line.folded:
                 text.append(f" (+{line.folded})", style="dim")
             if node_state.feedback:
-                text.append(f"  {node_state.feedback}", style="italic cyan")
+                text.append(printable(f"  {node_state.feedback}"), style="italic cyan")
             text.no_wrap, text.overflow = True, "ellipsis"
             out.append(text)
         out.append(Text(LEGEND_STATUS, style="dim", no_wrap=True, overflow="ellipsis"))
@@ -166,5 +167,6 @@ class LiveView:
     def _log(self) -> Panel:
         lines = [Text(line, no_wrap=True, overflow="ellipsis") for line in self.log] or [Text("(nothing yet)", "dim")]
         if self.end is not None:
-            lines = lines[-(LOG_LINES - 1) :] + [Text(self.end.paragraph, style="bold", overflow="ellipsis")]
+            paragraph = printable(self.end.paragraph)
+            lines = lines[-(LOG_LINES - 1) :] + [Text(paragraph, style="bold", overflow="ellipsis")]
         return Panel(Group(*lines), title="log", border_style="blue")

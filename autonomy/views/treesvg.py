@@ -11,6 +11,7 @@ from dataclasses import dataclass
 from xml.sax.saxutils import escape
 
 from autonomy.record import NodeInfo
+from autonomy.views.lines import fit, printable
 from autonomy.views.treetext import LEGEND_SHAPES, SHAPE_SYMBOLS, shape_of, type_text
 
 #: Fill colours by node category.
@@ -42,7 +43,7 @@ class _Box:
 
 
 def _cut(text: str) -> str:
-    return text if len(text) <= MAX_LABEL_CHARS else text[: MAX_LABEL_CHARS - 1] + "…"
+    return fit(text, MAX_LABEL_CHARS)
 
 
 def svg_tree(nodes: list[NodeInfo], title: str = "mission", legend: bool = True) -> str:
@@ -91,7 +92,7 @@ def svg_tree(nodes: list[NodeInfo], title: str = "mission", legend: bool = True)
         f'<svg xmlns="http://www.w3.org/2000/svg" width="{width:.0f}" height="{height + legend_height:.0f}" '
         f'viewBox="0 0 {width:.0f} {height + legend_height:.0f}" font-family="DejaVu Sans, sans-serif" '
         'font-size="12" class="tree">',
-        f"<title>{escape(title)}</title>",
+        f"<title>{escape(printable(title))}</title>",
     ]
     for box in boxes:
         for child in children.get(box.node.id, []):
@@ -104,7 +105,7 @@ def svg_tree(nodes: list[NodeInfo], title: str = "mission", legend: bool = True)
         node = box.node
         fill = FILLS.get(node.category, "#eeeeee")
         radius = BOX_PX / 2 if node.category == "condition" else (12 if node.category == "decorator" else 4)
-        tip = f"{node.name}: {type_text(node)}" + (f" ({node.where})" if node.where else "")
+        tip = printable(f"{node.name}: {type_text(node)}" + (f" ({node.where})" if node.where else ""))
         parts.append(f'<g class="node" id="node-{node.id}" data-node="{node.id}" data-status="INVALID">')
         parts.append(f"<title>{escape(tip)}</title>")
         parts.append(

@@ -238,3 +238,14 @@ def test_any_document_gives_a_spec_or_problems_never_a_crash(tree):
         validate_text(text, "fuzz.yaml")
     except MissionInvalid as err:
         assert err.problems and all(p.line >= 1 and p.column >= 1 for p in err.problems)
+
+
+def test_control_characters_in_text_are_refused_where_they_stand():
+    text = (
+        'mission: "evil\\e[2J"\ntree:\n  sequence:\n    - log: {message: "hi\\u202e"}\n    - {beep: {name: "b\\x00"}}\n'
+    )
+    assert problems(text) == [
+        "m.yaml:1:10: mission: contains the control character '\\x1b'; write plain text",
+        "m.yaml:4:22: tree.sequence[0].log.message: contains the control character '\\u202e'; write plain text",
+        "m.yaml:5:21: tree.sequence[1].beep.name: contains the control character '\\x00'; write plain text",
+    ]

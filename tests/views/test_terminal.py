@@ -157,3 +157,29 @@ def test_a_big_tree_folds_to_fit_keeping_what_runs():
         if line.node not in running_path and header.nodes[line.node].category == "composite"
     )
     assert len(tree_lines(header)) == 341  # unfolded when there is no limit
+
+
+def test_line_output_never_writes_control_characters():
+    from autonomy.protocol import Status as Packet
+    from autonomy.record import Event, Pose, TickRecord
+    from autonomy.views.lines import LinePrinter
+
+    written: list[str] = []
+    printer = LinePrinter(written.append)
+    printer(RunHeader("m", [NodeInfo(0, "drive\x1b[2J", "move", "action", {}, None)], 20.0))
+    packet = Packet(0, True, False, False, 0, 0, 255, 0)
+    printer(
+        TickRecord(
+            1,
+            0.0,
+            packet,
+            200,
+            True,
+            0.0,
+            Pose(0, 0, 0),
+            nodes={0: NodeState("RUNNING", "at \x07 once")},
+            events=[Event("log", "bell\x07 and \u202eflip")],
+        )
+    )
+    assert written and all(line.isprintable() for line in written)
+    assert written[0].endswith("drive�[2J (at � once)") and written[1].endswith("log: bell� and �flip")
