@@ -157,6 +157,26 @@ def _interrupt(*_: object) -> None:
     raise KeyboardInterrupt
 
 
+class _InterruptOnce:
+    """Ctrl-C and SIGTERM end a run once; pressed again while the robot is being stopped, they wait.
+
+    A second Ctrl-C must not cut the final stop short: that is when a moving robot is told to stop.
+    """
+
+    def __init__(self) -> None:
+        self.raised = False
+
+    def install(self) -> None:
+        signal.signal(signal.SIGINT, self)
+        signal.signal(signal.SIGTERM, self)
+
+    def __call__(self, *_: object) -> None:
+        if not self.raised:
+            self.raised = True
+            raise KeyboardInterrupt
+        print("autonomy: stopping the robot first; one moment", file=sys.stderr, flush=True)
+
+
 class _Output:
     """Writes lines to standard output; once the reader has gone (``| head -1``), asks the run to end."""
 
@@ -262,7 +282,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     port, where, error = _choose_port(args, spec)
     if error:
         return _fail(error, EXIT_USAGE)
-    signal.signal(signal.SIGTERM, _interrupt)
+    interrupts = _InterruptOnce()
+    interrupts.install()
     output = _Output()
     if not args.quiet and not args.live:
         output(f"Running '{spec.name}' {where}.")
@@ -317,6 +338,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         output(summary.paragraph)
         _print_crash(runner.end, args.debug)
         if server is not None and not output.closed:
+            interrupts.raised = False  # the robot is stopped: Ctrl-C now just ends the view
             _serve_until_interrupted(server, "the run is over")
     finally:
         if trace is not None:

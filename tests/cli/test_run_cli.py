@@ -6,6 +6,7 @@ import json
 import signal
 import subprocess
 import sys
+import time
 import xml.etree.ElementTree as ET
 
 import pytest
@@ -221,3 +222,25 @@ def test_a_remote_emulator_is_told_to_not_get_the_missions_world():
     finally:
         process.send_signal(signal.SIGINT)
         process.communicate(timeout=10)
+
+
+def test_a_second_ctrl_c_does_not_cut_the_final_stop_short(tmp_path):
+    trace = tmp_path / "run.jsonl"
+    slow_link = "emu://?faults=pace,delay=1,delay_s=0.2"  # every reply 0.2 s late: the stop takes a while
+    process = subprocess.Popen(
+        [sys.executable, "-m", "autonomy", "run", "missions/patrol.yaml", "--port", slow_link, "--trace", str(trace)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        cwd=ROOT,
+    )
+    process.stdout.readline()  # Running 'patrol' ...
+    assert "move until" in process.stdout.readline()
+    for _ in range(3):
+        process.send_signal(signal.SIGINT)
+        time.sleep(0.03)
+    out, err = process.communicate(timeout=20)
+    assert process.returncode == 130 and "It was stopped at the end." in out
+    assert "stopping the robot first" in err and "Traceback" not in err
+    end = json.loads(trace.read_text().splitlines()[-1])
+    assert end["type"] == "end" and end["stopped"] and end["wire"][-1][:2] == ["X0000", "OK"]
