@@ -337,7 +337,7 @@ def cmd_run(args: argparse.Namespace) -> int:
             client.close()
         output(summary.paragraph)
         _print_crash(runner.end, args.debug)
-        if server is not None and not output.closed:
+        if server is not None and not output.closed and summary.outcome != INTERRUPTED:
             interrupts.raised = False  # the robot is stopped: Ctrl-C now just ends the view
             _serve_until_interrupted(server, "the run is over")
     finally:
