@@ -11,11 +11,17 @@ const PLOTS = [
   ["battery", "/255", (t) => t.battery],
 ];
 const CHECKPOINT_EVERY = 100;
+const RENDER_EVERY_MS = 50;
+const BURST_RENDER_EVERY_MS = 200;
+const MAX_PLOT_POINTS = 400;  // a plot is about 400 px wide
+const MAX_PATH_POINTS = 3000;
 
 const view = {
   mode: "live", header: null, ticks: [], end: null, index: -1,
-  playing: false, speed: 1, playTime: 0, lastFrame: 0, dirty: false,
+  playing: false, speed: 1, playTime: 0, lastFrame: 0, lastRender: 0, burst: false, dirty: false,
   checkpoints: [], events: [], collisions: [],
+  // per tick, filled as ticks arrive, so that drawing never walks every record
+  times: [], values: [], lo: [], hi: [], dr: [], truth: [], bounds: [0, 0, 0, 0],
 };
 
 const $ = (id) => document.getElementById(id);
@@ -37,6 +43,13 @@ function load(payload) {
   view.checkpoints = [];
   view.events = [];
   view.collisions = [];
+  view.times = [];
+  view.values = PLOTS.map(() => []);
+  view.lo = PLOTS.map(() => 0);
+  view.hi = PLOTS.map(() => 1);
+  view.dr = [];
+  view.truth = [];
+  view.bounds = [0, 0, 0, 0];
   $("mission").textContent = payload.header ? payload.header.mission : "waiting for the run";
   document.title = "autonomy: " + (payload.header ? payload.header.mission : "a run");
   $("tree").innerHTML = payload.tree_svg || "";
@@ -69,7 +82,26 @@ function addTick(t) {
     if (e.kind === "collision") view.collisions.push(i);
   }
   if (i % CHECKPOINT_EVERY === 0) view.checkpoints.push(stateAt(i, true));
-  $("slider").max = Math.max(0, view.ticks.length - 1);
+  view.times.push(t.time_s);
+  PLOTS.forEach(([, , get], p) => {
+    const v = get(t);
+    view.values[p].push(v);
+    if (v < view.lo[p]) view.lo[p] = v;
+    if (v > view.hi[p]) view.hi[p] = v;
+  });
+  const [x, y] = t.dead_reckoning, b = view.bounds;
+  view.bounds = [Math.min(b[0], x), Math.min(b[1], y), Math.max(b[2], x), Math.max(b[3], y)];
+  view.dr.push(`${x},${y}`);
+  if (t.truth) view.truth.push(`${t.truth[0]},${t.truth[1]}`);
+}
+
+// Indexes 0..upto, every step-th so that there are at most `most`, the last always included.
+function sampled(upto, most) {
+  const step = Math.max(1, Math.ceil((upto + 1) / most));
+  const out = [];
+  for (let k = 0; k <= upto; k += step) out.push(k);
+  if (upto >= 0 && out[out.length - 1] !== upto) out.push(upto);
+  return out;
 }
 
 function addEnd(end) {
@@ -120,10 +152,9 @@ function setupMap(payload) {
 function pose(t) { return t.truth || t.dead_reckoning; }
 
 function renderMap(i) {
-  const upto = view.ticks.slice(0, i + 1);
-  const pts = (key) => upto.filter((t) => t[key]).map((t) => `${t[key][0]},${t[key][1]}`).join(" ");
-  $("path-dr").setAttribute("points", pts("dead_reckoning"));
-  $("path-truth").setAttribute("points", pts("truth"));
+  const path = (list) => sampled(Math.min(i, list.length - 1), MAX_PATH_POINTS).map((k) => list[k]).join(" ");
+  $("path-dr").setAttribute("points", path(view.dr));
+  $("path-truth").setAttribute("points", path(view.truth));
   const marks = $("collisions");
   marks.innerHTML = "";
   for (const k of view.collisions) {
@@ -138,9 +169,8 @@ function renderMap(i) {
   robot.setAttribute("visibility", "visible");
   robot.setAttribute("transform", `translate(${x},${y}) rotate(${h})`);
   if (!view.header || !view.header.world) {  // no arena: frame the path
-    let xs = upto.map((t) => t.dead_reckoning[0]), ys = upto.map((t) => t.dead_reckoning[1]);
-    const minX = Math.min(...xs, 0) - 300, maxX = Math.max(...xs, 0) + 300;
-    const minY = Math.min(...ys, 0) - 300, maxY = Math.max(...ys, 0) + 300;
+    const [x0, y0, x1, y1] = view.bounds;
+    const minX = x0 - 300, maxX = x1 + 300, minY = y0 - 300, maxY = y1 + 300;
     const side = Math.max(maxX - minX, maxY - minY);
     document.querySelector("#map svg").setAttribute("viewBox", `${minX} ${-maxY} ${side} ${side}`);
   }
@@ -162,18 +192,17 @@ function setupPlots() {
 }
 
 function renderPlots(i) {
-  const ticks = view.ticks;
-  const tMax = Math.max(1, ticks.length ? ticks[ticks.length - 1].time_s : 1);
-  PLOTS.forEach(([name, unit, get], p) => {
+  const times = view.times;
+  const tMax = Math.max(1, times.length ? times[times.length - 1] : 1);
+  const shown = sampled(Math.min(i, times.length - 1), MAX_PLOT_POINTS);
+  PLOTS.forEach(([name, unit], p) => {
     const svg = $("plots").children[p];
-    const values = ticks.map(get);
-    const lo = Math.min(...values, 0), hi = Math.max(...values, 1);
-    const pts = [];
-    for (let k = 0; k <= i && k < ticks.length; k++) {
-      const x = 4 + (ticks[k].time_s / tMax) * 412;
+    const values = view.values[p], lo = view.lo[p], hi = view.hi[p];
+    const pts = shown.map((k) => {
+      const x = 4 + (times[k] / tMax) * 412;
       const y = 60 - ((values[k] - lo) / (hi - lo || 1)) * 44;
-      pts.push(`${x.toFixed(1)},${y.toFixed(1)}`);
-    }
+      return `${x.toFixed(1)},${y.toFixed(1)}`;
+    });
     svg.querySelector(".series").setAttribute("points", pts.join(" "));
     svg.querySelector(".value").textContent = i >= 0 ? `${Math.round(values[i] * 10) / 10} ${unit}` : "";
     svg.querySelector(".range").textContent = `${lo} .. ${hi} ${unit}, 0 .. ${tMax.toFixed(1)} s`;
@@ -218,6 +247,7 @@ function renderHeader(i) {
   if (view.mode === "replay") state = view.end && i === view.ticks.length - 1 ? view.end.outcome : "replay";
   badge.textContent = state;
   badge.className = "badge " + state.split(" ")[0];
+  $("slider").max = Math.max(0, view.ticks.length - 1);
   $("slider").value = Math.max(0, i);
   $("slider-label").textContent = `tick ${t ? t.tick : 0} / ${view.ticks.length}`;
 }
@@ -253,7 +283,11 @@ function frame(now) {
     if (i >= view.ticks.length - 1) setPlaying(false);
   }
   view.lastFrame = now;
-  if (view.dirty) render();
+  // A run in real time is drawn as each tick comes (within one tick at 20 Hz). A run in
+  // virtual time sends ticks in bursts of hundreds: it is drawn five times a second, which
+  // leaves the machine to the run.
+  const every = view.burst ? BURST_RENDER_EVERY_MS : RENDER_EVERY_MS;
+  if (view.dirty && now - view.lastRender >= every) { view.lastRender = now; render(); }
   requestAnimationFrame(frame);
 }
 
@@ -275,8 +309,10 @@ function connect() {
     if (payload.mode !== "live" || payload.end) return;
     const source = new EventSource(`api/stream?from=${view.ticks.length}`);
     source.addEventListener("header", () => { source.close(); connect(); });
-    source.addEventListener("tick", (e) => {
-      addTick(JSON.parse(e.data));
+    source.addEventListener("ticks", (e) => {
+      const ticks = JSON.parse(e.data);
+      view.burst = ticks.length > 2;
+      for (const t of ticks) addTick(t);
       view.index = view.ticks.length - 1;
       view.dirty = true;
     });
