@@ -34,7 +34,6 @@ from autonomy.errors import AutonomyError, LinkError
 from autonomy.protocol import Reply, heading_delta_deg, odometer_delta_mm
 from autonomy.protocol import Status as Packet
 from autonomy.record import (
-    INVALID,
     Event,
     Exchange,
     Listener,
@@ -187,7 +186,8 @@ class Runner:
             self._blackboard.register_key(key=key, access=Access.WRITE)
         self._nodes = list(preorder(root))
         self._ids = {id(node): index for index, node in enumerate(self._nodes)}
-        self._states: list[tuple[str, str]] = [(INVALID, "")] * len(self._nodes)
+        self._statuses: list[Status] = [Status.INVALID] * len(self._nodes)
+        self._feedbacks: list[str] = [""] * len(self._nodes)
         self._emulator = getattr(getattr(client, "port", None), "emulator", None)
         self._last: Packet | None = None
         self._last_time_s = 0.0
@@ -378,13 +378,17 @@ class Runner:
         return events
 
     def _changes(self) -> dict[int, NodeState]:
+        """The nodes whose status or feedback differ from the last tick's.
+
+        Every node is looked at: a halted node turns INVALID without being ticked.
+        """
         changes: dict[int, NodeState] = {}
-        states = self._states
+        statuses, feedbacks = self._statuses, self._feedbacks
         for index, node in enumerate(self._nodes):
-            now = (node.status.value, node.feedback_message or "")
-            if now != states[index]:
-                states[index] = now
-                changes[index] = NodeState(*now)
+            status, feedback = node.status, node.feedback_message
+            if status is not statuses[index] or feedback != feedbacks[index]:
+                statuses[index], feedbacks[index] = status, feedback
+                changes[index] = NodeState(status.value, feedback or "")
         return changes
 
     def _loop(self) -> str:
