@@ -290,7 +290,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     trace = None
     if args.trace:
         try:
-            trace = open(args.trace, "w", encoding="utf-8", buffering=1)  # noqa: SIM115 - closed in finally
+            trace = open(args.trace, "w", encoding="utf-8")  # noqa: SIM115 - closed in finally
         except OSError as err:
             return _fail(f"cannot write the trace to {args.trace}: {err.strerror}", EXIT_USAGE)
     listeners: list[Any] = []
