@@ -259,13 +259,12 @@ class TickRecord:
         if not math.isfinite(numbers):
             raise ValueError(f"tick {self.tick} holds a number that is not finite")
         nodes = ",".join(
-            f'"{k}":["{v.status}",{_text(v.feedback)}]' if v.feedback else f'"{k}":["{v.status}"]'
-            for k, v in self.nodes.items()
+            [
+                f'"{k}":["{v.status}",{_text(v.feedback)}]' if v.feedback else f'"{k}":["{v.status}"]'
+                for k, v in self.nodes.items()
+            ]
         )
-        wire = ",".join(
-            f"[{_text(e.sent)},{_text(e.reply)},{e.attempt}]" if e.attempt else f"[{_text(e.sent)},{_text(e.reply)}]"
-            for e in self.wire
-        )
+        wire = ",".join([_exchange_json(e) for e in self.wire])
         line = (
             f'{{"type":"tick","tick":{self.tick},"time_s":{self.time_s:.4f},"status":{{"mode":{s.mode},'
             f'"auto_mode":{_JSON_BOOL[s.auto_mode]},"collided":{_JSON_BOOL[s.collided]},'
@@ -378,6 +377,21 @@ def to_line(record: Record) -> str:
 
 #: A string as JSON, quotes included (the json module's own C encoder).
 _text = encode_basestring
+#: Exchanges as JSON, by exchange: a run sends the same few again and again.
+_EXCHANGES: dict[Exchange, str] = {}
+_MOST_EXCHANGES = 4096
+
+
+def _exchange_json(exchange: Exchange) -> str:
+    line = _EXCHANGES.get(exchange)
+    if line is None:
+        e = exchange
+        line = f"[{_text(e.sent)},{_text(e.reply)},{e.attempt}]" if e.attempt else f"[{_text(e.sent)},{_text(e.reply)}]"
+        if len(_EXCHANGES) < _MOST_EXCHANGES:
+            _EXCHANGES[exchange] = line
+    return line
+
+
 _JSON_BOOL = {True: "true", False: "false"}
 _RAW, _QUOTE = '"raw":"', '"'
 

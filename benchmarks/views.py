@@ -93,7 +93,9 @@ def browse(url: str) -> None:
         page.goto(url)
         page.wait_for_selector("#state")
         print("ready", flush=True)
-        page.wait_for_function("document.querySelector('#state').textContent === 'succeeded'", timeout=120_000)
+        page.wait_for_function(  # looked at twice a second: a check every frame would load the machine
+            "document.querySelector('#state').textContent === 'succeeded'", timeout=120_000, polling=500
+        )
         print(page.evaluate("window.autonomyView.view.ticks.length"), flush=True)
         browser.close()
 

@@ -6,7 +6,8 @@ comes from this package: the page loads nothing from the internet.
 
 The page gets everything from two addresses: ``api/run`` (the header, the tree and map
 pictures, and every record so far) and ``api/stream?from=N`` (server-sent events: ``ticks``,
-a list of the tick records since the last event, then ``end``). :func:`standalone_html`
+a list of the tick records since the last event, or ``preview`` for a burst of them in a run
+in virtual time, then ``end``; a page that had previews asks ``api/run`` again at the end). :func:`standalone_html`
 freezes the same page on a whole run, in one file.
 """
 
@@ -15,13 +16,14 @@ from __future__ import annotations
 import asyncio
 import json
 import threading
+from dataclasses import replace
 from importlib import resources
 from typing import Any
 
 from aiohttp import web
 
 from autonomy.clock import Clock, RealClock
-from autonomy.record import Record, RunEnd, RunHeader, TickRecord, to_line
+from autonomy.record import NodeState, Record, RunEnd, RunHeader, TickRecord, to_line
 from autonomy.trace import Trace
 from autonomy.views.mapsvg import world_svg
 from autonomy.views.treesvg import svg_tree
@@ -47,17 +49,26 @@ def _payload_head(header: RunHeader | None, mode: str) -> dict[str, Any]:
 class RecordHub:
     """A listener that keeps a run's records for the page and wakes its event streams.
 
-    Called from the runner's thread; read from the server's event loop.
+    Called from the runner's thread, it only keeps the record and, now and then, wakes the
+    server's thread: turning records into JSON is the server thread's work, done when a page
+    asks, so that watching costs the run as little as can be.
 
     Args:
         mode: ``live`` or ``replay`` (the page shows replay controls).
     """
 
+    #: Ticks less than this far apart come in a burst (a run in virtual time).
+    BURST_S = 0.005
+    #: How often the streams are woken during a burst.
+    BURST_WAKE_S = 0.2
+    #: Most records a burst is sent as; a page gets every record when the run ends.
+    PREVIEW_RECORDS = 10
+
     def __init__(self, mode: str = "live") -> None:
         self.mode = mode
         self.header: RunHeader | None = None
-        self.ticks: list[str] = []
-        self.end: str | None = None
+        self.ticks: list[TickRecord] = []
+        self.end: RunEnd | None = None
         self.generation = 0
         self.closed = False
         self._lock = threading.Lock()
@@ -69,9 +80,6 @@ class RecordHub:
         self._last_record_s = -1.0
         self._new_header = False
 
-    BURST_S = 0.005
-    BURST_WAKE_S = 0.2
-
     def __call__(self, record: Record) -> None:
         """Takes one record."""
         with self._lock:
@@ -80,17 +88,17 @@ class RecordHub:
                 self.generation += 1
                 self._new_header = True
             elif isinstance(record, TickRecord):
-                self.ticks.append(to_line(record))
+                self.ticks.append(record)
             elif isinstance(record, RunEnd):
-                self.end = to_line(record)
+                self.end = record
         self.wake()
 
     def wake(self) -> None:
         """Wakes every waiting event stream (from any thread).
 
         A tick that comes on its own (a run in real time) is sent at once. Ticks that come in a
-        burst, less than :data:`BURST_S` apart (a run in virtual time), are sent together every
-        :data:`BURST_WAKE_S`: each wake of the server's thread takes the interpreter from the run.
+        burst, less than :data:`BURST_S` apart, are sent together every :data:`BURST_WAKE_S`:
+        each wake of the server's thread takes the interpreter from the run.
         """
         now_s = self._clock.now()
         since_tick_s, self._last_record_s = now_s - self._last_record_s, now_s
@@ -111,9 +119,30 @@ class RecordHub:
     def payload(self) -> str:
         """The whole run so far, as the page's ``api/run`` answer."""
         with self._lock:
-            head = json.dumps(_payload_head(self.header, self.mode))
-            ticks, end = list(self.ticks), self.end
-        return head[:-1] + ',"ticks":[' + ",".join(ticks) + '],"end":' + (end or "null") + "}"
+            header, ticks, end = self.header, list(self.ticks), self.end
+        head = json.dumps(_payload_head(header, self.mode))
+        lines = ",".join(to_line(tick) for tick in ticks)
+        return head[:-1] + ',"ticks":[' + lines + '],"end":' + (to_line(end) if end else "null") + "}"
+
+    def event(self, ticks: list[TickRecord]) -> bytes:
+        """The server-sent event for ``ticks``: all of them, or for a burst a preview.
+
+        A preview is at most :data:`PREVIEW_RECORDS` records: each the last tick of its share of
+        the burst, carrying every node change and event of that share, so the tree and the log
+        are right and the path and plots are drawn from fewer points until the run ends.
+        """
+        if len(ticks) <= self.PREVIEW_RECORDS:
+            return ("event: ticks\ndata: [" + ",".join(to_line(t) for t in ticks) + "]\n\n").encode()
+        size = -(-len(ticks) // self.PREVIEW_RECORDS)
+        shares = [ticks[i : i + size] for i in range(0, len(ticks), size)]
+        merged = []
+        for share in shares:
+            nodes: dict[int, NodeState] = {}
+            for tick in share:
+                nodes.update(tick.nodes)
+            events = [event for tick in share for event in tick.events]
+            merged.append(replace(share[-1], nodes=nodes, wire=[], events=events))
+        return ("event: preview\ndata: [" + ",".join(t.to_line() for t in merged) + "]\n\n").encode()
 
 
 class ViewServer:
@@ -242,10 +271,10 @@ class ViewServer:
                     break
                 ticks, end = hub.ticks[sent:], hub.end
                 if ticks:  # every tick since the last wake, in one event: the page parses once
-                    await response.write(("event: ticks\ndata: [" + ",".join(ticks) + "]\n\n").encode())
+                    await response.write(hub.event(ticks))
                     sent += len(ticks)
                 if end is not None and sent >= len(hub.ticks):
-                    await response.write(f"event: end\ndata: {end}\n\n".encode())
+                    await response.write(f"event: end\ndata: {to_line(end)}\n\n".encode())
                     break
                 await event.wait()
         except (ConnectionResetError, asyncio.CancelledError):

@@ -18,7 +18,7 @@ const MAX_PATH_POINTS = 3000;
 
 const view = {
   mode: "live", header: null, ticks: [], end: null, index: -1,
-  playing: false, speed: 1, playTime: 0, lastFrame: 0, lastRender: 0, burst: false, dirty: false,
+  playing: false, speed: 1, playTime: 0, lastFrame: 0, lastRender: 0, burst: false, dirty: false, frameAsked: false,
   checkpoints: [], events: [], collisions: [],
   // per tick, filled as ticks arrive, so that drawing never walks every record
   times: [], values: [], lo: [], hi: [], dr: [], truth: [], bounds: [0, 0, 0, 0],
@@ -288,11 +288,19 @@ function frame(now) {
   // leaves the machine to the run.
   const every = view.burst ? BURST_RENDER_EVERY_MS : RENDER_EVERY_MS;
   if (view.dirty && now - view.lastRender >= every) { view.lastRender = now; render(); }
-  requestAnimationFrame(frame);
+  view.frameAsked = false;
+  if (view.playing || view.dirty) wakeUp();
+  else view.lastFrame = 0;
+}
+
+// Frames are asked for only while there is something to draw: an idle page costs nothing.
+function wakeUp() {
+  if (!view.frameAsked) { view.frameAsked = true; requestAnimationFrame(frame); }
 }
 
 function setPlaying(on) {
   view.playing = on;
+  if (on) wakeUp();
   if (on && view.index >= view.ticks.length - 1) show(0);
   $("play").textContent = on ? "❚❚ pause" : "▶ play";
 }
@@ -309,18 +317,28 @@ function connect() {
     if (payload.mode !== "live" || payload.end) return;
     const source = new EventSource(`api/stream?from=${view.ticks.length}`);
     source.addEventListener("header", () => { source.close(); connect(); });
-    source.addEventListener("ticks", (e) => {
+    let previewed = false;
+    const take = (e) => {
       const ticks = JSON.parse(e.data);
-      view.burst = ticks.length > 2;
+      view.burst = ticks.length > 2 || e.type === "preview";
       for (const t of ticks) addTick(t);
       view.index = view.ticks.length - 1;
       view.dirty = true;
+      wakeUp();
+    };
+    source.addEventListener("ticks", take);
+    // a burst of ticks (a run in virtual time) comes as a preview; the whole run is fetched at its end
+    source.addEventListener("preview", (e) => { previewed = true; take(e); });
+    source.addEventListener("end", (e) => {
+      source.close();
+      if (previewed) { connect(); return; }
+      addEnd(JSON.parse(e.data));
+      view.dirty = true;
+      wakeUp();
     });
-    source.addEventListener("end", (e) => { addEnd(JSON.parse(e.data)); view.dirty = true; source.close(); });
   });
 }
 
 window.autonomyView = { show, view, stateAt: (i) => stateAt(i, false) };
 const inline = document.getElementById("run-data");
 if (inline) load(JSON.parse(inline.textContent)); else connect();
-requestAnimationFrame(frame);

@@ -1,0 +1,66 @@
+"""The browser view's server on its own: what a page is sent, for a run in real and in virtual time."""
+
+from __future__ import annotations
+
+import json
+import threading
+import urllib.request
+
+from autonomy.client import Client
+from autonomy.mission import build_tree, load_mission
+from autonomy.record import RunHeader, TreeState, record_from_json
+from autonomy.runner import Runner
+from autonomy.views.web import ViewServer
+from tests.views.conftest import ROOT
+
+
+def events_of(stream: str) -> list[tuple[str, str]]:
+    out = []
+    for block in stream.strip().split("\n\n"):
+        lines = dict(line.split(": ", 1) for line in block.splitlines())
+        out.append((lines["event"], lines["data"]))
+    return out
+
+
+def test_a_run_in_virtual_time_is_previewed_then_served_whole():
+    server = ViewServer("127.0.0.1", 0)
+    server.start()
+    received: list[str] = []
+
+    def read() -> None:
+        with urllib.request.urlopen(server.url + "api/stream?from=0", timeout=30) as stream:
+            received.append(stream.read().decode())
+
+    reader = threading.Thread(target=read)
+
+    def start_reading(record) -> None:  # a page that is there when the run starts
+        if isinstance(record, RunHeader):
+            reader.start()
+            while not server.hub._waiters:  # noqa: SLF001 - wait until it listens
+                threading.Event().wait(0.01)
+
+    spec = load_mission(ROOT / "missions" / "wander.yaml")
+    client = Client.open("emu://?time=virtual&world=obstacles")
+    try:
+        summary = Runner(build_tree(spec), client, mission=spec.name, listeners=[server.hub, start_reading]).run()
+        reader.join(timeout=30)
+        events = events_of(received[0])
+        assert events[-1][0] == "end" and json.loads(events[-1][1])["outcome"] == "succeeded"
+        previews = [json.loads(data) for kind, data in events if kind == "preview"]
+        assert previews and all(len(batch) <= server.hub.PREVIEW_RECORDS for batch in previews)
+        sent = [tick for kind, data in events if kind in ("ticks", "preview") for tick in json.loads(data)]
+        assert len(sent) < summary.ticks  # a preview, not every tick
+        whole = json.loads(urllib.request.urlopen(server.url + "api/run", timeout=10).read())
+        assert len(whole["ticks"]) == summary.ticks and whole["end"]["outcome"] == "succeeded"
+        header = record_from_json(whole["header"])
+        previewed, exact = TreeState(header), TreeState(header)
+        for tick in sent:
+            previewed.apply(record_from_json(tick))
+        for tick in whole["ticks"]:
+            exact.apply(record_from_json(tick))
+        assert previewed.nodes == exact.nodes  # the preview's tree ends where the run's does
+        collisions = sum(e["kind"] == "collision" for t in sent for e in t.get("events", []))
+        assert collisions == summary.collisions  # no event is lost from the log
+    finally:
+        client.close()
+        server.stop()
