@@ -339,7 +339,7 @@ class Runner:
             self.root.tick_once()
         except LinkError:
             raise
-        except Exception as err:
+        except (Exception, SystemExit) as err:  # a plugin's sys.exit() ends the run as an error, not the program
             raise BehaviourCrashed(self._crash_event(err)) from err
         self.summary.ticks += 1
         self._emit(
@@ -431,7 +431,7 @@ class Runner:
         )
         self._emit(self.end)
 
-    def _crash_event(self, err: Exception) -> Event:
+    def _crash_event(self, err: BaseException) -> Event:
         """Names the node whose code raised, its mission file and line, and the last frames."""
         node = None
         tb: TracebackType | None = err.__traceback__

@@ -203,7 +203,7 @@ class _Validator:
                 continue
             try:
                 module = import_plugin(item.value, base_dir)
-            except Exception as err:  # noqa: BLE001 - any failure to import is the file's problem to report
+            except (Exception, SystemExit) as err:  # noqa: BLE001 - any failure to import is the file's to report
                 self.problem(item, path, f"cannot import plugin '{item.value}': {type(err).__name__}: {err}")
                 continue
             classes = leaf_classes_in(module)

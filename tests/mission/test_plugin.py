@@ -5,7 +5,7 @@ from pathlib import Path
 import pytest
 from py_trees.common import Status
 
-from autonomy.mission import BUILTINS, MissionInvalid, validate_text
+from autonomy.mission import BUILTINS, MissionInvalid, load_mission, validate_text
 from autonomy.protocol import Turn
 from tests.harness import Rig, tree_of
 from tests.mission.test_missions import motions, run
@@ -83,3 +83,14 @@ def test_a_plugin_may_not_redefine_a_built_in(tmp_path):
 
 def test_tree_of_helper_builds_without_plugins():
     assert tree_of("  stop\n").name == "stop"
+
+
+def test_a_plugin_that_exits_on_import_is_reported_not_obeyed(tmp_path):
+    (tmp_path / "exiter.py").write_text("import sys\nsys.exit(3)\n")
+    mission = tmp_path / "e.yaml"
+    mission.write_text("mission: e\nplugins: [exiter]\ntree: stop\n")
+    with pytest.raises(MissionInvalid) as caught:
+        load_mission(mission)
+    assert [str(p) for p in caught.value.problems] == [
+        f"{mission}:2:11: plugins[0]: cannot import plugin 'exiter': SystemExit: 3"
+    ]

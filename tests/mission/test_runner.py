@@ -178,3 +178,17 @@ def test_summary_paragraph_reads_well():
     text = summary.paragraph
     assert text.startswith("Mission 't' succeeded after")
     assert "turned 90 degrees" in text and "1 move, 1 beep, 1 turn" in text and "It was stopped at the end." in text
+
+
+def test_a_plugin_calling_sys_exit_ends_the_run_as_an_error_with_the_robot_stopped(tmp_path):
+    (tmp_path / "quitter.py").write_text(
+        "import sys\nfrom autonomy.behaviours import RobotAction\n\n\n"
+        "class Quit(RobotAction):\n    node_type = 'quit'\n    doc = 'Exits.'\n\n"
+        "    def update(self):\n        sys.exit(0)\n"
+    )
+    mission = tmp_path / "q.yaml"
+    mission.write_text("mission: q\nplugins: [quitter]\ntree:\n  parallel:\n    - move: {speed: 1}\n    - quit\n")
+    client = Client.open("emu://?time=virtual")
+    summary = Runner(build_tree(load_mission(mission)), client, mission="q").run()
+    assert summary.outcome == CRASHED and "raised SystemExit: 0" in summary.reason
+    assert summary.stopped and last_motion(client.port.emulator) == Stop()
