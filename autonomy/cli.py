@@ -12,6 +12,7 @@ import signal
 import sys
 from collections.abc import Sequence
 from typing import Any
+from urllib.parse import quote
 
 from autonomy import __version__
 from autonomy.client import DEFAULT_BAUD, SUPPORTED_BAUD_RATES, Client
@@ -35,6 +36,17 @@ class _Parser(argparse.ArgumentParser):
 def _fail(message: str, code: int) -> int:
     print(f"autonomy: error: {message}", file=sys.stderr)
     return code
+
+
+def _world_failed(err: WorldError) -> int:
+    """Prints a world's problems (each ``FILE:LINE:COL: ...``), or why it cannot be found; exit 2."""
+    from autonomy.emulator import WorldInvalid
+
+    if isinstance(err, WorldInvalid):
+        for problem in err.problems:
+            print(problem, file=sys.stderr)
+        return EXIT_USAGE
+    return _fail(str(err), EXIT_USAGE)
 
 
 # --------------------------------------------------------------------------- emulator
@@ -76,7 +88,9 @@ def cmd_emulator(args: argparse.Namespace) -> int:
     try:
         emulator = emulator_from_options(options)
         server = PtyServer(emulator) if args.pty else TcpServer(emulator, *args.tcp)
-    except (WorldError, ValueError) as err:
+    except WorldError as err:
+        return _world_failed(err)
+    except ValueError as err:
         return _fail(str(err), EXIT_USAGE)
     except OSError as err:
         return _fail(f"cannot serve on {args.tcp[0]}:{args.tcp[1]}: {err.strerror or err}", EXIT_LINK)
@@ -250,7 +264,7 @@ def _choose_port(args: argparse.Namespace, spec: Any) -> tuple[str, str, str]:
     else:
         world, origin = "box", "the default; the mission names none"
     if not in_port:
-        port += ("&" if "?" in port else "?") + f"world={world}"
+        port += ("&" if "?" in port else "?") + f"world={quote(world, safe='/')}"
     if args.fast and "time=" not in port:
         port += "&time=virtual"
     time_text = "virtual time" if "time=virtual" in port else "real time"
@@ -279,6 +293,13 @@ def cmd_run(args: argparse.Namespace) -> int:
     spec = _load(args.mission)
     if spec is None:
         return EXIT_USAGE
+    if args.world:
+        from autonomy.emulator import load_world
+
+        try:
+            load_world(args.world)
+        except WorldError as err:
+            return _world_failed(err)
     port, where, error = _choose_port(args, spec)
     if error:
         return _fail(error, EXIT_USAGE)
@@ -454,7 +475,7 @@ def cmd_world_show(args: argparse.Namespace) -> int:
     try:
         world = load_world(args.world)
     except WorldError as err:
-        return _fail(str(err), EXIT_USAGE)
+        return _world_failed(err)
     svg = world_svg(world.as_dict())
     if args.output in (None, "-"):
         sys.stdout.write(svg)
@@ -472,6 +493,7 @@ def cmd_check(args: argparse.Namespace) -> int:
     """Validates mission files; every problem of every file, then ok or not."""
     from autonomy.behaviours.tree import preorder
     from autonomy.mission import build_tree
+    from autonomy.mission.lint import lint
     from autonomy.runner import plural
 
     bad = 0
@@ -481,8 +503,114 @@ def cmd_check(args: argparse.Namespace) -> int:
             bad += 1
             continue
         count = sum(1 for _ in preorder(build_tree(spec)))
-        print(f"{path}: ok (mission '{spec.name}', {plural(count, 'node')})")
+        warnings = lint(spec)
+        noted = f", {plural(len(warnings), 'warning')}" if warnings else ""
+        print(f"{path}: ok (mission '{spec.name}', {plural(count, 'node')}{noted})")
+        for warning in warnings:
+            print(warning)
     return EXIT_USAGE if bad else EXIT_OK
+
+
+def _exercise_path(text: str) -> str:
+    """An exercise given by path, or by name from ./exercises/."""
+    from pathlib import Path
+
+    if Path(text).is_file() or "/" in text or text.endswith((".yaml", ".yml")):
+        return text
+    return str(Path("exercises") / f"{text}.yaml")
+
+
+def cmd_grade(args: argparse.Namespace) -> int:
+    """Grades mission files against an exercise: marks, feedback, a gradebook."""
+    from pathlib import Path
+
+    from autonomy.classroom import ExerciseInvalid, find_submissions, grade_class, load_exercise
+    from autonomy.classroom.report import feedback, to_csv, to_html, to_json
+
+    try:
+        exercise = load_exercise(_exercise_path(args.exercise))
+    except ExerciseInvalid as err:
+        for problem in err.problems:
+            print(problem, file=sys.stderr)
+        return EXIT_USAGE
+    submissions = find_submissions(args.submissions)
+    alone = len(submissions) == 1
+    if not args.quiet:
+        seeds = ", ".join(str(s.seed) for s in exercise.seeds)
+        print(
+            f"Grading {len(submissions)} submission{'s' if not alone else ''} for '{exercise.title}' "
+            f"in world '{exercise.world.name}', seeds {seeds}, {exercise.time_limit_s:g} s a run.",
+            flush=True,
+        )
+    progress = None
+    if not alone and not args.quiet and sys.stderr.isatty():
+        from rich.console import Console
+        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+        progress = Progress(
+            TextColumn("grading"),
+            BarColumn(),
+            MofNCompleteColumn(),
+            TimeElapsedColumn(),
+            console=Console(file=sys.stderr),
+            transient=True,
+        )
+        task = progress.add_task("grading", total=len(submissions))
+        progress.start()
+    try:
+        reports = grade_class(
+            exercise,
+            submissions,
+            workers=args.workers,
+            wall_s=args.wall_seconds,
+            memory_mb=args.memory_mb,
+            allow_plugins=args.allow_plugins,
+            on_report=(lambda _: progress.advance(task)) if progress is not None else None,
+        )
+    except KeyboardInterrupt:
+        return _fail("grading interrupted", EXIT_INTERRUPTED)
+    finally:
+        if progress is not None:
+            progress.stop()
+    if alone:
+        for line in feedback(exercise, reports[0]):
+            print(line)
+    elif not args.quiet:
+        _print_marks(exercise, reports)
+    writers = ((args.csv, to_csv), (args.json, to_json), (args.html, to_html))
+    for target, write in writers:
+        if not target:
+            continue
+        try:
+            Path(target).write_text(write(exercise, reports), encoding="utf-8")
+        except OSError as err:
+            return _fail(f"cannot write {target}: {err.strerror or err}", EXIT_USAGE)
+        if not args.quiet:
+            print(f"wrote {target}")
+    return EXIT_OK
+
+
+def _print_marks(exercise: Any, reports: list[Any]) -> None:
+    """The class's marks as a table in the terminal."""
+    from rich.console import Console
+    from rich.table import Table
+
+    from autonomy.views.lines import printable
+
+    table = Table(title=f"{printable(exercise.title)}: marks out of {exercise.max_points:g}")
+    table.add_column("student")
+    table.add_column("total", justify="right")
+    for criterion in exercise.criteria:
+        table.add_column(f"{printable(criterion.label)} ({criterion.points:g})", justify="right")
+    table.add_column("why nothing ran")
+    for report in reports:
+        problems = (
+            printable(report.problems[0]) + (f" (+{len(report.problems) - 1} more)" if len(report.problems) > 1 else "")
+            if report.problems
+            else ""
+        )
+        table.add_row(printable(report.student), f"{report.total:g}", *[f"{m:g}" for m in report.marks], problems)
+    Console(highlight=False).print(table)
 
 
 def cmd_show(args: argparse.Namespace) -> int:
@@ -638,6 +766,25 @@ def build_parser() -> argparse.ArgumentParser:
     check = sub.add_parser("check", help="validate mission files, reporting every problem")
     check.add_argument("missions", nargs="+", metavar="MISSION")
     check.set_defaults(func=cmd_check)
+
+    grade = sub.add_parser("grade", help="run mission files against an exercise and mark them")
+    grade.add_argument("exercise", metavar="EXERCISE", help="an exercise file, or a name from ./exercises/")
+    grade.add_argument(
+        "submissions", nargs="+", metavar="SUBMISSION", help="mission files, or folders of one student's files"
+    )
+    grade.add_argument("--workers", type=int, metavar="N", help="processes at once (default: the machine's cores)")
+    grade.add_argument("--allow-plugins", action="store_true", help="run the Python plugins submissions load")
+    grade.add_argument(
+        "--wall-seconds", type=_positive, default=60.0, metavar="S", help="wall time a submission may take (default 60)"
+    )
+    grade.add_argument(
+        "--memory-mb", type=int, default=1024, metavar="MB", help="memory a submission may take (default 1024)"
+    )
+    grade.add_argument("--csv", metavar="FILE", help="write a gradebook: student, total, one column per criterion")
+    grade.add_argument("--json", metavar="FILE", help="write every mark, verdict and path as JSON")
+    grade.add_argument("--html", metavar="FILE", help="write one page: the class table, each student's runs on maps")
+    grade.add_argument("--quiet", action="store_true", help="print nothing but errors (write the files)")
+    grade.set_defaults(func=cmd_grade)
 
     show = sub.add_parser("show", help="print a mission's tree")
     show.add_argument("mission", metavar="MISSION")

@@ -314,6 +314,8 @@ class RunEnd:
         paragraph: The summary in words.
         wire: Attempts on the wire after the last tick (halting nodes, the final stop).
         events: Events after the last tick, a behaviour's exception among them.
+        truth: Where the emulator says the robot is once the final stop is answered, on the
+            built-in emulator only.
     """
 
     outcome: str
@@ -324,10 +326,11 @@ class RunEnd:
     paragraph: str = ""
     wire: list[Exchange] = field(default_factory=list)
     events: list[Event] = field(default_factory=list)
+    truth: Pose | None = None
 
     def to_json(self) -> dict[str, Any]:
         """The end as one JSON object."""
-        return {
+        out = {
             "type": "end",
             "outcome": self.outcome,
             "reason": self.reason,
@@ -338,6 +341,9 @@ class RunEnd:
             "wire": [e.to_json() for e in self.wire],
             "events": [e.to_json() for e in self.events],
         }
+        if self.truth is not None:
+            out["truth"] = self.truth.to_json()
+        return out
 
 
 Record = Union[RunHeader, TickRecord, RunEnd]
@@ -472,6 +478,7 @@ def record_from_json(value: Any) -> Record:
             paragraph=str(value.get("paragraph", "")),
             wire=[Exchange.from_json(e) for e in value.get("wire", [])],
             events=[Event.from_json(e) for e in value.get("events", [])],
+            truth=None if value.get("truth") is None else Pose.from_json(value["truth"]),
         )
     except RecordError:
         raise

@@ -428,6 +428,7 @@ class Runner:
             paragraph=summary.paragraph,
             wire=self._take_wire(),
             events=self._take_events(),
+            truth=self._truth(),
         )
         self._emit(self.end)
 

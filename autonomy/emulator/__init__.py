@@ -7,7 +7,19 @@ Reach it in-process with the ``emu://`` URL, over TCP with ``socket://`` (see
 from autonomy.emulator.core import OPTIONS, Emulator, Exchange, emulator_from_options
 from autonomy.emulator.faults import FaultSpec, FaultSpecError
 from autonomy.emulator.robot import Robot, RobotParams
-from autonomy.emulator.world import Box, Circle, Pose, World, WorldError, load_world
+from autonomy.emulator.world import (
+    Box,
+    Circle,
+    Jitter,
+    Pose,
+    World,
+    WorldError,
+    WorldInvalid,
+    Zone,
+    load_world,
+    parse_world_text,
+    world_from_dict,
+)
 
 __all__ = [
     "OPTIONS",
@@ -17,11 +29,16 @@ __all__ = [
     "Exchange",
     "FaultSpec",
     "FaultSpecError",
+    "Jitter",
     "Pose",
     "Robot",
     "RobotParams",
     "World",
     "WorldError",
+    "WorldInvalid",
+    "Zone",
     "emulator_from_options",
     "load_world",
+    "parse_world_text",
+    "world_from_dict",
 ]

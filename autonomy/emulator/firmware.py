@@ -105,7 +105,7 @@ class Firmware:
         if parameter == "D":
             return Parameter("D", robot.front_distance_mm()).encode()
         if parameter == "B":
-            return Parameter("B", int(robot.battery)).encode()
+            return Parameter("B", round(robot.battery)).encode()
         if parameter == "V":
             return Parameter("V", robot.velocity_v()).encode()
         return Parameter("A", max(-99, min(99, round(robot.tilt_deg)))).encode()

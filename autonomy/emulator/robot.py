@@ -12,7 +12,7 @@ import math
 import random
 from dataclasses import dataclass, field
 
-from autonomy.emulator.world import Pose, World
+from autonomy.emulator.world import ROBOT_RADIUS_MM, SENSOR_CONE_DEG, Pose, World
 
 MODE_IDLE = 0
 MODE_MOVING = 1
@@ -34,11 +34,13 @@ class RobotParams:
     #: Turn-in-place rate.
     turn_rate_deg_s: float = 90.0
     #: Radius of the robot's footprint (a circle) used for collisions.
-    body_radius_mm: float = 60.0
+    body_radius_mm: float = ROBOT_RADIUS_MM
     #: Servo slew rate.
     servo_speed_deg_s: float = 120.0
     #: Largest distance the front sensor reports; anything further reads this.
     sensor_max_mm: int = 255
+    #: The front sensor's field of view, degrees across (0: a single ray along the heading).
+    sensor_cone_deg: float = SENSOR_CONE_DEG
     #: Standard deviation of the sensor's noise (0: exact, rounded to whole mm).
     sensor_noise_mm: float = 0.0
     #: Battery level at power-on, 0..255.
@@ -95,7 +97,7 @@ class Robot:
     seed: int = 0
 
     def __post_init__(self) -> None:
-        start = self.world.start
+        start = self.world.start_pose(self.seed)
         self.x_mm, self.y_mm, self.heading_deg = start.x_mm, start.y_mm, start.heading_deg
         self.time_s = 0.0
         self.speed_mm_s = 0.0  # signed, forward positive
@@ -153,11 +155,15 @@ class Robot:
         return self.auto_mode and not self.fallen and self.battery >= self.params.battery_cutoff_below
 
     def true_front_gap_mm(self) -> float:
-        """Distance from the robot's front edge along its heading to the first obstacle."""
+        """Distance from the robot's front edge to the nearest obstacle in the sensor's cone.
+
+        The sensor sits on the front edge and sees a cone ``sensor_cone_deg`` across about the
+        heading (:meth:`World.cone_distance`), so a wall met at a shallow angle is seen too.
+        """
         radius = self.params.body_radius_mm
         rad = math.radians(self.heading_deg)
         sx, sy = self.x_mm + radius * math.cos(rad), self.y_mm + radius * math.sin(rad)
-        return self.world.ray_distance(sx, sy, self.heading_deg)
+        return self.world.cone_distance(sx, sy, self.heading_deg, self.params.sensor_cone_deg)
 
     def front_distance_mm(self) -> int:
         """The front sensor's reading, 0..``sensor_max_mm``."""

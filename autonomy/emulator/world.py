@@ -1,13 +1,15 @@
-"""The emulator's world: a rectangular arena with walls, box and circle obstacles, a start pose.
+"""The emulator's world: a walled arena, box and circle obstacles, named zones, a start pose.
 
 Coordinates are millimetres with the origin at the arena's lower-left corner, x to the
 right, y up. Headings are degrees from the +x axis, growing counter-clockwise (left).
-Worlds are small YAML files; the ones shipped with the package are found by name.
+Worlds are small YAML files (docs/worlds.md); the ones shipped with the package are found by
+name. A world file is checked like a mission: every problem at once, as ``FILE:LINE:COL``.
 """
 
 from __future__ import annotations
 
 import math
+import random
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
@@ -16,12 +18,33 @@ from typing import Any
 import yaml
 
 from autonomy.errors import AutonomyError
+from autonomy.source import Located, Problem, control_character, parse, suggest
 
 EPSILON_MM = 1e-6
+#: The footprint the start pose is checked with (the emulated robot's ``body_radius_mm``).
+ROBOT_RADIUS_MM = 60.0
+#: The front sensor's field of view, degrees across: it reads the nearest thing in this cone.
+SENSOR_CONE_DEG = 25.0
+#: How many rays sample that cone (one along the heading, the rest spread evenly).
+SENSOR_RAYS = 7
+#: Largest arena side accepted, mm (100 m).
+MAX_ARENA_MM = 100_000.0
+#: Largest world file read, bytes.
+MAX_WORLD_BYTES = 1_000_000
+#: Largest start jitter accepted: mm either way, and degrees either way.
+MAX_JITTER_MM, MAX_JITTER_DEG = 1000.0, 180.0
 
 
 class WorldError(AutonomyError):
-    """A world file that cannot be found or read."""
+    """A world that cannot be found or read."""
+
+
+class WorldInvalid(WorldError):
+    """A world file with problems; :attr:`problems` lists every one, in file order."""
+
+    def __init__(self, problems: list[Problem]) -> None:
+        self.problems = sorted(problems, key=lambda p: (p.line, p.column))
+        super().__init__("\n".join(str(p) for p in self.problems))
 
 
 @dataclass(frozen=True)
@@ -35,7 +58,7 @@ class Pose:
 
 @dataclass(frozen=True)
 class Box:
-    """An axis-aligned rectangular obstacle between two corners."""
+    """An axis-aligned rectangle between two corners (an obstacle or a zone)."""
 
     x_min_mm: float
     y_min_mm: float
@@ -67,10 +90,18 @@ class Box:
         cy = min(max(y, self.y_min_mm), self.y_max_mm)
         return math.hypot(x - cx, y - cy)
 
+    def bounds(self) -> tuple[float, float, float, float]:
+        """(x_min, y_min, x_max, y_max) in mm."""
+        return self.x_min_mm, self.y_min_mm, self.x_max_mm, self.y_max_mm
+
+    def as_dict(self) -> dict[str, Any]:
+        """The shape as a world file writes it."""
+        return {"box": {"from_mm": [self.x_min_mm, self.y_min_mm], "to_mm": [self.x_max_mm, self.y_max_mm]}}
+
 
 @dataclass(frozen=True)
 class Circle:
-    """A round obstacle (a post, a can)."""
+    """A disc (a post, a can, or a round zone)."""
 
     x_mm: float
     y_mm: float
@@ -93,19 +124,79 @@ class Circle:
         """Distance from the point (x, y) to the circle's edge (0 inside)."""
         return max(0.0, math.hypot(x - self.x_mm, y - self.y_mm) - self.radius_mm)
 
+    def bounds(self) -> tuple[float, float, float, float]:
+        """(x_min, y_min, x_max, y_max) of the circle, in mm."""
+        r = self.radius_mm
+        return self.x_mm - r, self.y_mm - r, self.x_mm + r, self.y_mm + r
+
+    def as_dict(self) -> dict[str, Any]:
+        """The shape as a world file writes it."""
+        return {"circle": {"center_mm": [self.x_mm, self.y_mm], "radius_mm": self.radius_mm}}
+
 
 Obstacle = Box | Circle
+Shape = Box | Circle
+
+
+def _inside(inner: Shape, outer: Shape) -> bool:
+    """Whether ``inner`` lies wholly within ``outer``."""
+    if isinstance(outer, Box):
+        x0, y0, x1, y1 = inner.bounds()
+        return outer.x_min_mm <= x0 and outer.y_min_mm <= y0 and x1 <= outer.x_max_mm and y1 <= outer.y_max_mm
+    if isinstance(inner, Circle):
+        centres = math.hypot(inner.x_mm - outer.x_mm, inner.y_mm - outer.y_mm)
+        return centres + inner.radius_mm <= outer.radius_mm
+    corners = [(x, y) for x in (inner.x_min_mm, inner.x_max_mm) for y in (inner.y_min_mm, inner.y_max_mm)]
+    return all(math.hypot(x - outer.x_mm, y - outer.y_mm) <= outer.radius_mm for x, y in corners)
+
+
+@dataclass(frozen=True)
+class Zone:
+    """A named area of the floor that exercises refer to (``garage``, ``start``, ``danger``).
+
+    Zones are drawn on the map but are not obstacles: the robot drives through them.
+    """
+
+    name: str
+    shape: Shape
+
+    def contains(self, x_mm: float, y_mm: float) -> bool:
+        """Whether the point is in the zone (its edge included)."""
+        return self.shape.gap(x_mm, y_mm) <= EPSILON_MM
+
+    def distance_mm(self, x_mm: float, y_mm: float) -> float:
+        """How far the point is outside the zone (0 inside)."""
+        return self.shape.gap(x_mm, y_mm)
+
+    def as_dict(self) -> dict[str, Any]:
+        """The zone's shape as a world file writes it."""
+        return self.shape.as_dict()
+
+
+@dataclass(frozen=True)
+class Jitter:
+    """How far each run's start may stray from the world's start, either way (drawn from the seed)."""
+
+    x_mm: float = 0.0
+    y_mm: float = 0.0
+    heading_deg: float = 0.0
+
+    def __bool__(self) -> bool:
+        return bool(self.x_mm or self.y_mm or self.heading_deg)
 
 
 @dataclass(frozen=True)
 class World:
-    """An arena of ``width_mm`` x ``height_mm`` with walls all round, obstacles and a start pose."""
+    """An arena of ``width_mm`` x ``height_mm`` with walls all round, obstacles, zones and a start."""
 
     name: str
     width_mm: float
     height_mm: float
     start: Pose
     obstacles: tuple[Obstacle, ...] = field(default_factory=tuple)
+    zones: tuple[Zone, ...] = field(default_factory=tuple)
+    jitter: Jitter = field(default_factory=Jitter)
+    description: str = ""
 
     def ray_distance(self, x: float, y: float, heading_deg: float) -> float:
         """Distance from (x, y) along ``heading_deg`` to the first wall or obstacle."""
@@ -125,6 +216,20 @@ class World:
             best = min(best, obstacle.ray_distance(x, y, dx, dy))
         return best
 
+    def cone_distance(
+        self, x: float, y: float, heading_deg: float, cone_deg: float = SENSOR_CONE_DEG, rays: int = SENSOR_RAYS
+    ) -> float:
+        """Distance from (x, y) to the nearest wall or obstacle within a cone about ``heading_deg``.
+
+        The cone is ``cone_deg`` across, sampled by ``rays`` rays spread evenly over it, as a
+        distance sensor reports the nearest echo in its field of view.
+        """
+        if rays <= 1 or cone_deg <= 0:
+            return self.ray_distance(x, y, heading_deg)
+        step = cone_deg / (rays - 1)
+        first = heading_deg - cone_deg / 2
+        return min(self.ray_distance(x, y, first + k * step) for k in range(rays))
+
     def clearance(self, x: float, y: float) -> float:
         """Distance from (x, y) to the nearest wall or obstacle (0 or less: touching one)."""
         nearest = min(x, y, self.width_mm - x, self.height_mm - y)
@@ -132,103 +237,337 @@ class World:
             nearest = min(nearest, obstacle.gap(x, y))
         return nearest
 
-    def as_dict(self) -> dict[str, Any]:
-        """The world as a world file writes it (``parse_world`` reads it back)."""
-        obstacles: list[dict[str, Any]] = []
-        for item in self.obstacles:
-            if isinstance(item, Box):
-                box = {"from_mm": [item.x_min_mm, item.y_min_mm], "to_mm": [item.x_max_mm, item.y_max_mm]}
-                obstacles.append({"box": box})
-            else:
-                obstacles.append({"circle": {"center_mm": [item.x_mm, item.y_mm], "radius_mm": item.radius_mm}})
-        return {
-            "name": self.name,
-            "arena_mm": [self.width_mm, self.height_mm],
-            "start": {"x_mm": self.start.x_mm, "y_mm": self.start.y_mm, "heading_deg": self.start.heading_deg},
-            "obstacles": obstacles,
-        }
-
     def circle_fits(self, x: float, y: float, radius_mm: float) -> bool:
         """True when a circle of ``radius_mm`` at (x, y) touches nothing (contact allowed)."""
         return self.clearance(x, y) >= radius_mm - EPSILON_MM
 
+    def zone(self, name: str) -> Zone | None:
+        """The zone called ``name``, or None."""
+        return next((zone for zone in self.zones if zone.name == name), None)
 
-# --------------------------------------------------------------------------- loading
+    def start_pose(self, seed: int) -> Pose:
+        """The start for a run with ``seed``: the world's start moved by its jitter, the same for the same seed."""
+        if not self.jitter:
+            return self.start
+        rng = random.Random(f"start {seed}")
+        j = self.jitter
+        return Pose(
+            self.start.x_mm + rng.uniform(-j.x_mm, j.x_mm),
+            self.start.y_mm + rng.uniform(-j.y_mm, j.y_mm),
+            self.start.heading_deg + rng.uniform(-j.heading_deg, j.heading_deg),
+        )
 
-SHIPPED = ("box", "empty", "corridor", "obstacles")
+    def as_dict(self) -> dict[str, Any]:
+        """The world as a world file writes it (:func:`world_from_dict` reads it back)."""
+        start: dict[str, Any] = {
+            "x_mm": self.start.x_mm,
+            "y_mm": self.start.y_mm,
+            "heading_deg": self.start.heading_deg,
+        }
+        if self.jitter:
+            start["jitter"] = {
+                "x_mm": self.jitter.x_mm,
+                "y_mm": self.jitter.y_mm,
+                "heading_deg": self.jitter.heading_deg,
+            }
+        out: dict[str, Any] = {
+            "name": self.name,
+            "arena_mm": [self.width_mm, self.height_mm],
+            "start": start,
+            "obstacles": [item.as_dict() for item in self.obstacles],
+        }
+        if self.zones:
+            out["zones"] = {zone.name: zone.as_dict() for zone in self.zones}
+        if self.description:
+            out["description"] = self.description
+        return out
 
 
-def _pair(value: Any, what: str) -> tuple[float, float]:
-    if not (isinstance(value, list) and len(value) == 2 and all(isinstance(v, (int, float)) for v in value)):
-        raise WorldError(f"{what} must be a pair of numbers [x, y], got {value!r}")
-    return float(value[0]), float(value[1])
+# --------------------------------------------------------------------------- reading
+
+SHIPPED = ("box", "empty", "corridor", "obstacles", "square", "garage", "slalom", "bump", "opening")
+TOP_LEVEL = ("name", "description", "arena_mm", "start", "obstacles", "zones")
+START_KEYS = ("x_mm", "y_mm", "heading_deg", "jitter")
+JITTER_KEYS = ("x_mm", "y_mm", "heading_deg")
+SHAPE_KEYS = {"box": ("from_mm", "to_mm"), "circle": ("center_mm", "radius_mm")}
 
 
-def _number(mapping: dict[str, Any], key: str, where: str, default: float | None = None) -> float:
-    value = mapping.get(key, default)
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise WorldError(f"{where}: '{key}' must be a number, got {value!r}")
-    return float(value)
+class _Reader:
+    """Reads a world document, collecting every problem with its place."""
+
+    def __init__(self, label: str) -> None:
+        self.label = label
+        self.problems: list[Problem] = []
+
+    def problem(self, where: Located | tuple[int, int], path: str, message: str) -> None:
+        line, column = (where.line, where.column) if isinstance(where, Located) else where
+        self.problems.append(Problem(self.label, line, column, path, message))
+
+    def keys(self, located: Located, path: str, allowed: tuple[str, ...]) -> dict[str, Located] | None:
+        if not isinstance(located.value, dict):
+            self.problem(located, path, f"expected a mapping with {', '.join(allowed)}")
+            return None
+        for key in located.value:
+            if key not in allowed:
+                hint = suggest(key, list(allowed)) or f" (allowed: {', '.join(allowed)})"
+                self.problem(located.keys[key], f"{path}.{key}" if path else key, f"unknown key '{key}'{hint}")
+        return located.value
+
+    def number(self, located: Located, path: str, low: float, high: float) -> float | None:
+        value = located.value
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            self.problem(located, path, f"expected a number, got {value!r}")
+            return None
+        if not math.isfinite(value) or not low <= value <= high:
+            self.problem(located, path, f"must be from {low:g} to {high:g}, got {value!r}")
+            return None
+        return float(value)
+
+    def pair(self, located: Located, path: str, low: float, high: float) -> tuple[float, float] | None:
+        if not (isinstance(located.value, list) and len(located.value) == 2):
+            self.problem(located, path, f"expected a pair of numbers [x, y], got {located.plain!r}")
+            return None
+        x = self.number(located.value[0], f"{path}[0]", low, high)
+        y = self.number(located.value[1], f"{path}[1]", low, high)
+        return (x, y) if x is not None and y is not None else None
+
+    def text(self, located: Located, path: str) -> str | None:
+        if not isinstance(located.value, str):
+            self.problem(located, path, f"expected text, got {located.plain!r}")
+            return None
+        bad = control_character(located.value)
+        if bad:
+            self.problem(located, path, f"the control character {bad} is not allowed here")
+            return None
+        return located.value
+
+    def shape(self, located: Located, path: str) -> Shape | None:
+        kinds = tuple(SHAPE_KEYS)
+        if not (isinstance(located.value, dict) and len(located.value) == 1):
+            self.problem(
+                located,
+                path,
+                "expected one of {box: {from_mm: [x, y], to_mm: [x, y]}} or "
+                "{circle: {center_mm: [x, y], radius_mm: r}}",
+            )
+            return None
+        kind, spec = next(iter(located.value.items()))
+        if kind not in kinds:
+            self.problem(
+                located.keys[kind],
+                f"{path}.{kind}",
+                f"unknown shape '{kind}'{suggest(kind, list(kinds))} (use box or circle)",
+            )
+            return None
+        fields = self.keys(spec, f"{path}.{kind}", SHAPE_KEYS[kind])
+        if fields is None:
+            return None
+        missing = [key for key in SHAPE_KEYS[kind] if key not in fields]
+        for key in missing:
+            self.problem(spec, f"{path}.{kind}", f"'{key}' is missing")
+        if missing:
+            return None
+        if kind == "box":
+            a = self.pair(fields["from_mm"], f"{path}.box.from_mm", -MAX_ARENA_MM, MAX_ARENA_MM)
+            b = self.pair(fields["to_mm"], f"{path}.box.to_mm", -MAX_ARENA_MM, MAX_ARENA_MM)
+            if a is None or b is None:
+                return None
+            if a[0] == b[0] or a[1] == b[1]:
+                self.problem(spec, f"{path}.box", f"a box needs some width and height, got {list(a)} to {list(b)}")
+                return None
+            return Box(min(a[0], b[0]), min(a[1], b[1]), max(a[0], b[0]), max(a[1], b[1]))
+        centre = self.pair(fields["center_mm"], f"{path}.circle.center_mm", -MAX_ARENA_MM, MAX_ARENA_MM)
+        radius = self.number(fields["radius_mm"], f"{path}.circle.radius_mm", 1.0, MAX_ARENA_MM)
+        return Circle(centre[0], centre[1], radius) if centre is not None and radius is not None else None
+
+    # ------------------------------------------------------------------ the document
+
+    def world(self, root: Located, default_name: str) -> World | None:
+        doc = self.keys(root, "", TOP_LEVEL)
+        if doc is None:
+            return None
+        name = self.text(doc["name"], "name") if "name" in doc else default_name
+        description = (self.text(doc["description"], "description") if "description" in doc else "") or ""
+        arena = None
+        if "arena_mm" not in doc:
+            self.problem(root, "", "'arena_mm' is missing: the arena's [width, height] in mm")
+        else:
+            arena = self.pair(doc["arena_mm"], "arena_mm", 1.0, MAX_ARENA_MM)
+        obstacles: list[tuple[Obstacle, Located, str]] = []
+        if "obstacles" in doc and doc["obstacles"].value is not None:
+            items = doc["obstacles"]
+            if not isinstance(items.value, list):
+                self.problem(items, "obstacles", "expected a list of {box: ...} or {circle: ...}")
+            else:
+                for index, item in enumerate(items.value):
+                    shape = self.shape(item, f"obstacles[{index}]")
+                    if shape is not None:
+                        obstacles.append((shape, item, f"obstacles[{index}]"))
+        zones: list[tuple[Zone, Located, str]] = []
+        if "zones" in doc and doc["zones"].value is not None:
+            block = doc["zones"]
+            if not isinstance(block.value, dict):
+                self.problem(block, "zones", "expected a mapping of zone names to {box: ...} or {circle: ...}")
+            else:
+                for zone_name, item in block.value.items():
+                    shape = self.shape(item, f"zones.{zone_name}")
+                    if shape is not None:
+                        zones.append((Zone(zone_name, shape), item, f"zones.{zone_name}"))
+        start, jitter, start_at = self.start(doc.get("start"), arena, root)
+        if name is None or arena is None or start is None or jitter is None:
+            return None
+        world = World(
+            name,
+            arena[0],
+            arena[1],
+            start,
+            tuple(o for o, _, _ in obstacles),
+            tuple(z for z, _, _ in zones),
+            jitter,
+            description,
+        )
+        self.check_layout(world, obstacles, zones, start_at)
+        return world
+
+    def start(
+        self, located: Located | None, arena: tuple[float, float] | None, root: Located
+    ) -> tuple[Pose | None, Jitter | None, Located]:
+        if located is None:
+            if arena is None:
+                return None, None, root
+            return Pose(arena[0] / 2, arena[1] / 2, 0.0), Jitter(), root
+        fields = self.keys(located, "start", START_KEYS)
+        if fields is None:
+            return None, None, located
+        x = self.number(fields["x_mm"], "start.x_mm", -MAX_ARENA_MM, MAX_ARENA_MM) if "x_mm" in fields else None
+        y = self.number(fields["y_mm"], "start.y_mm", -MAX_ARENA_MM, MAX_ARENA_MM) if "y_mm" in fields else None
+        heading = 0.0
+        if "heading_deg" in fields:
+            heading = self.number(fields["heading_deg"], "start.heading_deg", -360.0, 360.0)
+        if arena is not None:
+            x = arena[0] / 2 if "x_mm" not in fields else x
+            y = arena[1] / 2 if "y_mm" not in fields else y
+        jitter: Jitter | None = Jitter()
+        if "jitter" in fields:
+            jitter = self.jitter(fields["jitter"])
+        if x is None or y is None or heading is None:
+            return None, jitter, located
+        return Pose(x, y, heading), jitter, located
+
+    def jitter(self, located: Located) -> Jitter | None:
+        fields = self.keys(located, "start.jitter", JITTER_KEYS)
+        if fields is None:
+            return None
+        values = {}
+        for key in JITTER_KEYS:
+            if key in fields:
+                high = MAX_JITTER_DEG if key == "heading_deg" else MAX_JITTER_MM
+                values[key] = self.number(fields[key], f"start.jitter.{key}", 0.0, high)
+        if any(v is None for v in values.values()):
+            return None
+        return Jitter(**values)
+
+    def check_layout(
+        self,
+        world: World,
+        obstacles: list[tuple[Obstacle, Located, str]],
+        zones: list[tuple[Zone, Located, str]],
+        start_at: Located,
+    ) -> None:
+        arena = Box(0.0, 0.0, world.width_mm, world.height_mm)
+        size = f"the {world.width_mm:g} x {world.height_mm:g} mm arena"
+        for index, (shape, where, path) in enumerate(obstacles):
+            x0, y0, x1, y1 = shape.bounds()
+            if x1 <= 0 or y1 <= 0 or x0 >= world.width_mm or y0 >= world.height_mm:
+                self.problem(where, path, f"lies wholly outside {size}")
+            elif not _inside(shape, arena):
+                self.problem(where, path, f"reaches outside {size} (the walls are at 0 and the arena's size)")
+            for other, other_where, other_path in obstacles[:index]:
+                if _inside(shape, other):
+                    self.problem(where, path, f"lies wholly inside {other_path} (line {other_where.line}): remove one")
+        for zone, where, path in zones:
+            x0, y0, x1, y1 = zone.shape.bounds()
+            if not _inside(zone.shape, arena):
+                self.problem(where, path, f"reaches outside {size}")
+            for obstacle, _, obstacle_path in obstacles:
+                if _inside(zone.shape, obstacle):
+                    self.problem(where, path, f"lies wholly inside {obstacle_path}: the robot could never enter it")
+        start, jitter = world.start, world.jitter
+        points = [(start.x_mm, start.y_mm)]
+        if jitter:
+            points += [
+                (start.x_mm + sx * jitter.x_mm, start.y_mm + sy * jitter.y_mm) for sx in (-1, 1) for sy in (-1, 1)
+            ]
+        for k, (x, y) in enumerate(points):
+            if world.circle_fits(x, y, ROBOT_RADIUS_MM):
+                continue
+            what = "the start" if k == 0 else f"the start moved by its jitter to ({x:g}, {y:g})"
+            if not (0 <= x <= world.width_mm and 0 <= y <= world.height_mm):
+                why = f"is outside {size}"
+            elif any(obstacle.gap(x, y) <= EPSILON_MM for obstacle in world.obstacles):
+                why = "is inside an obstacle"
+            else:
+                why = f"leaves the robot (radius {ROBOT_RADIUS_MM:g} mm) touching a wall or an obstacle"
+            self.problem(start_at, "start", f"{what} {why}")
+            break
 
 
-def parse_world(document: Any, name: str) -> World:
-    """Builds a :class:`World` from a parsed YAML document.
+def _read_text(text: str, label: str, default_name: str) -> World:
+    located, errors = parse(text)
+    if located is None or errors:
+        raise WorldInvalid([Problem(label, e.line, e.column, "", e.message) for e in errors])
+    reader = _Reader(label)
+    world = reader.world(located, default_name)
+    if reader.problems or world is None:
+        raise WorldInvalid(reader.problems or [Problem(label, 1, 1, "", "not a world")])
+    return world
+
+
+def parse_world_text(text: str, label: str = "<world>") -> World:
+    """Reads a world file's text.
+
+    Args:
+        text: The YAML text.
+        label: The file name that problems are reported against.
 
     Raises:
-        WorldError: a missing or malformed field; the message names it.
+        WorldInvalid: every problem in the text, each with its line and column.
     """
-    if not isinstance(document, dict):
-        raise WorldError(f"world {name}: expected a mapping at the top")
-    width, height = _pair(document.get("arena_mm"), f"world {name}: arena_mm")
-    if width <= 0 or height <= 0:
-        raise WorldError(f"world {name}: arena_mm must be positive, got {[width, height]}")
-    start = document.get("start", {})
-    if not isinstance(start, dict):
-        raise WorldError(f"world {name}: start must be a mapping")
-    pose = Pose(
-        _number(start, "x_mm", f"world {name}: start", width / 2),
-        _number(start, "y_mm", f"world {name}: start", height / 2),
-        _number(start, "heading_deg", f"world {name}: start", 0.0),
-    )
-    obstacles: list[Obstacle] = []
-    for index, item in enumerate(document.get("obstacles") or []):
-        where = f"world {name}: obstacles[{index}]"
-        if not (isinstance(item, dict) and len(item) == 1):
-            raise WorldError(f"{where}: expected one of {{box: ...}} or {{circle: ...}}")
-        kind, spec = next(iter(item.items()))
-        if not isinstance(spec, dict):
-            raise WorldError(f"{where}: {kind} needs a mapping of parameters")
-        if kind == "box":
-            (x1, y1), (x2, y2) = (
-                _pair(spec.get("from_mm"), f"{where}.from_mm"),
-                _pair(spec.get("to_mm"), f"{where}.to_mm"),
-            )
-            obstacles.append(Box(min(x1, x2), min(y1, y2), max(x1, x2), max(y1, y2)))
-        elif kind == "circle":
-            cx, cy = _pair(spec.get("center_mm"), f"{where}.center_mm")
-            obstacles.append(Circle(cx, cy, _number(spec, "radius_mm", where)))
-        else:
-            raise WorldError(f"{where}: unknown obstacle '{kind}' (use box or circle)")
-    return World(str(document.get("name", name)), width, height, pose, tuple(obstacles))
+    return _read_text(text, label, Path(label).stem)
+
+
+def world_from_dict(document: dict[str, Any]) -> World:
+    """The inverse of :meth:`World.as_dict` (a trace's header carries a world as a dict).
+
+    Raises:
+        WorldInvalid: the dict is not a valid world.
+    """
+    return _read_text(yaml.safe_dump(document, sort_keys=False), "<world>", str(document.get("name", "world")))
 
 
 def load_world(name_or_path: str | Path) -> World:
-    """Loads a shipped world by name (``box``, ``empty``, ``corridor``, ``obstacles``) or a file.
+    """Loads a shipped world by name (:data:`SHIPPED`) or a world file.
 
     Raises:
-        WorldError: no such world, or the file is not a valid world.
+        WorldError: no such world, or the file is not a valid world (:class:`WorldInvalid`,
+            with every problem).
     """
     text = str(name_or_path)
     if text in SHIPPED:
-        source = resources.files("autonomy.emulator").joinpath("worlds", f"{text}.yaml").read_text()
-        label = text
-    else:
-        path = Path(text)
-        if not path.is_file():
-            raise WorldError(f"no world named '{text}': use one of {', '.join(SHIPPED)} or a path to a .yaml file")
-        source, label = path.read_text(encoding="utf-8"), str(path)
+        source = resources.files("autonomy.emulator").joinpath("worlds", f"{text}.yaml").read_text(encoding="utf-8")
+        return _read_text(source, f"{text}.yaml", text)
+    path = Path(text)
+    if not path.is_file():
+        hint = suggest(text, list(SHIPPED))
+        raise WorldError(
+            f"no world named '{text}'{hint}: use one of {', '.join(SHIPPED)} or the path of a world file (.yaml)"
+        )
+    if path.stat().st_size > MAX_WORLD_BYTES:
+        raise WorldInvalid([Problem(text, 1, 1, "", f"a world file is at most {MAX_WORLD_BYTES:,} bytes")])
     try:
-        document = yaml.safe_load(source)
-    except yaml.YAMLError as err:
-        raise WorldError(f"world {label}: not valid YAML: {err}") from err
-    return parse_world(document, label)
+        source = path.read_text(encoding="utf-8")
+    except UnicodeDecodeError as err:
+        raise WorldInvalid([Problem(text, 1, 1, "", f"not UTF-8 text ({err.reason} at byte {err.start})")]) from err
+    except OSError as err:
+        raise WorldError(f"cannot read the world file {text}: {err.strerror}") from err
+    return _read_text(source, text, path.stem)

@@ -7,38 +7,23 @@ prints as ``FILE:LINE:COL: PATH: message``, where PATH is the YAML path
 
 from __future__ import annotations
 
-import difflib
 import hashlib
 import importlib
 import sys
-import unicodedata
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from autonomy.behaviours import Param
+from autonomy.emulator.world import SHIPPED, WorldError, WorldInvalid, load_world
 from autonomy.errors import AutonomyError
 from autonomy.mission.registry import BUILTINS, NodeType, Registry, leaf_classes_in, leaf_type
-from autonomy.mission.source import Located, parse
+from autonomy.source import Located, Problem, control_character, parse
+from autonomy.source import suggest as _suggest
 
 TOP_LEVEL = ("mission", "description", "tick_hz", "world", "subtrees", "tree", "plugins")
 DEFAULT_TICK_HZ = 20.0
 MAX_TICK_HZ = 200.0
-
-
-@dataclass(frozen=True)
-class Problem:
-    """One thing wrong with a mission file."""
-
-    file: str
-    line: int
-    column: int
-    path: str
-    message: str
-
-    def __str__(self) -> str:
-        where = f"{self.path}: " if self.path else ""
-        return f"{self.file}:{self.line}:{self.column}: {where}{self.message}"
 
 
 class MissionInvalid(AutonomyError):
@@ -83,22 +68,6 @@ class MissionSpec:
     sha256: str = ""
 
 
-def control_character(text: str) -> str:
-    """The first control or formatting character in ``text`` (escaped, as ``'\\x1b'``), or empty.
-
-    Tabs and newlines are whitespace, not control: a description may span lines.
-    """
-    for char in text:
-        if unicodedata.category(char) in ("Cc", "Cf") and char not in "\t\n":
-            return repr(char)
-    return ""
-
-
-def _suggest(word: str, options: list[str]) -> str:
-    close = difflib.get_close_matches(word, options, n=1, cutoff=0.6)
-    return f" (did you mean '{close[0]}'?)" if close else ""
-
-
 def _type_name(value: Any) -> str:
     if value is None:
         return "nothing"
@@ -135,6 +104,8 @@ class _Validator:
         name = self.text(doc, "mission", root, required=True)
         description = self.text(doc, "description", root) or ""
         world = self.text(doc, "world", root)
+        if world is not None:
+            world = self.world(world, doc["world"], base_dir)
         tick_hz = DEFAULT_TICK_HZ
         if "tick_hz" in doc:
             value = doc["tick_hz"].value
@@ -188,6 +159,36 @@ class _Validator:
             self.problem(where, path, f"contains the control character {bad}; write plain text")
             return None
         return value
+
+    def world(self, name: str, where: Located, base_dir: Path) -> str | None:
+        """The world to run in: a shipped name, or a world file's path (found beside the mission).
+
+        A world file's own problems are reported at their place in it.
+        """
+        if name in SHIPPED:
+            return name
+        path = Path(name)
+        if not path.is_absolute() and (base_dir / path).is_file():
+            path = base_dir / path
+        if not path.is_file():
+            hint = _suggest(name, list(SHIPPED))
+            self.problem(
+                where,
+                "world",
+                f"no world named '{name}'{hint}: use one of {', '.join(SHIPPED)} or a world file beside the mission",
+            )
+            return None
+        try:
+            load_world(path)
+        except WorldInvalid as err:
+            count = len(err.problems)
+            self.problem(where, "world", f"the world file {path} is not valid ({count} listed with its name)")
+            self.problems += err.problems
+            return None
+        except WorldError as err:
+            self.problem(where, "world", str(err))
+            return None
+        return str(path)
 
     def plugins(self, block: Located | None, base_dir: Path) -> list[str]:
         if block is None:

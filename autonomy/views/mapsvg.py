@@ -49,6 +49,8 @@ def world_svg(world: dict[str, Any], title: str = "") -> str:
         elif "circle" in item:
             (cx, cy), r = item["circle"]["center_mm"], item["circle"]["radius_mm"]
             parts.append(f'<circle cx="{cx:g}" cy="{cy:g}" r="{r:g}" fill="#868e96" class="obstacle"/>')
+    for zone_name, item in (world.get("zones") or {}).items():
+        parts.append(_zone(str(zone_name), item, scale))
     start = world.get("start", {})
     sx, sy, heading = float(start.get("x_mm", 0)), float(start.get("y_mm", 0)), float(start.get("heading_deg", 0))
     tip = (sx + 140 * math.cos(math.radians(heading)), sy + 140 * math.sin(math.radians(heading)))
@@ -64,6 +66,27 @@ def world_svg(world: dict[str, Any], title: str = "") -> str:
         "</svg>",
     ]
     return "\n".join(parts) + "\n"
+
+
+def _zone(name: str, item: dict[str, Any], scale: float) -> str:
+    """A zone: a dashed outline, lightly filled, with its name (upright: the group is flipped)."""
+    style = (
+        f'fill="rgba(250,176,5,.12)" stroke="#e67700" stroke-width="{2 / scale:.2f}" stroke-dasharray="{8 / scale:.1f}"'
+    )
+    if "box" in item:
+        (x1, y1), (x2, y2) = item["box"]["from_mm"], item["box"]["to_mm"]
+        x, y, top = min(x1, x2), min(y1, y2), max(y1, y2)
+        shape = f'<rect x="{x:g}" y="{y:g}" width="{abs(x2 - x1):g}" height="{abs(y2 - y1):g}" {style}/>'
+        label_x, label_y = x + 4 / scale, top - 13 / scale
+    else:
+        (cx, cy), r = item["circle"]["center_mm"], item["circle"]["radius_mm"]
+        shape = f'<circle cx="{cx:g}" cy="{cy:g}" r="{r:g}" {style}/>'
+        label_x, label_y = cx - r, cy + r + 4 / scale
+    label = (
+        f'<text x="{label_x:.1f}" y="{-label_y:.1f}" transform="scale(1,-1)" font-size="{11 / scale:.1f}" '
+        f'fill="#d9480f">{escape(printable(name))}</text>'
+    )
+    return f'<g class="zone" data-zone="{escape(printable(name), {chr(34): "&quot;"})}">{shape}{label}</g>'
 
 
 def _grid_line(x1: float, y1: float, x2: float, y2: float, scale: float) -> str:

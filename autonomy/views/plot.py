@@ -16,6 +16,7 @@ from matplotlib.patches import Circle, Rectangle
 
 from autonomy.record import FAILURE, INVALID, RUNNING, SUCCESS, TreeState
 from autonomy.trace import Trace
+from autonomy.views.lines import printable
 
 OUTCOME_COLOURS = {SUCCESS: "#2f9e44", FAILURE: "#e03131", INVALID: "#adb5bd", RUNNING: "#f59f00"}
 TELEMETRY = (
@@ -84,6 +85,17 @@ def _map(ax: Any, trace: Trace) -> None:
                 ax.add_patch(Rectangle((min(x1, x2), min(y1, y2)), abs(x2 - x1), abs(y2 - y1), color="#868e96"))
             elif "circle" in item:
                 ax.add_patch(Circle(item["circle"]["center_mm"], item["circle"]["radius_mm"], color="#868e96"))
+        zone_style = {"facecolor": (0.98, 0.69, 0.02, 0.12), "edgecolor": "#e67700", "linestyle": "--"}
+        for name, item in (world.get("zones") or {}).items():
+            if "box" in item:
+                (x1, y1), (x2, y2) = item["box"]["from_mm"], item["box"]["to_mm"]
+                corner = (min(x1, x2), min(y1, y2))
+                ax.add_patch(Rectangle(corner, abs(x2 - x1), abs(y2 - y1), **zone_style))
+                ax.annotate(printable(str(name)), corner, color="#d9480f", fontsize=8)
+            elif "circle" in item:
+                (cx, cy), r = item["circle"]["center_mm"], item["circle"]["radius_mm"]
+                ax.add_patch(Circle((cx, cy), r, **zone_style))
+                ax.annotate(printable(str(name)), (cx - r, cy + r), color="#d9480f", fontsize=8)
         ax.set_xlim(-50, width + 50)
         ax.set_ylim(-50, height + 50)
         ax.set_title(f"world {world.get('name', '?')}", fontsize=10)

@@ -60,7 +60,7 @@ class RecordHub:
     #: Ticks less than this far apart come in a burst (a run in virtual time).
     BURST_S = 0.005
     #: How often the streams are woken during a burst.
-    BURST_WAKE_S = 0.2
+    BURST_WAKE_S = 1.0
     #: Most records a burst is sent as; a page gets every record when the run ends.
     PREVIEW_RECORDS = 10
 

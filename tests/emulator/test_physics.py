@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 from autonomy.client import Client
 from autonomy.emulator import RobotParams, load_world
 from autonomy.emulator.robot import Robot
-from autonomy.emulator.world import Circle, Pose, World
+from autonomy.emulator.world import SENSOR_CONE_DEG, SENSOR_RAYS, Circle, Pose, World
 from autonomy.protocol import odometer_delta_mm
 
 RADIUS = RobotParams().body_radius_mm
@@ -176,13 +176,29 @@ obstacles = load_world("obstacles")
     st.floats(RADIUS, obstacles.height_mm - RADIUS),
     st.floats(0, 360, exclude_max=True),
 )
-def test_sensor_agrees_with_a_ray_march(x, y, heading):
+def test_sensor_agrees_with_a_ray_march_over_its_cone(x, y, heading):
     robot = Robot(World("o", obstacles.width_mm, obstacles.height_mm, Pose(x, y, heading), obstacles.obstacles))
     if not obstacles.circle_fits(x, y, RADIUS):
         return  # a start pose inside an obstacle is not a place the robot can be
     sx, sy = x + RADIUS * math.cos(math.radians(heading)), y + RADIUS * math.sin(math.radians(heading))
-    expected = min(255.0, marched_gap(obstacles, sx, sy, heading))
+    half = SENSOR_CONE_DEG / 2
+    rays = [heading - half + k * SENSOR_CONE_DEG / (SENSOR_RAYS - 1) for k in range(SENSOR_RAYS)]
+    expected = min(255.0, *(marched_gap(obstacles, sx, sy, ray) for ray in rays))
     assert abs(robot.front_distance_mm() - expected) <= 2
+
+
+def test_the_cone_sees_a_wall_met_at_a_shallow_angle_that_the_centre_ray_misses():
+    # driving east 20 mm from the north wall, turned 8 degrees towards it: the heading's own ray
+    # meets the wall about 515 mm ahead (out of range), the cone's edge at about 205 mm
+    world = World("hall", 4000, 1000, Pose(500, 920, 8.0))
+    robot = Robot(world)
+    front_y = 920 + RADIUS * math.sin(math.radians(8))
+    centre_ray_mm = (1000 - front_y) / math.sin(math.radians(8))
+    edge_ray_mm = (1000 - front_y) / math.sin(math.radians(8 + SENSOR_CONE_DEG / 2))
+    assert centre_ray_mm > 255
+    assert robot.front_distance_mm() == pytest.approx(edge_ray_mm, abs=1)
+    single_ray = Robot(world, RobotParams(sensor_cone_deg=0))
+    assert single_ray.front_distance_mm() == 255
 
 
 # ----------------------------------------------------------------------------- servos, battery, modes

@@ -4,7 +4,8 @@ import math
 
 import pytest
 
-from autonomy.emulator import Box, Circle, WorldError, load_world
+from autonomy.client import Client
+from autonomy.emulator import Box, Circle, Jitter, WorldError, WorldInvalid, load_world, world_from_dict
 from autonomy.emulator.world import SHIPPED
 
 
@@ -35,22 +36,130 @@ def test_ray_casts_against_boxes_and_circles():
 
 
 @pytest.mark.parametrize(
-    ("text", "message"),
+    ("text", "where", "message"),
     [
-        ("arena_mm: 5", "arena_mm must be a pair"),
-        ("arena_mm: [0, 10]", "must be positive"),
-        ("arena_mm: [10, 10]\nobstacles: [{wall: {}}]", "unknown obstacle 'wall'"),
-        ("arena_mm: [10, 10]\nstart: {x_mm: east}", "'x_mm' must be a number"),
-        ("arena_mm: [10, 10\n", "not valid YAML"),
+        ("arena_mm: 5", "1:11: arena_mm", "expected a pair of numbers"),
+        ("arena_mm: [0, 10]", "1:12: arena_mm[0]", "must be from 1 to 100000"),
+        ("arena_mm: [1000, 1000]\nobstacles: [{wall: {}}]", "2:14: obstacles[0].wall", "unknown shape 'wall'"),
+        ("arena_mm: [1000, 1000]\nstart: {x_mm: east}", "2:15: start.x_mm", "expected a number, got 'east'"),
+        ("arena_mm: [1000, 1000]\nstart: {x_mm: .nan}", "2:15: start.x_mm", "must be from"),
+        ("arena_mm: [1000, 1000]\nstart: {heading: 90}", "2:9: start.heading", "did you mean 'heading_deg'?"),
+        ("arena_mm: [1000, 1000]\nobstacle: []", "2:1: obstacle", "did you mean 'obstacles'?"),
+        ("arena_mm: [10, 10\n", "2:1", "not valid YAML"),
+        ("arena_mm: [3000, 3000]\nstart: {x_mm: 5000, y_mm: 500}", "2:8: start", "the start is outside"),
+        (
+            "arena_mm: [3000, 3000]\nstart: {x_mm: 500, y_mm: 500}\nobstacles:\n"
+            "  - box: {from_mm: [400, 400], to_mm: [600, 600]}",
+            "2:8: start",
+            "the start is inside an obstacle",
+        ),
+        (
+            "arena_mm: [3000, 3000]\nstart: {x_mm: 500, y_mm: 500}\nobstacles:\n"
+            "  - circle: {center_mm: [600, 500], radius_mm: 50}",
+            "2:8: start",
+            "touching a wall or an obstacle",
+        ),
+        (
+            "arena_mm: [3000, 3000]\nstart: {x_mm: 100, y_mm: 500, jitter: {x_mm: 50}}",
+            "2:8: start",
+            "the start moved by its jitter to (50, 500)",
+        ),
+        (
+            "arena_mm: [3000, 3000]\nstart: {x_mm: 500, y_mm: 500}\nobstacles:\n"
+            "  - box: {from_mm: [2900, 100], to_mm: [3100, 200]}",
+            "4:5: obstacles[0]",
+            "reaches outside the 3000 x 3000 mm arena",
+        ),
+        (
+            "arena_mm: [3000, 3000]\nstart: {x_mm: 500, y_mm: 500}\nobstacles:\n"
+            "  - box: {from_mm: [4000, 100], to_mm: [4100, 200]}",
+            "4:5: obstacles[0]",
+            "lies wholly outside",
+        ),
+        (
+            "arena_mm: [3000, 3000]\nstart: {x_mm: 500, y_mm: 500}\nobstacles:\n"
+            "  - box: {from_mm: [1000, 1000], to_mm: [2000, 2000]}\n"
+            "  - circle: {center_mm: [1500, 1500], radius_mm: 50}",
+            "5:5: obstacles[1]",
+            "lies wholly inside obstacles[0] (line 4)",
+        ),
+        (
+            "arena_mm: [3000, 3000]\nstart: {x_mm: 500, y_mm: 500}\nobstacles:\n"
+            "  - box: {from_mm: [1000, 1000], to_mm: [2000, 2000]}\nzones:\n"
+            "  den: {circle: {center_mm: [1500, 1500], radius_mm: 100}}",
+            "6:8: zones.den",
+            "the robot could never enter it",
+        ),
+        ("arena_mm: [3000, 3000]\nstart: {jitter: {heading_deg: 500}}", "2:31: start.jitter.heading_deg", "0 to 180"),
+        ('name: "lab\\e[2J"\narena_mm: [3000, 3000]', "1:7: name", "control character"),
     ],
 )
-def test_bad_world_files(tmp_path, text, message):
+def test_bad_world_files_say_where_and_what(tmp_path, text, where, message):
     path = tmp_path / "bad.yaml"
     path.write_text(text)
-    with pytest.raises(WorldError, match=message):
+    with pytest.raises(WorldInvalid) as caught:
         load_world(path)
+    lines = str(caught.value).splitlines()
+    assert any(line.startswith(f"{path}:{where}") and message in line for line in lines), lines
+
+
+def test_every_problem_of_a_world_is_reported_at_once(tmp_path):
+    path = tmp_path / "lab.yaml"
+    path.write_text("arena_mm: [3000, 3000]\nstart: {x_mm: 5000, heading: 90}\nobstacles:\n  - bx: {}\n")
+    with pytest.raises(WorldInvalid) as caught:
+        load_world(path)
+    found = [(p.line, p.path, p.message) for p in caught.value.problems]
+    assert found == [
+        (2, "start", "the start is outside the 3000 x 3000 mm arena"),
+        (2, "start.heading", "unknown key 'heading' (did you mean 'heading_deg'?)"),
+        (4, "obstacles[0].bx", "unknown shape 'bx' (did you mean 'box'?) (use box or circle)"),
+    ]
+
+
+def test_a_file_too_big_or_not_utf8_is_refused_without_reading_it_all(tmp_path):
+    big = tmp_path / "big.yaml"
+    big.write_text("# " + "x" * 2_000_000)
+    with pytest.raises(WorldInvalid, match="at most 1,000,000 bytes"):
+        load_world(big)
+    latin = tmp_path / "latin.yaml"
+    latin.write_bytes("name: caf\xe9\narena_mm: [10, 10]\n".encode("latin-1"))
+    with pytest.raises(WorldInvalid, match="not UTF-8"):
+        load_world(latin)
+
+
+def test_zones_and_jitter_are_read_and_written_back():
+    world = load_world("garage")
+    assert world.zone("garage").shape == Box(2650, 420, 2900, 780)
+    assert world.jitter == Jitter(200, 0, 1)
+    again = world_from_dict(world.as_dict())
+    assert again == world
+
+
+@pytest.mark.parametrize("name", ["garage", "opening", "square"])
+def test_jitter_is_drawn_from_the_seed_within_its_bounds(name):
+    world = load_world(name)
+    starts = [world.start_pose(seed) for seed in range(200)]
+    assert starts[7] == world.start_pose(7)  # the same seed, the same start
+    assert len({(p.x_mm, p.y_mm, p.heading_deg) for p in starts}) == 200
+    j, s = world.jitter, world.start
+    for pose in starts:
+        assert abs(pose.x_mm - s.x_mm) <= j.x_mm and abs(pose.y_mm - s.y_mm) <= j.y_mm
+        assert abs(pose.heading_deg - s.heading_deg) <= j.heading_deg
+        assert world.circle_fits(pose.x_mm, pose.y_mm, 60)
+    spread = max(p.x_mm for p in starts) - min(p.x_mm for p in starts)
+    assert spread > 1.5 * j.x_mm or j.x_mm == 0
+
+
+def test_the_emulated_robot_starts_at_the_jittered_pose():
+    world = load_world("garage")
+    for seed in (1, 2):
+        client = Client.open(f"emu://?world=garage&seed={seed}&time=virtual")
+        assert client.port.emulator.pose() == world.start_pose(seed)
+        client.close()
 
 
 def test_unknown_world_name_lists_the_shipped_ones():
     with pytest.raises(WorldError, match="box, empty, corridor, obstacles"):
         load_world("mars")
+    with pytest.raises(WorldError, match="did you mean 'box'"):
+        load_world("boxx")

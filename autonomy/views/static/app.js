@@ -12,14 +12,14 @@ const PLOTS = [
 ];
 const CHECKPOINT_EVERY = 100;
 const RENDER_EVERY_MS = 50;
-const BURST_RENDER_EVERY_MS = 200;
+const BURST_RENDER_EVERY_MS = 1000;
 const MAX_PLOT_POINTS = 400;  // a plot is about 400 px wide
 const MAX_PATH_POINTS = 3000;
 
 const view = {
   mode: "live", header: null, ticks: [], end: null, index: -1,
-  playing: false, speed: 1, playTime: 0, lastFrame: 0, lastRender: 0, burst: false, dirty: false, frameAsked: false,
-  checkpoints: [], events: [], collisions: [],
+  playing: false, speed: 1, playTime: 0, lastFrame: 0, lastRender: 0, burst: false, dirty: false, frameAsked: false, timerSet: false,
+  checkpoints: [], events: [], collisions: [], logKey: null,
   // per tick, filled as ticks arrive, so that drawing never walks every record
   times: [], values: [], lo: [], hi: [], dr: [], truth: [], bounds: [0, 0, 0, 0],
 };
@@ -42,6 +42,7 @@ function load(payload) {
   view.end = null;
   view.checkpoints = [];
   view.events = [];
+  view.logKey = null;
   view.collisions = [];
   view.times = [];
   view.values = PLOTS.map(() => []);
@@ -223,8 +224,14 @@ function renderTree(i) {
 
 function renderLog(i) {
   const list = $("log");
+  const atEnd = view.end && i === view.ticks.length - 1;
+  const shown = view.events.filter(([k]) => k <= i || atEnd).slice(-200);
+  // the list is drawn again only when what it shows changed: drawing it makes the page lay itself out
+  const last = shown.length ? shown[shown.length - 1][0] : -1;
+  const key = `${shown.length} ${last} ${view.events.length} ${!!atEnd}`;
+  if (key === view.logKey && list.childElementCount === shown.length) return;
+  view.logKey = key;
   list.innerHTML = "";
-  const shown = view.events.filter(([k]) => k <= i || (view.end && i === view.ticks.length - 1)).slice(-200);
   for (const [k, e] of shown) {
     const li = document.createElement("li");
     const t = view.ticks[Math.min(k, view.ticks.length - 1)];
@@ -234,7 +241,6 @@ function renderLog(i) {
     list.appendChild(li);
   }
   list.scrollTop = list.scrollHeight;
-  const atEnd = view.end && i === view.ticks.length - 1;
   $("summary").textContent = atEnd ? view.end.paragraph : "";
 }
 
@@ -284,13 +290,19 @@ function frame(now) {
   }
   view.lastFrame = now;
   // A run in real time is drawn as each tick comes (within one tick at 20 Hz). A run in
-  // virtual time sends ticks in bursts of hundreds: it is drawn five times a second, which
+  // virtual time sends ticks in bursts of hundreds: it is drawn once a second, which
   // leaves the machine to the run.
   const every = view.burst ? BURST_RENDER_EVERY_MS : RENDER_EVERY_MS;
   if (view.dirty && now - view.lastRender >= every) { view.lastRender = now; render(); }
   view.frameAsked = false;
-  if (view.playing || view.dirty) wakeUp();
-  else view.lastFrame = 0;
+  if (view.playing) wakeUp();
+  else if (view.dirty) {  // too soon to draw again: sleep until it is time, rather than ask for every frame
+    view.lastFrame = 0;
+    if (!view.timerSet) {
+      view.timerSet = true;
+      setTimeout(() => { view.timerSet = false; wakeUp(); }, every - (now - view.lastRender));
+    }
+  } else view.lastFrame = 0;
 }
 
 // Frames are asked for only while there is something to draw: an idle page costs nothing.

@@ -1,12 +1,16 @@
 """YAML with positions: every value keeps the line and column it came from.
 
-Parsing uses PyYAML's safe loader (``yaml.safe_load`` semantics: plain data, no tags that
-build objects), but keeps the node tree so that an error can name ``FILE:LINE:COL``.
+Mission, world and exercise files are read with it, so that every problem they hold is
+reported as ``FILE:LINE:COL: PATH: message`` (:class:`Problem`). Parsing uses PyYAML's
+safe loader (``yaml.safe_load`` semantics: plain data, no tags that build objects), but
+keeps the node tree so that an error can name ``FILE:LINE:COL``.
 Duplicate keys, which ``safe_load`` silently resolves to the last one, are errors here.
 """
 
 from __future__ import annotations
 
+import difflib
+import unicodedata
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -40,6 +44,42 @@ class Located:
         if isinstance(self.value, list):
             return [v.plain for v in self.value]
         return self.value
+
+
+@dataclass(frozen=True)
+class Problem:
+    """One thing wrong with a file, where it stands: prints as ``FILE:LINE:COL: PATH: message``.
+
+    PATH is the YAML path of the value (``tree.repeat.do.sequence[1].turn``), empty for the
+    file as a whole.
+    """
+
+    file: str
+    line: int
+    column: int
+    path: str
+    message: str
+
+    def __str__(self) -> str:
+        where = f"{self.path}: " if self.path else ""
+        return f"{self.file}:{self.line}:{self.column}: {where}{self.message}"
+
+
+def suggest(word: str, options: list[str]) -> str:
+    """`` (did you mean 'x'?)`` for the option closest to ``word``, or empty when none is close."""
+    close = difflib.get_close_matches(word, options, n=1, cutoff=0.6)
+    return f" (did you mean '{close[0]}'?)" if close else ""
+
+
+def control_character(text: str) -> str:
+    """The first control or formatting character in ``text`` (escaped, as ``'\\x1b'``), or empty.
+
+    Tabs and newlines are whitespace, not control: a description may span lines.
+    """
+    for char in text:
+        if unicodedata.category(char) in ("Cc", "Cf") and char not in "\t\n":
+            return repr(char)
+    return ""
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,385 @@
+"""Exercise files: what a mission should achieve, in which world, on which seeds, for how many points.
+
+An exercise is a YAML file (docs/exercises.md)::
+
+    exercise: garage
+    title: Park in the garage
+    description: Drive into the garage at the end of the hall and stop there without touching a wall.
+    world: garage
+    time_limit_s: 30
+    seeds: [1, 2, 3]
+    allowed_nodes: [sequence, move, turn, beep]
+    criteria:
+      - end_in_zone: garage
+        points: 5
+      - max_collisions: 0
+        points: 3
+
+It is read like a mission: every problem at once, as ``FILE:LINE:COL``, with a did-you-mean.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from autonomy.emulator.faults import FaultSpec, FaultSpecError
+from autonomy.emulator.world import SHIPPED, World, WorldError, WorldInvalid, load_world
+from autonomy.errors import AutonomyError
+from autonomy.mission.registry import BUILTINS
+from autonomy.source import Located, Problem, control_character, parse, suggest
+
+TOP_LEVEL = ("exercise", "title", "description", "world", "time_limit_s", "seeds", "allowed_nodes", "criteria")
+SEED_KEYS = ("seed", "noise_mm", "faults")
+#: Longest time limit an exercise may set, simulated seconds.
+MAX_TIME_LIMIT_S = 3600.0
+MAX_SEEDS = 100
+MAX_EXERCISE_BYTES = 1_000_000
+
+
+@dataclass(frozen=True)
+class CriterionKind:
+    """One kind of criterion: its key, what its value is, its options and their defaults.
+
+    Attributes:
+        key: The key that names it in a criteria item (``end_in_zone``).
+        value: ``zone`` (a zone of the world), ``count`` (a whole number >= 0), ``seconds``,
+            ``mm``, ``degrees`` or ``true`` (the value must be true).
+        summary: What it asks, for the docs.
+        options: Further keys it takes, with their defaults.
+    """
+
+    key: str
+    value: str
+    summary: str
+    options: dict[str, float] = field(default_factory=dict)
+
+
+CRITERIA = {
+    kind.key: kind
+    for kind in (
+        CriterionKind("reach_zone", "zone", "the robot is in the zone at some tick"),
+        CriterionKind("end_in_zone", "zone", "the mission ends on its own, the robot stopped inside the zone"),
+        CriterionKind("avoid_zone", "zone", "the robot never enters the zone"),
+        CriterionKind("max_collisions", "count", "at most this many collisions"),
+        CriterionKind("finish_within_s", "seconds", "the mission succeeds within this many seconds"),
+        CriterionKind("max_distance_mm", "mm", "the robot drives at most this far, by its odometer"),
+        CriterionKind(
+            "beep_near", "zone", "a beep is sent while the robot is within within_mm of the zone", {"within_mm": 150.0}
+        ),
+        CriterionKind(
+            "end_heading_deg", "degrees", "the robot ends facing this heading, give or take", {"tolerance_deg": 10.0}
+        ),
+        CriterionKind("max_nodes", "count", "the mission's tree has at most this many nodes"),
+        CriterionKind("succeed", "true", "the mission succeeds (does not fail, crash or run out of time)"),
+    )
+}
+
+
+@dataclass(frozen=True)
+class Criterion:
+    """One thing a run is judged on, worth ``points``.
+
+    Attributes:
+        kind: The criterion's key (see :data:`CRITERIA`).
+        value: Its value: a zone name, a number, or True.
+        points: What it is worth when it holds on every seed.
+        options: Its further settings (``within_mm``, ``tolerance_deg``), defaults filled in.
+        label: How reports name it (``end_in_zone garage``).
+    """
+
+    kind: str
+    value: Any
+    points: float
+    options: dict[str, float]
+    label: str
+
+
+@dataclass(frozen=True)
+class Seed:
+    """One run of every submission: the emulator's seed (start jitter, noise), sensor noise, link faults."""
+
+    seed: int
+    noise_mm: float = 0.0
+    faults: str = ""
+
+    @property
+    def label(self) -> str:
+        """``seed 3``, with its noise and faults when it has them."""
+        extra = [f"noise {self.noise_mm:g} mm"] if self.noise_mm else []
+        extra += [f"faults {self.faults}"] if self.faults else []
+        return f"seed {self.seed}" + (f" ({', '.join(extra)})" if extra else "")
+
+
+@dataclass
+class Exercise:
+    """A validated exercise file."""
+
+    name: str
+    title: str
+    description: str
+    world: World
+    world_ref: str
+    time_limit_s: float
+    seeds: list[Seed]
+    allowed_nodes: tuple[str, ...] | None
+    criteria: list[Criterion]
+    source: str
+
+    @property
+    def max_points(self) -> float:
+        """The most a submission can score."""
+        return sum(c.points for c in self.criteria)
+
+
+class ExerciseInvalid(AutonomyError):
+    """An exercise file with problems; :attr:`problems` lists every one."""
+
+    def __init__(self, problems: list[Problem]) -> None:
+        self.problems = sorted(problems, key=lambda p: (p.file, p.line, p.column))
+        super().__init__("\n".join(str(p) for p in self.problems))
+
+
+class _Reader:
+    def __init__(self, source: str, base_dir: Path) -> None:
+        self.source = source
+        self.base_dir = base_dir
+        self.problems: list[Problem] = []
+
+    def problem(self, where: Located | tuple[int, int], path: str, message: str) -> None:
+        line, column = (where.line, where.column) if isinstance(where, Located) else where
+        self.problems.append(Problem(self.source, line, column, path, message))
+
+    def text(self, located: Located, path: str) -> str | None:
+        if not isinstance(located.value, str) or not located.value.strip():
+            self.problem(located, path, f"expected text, got {located.plain!r}")
+            return None
+        bad = control_character(located.value)
+        if bad:
+            self.problem(located, path, f"contains the control character {bad}; write plain text")
+            return None
+        return located.value
+
+    def number(self, located: Located, path: str, low: float, high: float, whole: bool = False) -> float | None:
+        value = located.value
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or (whole and not isinstance(value, int)):
+            kind = "a whole number" if whole else "a number"
+            self.problem(located, path, f"expected {kind}, got {located.plain!r}")
+            return None
+        if not math.isfinite(value) or not low <= value <= high:
+            self.problem(located, path, f"must be from {low:g} to {high:g}, got {value!r}")
+            return None
+        return value
+
+    def exercise(self, root: Located, default_name: str) -> Exercise | None:
+        if not isinstance(root.value, dict):
+            self.problem(root, "", "an exercise file is a mapping with world:, time_limit_s:, seeds: and criteria:")
+            return None
+        doc: dict[str, Located] = root.value
+        for key in doc:
+            if key not in TOP_LEVEL:
+                self.problem(root.keys[key], key, f"unknown key '{key}'{suggest(key, list(TOP_LEVEL))}")
+        for key in ("world", "time_limit_s", "seeds", "criteria"):
+            if key not in doc:
+                self.problem(root, "", f"'{key}' is missing")
+        name = self.text(doc["exercise"], "exercise") if "exercise" in doc else default_name
+        title = (self.text(doc["title"], "title") if "title" in doc else None) or name or default_name
+        description = (self.text(doc["description"], "description") if "description" in doc else "") or ""
+        world, world_ref = self.world(doc["world"]) if "world" in doc else (None, "")
+        limit = (
+            self.number(doc["time_limit_s"], "time_limit_s", 0.1, MAX_TIME_LIMIT_S) if "time_limit_s" in doc else None
+        )
+        seeds = self.seeds(doc["seeds"]) if "seeds" in doc else []
+        allowed = self.allowed(doc["allowed_nodes"]) if "allowed_nodes" in doc else None
+        criteria = self.criteria(doc["criteria"], world) if "criteria" in doc else []
+        if self.problems or world is None or limit is None or name is None:
+            return None
+        return Exercise(name, title, description, world, world_ref, float(limit), seeds, allowed, criteria, self.source)
+
+    def world(self, located: Located) -> tuple[World | None, str]:
+        name = self.text(located, "world")
+        if name is None:
+            return None, ""
+        ref = name
+        if name not in SHIPPED:
+            path = Path(name)
+            if not path.is_absolute():
+                path = self.base_dir / path
+            ref = str(path)
+            if not path.is_file():
+                hint = suggest(name, list(SHIPPED))
+                self.problem(
+                    located, "world", f"no world named '{name}'{hint}: use one of {', '.join(SHIPPED)} or a world file"
+                )
+                return None, ""
+        try:
+            return load_world(ref), ref
+        except WorldInvalid as err:
+            self.problem(
+                located, "world", f"the world file {ref} is not valid ({len(err.problems)} listed with its name)"
+            )
+            self.problems += err.problems
+        except WorldError as err:
+            self.problem(located, "world", str(err))
+        return None, ""
+
+    def seeds(self, located: Located) -> list[Seed]:
+        if not isinstance(located.value, list) or not located.value:
+            self.problem(located, "seeds", "expected a list of seeds: [1, 2, 3], or {seed: 4, noise_mm: 2}")
+            return []
+        if len(located.value) > MAX_SEEDS:
+            self.problem(located, "seeds", f"at most {MAX_SEEDS} seeds")
+            return []
+        seeds: list[Seed] = []
+        for index, item in enumerate(located.value):
+            path = f"seeds[{index}]"
+            if isinstance(item.value, dict):
+                fields = item.value
+                for key in fields:
+                    if key not in SEED_KEYS:
+                        self.problem(
+                            item.keys[key], f"{path}.{key}", f"unknown key '{key}'{suggest(key, list(SEED_KEYS))}"
+                        )
+                if "seed" not in fields:
+                    self.problem(item, path, "'seed' is missing")
+                    continue
+                seed = self.number(fields["seed"], f"{path}.seed", 0, 2**31 - 1, whole=True)
+                noise = self.number(fields["noise_mm"], f"{path}.noise_mm", 0, 100) if "noise_mm" in fields else 0.0
+                faults = ""
+                if "faults" in fields:
+                    faults = self.text(fields["faults"], f"{path}.faults") or ""
+                    try:
+                        FaultSpec.parse(faults)
+                    except FaultSpecError as err:
+                        self.problem(fields["faults"], f"{path}.faults", str(err))
+                if seed is not None and noise is not None:
+                    seeds.append(Seed(int(seed), float(noise), faults))
+            else:
+                seed = self.number(item, path, 0, 2**31 - 1, whole=True)
+                if seed is not None:
+                    seeds.append(Seed(int(seed)))
+        numbers = [s.seed for s in seeds]
+        if len(set(numbers)) != len(numbers):
+            self.problem(located, "seeds", "a seed is given twice: each seed runs the same way every time")
+        return seeds
+
+    def allowed(self, located: Located) -> tuple[str, ...] | None:
+        known = sorted(BUILTINS.names())
+        if not isinstance(located.value, list) or not located.value:
+            self.problem(located, "allowed_nodes", "expected a list of node types, e.g. [sequence, move, turn, beep]")
+            return None
+        names = []
+        for index, item in enumerate(located.value):
+            if not isinstance(item.value, str) or item.value not in known:
+                word = item.value if isinstance(item.value, str) else repr(item.plain)
+                hint = suggest(word, known) if isinstance(item.value, str) else ""
+                self.problem(item, f"allowed_nodes[{index}]", f"unknown node type '{word}'{hint}")
+                continue
+            names.append(BUILTINS.get(item.value).name)
+        return tuple(names)
+
+    def criteria(self, located: Located, world: World | None) -> list[Criterion]:
+        if not isinstance(located.value, list) or not located.value:
+            self.problem(located, "criteria", "expected a list of criteria, e.g. - {end_in_zone: garage, points: 5}")
+            return []
+        out = []
+        for index, item in enumerate(located.value):
+            criterion = self.criterion(item, f"criteria[{index}]", world)
+            if criterion is not None:
+                out.append(criterion)
+        return out
+
+    def criterion(self, item: Located, path: str, world: World | None) -> Criterion | None:
+        if not isinstance(item.value, dict):
+            self.problem(
+                item,
+                path,
+                f"a criterion is a mapping, e.g. {{max_collisions: 0, points: 2}}; kinds: {', '.join(CRITERIA)}",
+            )
+            return None
+        kinds = [key for key in item.value if key in CRITERIA]
+        if len(kinds) != 1:
+            unknown = [key for key in item.value if key not in CRITERIA and key != "points"]
+            if not kinds and unknown:
+                word = unknown[0]
+                self.problem(
+                    item.keys[word], f"{path}.{word}", f"unknown criterion '{word}'{suggest(word, list(CRITERIA))}"
+                )
+            else:
+                self.problem(item, path, f"give exactly one criterion of: {', '.join(CRITERIA)}")
+            return None
+        kind = CRITERIA[kinds[0]]
+        allowed = (kind.key, "points", *kind.options)
+        for key in item.value:
+            if key not in allowed:
+                self.problem(
+                    item.keys[key], f"{path}.{key}", f"unknown key '{key}' for {kind.key}{suggest(key, list(allowed))}"
+                )
+        points = self.number(item.value["points"], f"{path}.points", 0, 1000) if "points" in item.value else 1.0
+        options = dict(kind.options)
+        for key in kind.options:
+            if key in item.value:
+                got = self.number(item.value[key], f"{path}.{key}", 0, 100_000)
+                if got is not None:
+                    options[key] = float(got)
+        located = item.value[kind.key]
+        where = f"{path}.{kind.key}"
+        value: Any = None
+        if kind.value == "zone":
+            value = self.text(located, where)
+            if value is not None and world is not None and world.zone(value) is None:
+                names = [z.name for z in world.zones]
+                listed = f" (its zones: {', '.join(names)})" if names else " (it has no zones)"
+                self.problem(
+                    located, where, f"world '{world.name}' has no zone '{value}'{suggest(value, names)}{listed}"
+                )
+                value = None
+        elif kind.value == "count":
+            value = self.number(located, where, 0, 1_000_000, whole=True)
+        elif kind.value in ("seconds", "mm"):
+            value = self.number(located, where, 0, 1e9)
+        elif kind.value == "degrees":
+            value = self.number(located, where, -360, 360)
+        elif located.value is not True:
+            self.problem(located, where, f"{kind.key} takes true, got {located.plain!r}")
+        else:
+            value = True
+        if value is None or points is None:
+            return None
+        label = (
+            kind.key
+            if value is True
+            else f"{kind.key} {value:g}"
+            if isinstance(value, (int, float))
+            else f"{kind.key} {value}"
+        )
+        return Criterion(kind.key, value, float(points), options, label)
+
+
+def load_exercise(path: str | Path) -> Exercise:
+    """Reads and validates an exercise file.
+
+    Raises:
+        ExerciseInvalid: the file cannot be read, or has problems (all of them).
+    """
+    path = Path(path)
+    label = str(path)
+    try:
+        if path.stat().st_size > MAX_EXERCISE_BYTES:
+            raise ExerciseInvalid(
+                [Problem(label, 1, 1, "", f"an exercise file is at most {MAX_EXERCISE_BYTES:,} bytes")]
+            )
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as err:
+        reason = err.strerror if isinstance(err, OSError) and err.strerror else str(err)
+        raise ExerciseInvalid([Problem(label, 1, 1, "", f"cannot read the exercise: {reason}")]) from err
+    root, errors = parse(text)
+    problems = [Problem(label, e.line, e.column, "", e.message) for e in errors]
+    reader = _Reader(label, path.parent)
+    exercise = reader.exercise(root, path.stem) if root is not None else None
+    problems += reader.problems
+    if problems or exercise is None:
+        raise ExerciseInvalid(problems or [Problem(label, 1, 1, "", "not an exercise")])
+    return exercise

@@ -1,0 +1,359 @@
+"""Grading: every submission of a class run on every seed of an exercise, judged and marked.
+
+Each submission runs in a worker process of its own, with a wall-time and a memory limit,
+so that an endless loop, a crash or a huge file costs that student a zero with the reason,
+never the batch. Every run is in virtual time on the in-process emulator, seeded: grading
+twice gives the same marks, byte for byte. Python plugins in a submission are refused
+(before anything of them is imported) unless the teacher allows them.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+import resource
+import traceback
+from collections.abc import Callable, Iterable
+from dataclasses import asdict, dataclass, field
+from multiprocessing.connection import Connection, wait
+from pathlib import Path
+from typing import Any
+
+import serial
+
+from autonomy.classroom.exercise import Exercise, Seed
+from autonomy.classroom.judge import RunFacts, gather, judge, path_points
+from autonomy.client import DEFAULT_BAUD, Client
+from autonomy.clock import RealClock, VirtualClock
+from autonomy.emulator import Emulator, RobotParams
+from autonomy.mission import MissionInvalid, MissionSpec, NodeSpec, Problem, build_tree, validate_file
+from autonomy.record import Record
+from autonomy.runner import Runner
+from autonomy.source import parse
+
+#: Largest mission file graded, bytes.
+MAX_SUBMISSION_BYTES = 1_000_000
+#: Wall time one submission (all its seeds) may take by default, seconds.
+DEFAULT_WALL_S = 60.0
+#: Memory one submission's worker may take by default, MiB.
+DEFAULT_MEMORY_MB = 1024
+
+
+@dataclass
+class SeedResult:
+    """One submission's run on one seed.
+
+    Attributes:
+        seed: The seed's label (``seed 3``).
+        outcome: How the run ended.
+        time_s: How long it ran, simulated seconds.
+        verdicts: For each criterion, in the exercise's order: (held, the one-line account).
+        path: The true path, at most 400 points (x_mm, y_mm).
+        collisions: Where the collisions happened (x_mm, y_mm).
+    """
+
+    seed: str
+    outcome: str
+    time_s: float
+    verdicts: list[tuple[bool, str]]
+    path: list[tuple[float, float]] = field(default_factory=list)
+    collisions: list[tuple[float, float]] = field(default_factory=list)
+
+
+@dataclass
+class Report:
+    """One student's marks.
+
+    Attributes:
+        student: The file's or folder's name.
+        file: The mission file graded (empty when none was found).
+        total: The marks scored.
+        max_points: The most that could be scored.
+        marks: Each criterion's mark: its points times the share of seeds where it held.
+        problems: Why nothing ran (``FILE:LINE:COL`` lines, or a reason), else empty.
+        seeds: Each seed's run.
+    """
+
+    student: str
+    file: str
+    total: float
+    max_points: float
+    marks: list[float]
+    problems: list[str] = field(default_factory=list)
+    seeds: list[SeedResult] = field(default_factory=list)
+
+    def to_json(self) -> dict[str, Any]:
+        """The report as plain JSON (tuples as lists)."""
+        return asdict(self)
+
+
+def find_submissions(paths: Iterable[str | Path]) -> list[tuple[str, Path]]:
+    """(student, path) for each submission: a mission file, or a folder of one student's files.
+
+    A folder's student is the folder's name and its mission is its one ``.yaml`` file (or
+    ``mission.yaml`` when it has several). Files are sorted by student, so reports are too.
+    """
+    found = []
+    for raw in paths:
+        path = Path(raw)
+        found.append((path.stem if path.is_file() or path.suffix in (".yaml", ".yml") else path.name, path))
+    return sorted(found, key=lambda item: (item[0], str(item[1])))
+
+
+def _mission_file(path: Path) -> tuple[Path | None, str]:
+    if not path.exists():
+        return None, f"{path}: no such file or folder"
+    if path.is_file():
+        return path, ""
+    candidates = sorted(p for p in path.iterdir() if p.suffix in (".yaml", ".yml") and p.is_file())
+    if len(candidates) == 1:
+        return candidates[0], ""
+    named = [p for p in candidates if p.stem == "mission"]
+    if named:
+        return named[0], ""
+    if not candidates:
+        return None, f"{path}: no mission file (.yaml) in the folder"
+    listed = ", ".join(p.name for p in candidates)
+    return None, f"{path}: several mission files ({listed}); name the one to grade mission.yaml"
+
+
+def _nodes(spec: MissionSpec) -> Iterable[NodeSpec]:
+    stack = [spec.tree, *spec.subtrees.values()]
+    while stack:
+        node = stack.pop()
+        yield node
+        stack.extend(node.children)
+
+
+def check_submission(exercise: Exercise, path: Path, allow_plugins: bool) -> tuple[MissionSpec | None, list[str]]:
+    """Validates a submission for ``exercise`` without running any of its Python.
+
+    Returns:
+        The validated mission, or None and every problem (``FILE:LINE:COL: ...`` lines).
+    """
+    label = str(path)
+    try:
+        if path.stat().st_size > MAX_SUBMISSION_BYTES:
+            return None, [f"{label}:1:1: a mission file is at most {MAX_SUBMISSION_BYTES:,} bytes"]
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as err:
+        reason = err.strerror if isinstance(err, OSError) and err.strerror else str(err)
+        return None, [f"{label}:1:1: cannot read the file: {reason}"]
+    root, _ = parse(text)
+    if not allow_plugins and root is not None and isinstance(root.value, dict) and "plugins" in root.value:
+        line, column = root.keys["plugins"]
+        return None, [
+            f"{label}:{line}:{column}: plugins: Python plugins are not run when grading "
+            "unless the teacher allows them (autonomy grade --allow-plugins)"
+        ]
+    try:
+        spec = validate_file(path)
+    except MissionInvalid as err:
+        return None, [str(p) for p in err.problems]
+    if exercise.allowed_nodes is not None:
+        allowed = set(exercise.allowed_nodes)
+        listed = ", ".join(exercise.allowed_nodes)
+        problems = [
+            Problem(
+                label,
+                node.line,
+                node.column,
+                node.path,
+                f"'{node.type.name}' is not allowed in this exercise (allowed: {listed})",
+            )
+            for node in _nodes(spec)
+            if node.type.name not in allowed
+        ]
+        if problems:
+            return None, [str(p) for p in sorted(problems, key=lambda p: (p.line, p.column))]
+    return spec, []
+
+
+def run_seed(exercise: Exercise, spec: MissionSpec, seed: Seed) -> list[Record]:
+    """Runs ``spec`` once on ``seed`` in the exercise's world, in virtual time; returns its records."""
+    url = f"emu://?world={exercise.world.name}&seed={seed.seed}&time=virtual"
+    emulator = Emulator(
+        exercise.world,
+        params=RobotParams(sensor_noise_mm=seed.noise_mm),
+        faults=seed.faults,
+        seed=seed.seed,
+        clock=VirtualClock(),
+    )
+    port = serial.serial_for_url(url, baudrate=DEFAULT_BAUD, do_not_open=True)
+    port.emulator = emulator
+    port.open()
+    client = Client(port, name=url)
+    records: list[Record] = []
+    try:
+        client.wait_ready()
+        runner = Runner(
+            build_tree(spec),
+            client,
+            mission=spec.name,
+            mission_file=spec.source,
+            mission_sha256=spec.sha256,
+            tick_hz=spec.tick_hz,
+            max_seconds=exercise.time_limit_s,
+            listeners=[records.append],
+        )
+        runner.run()
+    finally:
+        client.close()
+    return records
+
+
+def _collision_points(facts: RunFacts) -> list[tuple[float, float]]:
+    points = []
+    for when in facts.collisions:
+        pose = min(facts.path, key=lambda item: abs(item[0] - when))[1]
+        points.append((round(pose.x_mm), round(pose.y_mm)))
+    return points
+
+
+def grade_one(exercise: Exercise, student: str, path: Path, allow_plugins: bool = False) -> Report:
+    """Grades one submission on every seed (in this process)."""
+    zero = [0.0] * len(exercise.criteria)
+    mission, why = _mission_file(path)
+    if mission is None:
+        return Report(student, "", 0.0, exercise.max_points, zero, [why])
+    spec, problems = check_submission(exercise, mission, allow_plugins)
+    if spec is None:
+        return Report(student, str(mission), 0.0, exercise.max_points, zero, problems)
+    seeds = []
+    held = [0] * len(exercise.criteria)
+    for seed in exercise.seeds:
+        facts = gather(run_seed(exercise, spec, seed))
+        verdicts = [judge(criterion, facts, exercise.world) for criterion in exercise.criteria]
+        for index, verdict in enumerate(verdicts):
+            held[index] += verdict.held
+        seeds.append(
+            SeedResult(
+                seed.label,
+                facts.outcome,
+                round(facts.time_s, 2),
+                [(v.held, v.line) for v in verdicts],
+                path_points(facts),
+                _collision_points(facts),
+            )
+        )
+    count = len(exercise.seeds)
+    marks = [round(c.points * held[i] / count, 2) for i, c in enumerate(exercise.criteria)]
+    return Report(student, str(mission), round(sum(marks), 2), exercise.max_points, marks, [], seeds)
+
+
+def _worker(exercise: Exercise, student: str, path: Path, allow_plugins: bool, memory_mb: int, out: Connection) -> None:
+    """A worker process's body: limits its memory, grades, sends the report back."""
+    limit = memory_mb * 1024 * 1024
+    try:
+        resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
+    except (ValueError, OSError):
+        pass
+    try:
+        report: Report | str = grade_one(exercise, student, path, allow_plugins)
+    except MemoryError:
+        report = f"used more than {memory_mb} MiB of memory"
+    except (Exception, SystemExit, KeyboardInterrupt) as err:  # noqa: BLE001 - any failure is this student's zero
+        last = traceback.extract_tb(err.__traceback__)[-1:] if err.__traceback__ else []
+        at = f" at {Path(last[0].filename).name}:{last[0].lineno}" if last else ""
+        report = f"grading stopped with {type(err).__name__}: {err}{at}"
+    try:
+        out.send(report)
+    except (OSError, MemoryError, ValueError):
+        os._exit(3)
+    finally:
+        out.close()
+
+
+def grade_class(
+    exercise: Exercise,
+    submissions: list[tuple[str, Path]],
+    *,
+    workers: int | None = None,
+    wall_s: float = DEFAULT_WALL_S,
+    memory_mb: int = DEFAULT_MEMORY_MB,
+    allow_plugins: bool = False,
+    on_report: Callable[[Report], None] | None = None,
+) -> list[Report]:
+    """Grades every submission, each in a worker process of its own, at most ``workers`` at once.
+
+    Args:
+        exercise: The exercise.
+        submissions: (student, path) pairs, as :func:`find_submissions` gives them.
+        workers: Processes at once (default: the machine's cores).
+        wall_s: Wall time a submission may take, all its seeds together.
+        memory_mb: Memory a submission's process may take.
+        allow_plugins: Whether submissions may load Python plugins.
+        on_report: Called with each report as it is ready (for a progress bar).
+
+    Returns:
+        The reports, in the order of ``submissions``.
+    """
+    workers = max(1, workers or os.cpu_count() or 1)
+    context = multiprocessing.get_context("fork")
+    clock = RealClock()
+    reports: dict[int, Report] = {}
+    pending = list(enumerate(submissions))
+    running: dict[Connection, tuple[int, Any, float]] = {}
+    zero = [0.0] * len(exercise.criteria)
+
+    def failed(index: int, why: str) -> Report:
+        student, path = submissions[index]
+        return Report(student, str(path), 0.0, exercise.max_points, list(zero), [why])
+
+    def finish(index: int, report: Report) -> None:
+        reports[index] = report
+        if on_report is not None:
+            on_report(report)
+
+    try:
+        while pending or running:
+            while pending and len(running) < workers:
+                index, (student, path) = pending.pop(0)
+                receive, send = context.Pipe(duplex=False)
+                process = context.Process(
+                    target=_worker, args=(exercise, student, path, allow_plugins, memory_mb, send), daemon=True
+                )
+                process.start()
+                send.close()
+                running[receive] = (index, process, clock.now() + wall_s)
+            soonest = min(deadline for _, _, deadline in running.values())
+            ready = wait(list(running), timeout=max(0.0, soonest - clock.now()))
+            for connection in ready:
+                index, process, _ = running.pop(connection)  # type: ignore[index]
+                try:
+                    result = connection.recv()
+                except (EOFError, OSError):
+                    result = None
+                connection.close()
+                process.join(5)
+                if isinstance(result, Report):
+                    finish(index, result)
+                elif isinstance(result, str):
+                    finish(index, failed(index, result))
+                else:
+                    finish(
+                        index,
+                        failed(index, f"the grading process ended without a report (exit code {process.exitcode})"),
+                    )
+            now = clock.now()
+            for connection, (index, process, deadline) in list(running.items()):
+                if now >= deadline:
+                    process.kill()
+                    process.join(5)
+                    connection.close()
+                    del running[connection]
+                    finish(index, failed(index, f"took more than {wall_s:g} s of wall time (an endless loop?)"))
+    finally:
+        for connection, (_, process, _) in running.items():
+            process.kill()
+            process.join(5)
+            connection.close()
+    return [reports[i] for i in range(len(submissions))]
+
+
+def check_only(exercise: Exercise, path: Path, allow_plugins: bool) -> list[str]:
+    """The problems that would stop a submission from running (empty when it would run)."""
+    mission, why = _mission_file(path)
+    if mission is None:
+        return [why]
+    return check_submission(exercise, mission, allow_plugins)[1]

@@ -1,0 +1,159 @@
+"""A class's marks as a gradebook (CSV), JSON, one self-contained HTML page, and terminal text.
+
+Everything here depends only on the reports and the exercise, never on the time or the
+machine, so grading the same files twice writes the same bytes.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+from html import escape
+from typing import Any
+
+from autonomy.classroom.exercise import Exercise
+from autonomy.classroom.grade import Report
+from autonomy.views.lines import printable
+from autonomy.views.mapsvg import world_svg
+
+
+def _number(value: float) -> str:
+    return f"{value:g}"
+
+
+def to_csv(exercise: Exercise, reports: list[Report]) -> str:
+    """The gradebook: student, total, out of, one column per criterion, then why a submission did not run."""
+    out = io.StringIO()
+    writer = csv.writer(out, lineterminator="\n")
+    writer.writerow(["student", "total", "out_of", *[c.label for c in exercise.criteria], "problems"])
+    for report in reports:
+        writer.writerow(
+            [
+                report.student,
+                _number(report.total),
+                _number(report.max_points),
+                *[_number(m) for m in report.marks],
+                " | ".join(report.problems),
+            ]
+        )
+    return out.getvalue()
+
+
+def to_json(exercise: Exercise, reports: list[Report]) -> str:
+    """Every mark, every seed's verdicts and path, as one JSON document."""
+    document = {
+        "exercise": exercise.name,
+        "title": exercise.title,
+        "world": exercise.world.name,
+        "time_limit_s": exercise.time_limit_s,
+        "seeds": [s.label for s in exercise.seeds],
+        "criteria": [{"label": c.label, "points": c.points} for c in exercise.criteria],
+        "max_points": exercise.max_points,
+        "students": [r.to_json() for r in reports],
+    }
+    return json.dumps(document, indent=1, sort_keys=False, ensure_ascii=False) + "\n"
+
+
+def feedback(exercise: Exercise, report: Report) -> list[str]:
+    """What a student reads: the total, then each criterion with its mark and each seed's line."""
+    lines = [f"{report.student}: {_number(report.total)} / {_number(report.max_points)} in '{exercise.title}'"]
+    if report.problems:
+        lines.append("  Nothing ran, and the mark is 0:")
+        lines += [f"  {printable(p)}" for p in report.problems]
+        return lines
+    for index, criterion in enumerate(exercise.criteria):
+        verdicts = [seed.verdicts[index] for seed in report.seeds]
+        mark = "ok  " if all(held for held, _ in verdicts) else "MISS"
+        lines.append(f"  {mark} {criterion.label}: {_number(report.marks[index])} / {_number(criterion.points)} points")
+        for seed, (held, line) in zip(report.seeds, verdicts, strict=True):
+            lines.append(f"         {seed.seed}: {'yes' if held else 'no '} {printable(line)}")
+    return lines
+
+
+# ---------------------------------------------------------------------------- HTML
+
+_STYLE = """
+body { font-family: "DejaVu Sans", sans-serif; margin: 1em 2em; color: #212529; }
+table { border-collapse: collapse; margin: .5em 0 1.5em; }
+th, td { border: 1px solid #dee2e6; padding: .25em .6em; text-align: right; }
+th:first-child, td:first-child { text-align: left; }
+td.full { background: #d3f9d8; } td.part { background: #fff3bf; } td.none { background: #ffe3e3; }
+section.student { border-top: 2px solid #343a40; margin-top: 1.5em; }
+.seeds { display: flex; flex-wrap: wrap; gap: 1em; }
+.seed { border: 1px solid #dee2e6; padding: .4em; max-width: 420px; }
+.seed svg { width: 400px; height: auto; }
+.yes { color: #2b8a3e; } .no { color: #c92a2a; }
+pre.problems { background: #fff5f5; padding: .5em; white-space: pre-wrap; }
+"""
+
+
+def _cell(mark: float, points: float) -> str:
+    kind = "full" if mark >= points else "none" if mark <= 0 else "part"
+    return f'<td class="{kind}">{_number(mark)}</td>'
+
+
+def _seed_svg(exercise: Exercise, path: list[Any], collisions: list[Any], title: str) -> str:
+    svg = world_svg(exercise.world.as_dict(), title)
+    points = " ".join(f"{x:g},{y:g}" for x, y in path)
+    marks = "".join(
+        f'<path d="M{x - 50:g},{y - 50:g}L{x + 50:g},{y + 50:g}M{x - 50:g},{y + 50:g}L{x + 50:g},{y - 50:g}" '
+        'stroke="#e03131" stroke-width="3" vector-effect="non-scaling-stroke" class="collision"/>'
+        for x, y in collisions
+    )
+    drawn = (
+        f'<polyline points="{points}" fill="none" stroke="#2b8a3e" stroke-width="2.5" '
+        f'vector-effect="non-scaling-stroke" class="path"/>{marks}'
+    )
+    return svg.replace('<g id="paths"></g>', f'<g id="paths">{drawn}</g>')
+
+
+def to_html(exercise: Exercise, reports: list[Report]) -> str:
+    """One page with nothing to fetch: the class table, then each student's seeds, maps and verdicts."""
+    title = escape(printable(exercise.title))
+    head = "".join(f"<th>{escape(printable(c.label))}<br>({_number(c.points)})</th>" for c in exercise.criteria)
+    rows = []
+    for report in reports:
+        cells = "".join(_cell(m, c.points) for m, c in zip(report.marks, exercise.criteria, strict=True))
+        anchor = f"s-{reports.index(report)}"
+        rows.append(
+            f'<tr><td><a href="#{anchor}">{escape(printable(report.student))}</a></td>'
+            f"{_cell(report.total, report.max_points)}{cells}</tr>"
+        )
+    parts = [
+        "<!doctype html>",
+        '<html lang="en"><head><meta charset="utf-8">',
+        f"<title>autonomy grades: {title}</title><style>{_STYLE}</style></head><body>",
+        f"<h1>{title}</h1>",
+        f"<p>{escape(printable(exercise.description))}</p>",
+        f"<p>World <b>{escape(printable(exercise.world.name))}</b>, {exercise.time_limit_s:g} s a run, "
+        f"{len(exercise.seeds)} seeds: {escape(', '.join(s.label for s in exercise.seeds))}. "
+        f"A criterion's mark is its points times the share of seeds where it held.</p>",
+        f"<table><tr><th>student</th><th>total<br>({_number(exercise.max_points)})</th>{head}</tr>",
+        *rows,
+        "</table>",
+    ]
+    for index, report in enumerate(reports):
+        parts.append(f'<section class="student" id="s-{index}">')
+        parts.append(
+            f"<h2>{escape(printable(report.student))}: {_number(report.total)} / {_number(report.max_points)}</h2>"
+        )
+        parts.append(f"<p>{escape(printable(report.file))}</p>")
+        if report.problems:
+            text = "\n".join(printable(p) for p in report.problems)
+            parts.append(f'<p>Nothing ran:</p><pre class="problems">{escape(text)}</pre></section>')
+            continue
+        parts.append('<div class="seeds">')
+        for seed in report.seeds:
+            verdicts = "".join(
+                f'<li class="{"yes" if held else "no"}">{"✓" if held else "✗"} {escape(printable(line))}</li>'
+                for held, line in seed.verdicts
+            )
+            picture = _seed_svg(exercise, seed.path, seed.collisions, f"{report.student}, {seed.seed}")
+            parts.append(
+                f'<div class="seed"><h3>{escape(seed.seed)}: {escape(seed.outcome)} after {seed.time_s:g} s</h3>'
+                f"{picture}<ul>{verdicts}</ul></div>"
+            )
+        parts.append("</div></section>")
+    parts.append("</body></html>")
+    return "\n".join(parts) + "\n"

@@ -1,0 +1,80 @@
+"""Warnings: valid missions that behave in ways their authors rarely mean.
+
+``autonomy check`` prints these after a file's problems, as ``FILE:LINE:COL: PATH: warning:
+...``; they do not make the check fail. A teacher can lint a class's files before grading.
+
+- A condition followed only by actions that finish at once (beep, log, servo, stop), in a
+  place that is ticked again (under a ``repeat`` or a memoryless ``selector``): it fires on
+  every tick while the condition holds; the collision flag alone is held for 0.5 s, ten ticks.
+- A ``repeat`` forever that nothing ends: no ``times``, and no ``parallel``, ``timeout`` or
+  ``while`` above it, so the mission never ends unless its child fails.
+- A ``move`` with no ending (no ``distance_mm``, ``seconds`` or ``until_obstacle_mm``) that
+  nothing above it can stop: no ``selector``, ``parallel``, ``timeout`` or ``while``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+
+from autonomy.mission.validate import MissionSpec, NodeSpec
+from autonomy.source import Problem
+
+#: Actions that finish in the tick they start.
+INSTANT_ACTIONS = ("beep", "log", "servo", "stop")
+#: Nodes above which something can end what runs below them.
+ENDERS = ("parallel", "timeout", "while")
+
+
+def _walk(
+    spec: MissionSpec, node: NodeSpec, above: tuple[NodeSpec, ...]
+) -> Iterator[tuple[NodeSpec, tuple[NodeSpec, ...]]]:
+    """Every node with the nodes above it, subtrees expanded where they are used."""
+    yield node, above
+    children = node.children
+    if node.type.name == "subtree":
+        target = spec.subtrees.get(node.args.get("subtree", ""))
+        if target is None or any(a.type.name == "subtree" and a.args == node.args for a in above):
+            return
+        children = [target]
+    for child in children:
+        yield from _walk(spec, child, (*above, node))
+
+
+def _ticked_again(above: tuple[NodeSpec, ...]) -> bool:
+    return any(a.type.name == "repeat" or (a.type.name == "selector" and not a.args.get("memory")) for a in above)
+
+
+def lint(spec: MissionSpec) -> list[Problem]:
+    """The warnings for a valid mission, each at the node it is about, in file order."""
+    found: dict[tuple[int, int, str], Problem] = {}
+
+    def warn(node: NodeSpec, message: str) -> None:
+        key = (node.line, node.column, message)
+        found.setdefault(key, Problem(spec.source, node.line, node.column, node.path, f"warning: {message}"))
+
+    for node, above in _walk(spec, spec.tree, ()):
+        name = node.type.name
+        if name == "sequence" and node.children and _ticked_again(above):
+            first, rest = node.children[0], node.children[1:]
+            if first.type.category == "condition" and rest and all(c.type.name in INSTANT_ACTIONS for c in rest):
+                did = ", ".join(c.type.name for c in rest)
+                warn(
+                    node,
+                    f"'{first.display_name}' then only {did}, ticked again and again: it runs on every tick "
+                    f"while '{first.display_name}' holds (the collision flag alone is held 0.5 s, 10 ticks at "
+                    "20 Hz); add an action that takes time (a move, a turn, a wait) or put it under once",
+                )
+        elif name == "repeat" and not node.args.get("times") and not any(a.type.name in ENDERS for a in above):
+            warn(
+                node,
+                "repeats forever and nothing ends it: the mission only ends if its child fails; give times:, "
+                "or put it under a timeout, or in a parallel with a wait",
+            )
+        elif name == "move" and not any(node.args.get(k) for k in ("distance_mm", "seconds", "until_obstacle_mm")):
+            if not any(a.type.name in (*ENDERS, "selector") for a in above):
+                warn(
+                    node,
+                    "drives on until something stops it, and nothing here does: give distance_mm, seconds or "
+                    "until_obstacle_mm, or put it in a selector or parallel with a condition that ends it",
+                )
+    return sorted(found.values(), key=lambda p: (p.line, p.column))

@@ -1,0 +1,177 @@
+"""Exercises graded on the emulator: references score full marks, wrong solutions lose marks for the right reason."""
+
+import json
+from pathlib import Path
+
+import pytest
+
+from autonomy.classroom import ExerciseInvalid, find_submissions, grade_class, grade_one, load_exercise
+from autonomy.classroom.report import feedback, to_csv, to_html, to_json
+
+ROOT = Path(__file__).resolve().parents[2]
+EXERCISES = ROOT / "exercises"
+SHIPPED = ("square", "garage", "slalom", "bump", "opening")
+
+#: For each wrong solution: the criteria it must lose marks on, and those it keeps in full.
+WRONG = {
+    "square_turns_right": ({"beep_near corner_2", "beep_near corner_3"}, {"beep_near corner_1", "end_in_zone home"}),
+    "square_no_beeps": ({"beep_near corner_1", "beep_near corner_2", "beep_near corner_3"}, {"end_in_zone home"}),
+    "garage_fixed_distance": ({"end_in_zone garage", "max_collisions 0"}, set()),
+    "garage_until_bump": ({"end_in_zone garage", "max_collisions 0"}, {"finish_within_s 30"}),
+    "slalom_straight": ({"end_in_zone exit"}, {"max_collisions 0"}),
+    "slalom_blind": ({"end_in_zone exit", "max_collisions 0"}, set()),
+    "bump_push": ({"end_in_zone goal", "finish_within_s 60"}, set()),
+    "bump_no_return": ({"end_in_zone goal"}, {"max_collisions 1"}),
+    "opening_straight": ({"end_in_zone goal"}, {"max_collisions 0"}),
+    "opening_fixed": ({"end_in_zone goal"}, set()),
+}
+
+
+def marks_by_label(exercise, report):
+    return {c.label: (mark, c.points) for c, mark in zip(exercise.criteria, report.marks, strict=True)}
+
+
+@pytest.mark.parametrize("name", SHIPPED)
+def test_the_reference_solution_scores_full_marks_on_every_seed(name):
+    exercise = load_exercise(EXERCISES / f"{name}.yaml")
+    assert len(exercise.seeds) >= 3 and exercise.description
+    report = grade_one(exercise, name, EXERCISES / "solutions" / f"{name}.yaml")
+    assert report.problems == []
+    failing = [(s.seed, line) for s in report.seeds for held, line in s.verdicts if not held]
+    assert failing == [] and report.total == exercise.max_points
+
+
+@pytest.mark.parametrize("wrong", sorted(WRONG))
+def test_a_wrong_solution_loses_marks_for_the_right_reason(wrong):
+    name = wrong.split("_")[0]
+    exercise = load_exercise(EXERCISES / f"{name}.yaml")
+    report = grade_one(exercise, wrong, EXERCISES / "wrong" / f"{wrong}.yaml")
+    assert report.problems == []
+    marks = marks_by_label(exercise, report)
+    must_lose, must_keep = WRONG[wrong]
+    for label in must_lose:
+        mark, points = marks[label]
+        assert mark < points, (label, [s.verdicts for s in report.seeds])
+    for label in must_keep:
+        mark, points = marks[label]
+        assert mark == points, (label, [s.verdicts for s in report.seeds])
+    assert report.total < exercise.max_points
+
+
+def test_a_node_type_the_exercise_does_not_allow_is_refused_where_it_stands():
+    exercise = load_exercise(EXERCISES / "square.yaml")
+    path = EXERCISES / "wrong" / "square_wander.yaml"
+    report = grade_one(exercise, "wander", path)
+    assert report.total == 0 and report.seeds == []
+    assert report.problems[0].startswith(f"{path}:5:3: tree.selector: 'selector' is not allowed in this exercise")
+    assert any(": tree.selector[0].collided: 'collided' is not allowed" in p for p in report.problems)
+
+
+def test_an_invalid_mission_scores_zero_and_its_report_is_its_errors(tmp_path):
+    exercise = load_exercise(EXERCISES / "garage.yaml")
+    path = tmp_path / "carol.yaml"
+    path.write_text("mission: oops\ntree:\n  mvoe: {speed: 2}\n")
+    report = grade_one(exercise, "carol", path)
+    assert report.total == 0
+    assert report.problems == [f"{path}:3:3: tree.mvoe: unknown node 'mvoe' (did you mean 'move'?)"]
+    assert "  Nothing ran, and the mark is 0:" in feedback(exercise, report)
+
+
+def test_plugins_are_refused_before_anything_of_them_is_imported(tmp_path):
+    exercise = load_exercise(EXERCISES / "garage.yaml")
+    marker = tmp_path / "imported"
+    (tmp_path / "evil.py").write_text(f"open({str(marker)!r}, 'w').write('ran')\n")
+    path = tmp_path / "dave.yaml"
+    path.write_text("mission: sneaky\nplugins: [evil]\ntree:\n  move: {speed: 2, until_obstacle_mm: 150}\n")
+    report = grade_one(exercise, "dave", path)
+    assert report.total == 0 and "unless the teacher allows them" in report.problems[0]
+    assert report.problems[0].startswith(f"{path}:2:1: plugins")
+    assert not marker.exists()
+
+
+def endless_plugin(folder: Path) -> Path:
+    (folder / "spin.py").write_text(
+        "import py_trees\nfrom autonomy.behaviours import RobotAction\n\n"
+        "class Spin(RobotAction):\n"
+        '    """Never returns."""\n\n'
+        "    node_type = 'spin'\n\n"
+        "    def update(self):\n"
+        "        while True:\n"
+        "            pass\n"
+    )
+    path = folder / "mission.yaml"
+    path.write_text("mission: spin\nplugins: [spin]\ntree:\n  spin: {}\n")
+    return path
+
+
+def test_an_endless_loop_or_a_crash_costs_that_student_a_zero_never_the_batch(tmp_path):
+    exercise = load_exercise(EXERCISES / "garage.yaml")
+    (tmp_path / "erin").mkdir()
+    endless_plugin(tmp_path / "erin")
+    (tmp_path / "frank").mkdir()
+    (tmp_path / "frank" / "boom.py").write_text("import os\nos._exit(9)\n")
+    (tmp_path / "frank" / "mission.yaml").write_text("mission: boom\nplugins: [boom]\ntree:\n  wait: {seconds: 1}\n")
+    good = EXERCISES / "solutions" / "garage.yaml"
+    submissions = find_submissions([tmp_path / "erin", tmp_path / "frank", good])
+    assert [s for s, _ in submissions] == ["erin", "frank", "garage"]
+    reports = grade_class(exercise, submissions, workers=2, wall_s=8, allow_plugins=True)
+    erin, frank, garage = reports
+    assert erin.total == 0 and "took more than 8 s of wall time" in erin.problems[0]
+    assert frank.total == 0 and "ended without a report (exit code 9)" in frank.problems[0]
+    assert garage.total == exercise.max_points
+
+
+def test_grading_twice_writes_the_same_bytes():
+    exercise = load_exercise(EXERCISES / "garage.yaml")
+    files = [EXERCISES / "solutions" / "garage.yaml", EXERCISES / "wrong" / "garage_fixed_distance.yaml"]
+    first = grade_class(exercise, find_submissions(files), workers=2)
+    second = grade_class(exercise, find_submissions(reversed(files)), workers=1)
+    assert to_json(exercise, first) == to_json(exercise, second)
+    assert to_csv(exercise, first) == to_csv(exercise, second)
+    assert to_html(exercise, first) == to_html(exercise, second)
+    rows = to_csv(exercise, first).splitlines()
+    assert rows[0] == "student,total,out_of,end_in_zone garage,max_collisions 0,finish_within_s 30,problems"
+    assert rows[1].startswith("garage,10,10,5,3,2,")
+    document = json.loads(to_json(exercise, first))
+    assert [s["student"] for s in document["students"]] == ["garage", "garage_fixed_distance"]
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        (
+            "world: garage\ntime_limit_s: 30\nseeds: [1]\ncriteria:\n  - max_colisions: 0\n",
+            "5:5: criteria[0].max_colisions: unknown criterion 'max_colisions' (did you mean 'max_collisions'?)",
+        ),
+        (
+            "world: garage\ntime_limit_s: 30\nseeds: [1]\ncriteria:\n  - end_in_zone: garag\n",
+            "5:18: criteria[0].end_in_zone: world 'garage' has no zone 'garag' (did you mean 'garage'?)",
+        ),
+        (
+            "world: garag\ntime_limit_s: 30\nseeds: [1]\ncriteria:\n  - succeed: true\n",
+            "1:8: world: no world named 'garag' (did you mean 'garage'?)",
+        ),
+        (
+            "world: garage\ntime_limit_s: .nan\nseeds: [1, 1]\ncriteria:\n  - succeed: true\n",
+            "2:15: time_limit_s: must be from 0.1 to 3600",
+        ),
+        (
+            "world: garage\ntime_limit_s: 30\nseeds: [1, 1]\ncriteria:\n  - succeed: true\n",
+            "3:8: seeds: a seed is given twice",
+        ),
+        (
+            "world: garage\ntime_limit_s: 30\nseeds: [1]\nallowed_nodes: [move, trun]\ncriteria:\n  - succeed: true\n",
+            "4:23: allowed_nodes[1]: unknown node type 'trun' (did you mean 'turn'?)",
+        ),
+        (
+            "world: garage\ntime_limt_s: 30\nseeds: [1]\ncriteria:\n  - succeed: true\n",
+            "2:1: time_limt_s: unknown key 'time_limt_s' (did you mean 'time_limit_s'?)",
+        ),
+    ],
+)
+def test_exercise_files_are_checked_like_missions(tmp_path, text, message):
+    path = tmp_path / "ex.yaml"
+    path.write_text(text)
+    with pytest.raises(ExerciseInvalid) as caught:
+        load_exercise(path)
+    assert any(line.startswith(f"{path}:{message}") for line in str(caught.value).splitlines()), str(caught.value)
