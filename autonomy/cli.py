@@ -572,7 +572,7 @@ def cmd_grade(args: argparse.Namespace) -> int:
     finally:
         if progress is not None:
             progress.stop()
-    if alone:
+    if alone and not args.quiet:
         for line in feedback(exercise, reports[0]):
             print(line)
     elif not args.quiet:

@@ -186,7 +186,7 @@ class _Reader:
                 self.problem(root, "", f"'{key}' is missing")
         name = self.text(doc["exercise"], "exercise") if "exercise" in doc else default_name
         title = (self.text(doc["title"], "title") if "title" in doc else None) or name or default_name
-        description = (self.text(doc["description"], "description") if "description" in doc else "") or ""
+        description = ((self.text(doc["description"], "description") if "description" in doc else "") or "").strip()
         world, world_ref = self.world(doc["world"]) if "world" in doc else (None, "")
         limit = (
             self.number(doc["time_limit_s"], "time_limit_s", 0.1, MAX_TIME_LIMIT_S) if "time_limit_s" in doc else None

@@ -3,9 +3,9 @@
 ``autonomy check`` prints these after a file's problems, as ``FILE:LINE:COL: PATH: warning:
 ...``; they do not make the check fail. A teacher can lint a class's files before grading.
 
-- A condition followed only by actions that finish at once (beep, log, servo, stop), in a
-  place that is ticked again (under a ``repeat`` or a memoryless ``selector``): it fires on
-  every tick while the condition holds; the collision flag alone is held for 0.5 s, ten ticks.
+- A condition followed only by actions that finish at once (beep, log, servo, stop), under a
+  ``repeat``: it succeeds in one tick and is started again on the next, so it fires on every
+  tick while the condition holds; the collision flag alone is held for 0.5 s, ten ticks.
 - A ``repeat`` forever that nothing ends: no ``times``, and no ``parallel``, ``timeout`` or
   ``while`` above it, so the mission never ends unless its child fails.
 - A ``move`` with no ending (no ``distance_mm``, ``seconds`` or ``until_obstacle_mm``) that
@@ -41,7 +41,8 @@ def _walk(
 
 
 def _ticked_again(above: tuple[NodeSpec, ...]) -> bool:
-    return any(a.type.name == "repeat" or (a.type.name == "selector" and not a.args.get("memory")) for a in above)
+    """Whether what succeeds here is started again: a ``repeat`` above it runs it anew after each success."""
+    return any(a.type.name == "repeat" for a in above)
 
 
 def lint(spec: MissionSpec) -> list[Problem]:
@@ -60,7 +61,7 @@ def lint(spec: MissionSpec) -> list[Problem]:
                 did = ", ".join(c.type.name for c in rest)
                 warn(
                     node,
-                    f"'{first.display_name}' then only {did}, ticked again and again: it runs on every tick "
+                    f"'{first.display_name}' then only {did}, under a repeat: it runs again on every tick "
                     f"while '{first.display_name}' holds (the collision flag alone is held 0.5 s, 10 ticks at "
                     "20 Hz); add an action that takes time (a move, a turn, a wait) or put it under once",
                 )

@@ -1,0 +1,77 @@
+"""How fast a class is graded.
+
+Measures:
+  - a class: 30 submissions x 3 seeds of a 60 s exercise (the wander mission in the
+    obstacles world, 5,400 simulated seconds in all), graded with one worker a core: wall
+    time, and simulated seconds per wall second across the class (target: 1000x, 5.4 s);
+  - one student's `autonomy grade` (a fresh process, the bump exercise, 3 seeds of its
+    reference solution): wall time, median of 5 (target: under 1 s).
+
+Usage: python benchmarks/grading.py
+"""
+
+from __future__ import annotations
+
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from autonomy.classroom import find_submissions, grade_class, load_exercise
+
+ROOT = Path(__file__).resolve().parents[1]
+STUDENTS = 30
+EXERCISE = """\
+exercise: wander
+title: Wander for a minute without a bump
+world: obstacles
+time_limit_s: 60
+seeds: [1, 2, 3]
+criteria:
+  - max_collisions: 0
+  - max_distance_mm: 20000
+"""
+
+
+def main() -> None:
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(tmp)
+        (folder / "wander.yaml").write_text(EXERCISE)
+        mission = (ROOT / "missions" / "wander.yaml").read_text()
+        files = []
+        for index in range(STUDENTS):  # thirty students, each turning away a little differently
+            path = folder / f"student{index:02d}.yaml"
+            path.write_text(mission.replace("turn: {right: 70}", f"turn: {{right: {50 + index}}}"))
+            files.append(path)
+        exercise = load_exercise(folder / "wander.yaml")
+        workers = os.cpu_count() or 1
+        started = time.perf_counter()
+        reports = grade_class(exercise, find_submissions(files), workers=workers)
+        elapsed = time.perf_counter() - started
+        simulated = sum(seed.time_s for report in reports for seed in report.seeds)
+        assert all(not r.problems for r in reports) and simulated > 0.99 * STUDENTS * 3 * 60
+        print(
+            f"a class: {STUDENTS} submissions x 3 seeds x 60 s ({simulated:,.0f} simulated s), {workers} workers: "
+            f"{elapsed:.1f} s wall, {simulated / elapsed:,.0f}x real time (target 1000x: 5.4 s)"
+        )
+
+    times = []
+    for _ in range(5):
+        started = time.perf_counter()
+        subprocess.run(
+            [sys.executable, "-m", "autonomy", "grade", "bump", "exercises/solutions/bump.yaml", "--quiet"],
+            cwd=ROOT,
+            check=True,
+        )
+        times.append(time.perf_counter() - started)
+    print(
+        "one student's autonomy grade, bump (3 seeds of about 20 s; a fresh process): "
+        f"median {statistics.median(times):.2f} s (target < 1 s)"
+    )
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,96 @@
+"""The classroom from the command line: worlds checked, exercises graded, mistakes explained."""
+
+from __future__ import annotations
+
+import csv
+import json
+
+from tests.cli.test_cli import ROOT, autonomy
+
+
+def test_check_validates_the_world_a_mission_names(tmp_path):
+    world = tmp_path / "lab.yaml"
+    world.write_text("arena_mm: [3000, 3000]\nstart: {x_mm: 5000, heading: 90}\n")
+    mission = tmp_path / "m.yaml"
+    mission.write_text("mission: m\nworld: lab.yaml\ntree:\n  beep: {}\n")
+    typo = tmp_path / "t.yaml"
+    typo.write_text("mission: t\nworld: boxx\ntree:\n  beep: {}\n")
+    result = autonomy("check", str(mission), str(typo))
+    assert result.returncode == 2 and "Traceback" not in result.stderr
+    assert result.stderr.splitlines() == [
+        f"{world}:2:8: start: the start is outside the 3000 x 3000 mm arena",
+        f"{world}:2:21: start.heading: unknown key 'heading' (did you mean 'heading_deg'?)",
+        f"{mission}:2:8: world: the world file {world} is not valid (2 listed with its name)",
+        f"{typo}:2:8: world: no world named 'boxx' (did you mean 'box'?): use one of box, empty, corridor, "
+        "obstacles, square, garage, slalom, bump, opening or a world file beside the mission",
+    ]
+
+
+def test_run_with_a_bad_world_is_a_usage_error_with_every_problem(tmp_path):
+    world = tmp_path / "lab.yaml"
+    world.write_text(
+        "arena_mm: [3000, 3000]\nstart: {x_mm: 500, y_mm: 500}\nobstacles:\n"
+        "  - box: {from_mm: [400, 400], to_mm: [600, 600]}\n"
+    )
+    result = autonomy("run", "missions/square.yaml", "--fast", "--world", str(world))
+    assert result.returncode == 2 and "Traceback" not in result.stderr
+    assert result.stderr.strip() == f"{world}:2:8: start: the start is inside an obstacle"
+    shown = autonomy("world", "show", str(world))
+    assert shown.returncode == 2 and shown.stderr.strip() == result.stderr.strip()
+
+
+def test_a_world_with_zones_is_drawn_with_them():
+    result = autonomy("world", "show", "opening")
+    assert result.returncode == 0
+    assert result.stdout.count('class="zone"') == 1 and 'data-zone="goal"' in result.stdout
+
+
+def test_a_student_grades_their_own_mission_and_reads_what_to_fix(tmp_path):
+    mission = tmp_path / "alice.yaml"
+    mission.write_text("mission: alice\nworld: garage\ntree:\n  move: {speed: 2, distance_mm: 2400}\n")
+    result = autonomy("grade", "exercises/garage.yaml", str(mission))
+    assert result.returncode == 0, result.stderr
+    lines = result.stdout.splitlines()
+    assert (
+        lines[0] == "Grading 1 submission for '2. Park in the garage' in world 'garage', seeds 1, 2, 3, 4, 30 s a run."
+    )
+    assert lines[1] == "alice: 7.5 / 10 in '2. Park in the garage'"
+    assert lines[2:4] == ["  MISS end_in_zone garage: 3.75 / 5 points", "         seed 1: yes garage: ended inside"]
+    # seed 2 starts further east: the fixed 2.4 m reaches the wall
+    assert "         seed 2: no  garage: ended 40 mm outside (needed inside)" in lines
+    assert "         seed 2: no  collisions: 1, allowed 0, the first at 11.1 s" in lines
+
+
+def test_a_teacher_grades_a_class_into_a_gradebook_json_and_a_page(tmp_path):
+    bob = tmp_path / "bob"
+    bob.mkdir()
+    (bob / "mission.yaml").write_text("mission: bob\ntree:\n  mvoe: {speed: 2}\n")
+    files = [str(ROOT / "exercises" / "solutions" / "garage.yaml"), str(bob), str(tmp_path / "nobody.yaml")]
+    out = {kind: tmp_path / f"marks.{kind}" for kind in ("csv", "json", "html")}
+    result = autonomy("grade", "garage", *files, "--workers", "2", *(f"--{k}={v}" for k, v in out.items()), timeout=120)
+    assert result.returncode == 0, result.stderr
+    assert "Traceback" not in result.stderr
+    assert "marks out of 10" in result.stdout and f"wrote {out['csv']}" in result.stdout
+    rows = list(csv.DictReader(out["csv"].open()))
+    assert [(r["student"], r["total"]) for r in rows] == [("bob", "0"), ("garage", "10"), ("nobody", "0")]
+    assert rows[0]["problems"] == f"{bob / 'mission.yaml'}:3:3: tree.mvoe: unknown node 'mvoe' (did you mean 'move'?)"
+    assert rows[2]["problems"] == f"{tmp_path / 'nobody.yaml'}: no such file or folder"
+    document = json.loads(out["json"].read_text())
+    assert document["max_points"] == 10 and len(document["students"][1]["seeds"]) == 4
+    page = out["html"].read_text()
+    assert page.count('class="seed"') == 4 and "http" not in page.replace('xmlns="http://www.w3.org/2000/svg"', "")
+    again = autonomy("grade", "garage", *files, "--quiet", f"--csv={tmp_path / 'again.csv'}", timeout=120)
+    assert again.returncode == 0 and again.stdout == ""
+    assert (tmp_path / "again.csv").read_bytes() == out["csv"].read_bytes()
+
+
+def test_a_bad_exercise_is_every_problem_at_its_place_and_exit_2(tmp_path):
+    exercise = tmp_path / "ex.yaml"
+    exercise.write_text("world: garage\ntime_limit_s: -1\nseeds: [1]\ncriteria:\n  - end_in_zone: garge\n")
+    result = autonomy("grade", str(exercise), "missions/square.yaml")
+    assert result.returncode == 2 and "Traceback" not in result.stderr
+    assert result.stderr.splitlines() == [
+        f"{exercise}:2:15: time_limit_s: must be from 0.1 to 3600, got -1",
+        f"{exercise}:5:18: criteria[0].end_in_zone: world 'garage' has no zone 'garge' (did you mean 'garage'?) "
+        "(its zones: garage)",
+    ]

@@ -1,0 +1,77 @@
+"""Warnings for valid missions that behave in surprising ways (autonomy check)."""
+
+from pathlib import Path
+
+import pytest
+
+from autonomy.mission import validate_text
+from autonomy.mission.lint import lint
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def warnings(text: str) -> list[str]:
+    return [f"{p.line}:{p.column}: {p.path}: {p.message}" for p in lint(validate_text(text, "m.yaml"))]
+
+
+def test_a_condition_then_a_beep_under_a_repeat_fires_every_tick_while_it_holds():
+    found = warnings(
+        "mission: m\ntree:\n  parallel:\n    policy: one\n    children:\n      - wait: {seconds: 60}\n"
+        "      - repeat:\n          do:\n            selector:\n"
+        "              - sequence: [collided, {beep: {}}]\n              - move: {speed: 2}\n"
+    )
+    assert len(found) == 1
+    assert found[0].startswith(
+        "10:17: tree.parallel.children[1].repeat.do.selector[0].sequence: warning: 'collided' then only beep"
+    )
+    assert "on every tick while 'collided' holds" in found[0]
+
+
+def test_the_same_sequence_that_takes_time_or_runs_once_is_not_warned_about():
+    assert (
+        warnings(
+            "mission: m\ntree:\n  repeat:\n    times: 3\n    do:\n"
+            "      sequence: [collided, {beep: {}}, {wait: {seconds: 1}}]\n"
+        )
+        == []
+    )
+    assert (
+        warnings("mission: m\ntree:\n  selector:\n    - sequence: [collided, {beep: {}}]\n    - log: {message: hi}\n")
+        == []
+    )
+
+
+def test_a_repeat_forever_that_nothing_ends():
+    found = warnings("mission: m\ntree:\n  repeat:\n    do:\n      move: {speed: 1, seconds: 1}\n")
+    assert found == [
+        "3:3: tree.repeat: warning: repeats forever and nothing ends it: the mission only ends if its child fails; "
+        "give times:, or put it under a timeout, or in a parallel with a wait"
+    ]
+    assert (
+        warnings("mission: m\ntree:\n  timeout:\n    seconds: 5\n    do:\n      repeat: {do: {wait: {seconds: 1}}}\n")
+        == []
+    )
+
+
+def test_a_move_with_no_ending_that_nothing_stops():
+    found = warnings("mission: m\ntree:\n  sequence:\n    - beep: {}\n    - move: {speed: 2}\n")
+    assert len(found) == 1 and found[0].startswith("5:7: tree.sequence[1].move: warning: drives on until something")
+    assert warnings("mission: m\ntree:\n  selector: [collided, {move: {speed: 2}}]\n") == []
+    assert warnings("mission: m\ntree:\n  move: {speed: 2, until_obstacle_mm: 100}\n") == []
+
+
+def test_warnings_follow_subtrees_to_where_they_are_used():
+    found = warnings(
+        "mission: m\nsubtrees:\n  bump:\n    sequence: [collided, {beep: {}}]\n"
+        "tree:\n  repeat:\n    times: 5\n    do: {subtree: bump}\n"
+    )
+    assert [w.split(": warning")[0] for w in found] == ["4:5: subtrees.bump.sequence"]
+
+
+@pytest.mark.parametrize(
+    "path", sorted((ROOT / "missions").glob("*.yaml")) + sorted((ROOT / "exercises" / "solutions").glob("*.yaml"))
+)
+def test_shipped_missions_and_reference_solutions_give_no_warning(path):
+    from autonomy.mission import load_mission
+
+    assert lint(load_mission(path)) == []

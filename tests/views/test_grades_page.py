@@ -1,0 +1,39 @@
+"""The grading report as a teacher sees it: one page in a real browser, nothing fetched."""
+
+from __future__ import annotations
+
+from autonomy.classroom import find_submissions, grade_class, load_exercise
+from autonomy.classroom.report import to_html
+from tests.views.conftest import ROOT
+
+
+def test_the_class_page_shows_the_table_and_every_path_on_its_map(page, tmp_path):
+    exercise = load_exercise(ROOT / "exercises" / "bump.yaml")
+    files = [ROOT / "exercises" / "solutions" / "bump.yaml", ROOT / "exercises" / "wrong" / "bump_no_return.yaml"]
+    reports = grade_class(exercise, find_submissions(files), workers=2)
+    path = tmp_path / "marks.html"
+    path.write_text(to_html(exercise, reports))
+    fetched: list[str] = []
+    page.on("request", lambda request: fetched.append(request.url))
+    page.goto(path.as_uri())
+    assert fetched == [path.as_uri()]  # the page is whole in one file
+    rows = page.locator("table tr").all_inner_texts()
+    assert rows[1].split("\t")[:2] == ["bump", "10"] and rows[2].split("\t")[:2] == ["bump_no_return", "5"]
+    assert page.locator("table tr").nth(2).locator("td").nth(2).get_attribute("class") == "none"  # goal: no marks
+    maps = page.locator(".seed svg")
+    assert maps.count() == 6
+    # each path lies on its map, and the wrong solution's ends north of the goal, where it stopped
+    for index in range(6):
+        box = maps.nth(index).bounding_box()
+        line = maps.nth(index).locator("polyline.path").bounding_box()
+        assert line["width"] > 0.4 * box["width"]
+        assert box["x"] <= line["x"] and line["x"] + line["width"] <= box["x"] + box["width"] + 1
+    goal = maps.nth(3).locator(".zone rect").bounding_box()
+    last = page.evaluate(
+        "(() => { const l = document.querySelectorAll('.seed svg polyline.path')[3];"
+        " const p = l.points[l.points.numberOfItems - 1]; const m = l.getScreenCTM();"
+        " return [p.x * m.a + p.y * m.c + m.e, p.x * m.b + p.y * m.d + m.f]; })()"
+    )
+    assert last[1] < goal["y"]  # above the goal on the screen: y grows downward
+    assert page.locator(".seed li.no").first.inner_text().startswith("✗ goal: ended")
+    page.screenshot(path=str(tmp_path / "marks.png"), full_page=True)
