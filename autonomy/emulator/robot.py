@@ -12,7 +12,7 @@ import math
 import random
 from dataclasses import dataclass, field
 
-from autonomy.emulator.world import ROBOT_RADIUS_MM, SENSOR_CONE_DEG, Pose, World
+from autonomy.emulator.world import EPSILON_MM, ROBOT_RADIUS_MM, SENSOR_CONE_DEG, Pose, World
 
 MODE_IDLE = 0
 MODE_MOVING = 1
@@ -115,6 +115,11 @@ class Robot:
         self.beeps: list[tuple[float, tuple[int, int, int], int]] = []
         self._accel_mm_s2 = 0.0
         self._rng = random.Random(self.seed)
+        # Where the clearance was last measured, and how far the body could move from there
+        # before touching anything: steps that stay inside that bound need no new measurement.
+        self._free_at: tuple[float, float, float] = (self.x_mm, self.y_mm, -math.inf)
+        # The last sensor reading's pose and its gap: a robot that has not moved sees the same.
+        self._seen: tuple[float, float, float, float, float] = (math.nan, math.nan, math.nan, math.nan, 0.0)
 
     # ------------------------------------------------------------------ readings
 
@@ -154,23 +159,35 @@ class Robot:
         """Whether motion commands (F T M D) are accepted."""
         return self.auto_mode and not self.fallen and self.battery >= self.params.battery_cutoff_below
 
-    def true_front_gap_mm(self) -> float:
+    def true_front_gap_mm(self, reach_mm: float = math.inf) -> float:
         """Distance from the robot's front edge to the nearest obstacle in the sensor's cone.
 
         The sensor sits on the front edge and sees a cone ``sensor_cone_deg`` across about the
         heading (:meth:`World.cone_distance`), so a wall met at a shallow angle is seen too.
+
+        Args:
+            reach_mm: Distances this long or longer come back as infinity (faster to find).
         """
+        x, y, heading, reach, gap = self._seen
+        if (x, y, heading, reach) == (self.x_mm, self.y_mm, self.heading_deg, reach_mm):
+            return gap
         radius = self.params.body_radius_mm
         rad = math.radians(self.heading_deg)
         sx, sy = self.x_mm + radius * math.cos(rad), self.y_mm + radius * math.sin(rad)
-        return self.world.cone_distance(sx, sy, self.heading_deg, self.params.sensor_cone_deg)
+        gap = self.world.cone_distance(sx, sy, self.heading_deg, self.params.sensor_cone_deg, reach_mm=reach_mm)
+        self._seen = (self.x_mm, self.y_mm, self.heading_deg, reach_mm, gap)
+        return gap
 
     def front_distance_mm(self) -> int:
         """The front sensor's reading, 0..``sensor_max_mm``."""
-        gap = self.true_front_gap_mm()
-        if self.params.sensor_noise_mm:
-            gap += self._rng.gauss(0.0, self.params.sensor_noise_mm)
-        return int(min(self.params.sensor_max_mm, max(0.0, round(gap))))
+        p = self.params
+        # beyond its range plus ten standard deviations of noise, nothing can read below the range
+        gap = self.true_front_gap_mm(p.sensor_max_mm + 10 * p.sensor_noise_mm + 1)
+        if p.sensor_noise_mm:
+            gap += self._rng.gauss(0.0, p.sensor_noise_mm)
+        if gap >= p.sensor_max_mm:
+            return p.sensor_max_mm
+        return int(max(0.0, round(gap)))
 
     def velocity_v(self) -> int:
         """Average wheel velocity in ``V`` units (20 = one revolution per second), -99..99."""
@@ -239,17 +256,19 @@ class Robot:
             if abs(self.turn_remaining_deg) < 1e-9:
                 self.turn_remaining_deg = 0.0
         delta_v = self.target_speed_mm_s - self.speed_mm_s
-        max_dv = p.acceleration_mm_s2 * dt
-        self.speed_mm_s += max(-max_dv, min(max_dv, delta_v))
+        if delta_v:
+            max_dv = p.acceleration_mm_s2 * dt
+            self.speed_mm_s += max(-max_dv, min(max_dv, delta_v))
         impacts = len(self.impacts)
         if self.speed_mm_s:
             self._drive(self.speed_mm_s * dt)
         # An impact is not braking: the body pitches forward (the kick), it does not lean back.
         self._accel_mm_s2 = 0.0 if len(self.impacts) > impacts else (self.speed_mm_s - previous_speed) / dt
         self._update_tilt(dt)
-        for i in range(3):
-            gap = self.servo_target_deg[i] - self.servo_deg[i]
-            self.servo_deg[i] += max(-p.servo_speed_deg_s * dt, min(p.servo_speed_deg_s * dt, gap))
+        if self.servo_deg != self.servo_target_deg:
+            for i in range(3):
+                gap = self.servo_target_deg[i] - self.servo_deg[i]
+                self.servo_deg[i] += max(-p.servo_speed_deg_s * dt, min(p.servo_speed_deg_s * dt, gap))
         drain = p.battery_idle_drain_per_s + (p.battery_motion_drain_per_s if self.moving else 0.0)
         self.battery = max(0.0, self.battery - drain * dt)
 
@@ -259,7 +278,15 @@ class Robot:
         dx, dy = math.cos(rad), math.sin(rad)
         radius = self.params.body_radius_mm
         x, y = self.x_mm + dx * distance_mm, self.y_mm + dy * distance_mm
-        if self.world.circle_fits(x, y, radius):
+        free_x, free_y, free_mm = self._free_at
+        # Nothing can come nearer than the distance moved since the clearance was measured.
+        fits = free_mm - math.hypot(x - free_x, y - free_y) > 0.0
+        if not fits:
+            clearance = self.world.clearance(x, y)
+            fits = clearance >= radius - EPSILON_MM
+            if fits:
+                self._free_at = (x, y, clearance - radius)
+        if fits:
             self.x_mm, self.y_mm = x, y
             self.odometer_mm += distance_mm
             return
@@ -289,5 +316,6 @@ class Robot:
         if self.fallen:
             return
         # A balancing robot leans into its acceleration: atan(a / g).
-        target = math.degrees(math.atan2(self._accel_mm_s2, GRAVITY_MM_S2))
-        self.tilt_deg += (target - self.tilt_deg) * min(1.0, dt / self.params.tilt_time_constant_s)
+        target = math.degrees(math.atan2(self._accel_mm_s2, GRAVITY_MM_S2)) if self._accel_mm_s2 else 0.0
+        if target != self.tilt_deg:
+            self.tilt_deg += (target - self.tilt_deg) * min(1.0, dt / self.params.tilt_time_constant_s)

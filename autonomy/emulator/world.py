@@ -198,8 +198,10 @@ class World:
     jitter: Jitter = field(default_factory=Jitter)
     description: str = ""
 
-    def ray_distance(self, x: float, y: float, heading_deg: float) -> float:
-        """Distance from (x, y) along ``heading_deg`` to the first wall or obstacle."""
+    def ray_distance(
+        self, x: float, y: float, heading_deg: float, obstacles: tuple[Obstacle, ...] | None = None
+    ) -> float:
+        """Distance from (x, y) along ``heading_deg`` to the first wall or obstacle (of ``obstacles``, if given)."""
         dx, dy = math.cos(math.radians(heading_deg)), math.sin(math.radians(heading_deg))
         if not (0 <= x <= self.width_mm and 0 <= y <= self.height_mm):
             return 0.0
@@ -212,23 +214,45 @@ class World:
             best = min(best, (self.height_mm - y) / dy)
         elif dy < -1e-12:
             best = min(best, -y / dy)
-        for obstacle in self.obstacles:
+        for obstacle in self.obstacles if obstacles is None else obstacles:
             best = min(best, obstacle.ray_distance(x, y, dx, dy))
         return best
 
     def cone_distance(
-        self, x: float, y: float, heading_deg: float, cone_deg: float = SENSOR_CONE_DEG, rays: int = SENSOR_RAYS
+        self,
+        x: float,
+        y: float,
+        heading_deg: float,
+        cone_deg: float = SENSOR_CONE_DEG,
+        rays: int = SENSOR_RAYS,
+        reach_mm: float = math.inf,
     ) -> float:
         """Distance from (x, y) to the nearest wall or obstacle within a cone about ``heading_deg``.
 
         The cone is ``cone_deg`` across, sampled by ``rays`` rays spread evenly over it, as a
         distance sensor reports the nearest echo in its field of view.
+
+        Args:
+            x: Where the sensor is, mm.
+            y: Where the sensor is, mm.
+            heading_deg: The cone's axis.
+            cone_deg: How wide the cone is, degrees across.
+            rays: How many rays sample it.
+            reach_mm: Nothing this far or further matters (a sensor's range): such a distance
+                comes back as infinity, and obstacles that far from (x, y) are not looked at.
         """
+        near = None
+        if math.isfinite(reach_mm):
+            if self.clearance(x, y) >= reach_mm:  # nothing within reach in any direction
+                return math.inf
+            near = tuple(o for o in self.obstacles if o.gap(x, y) < reach_mm)
         if rays <= 1 or cone_deg <= 0:
-            return self.ray_distance(x, y, heading_deg)
-        step = cone_deg / (rays - 1)
-        first = heading_deg - cone_deg / 2
-        return min(self.ray_distance(x, y, first + k * step) for k in range(rays))
+            found = self.ray_distance(x, y, heading_deg, near)
+        else:
+            step = cone_deg / (rays - 1)
+            first = heading_deg - cone_deg / 2
+            found = min(self.ray_distance(x, y, first + k * step, near) for k in range(rays))
+        return found if found < reach_mm else math.inf
 
     def clearance(self, x: float, y: float) -> float:
         """Distance from (x, y) to the nearest wall or obstacle (0 or less: touching one)."""
