@@ -333,6 +333,7 @@ class Runner:
         self._blackboard.set(STATUS_KEY, status)
         self._blackboard.set(BATTERY_KEY, self._battery)
         self._blackboard.set(HEALTHY_KEY, self._healthy)
+        self.context.polled = (status, self._battery, self._healthy)
         time_s = now - self._start_s
         speed_mm_s = self._observe(status, time_s)
         try:

@@ -121,6 +121,9 @@ class RobotContext:
         log: Called with a message for the person watching (the ``log`` node, events).
         turn_rate_deg_s: Expected turn-in-place rate, for turn time-outs.
         motion_owner: The action whose motion command the robot is carrying out, if any.
+        polled: The values polled before this tick (status packet, battery, health), as the
+            runner also puts them on the blackboard: read here, they cost a leaf no blackboard
+            look-up (None when no runner polls, and the blackboard is read instead).
     """
 
     client: Client
@@ -128,6 +131,7 @@ class RobotContext:
     log: Callable[[str], None] = field(default=lambda message: None)
     turn_rate_deg_s: float = 90.0
     motion_owner: object | None = None
+    polled: tuple[Packet, int, bool] | None = None
 
 
 class RobotBehaviour(py_trees.behaviour.Behaviour):
@@ -179,17 +183,20 @@ class RobotBehaviour(py_trees.behaviour.Behaviour):
     @property
     def robot_status(self) -> Packet:
         """The status packet polled before this tick."""
-        return self.blackboard.get(STATUS_KEY)
+        polled = self.robot.polled if self.robot is not None else None
+        return polled[0] if polled is not None else self.blackboard.get(STATUS_KEY)
 
     @property
     def battery(self) -> int:
         """The battery level, polled about once a second."""
-        return self.blackboard.get(BATTERY_KEY)
+        polled = self.robot.polled if self.robot is not None else None
+        return polled[1] if polled is not None else self.blackboard.get(BATTERY_KEY)
 
     @property
     def healthy(self) -> bool:
         """The ``GR`` reply, polled about once a second."""
-        return self.blackboard.get(HEALTHY_KEY)
+        polled = self.robot.polled if self.robot is not None else None
+        return polled[2] if polled is not None else self.blackboard.get(HEALTHY_KEY)
 
     def send(self, request: Callable[[], object]) -> bool:
         """Runs one client request; a ``NO`` becomes False and the feedback message.

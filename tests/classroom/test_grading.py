@@ -175,3 +175,34 @@ def test_exercise_files_are_checked_like_missions(tmp_path, text, message):
     with pytest.raises(ExerciseInvalid) as caught:
         load_exercise(path)
     assert any(line.startswith(f"{path}:{message}") for line in str(caught.value).splitlines()), str(caught.value)
+
+
+def test_a_memory_hog_or_a_huge_file_costs_that_student_a_zero(tmp_path):
+    exercise = load_exercise(EXERCISES / "garage.yaml")
+    (tmp_path / "gina").mkdir()
+    (tmp_path / "gina" / "hog.py").write_text("hoard = bytearray(3 * 1024**3)\n")
+    (tmp_path / "gina" / "mission.yaml").write_text("mission: hog\nplugins: [hog]\ntree:\n  wait: {seconds: 1}\n")
+    huge = tmp_path / "hank.yaml"
+    huge.write_text("mission: huge\n# " + "x" * 1_100_000 + "\ntree:\n  wait: {seconds: 1}\n")
+    reports = grade_class(
+        exercise, find_submissions([tmp_path / "gina", huge]), workers=2, memory_mb=512, allow_plugins=True
+    )
+    gina, hank = reports
+    assert gina.total == 0
+    assert gina.problems == [
+        f"{tmp_path / 'gina' / 'mission.yaml'}:2:11: plugins[0]: cannot import plugin 'hog': MemoryError: "
+    ]
+    assert hank.total == 0 and hank.problems == [f"{huge}:1:1: a mission file is at most 1,000,000 bytes"]
+
+
+def test_seeds_with_sensor_noise_and_a_lossy_link_are_graded_too(tmp_path):
+    exercise_file = tmp_path / "noisy.yaml"
+    exercise_file.write_text(
+        (EXERCISES / "garage.yaml")
+        .read_text()
+        .replace("seeds: [1, 2, 3, 4]", 'seeds: [1, {seed: 2, noise_mm: 2}, {seed: 3, faults: "drop=0.002"}]')
+    )
+    exercise = load_exercise(exercise_file)
+    assert [s.label for s in exercise.seeds] == ["seed 1", "seed 2 (noise 2 mm)", "seed 3 (faults drop=0.002)"]
+    report = grade_one(exercise, "ref", EXERCISES / "solutions" / "garage.yaml")
+    assert report.total == exercise.max_points, [s.verdicts for s in report.seeds]
