@@ -598,18 +598,19 @@ def _print_marks(exercise: Any, reports: list[Any]) -> None:
     from autonomy.views.lines import printable
 
     table = Table(title=f"{printable(exercise.title)}: marks out of {exercise.max_points:g}")
-    table.add_column("student")
-    table.add_column("total", justify="right")
+    table.add_column("student", no_wrap=True)
+    table.add_column("total", justify="right", no_wrap=True)
     for criterion in exercise.criteria:
-        table.add_column(f"{printable(criterion.label)} ({criterion.points:g})", justify="right")
-    table.add_column("why nothing ran")
+        table.add_column(f"{printable(criterion.label)} ({criterion.points:g})", justify="right", overflow="fold")
+    troubled = any(report.problems for report in reports)
+    if troubled:
+        table.add_column("why nothing ran", overflow="fold")
     for report in reports:
-        problems = (
-            printable(report.problems[0]) + (f" (+{len(report.problems) - 1} more)" if len(report.problems) > 1 else "")
-            if report.problems
-            else ""
-        )
-        table.add_row(printable(report.student), f"{report.total:g}", *[f"{m:g}" for m in report.marks], problems)
+        row = [printable(report.student), f"{report.total:g}", *[f"{m:g}" for m in report.marks]]
+        if troubled:
+            more = f" (+{len(report.problems) - 1} more)" if len(report.problems) > 1 else ""
+            row.append(printable(report.problems[0]) + more if report.problems else "")
+        table.add_row(*row)
     Console(highlight=False).print(table)
 
 

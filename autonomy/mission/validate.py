@@ -205,7 +205,8 @@ class _Validator:
             try:
                 module = import_plugin(item.value, base_dir)
             except (Exception, SystemExit) as err:  # noqa: BLE001 - any failure to import is the file's to report
-                self.problem(item, path, f"cannot import plugin '{item.value}': {type(err).__name__}: {err}")
+                why = f"{type(err).__name__}: {err}" if str(err) else type(err).__name__
+                self.problem(item, path, f"cannot import plugin '{item.value}': {why}")
                 continue
             classes = leaf_classes_in(module)
             if not classes:

@@ -183,3 +183,23 @@ def test_line_output_never_writes_control_characters():
     )
     assert written and all(line.isprintable() for line in written)
     assert written[0].endswith("drive�[2J (at � once)") and written[1].endswith("log: bell� and �flip")
+
+
+def test_grading_a_class_in_a_terminal_shows_a_progress_bar_then_the_marks_table(tmux):
+    files = " ".join(
+        shlex.quote(str(ROOT / "exercises" / folder / f"{name}.yaml"))
+        for folder, name in (("solutions", "opening"), ("wrong", "opening_fixed"), ("wrong", "opening_straight"))
+    )
+    session = tmux(f"{shlex.quote(sys.executable)} -m autonomy grade opening {files} --workers 1")
+    progress = session.wait_for("grading", seconds=20)
+    assert any("/3" in line for line in progress), progress  # done / total while it works
+    screen = session.wait_for("marks out of 10", seconds=60)
+    text = "\n".join(screen)
+    assert "grading ━" not in text  # the bar is gone once the table is there
+    rows = [[cell.strip() for cell in line.split("│")[1:-1]] for line in screen if line.startswith("│ opening")]
+    assert rows == [
+        ["opening", "10", "6", "2", "2"],
+        ["opening_fixed", "6", "3.6", "1.2", "1.2"],
+        ["opening_straight", "4", "0", "2", "2"],
+    ], screen
+    assert all(len(line) <= 80 for line in screen)
