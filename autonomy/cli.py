@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import signal
 import sys
 from collections.abc import Sequence
@@ -67,6 +68,21 @@ def _positive(text: str) -> float:
     if value <= 0:
         raise argparse.ArgumentTypeError(f"must be above 0, got {text}")
     return value
+
+
+def _bounded(kind: type, low: float, high: float, what: str) -> Any:
+    """An argparse type: a number of ``kind`` from ``low`` to ``high`` (finite), else a one-line error."""
+
+    def parse(text: str) -> Any:
+        try:
+            value = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected {what}, got '{text}'") from None
+        if not low <= value <= high:  # NaN fails this too
+            raise argparse.ArgumentTypeError(f"must be from {low:,} to {high:,}, got {text}")
+        return value
+
+    return parse
 
 
 def _faults(text: str) -> str:
@@ -525,6 +541,7 @@ def cmd_grade(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from autonomy.classroom import ExerciseInvalid, find_submissions, grade_class, load_exercise
+    from autonomy.classroom.grade import default_wall_s
     from autonomy.classroom.report import feedback, to_csv, to_html, to_json
 
     try:
@@ -535,6 +552,16 @@ def cmd_grade(args: argparse.Namespace) -> int:
         return EXIT_USAGE
     submissions = find_submissions(args.submissions)
     alone = len(submissions) == 1
+    targets = [
+        (target, write) for target, write in ((args.csv, to_csv), (args.json, to_json), (args.html, to_html)) if target
+    ]
+    inputs = {Path(p).resolve() for p in (args.exercise, *args.submissions)} | {p.resolve() for _, p in submissions}
+    for target, _ in targets:  # before hours of grading, not after
+        where = Path(target)
+        if where.resolve() in inputs:
+            return _fail(f"{target} is one of the files to grade: write the marks elsewhere", EXIT_USAGE)
+        if where.is_dir() or not where.parent.is_dir() or not os.access(where.parent, os.W_OK):
+            return _fail(f"cannot write {target}: no such folder, or not writable", EXIT_USAGE)
     if not args.quiet:
         seeds = ", ".join(str(s.seed) for s in exercise.seeds)
         print(
@@ -542,6 +569,8 @@ def cmd_grade(args: argparse.Namespace) -> int:
             f"in world '{exercise.world.name}', seeds {seeds}, {exercise.time_limit_s:g} s a run.",
             flush=True,
         )
+    for ending in (signal.SIGTERM, signal.SIGHUP):  # a closed terminal ends the workers as Ctrl-C does
+        signal.signal(ending, _interrupt)
     progress = None
     if not alone and not args.quiet and sys.stderr.isatty():
         from rich.console import Console
@@ -562,7 +591,7 @@ def cmd_grade(args: argparse.Namespace) -> int:
             exercise,
             submissions,
             workers=args.workers,
-            wall_s=args.wall_seconds,
+            wall_s=args.wall_seconds or default_wall_s(exercise),
             memory_mb=args.memory_mb,
             allow_plugins=args.allow_plugins,
             on_report=(lambda _: progress.advance(task)) if progress is not None else None,
@@ -577,17 +606,16 @@ def cmd_grade(args: argparse.Namespace) -> int:
             print(line)
     elif not args.quiet:
         _print_marks(exercise, reports)
-    writers = ((args.csv, to_csv), (args.json, to_json), (args.html, to_html))
-    for target, write in writers:
-        if not target:
-            continue
+    code = EXIT_OK
+    for target, write in targets:  # one that fails does not keep the others from being written
         try:
             Path(target).write_text(write(exercise, reports), encoding="utf-8")
         except OSError as err:
-            return _fail(f"cannot write {target}: {err.strerror or err}", EXIT_USAGE)
+            code = _fail(f"cannot write {target}: {err.strerror or err}", EXIT_USAGE)
+            continue
         if not args.quiet:
             print(f"wrote {target}")
-    return EXIT_OK
+    return code
 
 
 def _print_marks(exercise: Any, reports: list[Any]) -> None:
@@ -773,13 +801,25 @@ def build_parser() -> argparse.ArgumentParser:
     grade.add_argument(
         "submissions", nargs="+", metavar="SUBMISSION", help="mission files, or folders of one student's files"
     )
-    grade.add_argument("--workers", type=int, metavar="N", help="processes at once (default: the machine's cores)")
+    grade.add_argument(
+        "--workers",
+        type=_bounded(int, 1, 256, "a number of processes"),
+        metavar="N",
+        help="processes at once (default: the machine's cores)",
+    )
     grade.add_argument("--allow-plugins", action="store_true", help="run the Python plugins submissions load")
     grade.add_argument(
-        "--wall-seconds", type=_positive, default=60.0, metavar="S", help="wall time a submission may take (default 60)"
+        "--wall-seconds",
+        type=_bounded(float, 1, 86400, "a number of seconds"),
+        metavar="S",
+        help="wall time a submission may take, all its seeds (default: 60, more for long exercises)",
     )
     grade.add_argument(
-        "--memory-mb", type=int, default=1024, metavar="MB", help="memory a submission may take (default 1024)"
+        "--memory-mb",
+        type=_bounded(int, 256, 1 << 20, "a number of MiB"),
+        default=1024,
+        metavar="MB",
+        help="memory a submission may take (default 1024)",
     )
     grade.add_argument("--csv", metavar="FILE", help="write a gradebook: student, total, one column per criterion")
     grade.add_argument("--json", metavar="FILE", help="write every mark, verdict and path as JSON")

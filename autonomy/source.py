@@ -12,6 +12,7 @@ from __future__ import annotations
 import difflib
 import unicodedata
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import yaml
@@ -82,6 +83,48 @@ def control_character(text: str) -> str:
     return ""
 
 
+#: Largest mission, world or exercise file read, bytes.
+MAX_FILE_BYTES = 1_000_000
+#: Deepest nesting of lists and mappings a file may have.
+MAX_DEPTH = 100
+
+
+class UnreadableFile(Exception):
+    """A file that cannot be read as text: :attr:`reason` says why, in a few words."""
+
+    def __init__(self, reason: str) -> None:
+        super().__init__(reason)
+        self.reason = reason
+
+
+def read_text(path: str | Path, max_bytes: int = MAX_FILE_BYTES) -> str:
+    """Reads a UTF-8 text file of at most ``max_bytes``, reading no more than that.
+
+    Devices, pipes and folders are refused before anything is read: a link to ``/dev/zero``
+    must not fill the memory, nor a pipe hang the reader.
+
+    Raises:
+        UnreadableFile: not a regular file, too large, not UTF-8, or not readable.
+    """
+    path = Path(path)
+    try:
+        if not path.exists():
+            raise UnreadableFile("no such file")
+        if not path.is_file():
+            raise UnreadableFile("not a regular file (a folder, a device or a pipe)")
+        with path.open("rb") as stream:
+            data = stream.read(max_bytes + 1)
+    except OSError as err:
+        raise UnreadableFile(err.strerror or str(err)) from None
+    if len(data) > max_bytes:
+        raise UnreadableFile(f"larger than {max_bytes:,} bytes")
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as err:
+        line = data[: err.start].count(b"\n") + 1
+        raise UnreadableFile(f"not UTF-8 text (line {line}: {err.reason}); save it as UTF-8") from None
+
+
 @dataclass(frozen=True)
 class SourceError:
     """One problem at a place in the file."""
@@ -115,6 +158,8 @@ def parse(text: str) -> tuple[Located | None, list[SourceError]]:
             line, column = _where(node)
             if count > MAX_NODES:
                 raise _TooLarge(line, column)
+            if len(stack) >= MAX_DEPTH:
+                raise _TooDeep(line, column)
             if id(node) in stack:
                 errors.append(SourceError(line, column, "an alias refers to itself"))
                 return Located(None, line, column)
@@ -147,6 +192,10 @@ def parse(text: str) -> tuple[Located | None, list[SourceError]]:
         return convert(root, ()), errors
     except _TooLarge as err:
         return None, [SourceError(err.line, err.column, f"the file expands to more than {MAX_NODES} values")]
+    except _TooDeep as err:
+        return None, [SourceError(err.line, err.column, f"nested more than {MAX_DEPTH} levels deep")]
+    except RecursionError:  # the YAML reader itself gives up on deeper nesting still
+        return None, [SourceError(1, 1, f"nested more than {MAX_DEPTH} levels deep")]
     except yaml.MarkedYAMLError as err:
         mark = err.problem_mark or err.context_mark
         line, column = (mark.line + 1, mark.column + 1) if mark else (1, 1)
@@ -159,5 +208,10 @@ def parse(text: str) -> tuple[Located | None, list[SourceError]]:
 
 
 class _TooLarge(Exception):
+    def __init__(self, line: int, column: int) -> None:
+        self.line, self.column = line, column
+
+
+class _TooDeep(Exception):
     def __init__(self, line: int, column: int) -> None:
         self.line, self.column = line, column

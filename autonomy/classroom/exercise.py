@@ -21,7 +21,7 @@ It is read like a mission: every problem at once, as ``FILE:LINE:COL``, with a d
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -29,7 +29,7 @@ from autonomy.emulator.faults import FaultSpec, FaultSpecError
 from autonomy.emulator.world import SHIPPED, World, WorldError, WorldInvalid, load_world
 from autonomy.errors import AutonomyError
 from autonomy.mission.registry import BUILTINS
-from autonomy.source import Located, Problem, control_character, parse, suggest
+from autonomy.source import Located, Problem, UnreadableFile, control_character, parse, read_text, suggest
 
 TOP_LEVEL = ("exercise", "title", "description", "world", "time_limit_s", "seeds", "allowed_nodes", "criteria")
 SEED_KEYS = ("seed", "noise_mm", "faults")
@@ -88,6 +88,8 @@ class Criterion:
         points: What it is worth when it holds on every seed.
         options: Its further settings (``within_mm``, ``tolerance_deg``), defaults filled in.
         label: How reports name it (``end_in_zone garage``).
+        requires: The index of the criterion that must hold on a seed for this one to count
+            there (``requires: end_in_zone`` in the file), or None.
     """
 
     kind: str
@@ -95,6 +97,7 @@ class Criterion:
     points: float
     options: dict[str, float]
     label: str
+    requires: int | None = None
 
 
 @dataclass(frozen=True)
@@ -169,7 +172,7 @@ class _Reader:
             self.problem(located, path, f"expected {kind}, got {located.plain!r}")
             return None
         if not math.isfinite(value) or not low <= value <= high:
-            self.problem(located, path, f"must be from {low:g} to {high:g}, got {value!r}")
+            self.problem(located, path, f"must be from {_shown(low)} to {_shown(high)}, got {value!r}")
             return None
         return value
 
@@ -260,9 +263,10 @@ class _Reader:
                 seed = self.number(item, path, 0, 2**31 - 1, whole=True)
                 if seed is not None:
                     seeds.append(Seed(int(seed)))
-        numbers = [s.seed for s in seeds]
-        if len(set(numbers)) != len(numbers):
-            self.problem(located, "seeds", "a seed is given twice: each seed runs the same way every time")
+        if len(set(seeds)) != len(seeds):
+            self.problem(
+                located, "seeds", "a seed is given twice with the same noise and faults: it would run the same"
+            )
         return seeds
 
     def allowed(self, located: Located) -> tuple[str, ...] | None:
@@ -284,12 +288,12 @@ class _Reader:
         if not isinstance(located.value, list) or not located.value:
             self.problem(located, "criteria", "expected a list of criteria, e.g. - {end_in_zone: garage, points: 5}")
             return []
-        out = []
+        read = []
         for index, item in enumerate(located.value):
             criterion = self.criterion(item, f"criteria[{index}]", world)
             if criterion is not None:
-                out.append(criterion)
-        return out
+                read.append((criterion, item, f"criteria[{index}]"))
+        return self.requirements(located, read)
 
     def criterion(self, item: Located, path: str, world: World | None) -> Criterion | None:
         if not isinstance(item.value, dict):
@@ -311,7 +315,7 @@ class _Reader:
                 self.problem(item, path, f"give exactly one criterion of: {', '.join(CRITERIA)}")
             return None
         kind = CRITERIA[kinds[0]]
-        allowed = (kind.key, "points", *kind.options)
+        allowed = (kind.key, "points", "requires", *kind.options)
         for key in item.value:
             if key not in allowed:
                 self.problem(
@@ -357,6 +361,47 @@ class _Reader:
         )
         return Criterion(kind.key, value, float(points), options, label)
 
+    def requirements(self, located: Located, criteria: list[tuple[Criterion, Located, str]]) -> list[Criterion]:
+        """Resolves each ``requires:`` to the criterion it names (by kind, or by label when a kind repeats)."""
+        out = []
+        for index, (criterion, item, path) in enumerate(criteria):
+            wanted = item.value.get("requires")
+            if wanted is None:
+                out.append(criterion)
+                continue
+            labels = [c.label for c, _, _ in criteria]
+            named = [i for i, (c, _, _) in enumerate(criteria) if wanted.value in (c.kind, c.label)]
+            if not isinstance(wanted.value, str) or len(named) != 1 or named[0] == index:
+                word = wanted.value if isinstance(wanted.value, str) else repr(wanted.plain)
+                why = (
+                    "names more than one criterion: give its whole label"
+                    if len(named) > 1
+                    else "names no other criterion"
+                )
+                hint = suggest(word, labels) if isinstance(wanted.value, str) else ""
+                self.problem(wanted, f"{path}.requires", f"'{word}' {why}{hint} (criteria: {', '.join(labels)})")
+                out.append(criterion)  # kept in its place, so that the indexes below hold
+                continue
+            out.append(replace(criterion, requires=named[0]))
+        for index, criterion in enumerate(out):  # a chain of requirements must end somewhere
+            seen, at = {index}, criterion.requires
+            while at is not None and at not in seen:
+                seen.add(at)
+                at = out[at].requires
+            if at == index:
+                _, item, path = criteria[index]
+                self.problem(item_requires(item) or item, f"{path}.requires", "requirements go round in a circle")
+        return out
+
+
+def _shown(number: float) -> str:
+    return f"{int(number):,}" if float(number).is_integer() else f"{number:g}"
+
+
+def item_requires(item: Located) -> Located | None:
+    """A criteria item's ``requires:`` value, if it has one."""
+    return item.value.get("requires") if isinstance(item.value, dict) else None
+
 
 def load_exercise(path: str | Path) -> Exercise:
     """Reads and validates an exercise file.
@@ -367,14 +412,9 @@ def load_exercise(path: str | Path) -> Exercise:
     path = Path(path)
     label = str(path)
     try:
-        if path.stat().st_size > MAX_EXERCISE_BYTES:
-            raise ExerciseInvalid(
-                [Problem(label, 1, 1, "", f"an exercise file is at most {MAX_EXERCISE_BYTES:,} bytes")]
-            )
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as err:
-        reason = err.strerror if isinstance(err, OSError) and err.strerror else str(err)
-        raise ExerciseInvalid([Problem(label, 1, 1, "", f"cannot read the exercise: {reason}")]) from err
+        text = read_text(path, MAX_EXERCISE_BYTES)
+    except UnreadableFile as err:
+        raise ExerciseInvalid([Problem(label, 1, 1, "", f"cannot read the exercise: {err.reason}")]) from None
     root, errors = parse(text)
     problems = [Problem(label, e.line, e.column, "", e.message) for e in errors]
     reader = _Reader(label, path.parent)

@@ -12,6 +12,7 @@ from __future__ import annotations
 import multiprocessing
 import os
 import resource
+import signal
 import traceback
 from collections.abc import Callable, Iterable
 from dataclasses import asdict, dataclass, field
@@ -22,14 +23,14 @@ from typing import Any
 import serial
 
 from autonomy.classroom.exercise import Exercise, Seed
-from autonomy.classroom.judge import RunFacts, gather, judge, path_points
+from autonomy.classroom.judge import RunFacts, Verdict, gather, judge, path_points
 from autonomy.client import DEFAULT_BAUD, Client
 from autonomy.clock import RealClock, VirtualClock
 from autonomy.emulator import Emulator, RobotParams
-from autonomy.mission import MissionInvalid, MissionSpec, NodeSpec, Problem, build_tree, validate_file
+from autonomy.mission import MissionInvalid, MissionSpec, NodeSpec, Problem, build_tree, validate_text
 from autonomy.record import Record
 from autonomy.runner import Runner
-from autonomy.source import parse
+from autonomy.source import UnreadableFile, parse, read_text
 
 #: Largest mission file graded, bytes.
 MAX_SUBMISSION_BYTES = 1_000_000
@@ -87,6 +88,15 @@ class Report:
         return asdict(self)
 
 
+def default_wall_s(exercise: Exercise) -> float:
+    """The wall time a submission gets by default: 60 s, or more when its seeds add up to a long time.
+
+    Runs go at 100 times real time or faster on a slow machine; a submission gets twice what
+    that needs, so a long exercise does not cost a correct mission its marks.
+    """
+    return max(DEFAULT_WALL_S, 2 * len(exercise.seeds) * exercise.time_limit_s / 100)
+
+
 def find_submissions(paths: Iterable[str | Path]) -> list[tuple[str, Path]]:
     """(student, path) for each submission: a mission file, or a folder of one student's files.
 
@@ -97,15 +107,24 @@ def find_submissions(paths: Iterable[str | Path]) -> list[tuple[str, Path]]:
     for raw in paths:
         path = Path(raw)
         found.append((path.stem if path.is_file() or path.suffix in (".yaml", ".yml") else path.name, path))
+    counts: dict[str, int] = {}
+    for name, _ in found:
+        counts[name] = counts.get(name, 0) + 1
+    # two students of the same name (a/alice.yaml, b/alice.yaml) are told apart by their folders
+    found = [(f"{path.parent.name}/{name}" if counts[name] > 1 else name, path) for name, path in found]
     return sorted(found, key=lambda item: (item[0], str(item[1])))
 
 
 def _mission_file(path: Path) -> tuple[Path | None, str]:
-    if not path.exists():
+    if not path.exists() and not path.is_symlink():
         return None, f"{path}: no such file or folder"
-    if path.is_file():
+    if path.is_file() or path.is_symlink():
         return path, ""
-    candidates = sorted(p for p in path.iterdir() if p.suffix in (".yaml", ".yml") and p.is_file())
+    if not path.is_dir():
+        return None, f"{path}: not a mission file nor a folder"
+    candidates = sorted(
+        p for p in path.iterdir() if p.suffix in (".yaml", ".yml") and not p.name.startswith(".") and p.is_file()
+    )
     if len(candidates) == 1:
         return candidates[0], ""
     named = [p for p in candidates if p.stem == "mission"]
@@ -132,13 +151,12 @@ def check_submission(exercise: Exercise, path: Path, allow_plugins: bool) -> tup
         The validated mission, or None and every problem (``FILE:LINE:COL: ...`` lines).
     """
     label = str(path)
+    if path.is_symlink():
+        return None, [f"{label}:1:1: a link, not a file: hand in the mission file itself"]
     try:
-        if path.stat().st_size > MAX_SUBMISSION_BYTES:
-            return None, [f"{label}:1:1: a mission file is at most {MAX_SUBMISSION_BYTES:,} bytes"]
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as err:
-        reason = err.strerror if isinstance(err, OSError) and err.strerror else str(err)
-        return None, [f"{label}:1:1: cannot read the file: {reason}"]
+        text = read_text(path, MAX_SUBMISSION_BYTES)
+    except UnreadableFile as err:
+        return None, [f"{label}:1:1: cannot read the file: {err.reason}"]
     root, _ = parse(text)
     if not allow_plugins and root is not None and isinstance(root.value, dict) and "plugins" in root.value:
         line, column = root.keys["plugins"]
@@ -146,8 +164,8 @@ def check_submission(exercise: Exercise, path: Path, allow_plugins: bool) -> tup
             f"{label}:{line}:{column}: plugins: Python plugins are not run when grading "
             "unless the teacher allows them (autonomy grade --allow-plugins)"
         ]
-    try:
-        spec = validate_file(path)
+    try:  # grading runs in the exercise's world: the mission's own is not loaded (nor echoed)
+        spec = validate_text(text, label, path.parent, check_world=False)
     except MissionInvalid as err:
         return None, [str(p) for p in err.problems]
     if exercise.allowed_nodes is not None:
@@ -224,6 +242,13 @@ def grade_one(exercise: Exercise, student: str, path: Path, allow_plugins: bool 
     for seed in exercise.seeds:
         facts = gather(run_seed(exercise, spec, seed))
         verdicts = [judge(criterion, facts, exercise.world) for criterion in exercise.criteria]
+        for index, criterion in enumerate(exercise.criteria):
+            needed = criterion.requires
+            if needed is not None and verdicts[index].held and not verdicts[needed].held:
+                label = exercise.criteria[needed].label
+                verdicts[index] = Verdict(
+                    False, f"{verdicts[index].line} (counts only with {label}, which did not hold)"
+                )
         for index, verdict in enumerate(verdicts):
             held[index] += verdict.held
         seeds.append(
@@ -237,12 +262,18 @@ def grade_one(exercise: Exercise, student: str, path: Path, allow_plugins: bool 
             )
         )
     count = len(exercise.seeds)
-    marks = [round(c.points * held[i] / count, 2) for i, c in enumerate(exercise.criteria)]
-    return Report(student, str(mission), round(sum(marks), 2), exercise.max_points, marks, [], seeds)
+    exact = [c.points * held[i] / count for i, c in enumerate(exercise.criteria)]
+    marks = [round(m, 2) for m in exact]
+    return Report(student, str(mission), round(sum(exact), 2), exercise.max_points, marks, [], seeds)
 
 
 def _worker(exercise: Exercise, student: str, path: Path, allow_plugins: bool, memory_mb: int, out: Connection) -> None:
-    """A worker process's body: limits its memory, grades, sends the report back."""
+    """A worker process's body: limits its memory, grades, sends the report back.
+
+    It leads a process group of its own, so that whatever a plugin starts goes with it.
+    """
+    os.setpgid(0, 0)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the grader ends its workers; a Ctrl-C is for the grader
     limit = memory_mb * 1024 * 1024
     try:
         resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
@@ -326,6 +357,7 @@ def grade_class(
                     result = None
                 connection.close()
                 process.join(5)
+                _kill_group(process)  # whatever the submission started ends with it
                 if isinstance(result, Report):
                     finish(index, result)
                 elif isinstance(result, str):
@@ -338,17 +370,37 @@ def grade_class(
             now = clock.now()
             for connection, (index, process, deadline) in list(running.items()):
                 if now >= deadline:
-                    process.kill()
+                    _kill_group(process)
                     process.join(5)
                     connection.close()
                     del running[connection]
                     finish(index, failed(index, f"took more than {wall_s:g} s of wall time (an endless loop?)"))
     finally:
-        for connection, (_, process, _) in running.items():
-            process.kill()
-            process.join(5)
-            connection.close()
+        # a second Ctrl-C must not cut the clean-up short and leave workers behind
+        blocked = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM, signal.SIGHUP})
+        try:
+            for connection, (_, process, _) in running.items():
+                _kill_group(process)
+                process.join(5)
+                connection.close()
+        finally:
+            signal.pthread_sigmask(signal.SIG_SETMASK, blocked)
     return [reports[i] for i in range(len(submissions))]
+
+
+def _kill_group(process: Any) -> None:
+    """Ends a worker and every process in its group (what a plugin may have started)."""
+    for pid in (process.pid,):
+        if pid is None:
+            continue
+        try:
+            os.killpg(pid, signal.SIGKILL)
+        except (ProcessLookupError, PermissionError):
+            pass
+        try:
+            process.kill()
+        except (OSError, ValueError):
+            pass
 
 
 def check_only(exercise: Exercise, path: Path, allow_plugins: bool) -> list[str]:

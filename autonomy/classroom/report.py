@@ -22,6 +22,12 @@ def _number(value: float) -> str:
     return f"{value:g}"
 
 
+def _cell_text(text: str) -> str:
+    """Text a spreadsheet will not run as a formula (a file may be named ``=HYPERLINK(...)``)."""
+    text = printable(text)
+    return "'" + text if text[:1] in ("=", "+", "-", "@") else text
+
+
 def to_csv(exercise: Exercise, reports: list[Report]) -> str:
     """The gradebook: student, total, out of, one column per criterion, then why a submission did not run."""
     out = io.StringIO()
@@ -30,11 +36,11 @@ def to_csv(exercise: Exercise, reports: list[Report]) -> str:
     for report in reports:
         writer.writerow(
             [
-                report.student,
+                _cell_text(report.student),
                 _number(report.total),
                 _number(report.max_points),
                 *[_number(m) for m in report.marks],
-                " | ".join(report.problems),
+                _cell_text(" | ".join(report.problems)),
             ]
         )
     return out.getvalue()
@@ -57,7 +63,10 @@ def to_json(exercise: Exercise, reports: list[Report]) -> str:
 
 def feedback(exercise: Exercise, report: Report) -> list[str]:
     """What a student reads: the total, then each criterion with its mark and each seed's line."""
-    lines = [f"{report.student}: {_number(report.total)} / {_number(report.max_points)} in '{exercise.title}'"]
+    lines = [
+        f"{printable(report.student)}: {_number(report.total)} / {_number(report.max_points)} "
+        f"in '{printable(exercise.title)}'"
+    ]
     if report.problems:
         lines.append("  Nothing ran, and the mark is 0:")
         lines += [f"  {printable(p)}" for p in report.problems]

@@ -18,7 +18,7 @@ from typing import Any
 import yaml
 
 from autonomy.errors import AutonomyError
-from autonomy.source import Located, Problem, control_character, parse, suggest
+from autonomy.source import Located, Problem, UnreadableFile, control_character, parse, read_text, suggest
 
 EPSILON_MM = 1e-6
 #: The footprint the start pose is checked with (the emulated robot's ``body_radius_mm``).
@@ -31,6 +31,8 @@ SENSOR_RAYS = 7
 MAX_ARENA_MM = 100_000.0
 #: Largest world file read, bytes.
 MAX_WORLD_BYTES = 1_000_000
+#: Most obstacles and zones a world may have (every check looks at every pair).
+MAX_OBSTACLES, MAX_ZONES = 300, 50
 #: Largest start jitter accepted: mm either way, and degrees either way.
 MAX_JITTER_MM, MAX_JITTER_DEG = 1000.0, 180.0
 
@@ -422,6 +424,8 @@ class _Reader:
             items = doc["obstacles"]
             if not isinstance(items.value, list):
                 self.problem(items, "obstacles", "expected a list of {box: ...} or {circle: ...}")
+            elif len(items.value) > MAX_OBSTACLES:
+                self.problem(items, "obstacles", f"at most {MAX_OBSTACLES} obstacles, got {len(items.value)}")
             else:
                 for index, item in enumerate(items.value):
                     shape = self.shape(item, f"obstacles[{index}]")
@@ -433,7 +437,10 @@ class _Reader:
             if not isinstance(block.value, dict):
                 self.problem(block, "zones", "expected a mapping of zone names to {box: ...} or {circle: ...}")
             else:
-                for zone_name, item in block.value.items():
+                for zone_name, item in list(block.value.items())[:MAX_ZONES]:
+                    if not zone_name.strip() or control_character(zone_name):
+                        self.problem(block.keys[zone_name], "zones", f"a zone needs a plain name, got {zone_name!r}")
+                        continue
                     shape = self.shape(item, f"zones.{zone_name}")
                     if shape is not None:
                         zones.append((Zone(zone_name, shape), item, f"zones.{zone_name}"))
@@ -581,17 +588,15 @@ def load_world(name_or_path: str | Path) -> World:
         source = resources.files("autonomy.emulator").joinpath("worlds", f"{text}.yaml").read_text(encoding="utf-8")
         return _read_text(source, f"{text}.yaml", text)
     path = Path(text)
-    if not path.is_file():
+    if not path.exists():
         hint = suggest(text, list(SHIPPED))
+        if not hint and path.with_suffix(".yaml").is_file():
+            hint = f" (did you mean '{path.with_suffix('.yaml')}'?)"
         raise WorldError(
             f"no world named '{text}'{hint}: use one of {', '.join(SHIPPED)} or the path of a world file (.yaml)"
         )
-    if path.stat().st_size > MAX_WORLD_BYTES:
-        raise WorldInvalid([Problem(text, 1, 1, "", f"a world file is at most {MAX_WORLD_BYTES:,} bytes")])
     try:
-        source = path.read_text(encoding="utf-8")
-    except UnicodeDecodeError as err:
-        raise WorldInvalid([Problem(text, 1, 1, "", f"not UTF-8 text ({err.reason} at byte {err.start})")]) from err
-    except OSError as err:
-        raise WorldError(f"cannot read the world file {text}: {err.strerror}") from err
+        source = read_text(path, MAX_WORLD_BYTES)
+    except UnreadableFile as err:
+        raise WorldInvalid([Problem(text, 1, 1, "", f"cannot read the world file: {err.reason}")]) from None
     return _read_text(source, text, path.stem)

@@ -58,12 +58,13 @@ def lint(spec: MissionSpec) -> list[Problem]:
         if name == "sequence" and node.children and _ticked_again(above):
             first, rest = node.children[0], node.children[1:]
             if first.type.category == "condition" and rest and all(c.type.name in INSTANT_ACTIONS for c in rest):
-                did = ", ".join(c.type.name for c in rest)
+                did = " and ".join(sorted({c.type.name for c in rest}))
+                held = " (the collision flag stays set 0.5 s: about 10 ticks)" if first.type.name == "collided" else ""
                 warn(
                     node,
                     f"'{first.display_name}' then only {did}, under a repeat: it runs again on every tick "
-                    f"while '{first.display_name}' holds (the collision flag alone is held 0.5 s, 10 ticks at "
-                    "20 Hz); add an action that takes time (a move, a turn, a wait) or put it under once",
+                    f"while '{first.display_name}' holds{held}; add an action that takes time (a move, a turn, "
+                    "a wait) after it",
                 )
         elif name == "repeat" and not node.args.get("times") and not any(a.type.name in ENDERS for a in above):
             warn(

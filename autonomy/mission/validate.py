@@ -18,7 +18,7 @@ from autonomy.behaviours import Param
 from autonomy.emulator.world import SHIPPED, WorldError, WorldInvalid, load_world
 from autonomy.errors import AutonomyError
 from autonomy.mission.registry import BUILTINS, NodeType, Registry, leaf_classes_in, leaf_type
-from autonomy.source import Located, Problem, control_character, parse
+from autonomy.source import Located, Problem, UnreadableFile, control_character, parse, read_text
 from autonomy.source import suggest as _suggest
 
 TOP_LEVEL = ("mission", "description", "tick_hz", "world", "subtrees", "tree", "plugins")
@@ -81,9 +81,10 @@ def _type_name(value: Any) -> str:
 
 
 class _Validator:
-    def __init__(self, source: str, registry: Registry) -> None:
+    def __init__(self, source: str, registry: Registry, check_world: bool = True) -> None:
         self.source = source
         self.registry = registry
+        self.check_world = check_world
         self.problems: list[Problem] = []
         self.references: list[tuple[str, str, Located, str]] = []  # (owner, subtree name, where, path)
 
@@ -104,7 +105,7 @@ class _Validator:
         name = self.text(doc, "mission", root, required=True)
         description = self.text(doc, "description", root) or ""
         world = self.text(doc, "world", root)
-        if world is not None:
+        if world is not None and self.check_world:
             world = self.world(world, doc["world"], base_dir)
         tick_hz = DEFAULT_TICK_HZ
         if "tick_hz" in doc:
@@ -498,16 +499,28 @@ def import_plugin(module_name: str, base_dir: Path) -> Any:
 
 
 def validate_text(
-    text: str, source: str = "<mission>", base_dir: Path | None = None, registry: Registry | None = None
+    text: str,
+    source: str = "<mission>",
+    base_dir: Path | None = None,
+    registry: Registry | None = None,
+    check_world: bool = True,
 ) -> MissionSpec:
     """Validates a mission given as text.
+
+    Args:
+        text: The mission file's text.
+        source: Its name, for problems.
+        base_dir: Where its plugins and world file are looked for (default: the working folder).
+        registry: The node types known besides its plugins' (default: the built-in ones).
+        check_world: Whether to load the world it names; grading does not (it runs in the
+            exercise's world, and must not read files a submission points at).
 
     Raises:
         MissionInvalid: with every problem found.
     """
     root, errors = parse(text)
     problems = [Problem(source, e.line, e.column, "", e.message) for e in errors]
-    validator = _Validator(source, (registry or BUILTINS).copy())
+    validator = _Validator(source, (registry or BUILTINS).copy(), check_world)
     spec = validator.mission(root, base_dir or Path.cwd()) if root is not None else None
     problems += validator.problems
     if problems or spec is None:
@@ -516,7 +529,7 @@ def validate_text(
     return spec
 
 
-def validate_file(path: str | Path) -> MissionSpec:
+def validate_file(path: str | Path, check_world: bool = True) -> MissionSpec:
     """Reads and validates a mission file.
 
     Raises:
@@ -524,8 +537,7 @@ def validate_file(path: str | Path) -> MissionSpec:
     """
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as err:
-        reason = err.strerror if isinstance(err, OSError) and err.strerror else str(err)
-        raise MissionInvalid([Problem(str(path), 1, 1, "", f"cannot read the file: {reason}")]) from err
-    return validate_text(text, str(path), path.parent)
+        text = read_text(path)
+    except UnreadableFile as err:
+        raise MissionInvalid([Problem(str(path), 1, 1, "", f"cannot read the file: {err.reason}")]) from None
+    return validate_text(text, str(path), path.parent, check_world=check_world)

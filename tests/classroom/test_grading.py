@@ -14,15 +14,15 @@ SHIPPED = ("square", "garage", "slalom", "bump", "opening")
 
 #: For each wrong solution: the criteria it must lose marks on, and those it keeps in full.
 WRONG = {
-    "square_turns_right": ({"beep_near corner_2", "beep_near corner_3"}, {"beep_near corner_1", "end_in_zone home"}),
+    "square_turns_right": ({"beep_near corner_2", "reach_zone corner_2", "end_in_zone home"}, {"beep_near corner_1"}),
     "square_no_beeps": ({"beep_near corner_1", "beep_near corner_2", "beep_near corner_3"}, {"end_in_zone home"}),
     "garage_fixed_distance": ({"end_in_zone garage", "max_collisions 0"}, set()),
-    "garage_until_bump": ({"end_in_zone garage", "max_collisions 0"}, {"finish_within_s 30"}),
-    "slalom_straight": ({"end_in_zone exit"}, {"max_collisions 0"}),
+    "garage_until_bump": ({"end_in_zone garage", "max_collisions 0"}, set()),
+    "slalom_straight": ({"end_in_zone exit"}, set()),
     "slalom_blind": ({"end_in_zone exit", "max_collisions 0"}, set()),
     "bump_push": ({"end_in_zone goal", "finish_within_s 60"}, set()),
-    "bump_no_return": ({"end_in_zone goal"}, {"max_collisions 1"}),
-    "opening_straight": ({"end_in_zone goal"}, {"max_collisions 0"}),
+    "bump_no_return": ({"end_in_zone goal"}, set()),
+    "opening_straight": ({"end_in_zone goal"}, set()),
     "opening_fixed": ({"end_in_zone goal"}, set()),
 }
 
@@ -132,6 +132,7 @@ def test_grading_twice_writes_the_same_bytes():
     rows = to_csv(exercise, first).splitlines()
     assert rows[0] == "student,total,out_of,end_in_zone garage,max_collisions 0,finish_within_s 30,problems"
     assert rows[1].startswith("garage,10,10,5,3,2,")
+    assert rows[2].startswith("garage_fixed_distance,7.5,10,3.75,2.25,1.5,")
     document = json.loads(to_json(exercise, first))
     assert [s["student"] for s in document["students"]] == ["garage", "garage_fixed_distance"]
 
@@ -153,7 +154,7 @@ def test_grading_twice_writes_the_same_bytes():
         ),
         (
             "world: garage\ntime_limit_s: .nan\nseeds: [1, 1]\ncriteria:\n  - succeed: true\n",
-            "2:15: time_limit_s: must be from 0.1 to 3600",
+            "2:15: time_limit_s: must be from 0.1 to 3,600",
         ),
         (
             "world: garage\ntime_limit_s: 30\nseeds: [1, 1]\ncriteria:\n  - succeed: true\n",
@@ -192,7 +193,7 @@ def test_a_memory_hog_or_a_huge_file_costs_that_student_a_zero(tmp_path):
     assert gina.problems == [
         f"{tmp_path / 'gina' / 'mission.yaml'}:2:11: plugins[0]: cannot import plugin 'hog': MemoryError"
     ]
-    assert hank.total == 0 and hank.problems == [f"{huge}:1:1: a mission file is at most 1,000,000 bytes"]
+    assert hank.total == 0 and hank.problems == [f"{huge}:1:1: cannot read the file: larger than 1,000,000 bytes"]
 
 
 def test_seeds_with_sensor_noise_and_a_lossy_link_are_graded_too(tmp_path):
@@ -206,3 +207,65 @@ def test_seeds_with_sensor_noise_and_a_lossy_link_are_graded_too(tmp_path):
     assert [s.label for s in exercise.seeds] == ["seed 1", "seed 2 (noise 2 mm)", "seed 3 (faults drop=0.002)"]
     report = grade_one(exercise, "ref", EXERCISES / "solutions" / "garage.yaml")
     assert report.total == exercise.max_points, [s.verdicts for s in report.seeds]
+
+
+@pytest.mark.parametrize("name", SHIPPED)
+def test_a_mission_that_does_nothing_scores_nothing(tmp_path, name):
+    lazy = tmp_path / "lazy.yaml"
+    lazy.write_text("mission: lazy\ntree:\n  beep: {}\n")
+    exercise = load_exercise(EXERCISES / f"{name}.yaml")
+    report = grade_one(exercise, "lazy", lazy)
+    assert report.total == 0, [s.verdicts for s in report.seeds]
+    assert any("(counts only with " in line for _, line in report.seeds[0].verdicts)
+
+
+def test_grading_never_reads_the_file_a_mission_names_as_its_world(tmp_path):
+    secret = tmp_path / "secret.txt"
+    secret.write_text("password: hunter2\n")
+    mission = tmp_path / "ivy.yaml"
+    mission.write_text(f"mission: nosy\nworld: {secret}\ntree:\n  move: {{speed: 2, until_obstacle_mm: 150}}\n")
+    report = grade_one(load_exercise(EXERCISES / "garage.yaml"), "ivy", mission)
+    assert report.total == 10 and "hunter2" not in str(report.to_json())
+
+
+def test_links_devices_and_hidden_files_are_not_read_as_submissions(tmp_path):
+    exercise = load_exercise(EXERCISES / "garage.yaml")
+    link = tmp_path / "jo.yaml"
+    link.symlink_to(EXERCISES / "solutions" / "garage.yaml")
+    assert grade_one(exercise, "jo", link).problems == [
+        f"{link}:1:1: a link, not a file: hand in the mission file itself"
+    ]
+    device = tmp_path / "kim.yaml"
+    device.symlink_to("/dev/zero")
+    assert "a link, not a file" in grade_one(exercise, "kim", device).problems[0]
+    folder = tmp_path / "lee"
+    folder.mkdir()
+    (folder / "park.yaml").write_text((EXERCISES / "solutions" / "garage.yaml").read_text())
+    (folder / "._park.yaml").write_bytes(b"\x00\x05\x16\x07")  # a zip made on a Mac
+    assert grade_one(exercise, "lee", folder).total == 10
+    with pytest.raises(ExerciseInvalid, match="not a regular file"):
+        load_exercise(tmp_path / "kim.yaml")
+
+
+def test_a_requirement_must_name_one_other_criterion(tmp_path):
+    path = tmp_path / "ex.yaml"
+    path.write_text(
+        "world: garage\ntime_limit_s: 30\nseeds: [1]\ncriteria:\n"
+        "  - end_in_zone: garage\n    requires: max_collisions\n"
+        "  - max_collisions: 0\n    requires: end_in_zone\n"
+        "  - succeed: true\n    requires: end_in_zon\n"
+    )
+    with pytest.raises(ExerciseInvalid) as caught:
+        load_exercise(path)
+    lines = str(caught.value).splitlines()
+    assert f"{path}:6:15: criteria[0].requires: requirements go round in a circle" in lines
+    assert any(
+        line.startswith(f"{path}:10:15: criteria[2].requires: 'end_in_zon' names no other criterion") for line in lines
+    )
+
+
+def test_deep_nesting_is_a_problem_at_its_place_not_a_crash(tmp_path):
+    path = tmp_path / "deep.yaml"
+    path.write_text("world: garage\ndescription: " + "[" * 5000 + "]" * 5000 + "\n")
+    with pytest.raises(ExerciseInvalid, match="nested more than 100 levels deep"):
+        load_exercise(path)

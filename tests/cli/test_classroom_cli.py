@@ -90,7 +90,90 @@ def test_a_bad_exercise_is_every_problem_at_its_place_and_exit_2(tmp_path):
     result = autonomy("grade", str(exercise), "missions/square.yaml")
     assert result.returncode == 2 and "Traceback" not in result.stderr
     assert result.stderr.splitlines() == [
-        f"{exercise}:2:15: time_limit_s: must be from 0.1 to 3600, got -1",
+        f"{exercise}:2:15: time_limit_s: must be from 0.1 to 3,600, got -1",
         f"{exercise}:5:18: criteria[0].end_in_zone: world 'garage' has no zone 'garge' (did you mean 'garage'?) "
         "(its zones: garage)",
     ]
+
+
+def _children(pid: int) -> set[int]:
+    """Every process below ``pid``."""
+    import os
+
+    parents: dict[int, int] = {}
+    for entry in os.listdir("/proc"):
+        if entry.isdigit():
+            try:
+                with open(f"/proc/{entry}/stat") as stat:
+                    parents[int(entry)] = int(stat.read().rsplit(")", 1)[1].split()[1])
+            except OSError:
+                continue
+    found, frontier = set(), {pid}
+    while frontier:
+        frontier = {child for child, parent in parents.items() if parent in frontier} - found
+        found |= frontier
+    return found
+
+
+def _alive(pid: int) -> bool:
+    try:
+        with open(f"/proc/{pid}/stat") as stat:
+            return stat.read().rsplit(")", 1)[1].split()[0] != "Z"
+    except OSError:
+        return False
+
+
+def test_sigterm_while_grading_ends_every_worker_and_what_plugins_started(tmp_path):
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    for name in ("ann", "ben"):
+        folder = tmp_path / name
+        folder.mkdir()
+        (folder / "spin.py").write_text(
+            "import os\nif os.fork() == 0:\n    while True:\n        pass\nwhile True:\n    pass\n"
+        )
+        (folder / "mission.yaml").write_text("mission: spin\nplugins: [spin]\ntree:\n  wait: {seconds: 1}\n")
+    grader = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "autonomy",
+            "grade",
+            "garage",
+            str(tmp_path / "ann"),
+            str(tmp_path / "ben"),
+            "--allow-plugins",
+            "--workers",
+            "2",
+        ],
+        cwd=ROOT,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    deadline = time.monotonic() + 20
+    while len(_children(grader.pid)) < 4 and time.monotonic() < deadline:  # two workers, each with a fork
+        time.sleep(0.1)
+    below = _children(grader.pid)
+    assert len(below) >= 4
+    grader.send_signal(signal.SIGTERM)
+    out, err = grader.communicate(timeout=20)
+    assert grader.returncode == 130 and "Traceback" not in err, err
+    assert err.strip() == "autonomy: error: grading interrupted"
+    time.sleep(0.5)
+    assert [pid for pid in below if _alive(pid)] == []
+
+
+def test_grading_options_out_of_range_are_one_line_errors():
+    for option, value in (
+        ("--workers", "0"),
+        ("--wall-seconds", "nan"),
+        ("--wall-seconds", "inf"),
+        ("--memory-mb", "5"),
+    ):
+        result = autonomy("grade", "garage", "missions/square.yaml", option, value)
+        assert result.returncode == 2 and "Traceback" not in result.stderr
+        assert len(result.stderr.strip().splitlines()) == 1 and f"argument {option}: must be from" in result.stderr

@@ -18,7 +18,7 @@ def test_the_class_page_shows_the_table_and_every_path_on_its_map(page, tmp_path
     page.goto(path.as_uri())
     assert fetched == [path.as_uri()]  # the page is whole in one file
     rows = page.locator("table tr").all_inner_texts()
-    assert rows[1].split("\t")[:2] == ["bump", "10"] and rows[2].split("\t")[:2] == ["bump_no_return", "5"]
+    assert rows[1].split("\t")[:2] == ["bump", "10"] and rows[2].split("\t")[:2] == ["bump_no_return", "0"]
     assert page.locator("table tr").nth(2).locator("td").nth(2).get_attribute("class") == "none"  # goal: no marks
     maps = page.locator(".seed svg")
     assert maps.count() == 6
