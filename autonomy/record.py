@@ -265,17 +265,29 @@ class TickRecord:
             ]
         )
         wire = ",".join([_exchange_json(e) for e in self.wire])
-        line = (
-            f'{{"type":"tick","tick":{self.tick},"time_s":{self.time_s:.4f},"status":{{"mode":{s.mode},'
-            f'"auto_mode":{_JSON_BOOL[s.auto_mode]},"collided":{_JSON_BOOL[s.collided]},'
-            f'"moving":{_JSON_BOOL[s.moving]},"tilt_deg":{s.tilt_deg},"heading_deg":{s.heading_deg},'
-            f'"front_distance_mm":{s.front_distance_mm},"odometer_mm":{s.odometer_mm}'
-            f'{f",{_RAW}{s.raw.hex()}{_QUOTE}" if s.raw else ""}}},"battery":{int(self.battery)},'
-            f'"healthy":{_JSON_BOOL[self.healthy]},"speed_mm_s":{self.speed_mm_s:.1f},'
-            f'"dead_reckoning":[{dr.x_mm:.1f},{dr.y_mm:.1f},{dr.heading_deg:.1f}],"nodes":{{{nodes}}},"wire":[{wire}]'
+        line = _TICK_LINE % (  # one %-format: several times faster than as many f-string fields
+            self.tick,
+            self.time_s,
+            s.mode,
+            _JSON_BOOL[s.auto_mode],
+            _JSON_BOOL[s.collided],
+            _JSON_BOOL[s.moving],
+            s.tilt_deg,
+            s.heading_deg,
+            s.front_distance_mm,
+            s.odometer_mm,
+            f",{_RAW}{s.raw.hex()}{_QUOTE}" if s.raw else "",
+            int(self.battery),
+            _JSON_BOOL[self.healthy],
+            self.speed_mm_s,
+            dr.x_mm,
+            dr.y_mm,
+            dr.heading_deg,
+            nodes,
+            wire,
         )
         if truth is not None:
-            line += f',"truth":[{truth.x_mm:.1f},{truth.y_mm:.1f},{truth.heading_deg:.1f}]'
+            line += _TRUTH % (truth.x_mm, truth.y_mm, truth.heading_deg)
         if self.events:
             line += ',"events":' + json.dumps([e.to_json() for e in self.events], separators=(",", ":"))
         return line + "}"
@@ -383,6 +395,12 @@ def to_line(record: Record) -> str:
 
 #: A string as JSON, quotes included (the json module's own C encoder).
 _text = encode_basestring
+_TICK_LINE = (
+    '{"type":"tick","tick":%d,"time_s":%.4f,"status":{"mode":%d,"auto_mode":%s,"collided":%s,"moving":%s,'
+    '"tilt_deg":%d,"heading_deg":%d,"front_distance_mm":%d,"odometer_mm":%d%s},"battery":%d,"healthy":%s,'
+    '"speed_mm_s":%.1f,"dead_reckoning":[%.1f,%.1f,%.1f],"nodes":{%s},"wire":[%s]'
+)
+_TRUTH = ',"truth":[%.1f,%.1f,%.1f]'
 #: Exchanges as JSON, by exchange: a run sends the same few again and again.
 _EXCHANGES: dict[Exchange, str] = {}
 _MOST_EXCHANGES = 4096

@@ -13,12 +13,13 @@ const PLOTS = [
 const CHECKPOINT_EVERY = 100;
 const RENDER_EVERY_MS = 50;
 const BURST_RENDER_EVERY_MS = 1000;
+const BURST_FULL_RENDER_EVERY_MS = 3000;
 const MAX_PLOT_POINTS = 400;  // a plot is about 400 px wide
 const MAX_PATH_POINTS = 3000;
 
 const view = {
   mode: "live", header: null, ticks: [], end: null, index: -1,
-  playing: false, speed: 1, playTime: 0, lastFrame: 0, lastRender: 0, burst: false, dirty: false, frameAsked: false, timerSet: false,
+  playing: false, speed: 1, playTime: 0, lastFrame: 0, lastRender: 0, burst: false, dirty: false, frameAsked: false, timerSet: false, lastFullRender: 0,
   checkpoints: [], events: [], collisions: [], logKey: null,
   // per tick, filled as ticks arrive, so that drawing never walks every record
   times: [], values: [], lo: [], hi: [], dr: [], truth: [], bounds: [0, 0, 0, 0],
@@ -258,11 +259,15 @@ function renderHeader(i) {
   $("slider-label").textContent = `tick ${t ? t.tick : 0} / ${view.ticks.length}`;
 }
 
-function render() {
+// light: the tree, the log and the header only (the map and plots are the costly part to paint).
+function render(light) {
   const i = view.index;
   renderTree(i);
-  renderMap(i);
-  renderPlots(i);
+  if (!light) {
+    renderMap(i);
+    renderPlots(i);
+    view.lastFullRender = performance.now();
+  }
   renderLog(i);
   renderHeader(i);
   view.dirty = false;
@@ -293,7 +298,11 @@ function frame(now) {
   // virtual time sends ticks in bursts of hundreds: it is drawn once a second, which
   // leaves the machine to the run.
   const every = view.burst ? BURST_RENDER_EVERY_MS : RENDER_EVERY_MS;
-  if (view.dirty && now - view.lastRender >= every) { view.lastRender = now; render(); }
+  if (view.dirty && now - view.lastRender >= every) {
+    view.lastRender = now;
+    // in a burst the tree follows every second, the map and plots every few seconds
+    render(view.burst && now - view.lastFullRender < BURST_FULL_RENDER_EVERY_MS);
+  }
   view.frameAsked = false;
   if (view.playing) wakeUp();
   else if (view.dirty) {  // too soon to draw again: sleep until it is time, rather than ask for every frame
