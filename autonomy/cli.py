@@ -301,7 +301,6 @@ def _print_crash(end: Any, debug: bool) -> None:
 
 def cmd_run(args: argparse.Namespace) -> int:
     """Runs a mission on the robot or the built-in emulator."""
-    from autonomy.mission import build_tree
     from autonomy.runner import FAILED, INTERRUPTED, LINK_LOST, SUCCEEDED, Runner
     from autonomy.trace import TraceWriter
     from autonomy.views.lines import LinePrinter
@@ -354,16 +353,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         except AutonomyError as err:
             return _fail(str(err), EXIT_LINK)
         try:
-            runner = Runner(
-                build_tree(spec),
-                client,
-                mission=spec.name,
-                mission_file=spec.source,
-                mission_sha256=spec.sha256,
-                tick_hz=spec.tick_hz,
-                max_seconds=args.max_seconds,
-                listeners=listeners,
-            )
+            runner = Runner.for_mission(spec, client, max_seconds=args.max_seconds, listeners=listeners)
             output.on_close.append(runner.request_stop)
             if live is not None:
                 with live:

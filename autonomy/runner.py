@@ -31,6 +31,7 @@ from autonomy.behaviours.tree import describe_tree, preorder
 from autonomy.client import Client
 from autonomy.clock import wall_date
 from autonomy.errors import AutonomyError, LinkError
+from autonomy.mission import MissionSpec, build_tree
 from autonomy.protocol import Reply, heading_delta_deg, odometer_delta_mm
 from autonomy.protocol import Status as Packet
 from autonomy.record import (
@@ -285,6 +286,27 @@ class Runner:
             summary.framing_errors = self.client.stats.framing_errors - self._framing_before
             self._finish()
         return summary
+
+    @classmethod
+    def for_mission(
+        cls,
+        spec: MissionSpec,
+        client: Client,
+        *,
+        max_seconds: float | None = None,
+        listeners: Iterable[Listener] = (),
+    ) -> Runner:
+        """A runner for a validated mission: its tree built, its name, file, hash and tick rate passed on."""
+        return cls(
+            build_tree(spec),
+            client,
+            mission=spec.name,
+            mission_file=spec.source,
+            mission_sha256=spec.sha256,
+            tick_hz=spec.tick_hz,
+            max_seconds=max_seconds,
+            listeners=listeners,
+        )
 
     def setup(self) -> None:
         """Hands every node the run's context, starts the clock, sends the header; :meth:`run` calls it."""

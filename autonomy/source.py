@@ -10,6 +10,7 @@ Duplicate keys, which ``safe_load`` silently resolves to the last one, are error
 from __future__ import annotations
 
 import difflib
+import math
 import unicodedata
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -123,6 +124,54 @@ def read_text(path: str | Path, max_bytes: int = MAX_FILE_BYTES) -> str:
     except UnicodeDecodeError as err:
         line = data[: err.start].count(b"\n") + 1
         raise UnreadableFile(f"not UTF-8 text (line {line}: {err.reason}); save it as UTF-8") from None
+
+
+def shown(number: float) -> str:
+    """A bound as people write it: ``3,600``, ``0.1``."""
+    return f"{int(number):,}" if float(number).is_integer() else f"{number:g}"
+
+
+class Reader:
+    """Reads a document parsed with positions, collecting every problem with its place.
+
+    The readers of world and exercise files build on it, so that both say the same things the
+    same way.
+
+    Args:
+        label: The file's name, as problems name it.
+    """
+
+    def __init__(self, label: str) -> None:
+        self.label = label
+        self.problems: list[Problem] = []
+
+    def problem(self, where: Located | tuple[int, int], path: str, message: str) -> None:
+        """Notes one problem at a value (or a line and column)."""
+        line, column = (where.line, where.column) if isinstance(where, Located) else where
+        self.problems.append(Problem(self.label, line, column, path, message))
+
+    def text(self, located: Located, path: str) -> str | None:
+        """The value as text that is not empty and holds no control character, or None and a problem."""
+        if not isinstance(located.value, str) or not located.value.strip():
+            self.problem(located, path, f"expected text, got {located.plain!r}")
+            return None
+        bad = control_character(located.value)
+        if bad:
+            self.problem(located, path, f"contains the control character {bad}; write plain text")
+            return None
+        return located.value
+
+    def number(self, located: Located, path: str, low: float, high: float, whole: bool = False) -> Any:
+        """The value as a finite number from ``low`` to ``high`` (a whole one if asked), or None and a problem."""
+        value = located.value
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or (whole and not isinstance(value, int)):
+            kind = "a whole number" if whole else "a number"
+            self.problem(located, path, f"expected {kind}, got {located.plain!r}")
+            return None
+        if not math.isfinite(value) or not low <= value <= high:
+            self.problem(located, path, f"must be from {shown(low)} to {shown(high)}, got {value!r}")
+            return None
+        return value
 
 
 @dataclass(frozen=True)

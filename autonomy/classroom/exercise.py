@@ -20,7 +20,6 @@ It is read like a mission: every problem at once, as ``FILE:LINE:COL``, with a d
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -29,7 +28,7 @@ from autonomy.emulator.faults import FaultSpec, FaultSpecError
 from autonomy.emulator.world import SHIPPED, World, WorldError, WorldInvalid, load_world
 from autonomy.errors import AutonomyError
 from autonomy.mission.registry import BUILTINS
-from autonomy.source import Located, Problem, UnreadableFile, control_character, parse, read_text, suggest
+from autonomy.source import Located, Problem, Reader, UnreadableFile, parse, read_text, suggest
 
 TOP_LEVEL = ("exercise", "title", "description", "world", "time_limit_s", "seeds", "allowed_nodes", "criteria")
 SEED_KEYS = ("seed", "noise_mm", "faults")
@@ -145,36 +144,10 @@ class ExerciseInvalid(AutonomyError):
         super().__init__("\n".join(str(p) for p in self.problems))
 
 
-class _Reader:
+class _Reader(Reader):
     def __init__(self, source: str, base_dir: Path) -> None:
-        self.source = source
+        super().__init__(source)
         self.base_dir = base_dir
-        self.problems: list[Problem] = []
-
-    def problem(self, where: Located | tuple[int, int], path: str, message: str) -> None:
-        line, column = (where.line, where.column) if isinstance(where, Located) else where
-        self.problems.append(Problem(self.source, line, column, path, message))
-
-    def text(self, located: Located, path: str) -> str | None:
-        if not isinstance(located.value, str) or not located.value.strip():
-            self.problem(located, path, f"expected text, got {located.plain!r}")
-            return None
-        bad = control_character(located.value)
-        if bad:
-            self.problem(located, path, f"contains the control character {bad}; write plain text")
-            return None
-        return located.value
-
-    def number(self, located: Located, path: str, low: float, high: float, whole: bool = False) -> float | None:
-        value = located.value
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or (whole and not isinstance(value, int)):
-            kind = "a whole number" if whole else "a number"
-            self.problem(located, path, f"expected {kind}, got {located.plain!r}")
-            return None
-        if not math.isfinite(value) or not low <= value <= high:
-            self.problem(located, path, f"must be from {_shown(low)} to {_shown(high)}, got {value!r}")
-            return None
-        return value
 
     def exercise(self, root: Located, default_name: str) -> Exercise | None:
         if not isinstance(root.value, dict):
@@ -199,7 +172,7 @@ class _Reader:
         criteria = self.criteria(doc["criteria"], world) if "criteria" in doc else []
         if self.problems or world is None or limit is None or name is None:
             return None
-        return Exercise(name, title, description, world, world_ref, float(limit), seeds, allowed, criteria, self.source)
+        return Exercise(name, title, description, world, world_ref, float(limit), seeds, allowed, criteria, self.label)
 
     def world(self, located: Located) -> tuple[World | None, str]:
         name = self.text(located, "world")
@@ -392,10 +365,6 @@ class _Reader:
                 _, item, path = criteria[index]
                 self.problem(item_requires(item) or item, f"{path}.requires", "requirements go round in a circle")
         return out
-
-
-def _shown(number: float) -> str:
-    return f"{int(number):,}" if float(number).is_integer() else f"{number:g}"
 
 
 def item_requires(item: Located) -> Located | None:

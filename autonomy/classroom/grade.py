@@ -27,7 +27,7 @@ from autonomy.classroom.judge import RunFacts, Verdict, gather, judge, path_poin
 from autonomy.client import DEFAULT_BAUD, Client
 from autonomy.clock import RealClock, VirtualClock
 from autonomy.emulator import Emulator, RobotParams
-from autonomy.mission import MissionInvalid, MissionSpec, NodeSpec, Problem, build_tree, validate_text
+from autonomy.mission import MissionInvalid, MissionSpec, NodeSpec, Problem, validate_text
 from autonomy.record import Record
 from autonomy.runner import Runner
 from autonomy.source import UnreadableFile, parse, read_text
@@ -204,17 +204,7 @@ def run_seed(exercise: Exercise, spec: MissionSpec, seed: Seed) -> list[Record]:
     records: list[Record] = []
     try:
         client.wait_ready()
-        runner = Runner(
-            build_tree(spec),
-            client,
-            mission=spec.name,
-            mission_file=spec.source,
-            mission_sha256=spec.sha256,
-            tick_hz=spec.tick_hz,
-            max_seconds=exercise.time_limit_s,
-            listeners=[records.append],
-        )
-        runner.run()
+        Runner.for_mission(spec, client, max_seconds=exercise.time_limit_s, listeners=[records.append]).run()
     finally:
         client.close()
     return records

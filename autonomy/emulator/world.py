@@ -18,7 +18,7 @@ from typing import Any
 import yaml
 
 from autonomy.errors import AutonomyError
-from autonomy.source import Located, Problem, UnreadableFile, control_character, parse, read_text, suggest
+from autonomy.source import Located, Problem, Reader, UnreadableFile, control_character, parse, read_text, suggest
 
 EPSILON_MM = 1e-6
 #: The footprint the start pose is checked with (the emulated robot's ``body_radius_mm``).
@@ -318,16 +318,8 @@ JITTER_KEYS = ("x_mm", "y_mm", "heading_deg")
 SHAPE_KEYS = {"box": ("from_mm", "to_mm"), "circle": ("center_mm", "radius_mm")}
 
 
-class _Reader:
+class _Reader(Reader):
     """Reads a world document, collecting every problem with its place."""
-
-    def __init__(self, label: str) -> None:
-        self.label = label
-        self.problems: list[Problem] = []
-
-    def problem(self, where: Located | tuple[int, int], path: str, message: str) -> None:
-        line, column = (where.line, where.column) if isinstance(where, Located) else where
-        self.problems.append(Problem(self.label, line, column, path, message))
 
     def keys(self, located: Located, path: str, allowed: tuple[str, ...]) -> dict[str, Located] | None:
         if not isinstance(located.value, dict):
@@ -336,18 +328,11 @@ class _Reader:
         for key in located.value:
             if key not in allowed:
                 hint = suggest(key, list(allowed)) or f" (allowed: {', '.join(allowed)})"
-                self.problem(located.keys[key], f"{path}.{key}" if path else key, f"unknown key '{key}'{hint}")
+                shown_key = key if len(key) <= 40 else key[:40] + "..."
+                self.problem(
+                    located.keys[key], f"{path}.{shown_key}" if path else shown_key, f"unknown key '{shown_key}'{hint}"
+                )
         return located.value
-
-    def number(self, located: Located, path: str, low: float, high: float) -> float | None:
-        value = located.value
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            self.problem(located, path, f"expected a number, got {value!r}")
-            return None
-        if not math.isfinite(value) or not low <= value <= high:
-            self.problem(located, path, f"must be from {low:g} to {high:g}, got {value!r}")
-            return None
-        return float(value)
 
     def pair(self, located: Located, path: str, low: float, high: float) -> tuple[float, float] | None:
         if not (isinstance(located.value, list) and len(located.value) == 2):
@@ -356,16 +341,6 @@ class _Reader:
         x = self.number(located.value[0], f"{path}[0]", low, high)
         y = self.number(located.value[1], f"{path}[1]", low, high)
         return (x, y) if x is not None and y is not None else None
-
-    def text(self, located: Located, path: str) -> str | None:
-        if not isinstance(located.value, str):
-            self.problem(located, path, f"expected text, got {located.plain!r}")
-            return None
-        bad = control_character(located.value)
-        if bad:
-            self.problem(located, path, f"the control character {bad} is not allowed here")
-            return None
-        return located.value
 
     def shape(self, located: Located, path: str) -> Shape | None:
         kinds = tuple(SHAPE_KEYS)

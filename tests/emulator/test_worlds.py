@@ -39,7 +39,7 @@ def test_ray_casts_against_boxes_and_circles():
     ("text", "where", "message"),
     [
         ("arena_mm: 5", "1:11: arena_mm", "expected a pair of numbers"),
-        ("arena_mm: [0, 10]", "1:12: arena_mm[0]", "must be from 1 to 100000"),
+        ("arena_mm: [0, 10]", "1:12: arena_mm[0]", "must be from 1 to 100,000"),
         ("arena_mm: [1000, 1000]\nobstacles: [{wall: {}}]", "2:14: obstacles[0].wall", "unknown shape 'wall'"),
         ("arena_mm: [1000, 1000]\nstart: {x_mm: east}", "2:15: start.x_mm", "expected a number, got 'east'"),
         ("arena_mm: [1000, 1000]\nstart: {x_mm: .nan}", "2:15: start.x_mm", "must be from"),
