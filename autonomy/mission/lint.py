@@ -40,6 +40,13 @@ def _walk(
         yield from _walk(spec, child, (*above, node))
 
 
+def _is_condition(node: NodeSpec) -> bool:
+    """A condition, or a decorator that only turns one round (``invert: {do: collided}``)."""
+    while node.type.name in ("invert", "force_success", "force_failure") and node.children:
+        node = node.children[0]
+    return node.type.category == "condition"
+
+
 def _ticked_again(above: tuple[NodeSpec, ...]) -> bool:
     """Whether what succeeds here is started again: a ``repeat`` above it runs it anew after each success."""
     return any(a.type.name == "repeat" for a in above)
@@ -57,7 +64,7 @@ def lint(spec: MissionSpec) -> list[Problem]:
         name = node.type.name
         if name == "sequence" and node.children and _ticked_again(above):
             first, rest = node.children[0], node.children[1:]
-            if first.type.category == "condition" and rest and all(c.type.name in INSTANT_ACTIONS for c in rest):
+            if _is_condition(first) and rest and all(c.type.name in INSTANT_ACTIONS for c in rest):
                 did = " and ".join(sorted({c.type.name for c in rest}))
                 held = " (the collision flag stays set 0.5 s: about 10 ticks)" if first.type.name == "collided" else ""
                 warn(
@@ -66,7 +73,13 @@ def lint(spec: MissionSpec) -> list[Problem]:
                     f"while '{first.display_name}' holds{held}; add an action that takes time (a move, a turn, "
                     "a wait) after it",
                 )
-        elif name == "repeat" and not node.args.get("times") and not any(a.type.name in ENDERS for a in above):
+        if name == "repeat" and node.children and node.children[0].type.name in INSTANT_ACTIONS:
+            warn(
+                node,
+                f"repeats '{node.children[0].display_name}', which is done in one tick: it runs on every tick "
+                f"({spec.tick_hz:g} times a second); put a wait after it in a sequence",
+            )
+        if name == "repeat" and not node.args.get("times") and not any(a.type.name in ENDERS for a in above):
             warn(
                 node,
                 "repeats forever and nothing ends it: the mission only ends if its child fails; give times:, "

@@ -75,3 +75,17 @@ def test_shipped_missions_and_reference_solutions_give_no_warning(path):
     from autonomy.mission import load_mission
 
     assert lint(load_mission(path)) == []
+
+
+def test_an_instant_action_repeated_and_a_decorated_condition_are_warned_about_too():
+    found = warnings(
+        "mission: m\ntree:\n  parallel:\n    policy: one\n    children:\n      - wait: {seconds: 5}\n"
+        "      - repeat: {do: {beep: {}}}\n"
+        "      - repeat:\n          do:\n            sequence: [{invert: {do: collided}}, {beep: {}}]\n"
+    )
+    assert [w.split(": warning: ")[0] for w in found] == [
+        "7:9: tree.parallel.children[1].repeat",
+        "10:13: tree.parallel.children[2].repeat.do.sequence",
+    ]
+    assert "it runs on every tick (20 times a second)" in found[0]
+    assert "then only beep, under a repeat" in found[1]
