@@ -99,6 +99,14 @@ class _Validator:
             self.problem(root, "", "a mission file is a mapping with at least 'mission:' and 'tree:'")
             return None
         doc: dict[str, Located] = root.value
+        if "mission" not in doc and ("criteria" in doc or "arena_mm" in doc):
+            what, use = (
+                ("an exercise", "autonomy grade THIS_FILE MISSION")
+                if "criteria" in doc
+                else ("a world", "a mission's world: line, or autonomy world show THIS_FILE")
+            )
+            self.problem(root, "", f"this is {what} file, not a mission: use it with {use}")
+            return None
         for key in doc:
             if key not in TOP_LEVEL:
                 self.problem(root.keys[key], key, f"unknown key '{key}'{_suggest(key, list(TOP_LEVEL))}")

@@ -249,3 +249,24 @@ def test_control_characters_in_text_are_refused_where_they_stand():
         "m.yaml:4:22: tree.sequence[0].log.message: contains the control character '\\u202e'; write plain text",
         "m.yaml:5:21: tree.sequence[1].beep.name: contains the control character '\\x00'; write plain text",
     ]
+
+
+@pytest.mark.parametrize(
+    ("path", "said"),
+    [
+        ("exercises/bump.yaml", "1:1: this is an exercise file, not a mission: use it with autonomy grade"),
+        (
+            "autonomy/emulator/worlds/box.yaml",
+            "2:1: this is a world file, not a mission: use it with a mission's world:",
+        ),
+    ],
+)
+def test_an_exercise_or_a_world_file_checked_as_a_mission_says_what_it_is(path, said):
+    from pathlib import Path
+
+    from autonomy.mission import MissionInvalid, load_mission
+
+    file = Path(__file__).resolve().parents[2] / path
+    with pytest.raises(MissionInvalid) as caught:
+        load_mission(file)
+    assert len(caught.value.problems) == 1 and str(caught.value).startswith(f"{file}:{said}")
