@@ -231,14 +231,7 @@ def grade_one(exercise: Exercise, student: str, path: Path, allow_plugins: bool 
     held = [0] * len(exercise.criteria)
     for seed in exercise.seeds:
         facts = gather(run_seed(exercise, spec, seed))
-        verdicts = [judge(criterion, facts, exercise.world) for criterion in exercise.criteria]
-        for index, criterion in enumerate(exercise.criteria):
-            needed = criterion.requires
-            if needed is not None and verdicts[index].held and not verdicts[needed].held:
-                label = exercise.criteria[needed].label
-                verdicts[index] = Verdict(
-                    False, f"{verdicts[index].line} (counts only with {label}, which did not hold)"
-                )
+        verdicts = _with_requirements(exercise, [judge(c, facts, exercise.world) for c in exercise.criteria])
         for index, verdict in enumerate(verdicts):
             held[index] += verdict.held
         seeds.append(
@@ -255,6 +248,23 @@ def grade_one(exercise: Exercise, student: str, path: Path, allow_plugins: bool 
     exact = [c.points * held[i] / count for i, c in enumerate(exercise.criteria)]
     marks = [round(m, 2) for m in exact]
     return Report(student, str(mission), round(sum(exact), 2), exercise.max_points, marks, [], seeds)
+
+
+def _with_requirements(exercise: Exercise, verdicts: list[Verdict]) -> list[Verdict]:
+    """Each criterion that requires another holds only where that one (and what it requires) held."""
+
+    def held(index: int) -> bool:
+        needed = exercise.criteria[index].requires
+        return verdicts[index].held and (needed is None or held(needed))
+
+    out = []
+    for criterion, verdict in zip(exercise.criteria, verdicts, strict=True):
+        needed = criterion.requires
+        if verdict.held and needed is not None and not held(needed):
+            label = exercise.criteria[needed].label
+            verdict = Verdict(False, f"{verdict.line} (counts only with {label}, which did not hold)")
+        out.append(verdict)
+    return out
 
 
 def _worker(exercise: Exercise, student: str, path: Path, allow_plugins: bool, memory_mb: int, out: Connection) -> None:

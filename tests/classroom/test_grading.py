@@ -269,3 +269,23 @@ def test_deep_nesting_is_a_problem_at_its_place_not_a_crash(tmp_path):
     path.write_text("world: garage\ndescription: " + "[" * 5000 + "]" * 5000 + "\n")
     with pytest.raises(ExerciseInvalid, match="nested more than 100 levels deep"):
         load_exercise(path)
+
+
+def test_a_requirement_holds_only_where_its_own_requirements_held_too(tmp_path):
+    from autonomy.classroom.grade import _with_requirements
+    from autonomy.classroom.judge import Verdict
+
+    path = tmp_path / "ex.yaml"
+    path.write_text(
+        "world: garage\ntime_limit_s: 30\nseeds: [1]\ncriteria:\n"
+        "  - succeed: true\n    requires: max_collisions\n"  # requires one listed after it
+        "  - max_collisions: 0\n    requires: end_in_zone\n"
+        "  - end_in_zone: garage\n"
+    )
+    exercise = load_exercise(path)
+    verdicts = _with_requirements(exercise, [Verdict(True, "a"), Verdict(True, "b"), Verdict(False, "c")])
+    assert verdicts == [
+        Verdict(False, "a (counts only with max_collisions 0, which did not hold)"),
+        Verdict(False, "b (counts only with end_in_zone garage, which did not hold)"),
+        Verdict(False, "c"),
+    ]
