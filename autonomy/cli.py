@@ -17,7 +17,7 @@ from urllib.parse import quote
 
 from autonomy import __version__
 from autonomy.client import DEFAULT_BAUD, SUPPORTED_BAUD_RATES, Client
-from autonomy.emulator import FaultSpec, FaultSpecError, WorldError, emulator_from_options
+from autonomy.emulator import FaultSpec, FaultSpecError, WorldError, WorldInvalid, emulator_from_options
 from autonomy.errors import AutonomyError, LinkError
 
 EXIT_OK = 0
@@ -39,15 +39,16 @@ def _fail(message: str, code: int) -> int:
     return code
 
 
-def _world_failed(err: WorldError) -> int:
-    """Prints a world's problems (each ``FILE:LINE:COL: ...``), or why it cannot be found; exit 2."""
-    from autonomy.emulator import WorldInvalid
+def _problems(problems: Sequence[object]) -> int:
+    """Prints a file's problems, one ``FILE:LINE:COL: ...`` a line; exit 2."""
+    for problem in problems:
+        print(problem, file=sys.stderr)
+    return EXIT_USAGE
 
-    if isinstance(err, WorldInvalid):
-        for problem in err.problems:
-            print(problem, file=sys.stderr)
-        return EXIT_USAGE
-    return _fail(str(err), EXIT_USAGE)
+
+def _world_failed(err: WorldError) -> int:
+    """Prints a world's problems, or why it cannot be found; exit 2."""
+    return _problems(err.problems) if isinstance(err, WorldInvalid) else _fail(str(err), EXIT_USAGE)
 
 
 # --------------------------------------------------------------------------- emulator
@@ -178,8 +179,7 @@ def _load(path: str) -> Any:
     try:
         return load_mission(path)
     except MissionInvalid as err:
-        for problem in err.problems:
-            print(problem, file=sys.stderr)
+        _problems(err.problems)
         return None
 
 
@@ -537,9 +537,7 @@ def cmd_grade(args: argparse.Namespace) -> int:
     try:
         exercise = load_exercise(_exercise_path(args.exercise))
     except ExerciseInvalid as err:
-        for problem in err.problems:
-            print(problem, file=sys.stderr)
-        return EXIT_USAGE
+        return _problems(err.problems)
     submissions = find_submissions(args.submissions)
     alone = len(submissions) == 1
     targets = [

@@ -180,23 +180,25 @@ class RobotBehaviour(py_trees.behaviour.Behaviour):
         assert self.robot is not None, "setup() was not called"
         return self.robot.clock
 
+    def _polled(self, index: int) -> Any:
+        """One of the values polled before this tick: from the run's context, else the blackboard."""
+        polled = self.robot.polled if self.robot is not None else None
+        return polled[index] if polled is not None else self.blackboard.get(ROBOT_KEYS[index])
+
     @property
     def robot_status(self) -> Packet:
         """The status packet polled before this tick."""
-        polled = self.robot.polled if self.robot is not None else None
-        return polled[0] if polled is not None else self.blackboard.get(STATUS_KEY)
+        return self._polled(0)
 
     @property
     def battery(self) -> int:
         """The battery level, polled about once a second."""
-        polled = self.robot.polled if self.robot is not None else None
-        return polled[1] if polled is not None else self.blackboard.get(BATTERY_KEY)
+        return self._polled(1)
 
     @property
     def healthy(self) -> bool:
         """The ``GR`` reply, polled about once a second."""
-        polled = self.robot.polled if self.robot is not None else None
-        return polled[2] if polled is not None else self.blackboard.get(HEALTHY_KEY)
+        return self._polled(2)
 
     def send(self, request: Callable[[], object]) -> bool:
         """Runs one client request; a ``NO`` becomes False and the feedback message.

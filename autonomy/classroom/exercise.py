@@ -35,7 +35,6 @@ SEED_KEYS = ("seed", "noise_mm", "faults")
 #: Longest time limit an exercise may set, simulated seconds.
 MAX_TIME_LIMIT_S = 3600.0
 MAX_SEEDS = 100
-MAX_EXERCISE_BYTES = 1_000_000
 
 
 @dataclass(frozen=True)
@@ -266,7 +265,7 @@ class _Reader(Reader):
             criterion = self.criterion(item, f"criteria[{index}]", world)
             if criterion is not None:
                 read.append((criterion, item, f"criteria[{index}]"))
-        return self.requirements(located, read)
+        return self.requirements(read)
 
     def criterion(self, item: Located, path: str, world: World | None) -> Criterion | None:
         if not isinstance(item.value, dict):
@@ -334,7 +333,7 @@ class _Reader(Reader):
         )
         return Criterion(kind.key, value, float(points), options, label)
 
-    def requirements(self, located: Located, criteria: list[tuple[Criterion, Located, str]]) -> list[Criterion]:
+    def requirements(self, criteria: list[tuple[Criterion, Located, str]]) -> list[Criterion]:
         """Resolves each ``requires:`` to the criterion it names (by kind, or by label when a kind repeats)."""
         out = []
         for index, (criterion, item, path) in enumerate(criteria):
@@ -363,13 +362,8 @@ class _Reader(Reader):
                 at = out[at].requires
             if at == index:
                 _, item, path = criteria[index]
-                self.problem(item_requires(item) or item, f"{path}.requires", "requirements go round in a circle")
+                self.problem(item.value["requires"], f"{path}.requires", "requirements go round in a circle")
         return out
-
-
-def item_requires(item: Located) -> Located | None:
-    """A criteria item's ``requires:`` value, if it has one."""
-    return item.value.get("requires") if isinstance(item.value, dict) else None
 
 
 def load_exercise(path: str | Path) -> Exercise:
@@ -381,7 +375,7 @@ def load_exercise(path: str | Path) -> Exercise:
     path = Path(path)
     label = str(path)
     try:
-        text = read_text(path, MAX_EXERCISE_BYTES)
+        text = read_text(path)
     except UnreadableFile as err:
         raise ExerciseInvalid([Problem(label, 1, 1, "", f"cannot read the exercise: {err.reason}")]) from None
     root, errors = parse(text)

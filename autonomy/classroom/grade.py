@@ -19,21 +19,17 @@ from dataclasses import asdict, dataclass, field
 from multiprocessing.connection import Connection, wait
 from pathlib import Path
 from typing import Any
-
-import serial
+from urllib.parse import urlencode
 
 from autonomy.classroom.exercise import Exercise, Seed
 from autonomy.classroom.judge import RunFacts, Verdict, gather, judge, path_points
-from autonomy.client import DEFAULT_BAUD, Client
-from autonomy.clock import RealClock, VirtualClock
-from autonomy.emulator import Emulator, RobotParams
+from autonomy.client import Client
+from autonomy.clock import RealClock
 from autonomy.mission import MissionInvalid, MissionSpec, NodeSpec, Problem, validate_text
 from autonomy.record import Record
 from autonomy.runner import Runner
 from autonomy.source import UnreadableFile, parse, read_text
 
-#: Largest mission file graded, bytes.
-MAX_SUBMISSION_BYTES = 1_000_000
 #: Wall time one submission (all its seeds) may take by default, seconds.
 DEFAULT_WALL_S = 60.0
 #: Memory one submission's worker may take by default, MiB.
@@ -154,7 +150,7 @@ def check_submission(exercise: Exercise, path: Path, allow_plugins: bool) -> tup
     if path.is_symlink():
         return None, [f"{label}:1:1: a link, not a file: hand in the mission file itself"]
     try:
-        text = read_text(path, MAX_SUBMISSION_BYTES)
+        text = read_text(path)
     except UnreadableFile as err:
         return None, [f"{label}:1:1: cannot read the file: {err.reason}"]
     root, _ = parse(text)
@@ -189,21 +185,11 @@ def check_submission(exercise: Exercise, path: Path, allow_plugins: bool) -> tup
 
 def run_seed(exercise: Exercise, spec: MissionSpec, seed: Seed) -> list[Record]:
     """Runs ``spec`` once on ``seed`` in the exercise's world, in virtual time; returns its records."""
-    url = f"emu://?world={exercise.world.name}&seed={seed.seed}&time=virtual"
-    emulator = Emulator(
-        exercise.world,
-        params=RobotParams(sensor_noise_mm=seed.noise_mm),
-        faults=seed.faults,
-        seed=seed.seed,
-        clock=VirtualClock(),
-    )
-    port = serial.serial_for_url(url, baudrate=DEFAULT_BAUD, do_not_open=True)
-    port.emulator = emulator
-    port.open()
-    client = Client(port, name=url)
+    options = {"world": exercise.world_ref, "seed": seed.seed, "time": "virtual", "noise": seed.noise_mm}
+    url = "emu://?" + urlencode({**options, "faults": seed.faults} if seed.faults else options)
+    client = Client.open(url)
     records: list[Record] = []
     try:
-        client.wait_ready()
         Runner.for_mission(spec, client, max_seconds=exercise.time_limit_s, listeners=[records.append]).run()
     finally:
         client.close()
@@ -390,22 +376,11 @@ def grade_class(
 
 def _kill_group(process: Any) -> None:
     """Ends a worker and every process in its group (what a plugin may have started)."""
-    for pid in (process.pid,):
-        if pid is None:
-            continue
-        try:
-            os.killpg(pid, signal.SIGKILL)
-        except (ProcessLookupError, PermissionError):
-            pass
-        try:
-            process.kill()
-        except (OSError, ValueError):
-            pass
-
-
-def check_only(exercise: Exercise, path: Path, allow_plugins: bool) -> list[str]:
-    """The problems that would stop a submission from running (empty when it would run)."""
-    mission, why = _mission_file(path)
-    if mission is None:
-        return [why]
-    return check_submission(exercise, mission, allow_plugins)[1]
+    try:
+        os.killpg(process.pid, signal.SIGKILL)
+    except (ProcessLookupError, PermissionError):  # gone, or not yet leading its group
+        pass
+    try:
+        process.kill()
+    except (OSError, ValueError):
+        pass

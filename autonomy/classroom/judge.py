@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 from autonomy.classroom.exercise import Criterion
 from autonomy.emulator.world import World
+from autonomy.protocol import heading_delta_deg
 from autonomy.record import Pose, Record, RunEnd, RunHeader, TickRecord
 
 SUCCEEDED = "succeeded"
@@ -91,10 +92,6 @@ def gather(records: list[Record]) -> RunFacts:
     )
 
 
-def _heading_error_deg(heading_deg: float, wanted_deg: float) -> float:
-    return abs((heading_deg - wanted_deg + 180.0) % 360.0 - 180.0)
-
-
 def judge(criterion: Criterion, facts: RunFacts, world: World) -> Verdict:
     """Whether ``criterion`` held on the run ``facts`` describe, in ``world``."""
     kind, value = criterion.kind, criterion.value
@@ -148,7 +145,7 @@ def judge(criterion: Criterion, facts: RunFacts, world: World) -> Verdict:
     if kind == "end_heading_deg":
         tolerance = criterion.options["tolerance_deg"]
         heading = end_pose.heading_deg % 360.0
-        error = _heading_error_deg(heading, value)
+        error = abs(heading_delta_deg(value, heading))
         return Verdict(
             error <= tolerance, f"ended facing {heading:.0f} deg, needed {value:g} ± {tolerance:g} (off by {error:.0f})"
         )

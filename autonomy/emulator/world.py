@@ -29,8 +29,6 @@ SENSOR_CONE_DEG = 25.0
 SENSOR_RAYS = 7
 #: Largest arena side accepted, mm (100 m).
 MAX_ARENA_MM = 100_000.0
-#: Largest world file read, bytes.
-MAX_WORLD_BYTES = 1_000_000
 #: Most obstacles and zones a world may have (every check looks at every pair).
 MAX_OBSTACLES, MAX_ZONES = 300, 50
 #: Largest start jitter accepted: mm either way, and degrees either way.
@@ -571,7 +569,7 @@ def load_world(name_or_path: str | Path) -> World:
             f"no world named '{text}'{hint}: use one of {', '.join(SHIPPED)} or the path of a world file (.yaml)"
         )
     try:
-        source = read_text(path, MAX_WORLD_BYTES)
+        source = read_text(path)
     except UnreadableFile as err:
         raise WorldInvalid([Problem(text, 1, 1, "", f"cannot read the world file: {err.reason}")]) from None
     return _read_text(source, text, path.stem)
