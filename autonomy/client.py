@@ -8,7 +8,14 @@ the same for all of them.
 One request is in flight at a time (a lock makes the client safe to share between
 threads). Before each request stale input is discarded. Commands that are harmless to
 repeat (``G X F M S``) are asked again after a time-out, a framing error or a ``NO``;
-relative moves (``T D``) never are, since a repeat after a lost ``OK`` would move twice.
+relative moves (``T D``) never are, since a repeat after a lost ``OK`` would move twice:
+a lost reply to one of them is settled by reading the status instead.
+
+The protocol has no checksum, so every status packet is checked against the last trusted
+one: a packet whose odometer, heading or tilt moved further than the robot can in the time
+between them, or that shows a new collision the next packet does not confirm, is counted and
+polled again, and never returned. The first packet of a link is trusted once a second one
+agrees with it.
 """
 
 from __future__ import annotations
@@ -18,7 +25,7 @@ import threading
 from collections.abc import Callable
 from dataclasses import dataclass
 from types import TracebackType
-from typing import Any
+from typing import Any, TypeVar
 
 import serial
 from serial.tools import list_ports
@@ -27,7 +34,9 @@ from autonomy.clock import Clock, RealClock
 from autonomy.errors import (
     AutonomyError,
     CommandRefused,
+    CommandUnconfirmed,
     FramingError,
+    ImplausibleStatus,
     LinkError,
     LinkLost,
     PortError,
@@ -48,6 +57,8 @@ from autonomy.protocol import (
     Status,
     Stop,
     Turn,
+    heading_delta_deg,
+    odometer_delta_mm,
 )
 
 try:
@@ -73,6 +84,21 @@ DEFAULT_RETRIES = 3
 DEFAULT_READY_TIMEOUT_S = 3.0
 DEFAULT_STOP_TRIES = 5
 
+#: What a robot of this size cannot exceed between two status polls (several times the
+#: fastest setting of the emulator); a packet beyond it holds a corrupted byte.
+PLAUSIBLE_SPEED_MM_S = 1000.0
+PLAUSIBLE_TURN_RATE_DEG_S = 360.0
+PLAUSIBLE_TILT_RATE_DEG_S = 600.0
+#: Allowed on top, for whole-unit readings and polls close together.
+PLAUSIBLE_SLACK_MM = 20
+PLAUSIBLE_SLACK_DEG = 10
+#: Implausible status packets one request polls again before it gives up (they do not use up
+#: its retries: at 1% corrupted bytes a packet is bad 9% of the time).
+IMPLAUSIBLE_LIMIT = 8
+#: After a lost reply to ``T``: how many status polls look for the turn, and the wait between them.
+SETTLE_POLLS = 3
+SETTLE_WAIT_S = 0.05
+
 #: Called after every attempt with the frame sent, the reply (or error) it got, and the
 #: attempt number (0 for a request's first attempt, 1.. for its retries).
 ExchangeListener = Callable[[bytes, "Reply | AutonomyError", int], None]
@@ -88,6 +114,8 @@ class LinkStats:
     timeouts: int = 0
     framing_errors: int = 0
     refusals: int = 0
+    implausible: int = 0
+    settled: int = 0
     bytes_sent: int = 0
     bytes_received: int = 0
 
@@ -170,6 +198,10 @@ class Client:
         self.firmware_version = ""
         self._lock = threading.RLock()
         self._closed = False
+        self._trusted: Status | None = None
+        self._trusted_s = 0.0
+        self._confirmed = False
+        self._heard = bytearray()
         port.timeout = timeout_s
 
     # ------------------------------------------------------------------ lifecycle
@@ -217,6 +249,11 @@ class Client:
         while True:
             try:
                 reply = self.request(Get("F"), retries=0)
+            except LinkLost as err:
+                said = self.heard_text()
+                if said:
+                    raise LinkLost(f"{err} (it said: {said})") from err
+                raise
             except (ReplyTimeout, FramingError, CommandRefused):
                 if self.clock.now() < deadline:
                     continue
@@ -231,8 +268,7 @@ class Client:
                     f"no answer from {self.name} at {baud} baud within {ready_timeout_s:g} s; {hint}",
                     received,
                 ) from None
-            assert isinstance(reply, Parameter)
-            self.firmware_version = str(reply.value)
+            self.firmware_version = str(_expect(reply, Parameter).value)
             return self.firmware_version
 
     def safe_stop(self) -> bool:
@@ -310,30 +346,124 @@ class Client:
             if self._closed:
                 raise LinkError(f"the link to {self.name} is closed")
             frame = command.encode()
-            extra = (self.retries if retries is None else retries) if command.retryable else 0
+            tries = 1 + ((self.retries if retries is None else retries) if command.retryable else 0)
             self.stats.requests += 1
-            failure: AutonomyError | None = None
-            for attempt in range(extra + 1):
+            failure: AutonomyError = ReplyTimeout(f"no reply to {_text(frame)} from {self.name}")
+            attempt = implausible = 0
+            candidate: Status | None = None  # a new collision, waiting for the next packet to agree
+            while tries > 0:
                 if attempt:
                     self.stats.retries += 1
+                attempt += 1
                 try:
                     reply = self._exchange(command, frame)
                 except (ReplyTimeout, FramingError) as err:
                     failure = err
-                    self._notify(frame, err, attempt)
+                    self._notify(frame, err, attempt - 1)
+                    tries -= 1
                     continue
-                self._notify(frame, reply, attempt)
+                if isinstance(reply, Status):
+                    if candidate is not None and candidate.collided and not reply.collided and self._confirmed:
+                        self.stats.implausible += 1  # a collision one packet showed and the next did not
+                        implausible += 1
+                        candidate = None
+                    why = self._implausible(reply, candidate)
+                    if why:
+                        self.stats.implausible += 1
+                        implausible += 1
+                        candidate = None
+                        if not self._confirmed:  # the link's first packet may have been the bad one
+                            self._trusted, self._trusted_s = reply, self.clock.now()
+                        self._notify(frame, ImplausibleStatus(f"implausible status: {why}", reply.raw), attempt - 1)
+                        if implausible > IMPLAUSIBLE_LIMIT:
+                            raise ReplyTimeout(
+                                f"no plausible status from {self.name}: {implausible} packets in a row were not "
+                                f"possible ({why}); did the robot restart?"
+                            )
+                        continue
+                    self._notify(frame, reply, attempt - 1)
+                    if not self._trust(reply, candidate):
+                        candidate = reply  # read again before believing it: a request of its own
+                        self.stats.requests += 1
+                        attempt = 0
+                        continue
+                    return reply
+                self._notify(frame, reply, attempt - 1)
                 if isinstance(reply, Ack) and not reply.ok:
                     self.stats.refusals += 1
-                    failure = CommandRefused(f"the robot refused {frame[:-1].decode('ascii')} (answered NO)", frame)
+                    failure = CommandRefused(f"the robot refused {_text(frame)} (answered NO)", frame)
+                    tries -= 1
                     continue
                 return reply
-            assert failure is not None
+            if isinstance(failure, ReplyTimeout) and not command.retryable:
+                return self._settle(command, frame, failure)
             if isinstance(failure, FramingError):
-                raise ReplyTimeout(
-                    f"no valid reply to {frame[:-1].decode('ascii')} from {self.name}: {failure}"
-                ) from failure
+                raise ReplyTimeout(f"no valid reply to {_text(frame)} from {self.name}: {failure}") from failure
             raise failure
+
+    def _implausible(self, packet: Status, candidate: Status | None) -> str:
+        """Says how ``packet`` is impossible after the last trusted one (empty: it is possible)."""
+        last = candidate or self._trusted
+        if last is None:
+            return ""
+        elapsed_s = max(0.0, self.clock.now() - self._trusted_s)
+        moved_mm = abs(odometer_delta_mm(last.odometer_mm, packet.odometer_mm))
+        if moved_mm > PLAUSIBLE_SPEED_MM_S * elapsed_s + PLAUSIBLE_SLACK_MM:
+            return f"odometer {last.odometer_mm} -> {packet.odometer_mm} mm in {elapsed_s:.2f} s"
+        turned_deg = abs(heading_delta_deg(last.heading_deg, packet.heading_deg))
+        if turned_deg > PLAUSIBLE_TURN_RATE_DEG_S * elapsed_s + PLAUSIBLE_SLACK_DEG:
+            return f"heading {last.heading_deg} -> {packet.heading_deg} deg in {elapsed_s:.2f} s"
+        tilted_deg = abs(packet.tilt_deg - last.tilt_deg)
+        if tilted_deg > PLAUSIBLE_TILT_RATE_DEG_S * elapsed_s + 2 * PLAUSIBLE_SLACK_DEG:
+            return f"tilt {last.tilt_deg} -> {packet.tilt_deg} deg in {elapsed_s:.2f} s"
+        return ""
+
+    def _trust(self, packet: Status, candidate: Status | None) -> bool:
+        """Takes ``packet`` as the robot's state, or returns False when the next packet must agree first.
+
+        The link's first packet waits for the next, and so does one showing a new collision.
+        """
+        last, now_s = self._trusted, self.clock.now()
+        if last is None:
+            self._trusted, self._trusted_s = packet, now_s
+            return False
+        if candidate is None and self._confirmed and packet.collided and not last.collided:
+            return False
+        self._trusted, self._trusted_s, self._confirmed = packet, now_s, True
+        return True
+
+    def _settle(self, command: Command, frame: bytes, failure: ReplyTimeout) -> Reply:
+        """Settles a lost reply to ``T`` or ``D`` by reading the status, never by sending it again.
+
+        Returns:
+            An ``OK`` when the status shows the turn under way.
+
+        Raises:
+            CommandUnconfirmed: the link answers, but the command was not seen carried out
+                (a servo step cannot be seen in the status at all).
+            LinkError: the status cannot be read either: the link is really gone.
+        """
+        before = self._trusted
+        if isinstance(command, Turn):
+            for poll in range(SETTLE_POLLS):
+                status = self.status()
+                turned = before is not None and status.heading_deg != before.heading_deg
+                if turned or (status.moving and (before is None or not before.moving)):
+                    self.stats.settled += 1
+                    return Ack(True)
+                if poll + 1 < SETTLE_POLLS:
+                    self.clock.sleep(SETTLE_WAIT_S)
+            seen = "the robot is not turning"
+        else:
+            self.status()
+            seen = "a servo step does not show in the status, so it may or may not have moved"
+        raise CommandUnconfirmed(f"{failure}; the link answers, but {seen}", frame) from failure
+
+    def heard_text(self) -> str:
+        """The last bytes received, when they read as a line of text (a server saying why it closed)."""
+        text = bytes(self._heard).decode("ascii", "replace").strip()
+        line = text.splitlines()[-1] if text else ""
+        return line if len(line) >= 8 and line.isprintable() and "\ufffd" not in line else ""
 
     def _notify(self, frame: bytes, outcome: Reply | AutonomyError, attempt: int) -> None:
         for listener in self.listeners:
@@ -362,11 +492,13 @@ class Client:
             if not data:
                 self.stats.timeouts += 1
                 raise ReplyTimeout(
-                    f"no reply to {frame[:-1].decode('ascii')} from {self.name} within {self.timeout_s:g} s",
+                    f"no reply to {_text(frame)} from {self.name} within {self.timeout_s:g} s",
                     received,
                 )
             received += len(data)
             self.stats.bytes_received += len(data)
+            self._heard += data
+            del self._heard[:-120]
             decoder.feed(data)
 
     def _io(self, operation: Callable[..., Any], *args: Any) -> Any:
@@ -403,14 +535,10 @@ class Client:
 
     def status(self) -> Status:
         """Returns the binary status packet (``Gb000``)."""
-        reply = self.request(Get("b"))
-        assert isinstance(reply, Status)
-        return reply
+        return _expect(self.request(Get("b")), Status)
 
     def _parameter(self, letter: str) -> int | str:
-        reply = self.request(Get(letter))
-        assert isinstance(reply, Parameter)
-        return reply.value
+        return _expect(self.request(Get(letter)), Parameter).value
 
     def front_distance_mm(self) -> int:
         """Returns the front distance sensor, 0..255 mm (``GD``)."""
@@ -434,6 +562,19 @@ class Client:
 
     def healthy(self) -> bool:
         """Returns True when the platform reports itself healthy (``GR``)."""
-        reply = self.request(Get("R"))
-        assert isinstance(reply, Health)
-        return reply.ok
+        return _expect(self.request(Get("R")), Health).ok
+
+
+def _text(frame: bytes) -> str:
+    """A frame as it reads, without its newline: ``T+090``."""
+    return frame[:-1].decode("ascii", "replace")
+
+
+_R = TypeVar("_R", Ack, Parameter, Health, Status)
+
+
+def _expect(reply: Reply, kind: type[_R]) -> _R:
+    """Returns ``reply`` when it is of ``kind``; a reply of another kind is a framing error."""
+    if not isinstance(reply, kind):
+        raise FramingError(f"expected a {kind.__name__.lower()} reply, got {reply!r}")
+    return reply

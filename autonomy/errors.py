@@ -8,8 +8,10 @@ enter, with the original kept as ``__cause__``::
     AutonomyError
      ├── ProtocolError            bytes or values that break the protocol
      │    ├── FramingError        a reply that is not a valid frame
+     │    │    └── ImplausibleStatus  a status packet the robot cannot have sent (corrupted)
      │    └── InvalidCommand      a command argument out of its range (also a ValueError)
      ├── CommandRefused           the robot answered ``NO``
+     │    └── CommandUnconfirmed  a move or servo step whose reply was lost, not carried out
      └── LinkError                the link to the robot itself
           ├── PortError           the port could not be opened (no such device, bad URL)
           ├── ReplyTimeout        no valid reply in time
@@ -39,6 +41,14 @@ class FramingError(ProtocolError):
         self.data = data
 
 
+class ImplausibleStatus(FramingError):
+    """A well-formed status packet the robot cannot have sent: a corrupted byte.
+
+    The protocol has no checksum; a packet whose odometer, heading or tilt differs from
+    the last trusted one by more than the robot can have moved since is taken as corrupt.
+    """
+
+
 class InvalidCommand(ProtocolError, ValueError):
     """A command built with an argument outside the protocol's range."""
 
@@ -50,9 +60,22 @@ class CommandRefused(AutonomyError):
         frame: The 6-byte command frame that was refused.
     """
 
+    #: What to check, for the person reading the message.
+    hint = "is the robot in manual mode, fallen or out of battery?"
+
     def __init__(self, message: str, frame: bytes = b"") -> None:
         super().__init__(message)
         self.frame = frame
+
+
+class CommandUnconfirmed(CommandRefused):
+    """A command that is never repeated (``T``, ``D``) lost its reply and was not seen carried out.
+
+    The link still answers (the status was read after the reply was missed), so the run
+    goes on and the node that sent it fails.
+    """
+
+    hint = "the reply was lost on the link"
 
 
 class LinkError(AutonomyError):

@@ -526,6 +526,8 @@ class ReplyDecoder:
 
     def _valid_ascii(self, frame: bytes) -> Reply | None:
         if frame == OK:
+            if self.kind is ReplyKind.PARAMETER:
+                return None  # a value was asked for: an acknowledgement is a reply of the wrong kind
             return Health(True) if self.kind is ReplyKind.HEALTH else Ack(True)
         if frame == NO:
             return Health(False) if self.kind is ReplyKind.HEALTH else Ack(False)

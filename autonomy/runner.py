@@ -469,10 +469,9 @@ class Runner:
         lines = tuple(f"{_short_path(f.filename)}:{f.lineno} in {f.name}: {(f.line or '').strip()}" for f in own[-3:])
         error = f"{type(err).__name__}: {err}"
         full = "".join(traceback.format_exception(type(err), err, err.__traceback__))
-        if node is None:
+        if node is None or self.header is None:  # the header is sent before the first tick
             return Event("exception", f"{error} (at {lines[-1]})" if lines else error, frames=lines, traceback=full)
         node_id = self._ids[id(node)]
-        assert self.header is not None, "setup() sends the header before the first tick"
         info = self.header.nodes[node_id]
         where = info.where
         message = f"node '{node.name}' ({info.type}{', ' + where if where else ''}) raised {error}"

@@ -24,6 +24,9 @@ class Move(RobotAction):
 
     #: How long the robot may stand still after F before the move counts as blocked.
     STALL_S = 0.5
+    #: Odometer travel the wrong way that stops the move: at once, or over two ticks in a row.
+    WRONG_WAY_MM = 10
+    WRONG_WAY_TICKS_MM = 2
 
     node_type = "move"
     doc = "Drive straight (F) until distance_mm, seconds or until_obstacle_mm holds, then stop (X)."
@@ -60,9 +63,11 @@ class Move(RobotAction):
         self._start_s = 0.0
         self._collision_armed = True
         self._failed = False
+        self._wrong_ticks = 0
 
     def initialise(self) -> None:
         """Notes where it starts and sends ``F``."""
+        self._wrong_ticks = 0
         status = self.robot_status
         self._start_odometer_mm = status.odometer_mm
         self._start_s = self.clock.now()
@@ -94,11 +99,24 @@ class Move(RobotAction):
             why = "pushing against an obstacle" if status.collided else "not moving (an obstacle, or its remote?)"
             self.feedback_message = f"blocked after {self.travelled_mm()} mm: the robot is {why}"
             return Status.FAILURE
+        wrong_way = self._wrong_way_mm()
+        if wrong_way:
+            self.stop_motion()
+            asked = self.args["direction"]
+            self.feedback_message = f"moving the wrong way: {wrong_way} mm {_opposite(asked)} (asked {asked})"
+            return Status.FAILURE
         reason = self._ending()
         if reason:
             return Status.SUCCESS if self.stop_motion() else Status.FAILURE
         self.feedback_message = f"{self.travelled_mm()} mm, front {status.front_distance_mm} mm"
         return Status.RUNNING
+
+    def _wrong_way_mm(self) -> int:
+        """The distance driven against the asked direction, once it is clearly so (else 0)."""
+        moved_mm = odometer_delta_mm(self._start_odometer_mm, self.robot_status.odometer_mm)
+        wrong_mm = moved_mm if self.args["direction"] == "backward" else -moved_mm
+        self._wrong_ticks = self._wrong_ticks + 1 if wrong_mm > self.WRONG_WAY_TICKS_MM else 0
+        return wrong_mm if wrong_mm > self.WRONG_WAY_MM or self._wrong_ticks >= 2 else 0
 
     def _ending(self) -> str:
         args, status = self.args, self.robot_status
@@ -126,6 +144,8 @@ class Turn(RobotAction):
 
     #: How close to the target heading counts as there.
     TOLERANCE_DEG = 3.0
+    #: Turned the wrong way by this much stops the turn at once; by 1 degree, after two ticks.
+    WRONG_WAY_DEG = 3.0
     #: Time-out: this many times the expected duration, plus the margin.
     TIMEOUT_FACTOR = 2.0
     TIMEOUT_MARGIN_S = 2.0
@@ -144,13 +164,14 @@ class Turn(RobotAction):
         self._last_heading = 0
         self._deadline_s = 0.0
         self._failed = False
+        self._wrong_ticks = 0
 
     def initialise(self) -> None:
         """Sends ``T`` and starts following the heading."""
         self._turned_deg = 0.0
+        self._wrong_ticks = 0
         self._last_heading = self.robot_status.heading_deg
-        assert self.robot is not None
-        expected_s = abs(self.angle_deg) / self.robot.turn_rate_deg_s
+        expected_s = abs(self.angle_deg) / self.context.turn_rate_deg_s
         self._deadline_s = self.clock.now() + expected_s * self.TIMEOUT_FACTOR + self.TIMEOUT_MARGIN_S
         self._failed = not self.send(lambda: self.client.turn(self.angle_deg))
         if not self._failed:
@@ -167,6 +188,13 @@ class Turn(RobotAction):
         if status.collided:
             self.stop_motion()
             self.feedback_message = f"collided with {remaining:.0f} deg to go"
+            return Status.FAILURE
+        wrong_deg = -self._turned_deg if self.angle_deg > 0 else self._turned_deg
+        self._wrong_ticks = self._wrong_ticks + 1 if wrong_deg >= 1.0 else 0
+        if self.angle_deg and (wrong_deg > self.WRONG_WAY_DEG or self._wrong_ticks >= 2):
+            self.stop_motion()
+            asked = "left" if self.angle_deg > 0 else "right"
+            self.feedback_message = f"turning the wrong way: {wrong_deg:.0f} deg {_opposite(asked)} (asked {asked})"
             return Status.FAILURE
         if abs(remaining) <= self.TOLERANCE_DEG and not status.moving:
             self.release_motion()
@@ -267,9 +295,12 @@ class Log(RobotAction):
 
     def update(self) -> Status:
         """Logs the message."""
-        assert self.robot is not None
-        self.robot.log(self.args["message"])
+        self.context.log(self.args["message"])
         return Status.SUCCESS
+
+
+def _opposite(direction: str) -> str:
+    return {"left": "right", "right": "left", "forward": "backward", "backward": "forward"}[direction]
 
 
 BUILTIN_ACTIONS = (Move, Turn, Stop, Beep, Servo, Wait, Log)

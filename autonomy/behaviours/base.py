@@ -169,16 +169,25 @@ class RobotBehaviour(py_trees.behaviour.Behaviour):
         self.robot = robot
 
     @property
+    def context(self) -> RobotContext:
+        """The run's context, as :meth:`setup` received it.
+
+        Raises:
+            RuntimeError: the node was ticked without being set up.
+        """
+        if self.robot is None:
+            raise RuntimeError(f"node '{self.name}' was not set up: call setup(robot=RobotContext(...)) first")
+        return self.robot
+
+    @property
     def client(self) -> Client:
         """The robot link."""
-        assert self.robot is not None, "setup() was not called"
-        return self.robot.client
+        return self.context.client
 
     @property
     def clock(self) -> Clock:
         """The run's clock."""
-        assert self.robot is not None, "setup() was not called"
-        return self.robot.clock
+        return self.context.clock
 
     def _polled(self, index: int) -> Any:
         """One of the values polled before this tick: from the run's context, else the blackboard."""
@@ -208,7 +217,7 @@ class RobotBehaviour(py_trees.behaviour.Behaviour):
         try:
             request()
         except CommandRefused as err:
-            self.feedback_message = f"{err}; is the robot in manual mode, fallen or out of battery?"
+            self.feedback_message = f"{err}; {err.hint}"
             return False
         return True
 
@@ -228,8 +237,7 @@ class RobotAction(RobotBehaviour):
 
     def started_motion(self) -> None:
         """Marks that the robot is carrying out this node's motion."""
-        assert self.robot is not None
-        self.robot.motion_owner = self
+        self.context.motion_owner = self
 
     def owns_motion(self) -> bool:
         """True while the robot carries out this node's motion."""
@@ -238,8 +246,7 @@ class RobotAction(RobotBehaviour):
     def release_motion(self) -> None:
         """Marks that this node's motion has ended (without sending anything)."""
         if self.owns_motion():
-            assert self.robot is not None
-            self.robot.motion_owner = None
+            self.context.motion_owner = None
 
     def stop_motion(self) -> bool:
         """Sends ``X`` now (in this tick); returns whether the robot accepted it."""

@@ -37,15 +37,18 @@ class ClockTimeout(py_trees.decorators.Decorator):
             raise TypeError(f"{self.name}: setup() needs robot=RobotContext(...)")
         self._clock = robot.clock
 
+    def _time_now(self) -> float:
+        if self._clock is None:
+            raise RuntimeError(f"node '{self.name}' was not set up: call setup(robot=RobotContext(...)) first")
+        return self._clock.now()
+
     def initialise(self) -> None:
         """Starts the countdown."""
-        assert self._clock is not None, "setup() was not called"
-        self._deadline_s = self._clock.now() + self.seconds
+        self._deadline_s = self._time_now() + self.seconds
 
     def update(self) -> Status:
         """The child's status, or FAILURE once the time is up (halting the child)."""
-        assert self._clock is not None
-        if self.decorated.status == Status.RUNNING and self._clock.now() >= self._deadline_s:
+        if self.decorated.status == Status.RUNNING and self._time_now() >= self._deadline_s:
             self.feedback_message = f"timed out after {self.seconds:g} s"
             self.decorated.stop(Status.INVALID)
             return Status.FAILURE

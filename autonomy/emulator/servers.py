@@ -122,7 +122,8 @@ class TcpServer(_Server):
         self._selector.register(conn, selectors.EVENT_READ, self._receive)
 
     def _receive(self) -> None:
-        assert self._conn is not None
+        if self._conn is None:
+            return
         try:
             data = self._conn.recv(4096)
         except (BlockingIOError, InterruptedError):

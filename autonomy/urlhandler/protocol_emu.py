@@ -120,7 +120,8 @@ class Serial(SerialBase):
 
     @property
     def _emu(self) -> Emulator:
-        assert self.emulator is not None
+        if self.emulator is None:
+            raise PortNotOpenError()
         return self.emulator
 
 

@@ -68,7 +68,8 @@ class LinePrinter:
                 self.write(fit(f"{'':10}{event.kind}: {event.message}", WIDTH))
 
     def _tick(self, record: TickRecord) -> None:
-        assert self.header is not None and self.state is not None
+        if self.header is None or self.state is None:
+            return
         nodes = self.state.nodes
         running = [i for i in self._leaves if nodes[i].status == RUNNING]
         if not running:

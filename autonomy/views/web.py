@@ -182,7 +182,9 @@ class ViewServer:
         self._runner = web.AppRunner(app, handle_signals=False, access_log=None, shutdown_timeout=0.5)
         ready = threading.Event()
         failure: list[OSError] = []
-        self._thread = threading.Thread(target=self._serve, args=(ready, failure), name="autonomy-view", daemon=True)
+        self._thread = threading.Thread(
+            target=self._serve, args=(self._runner, ready, failure), name="autonomy-view", daemon=True
+        )
         self._thread.start()
         ready.wait()
         if failure:
@@ -190,17 +192,16 @@ class ViewServer:
             self._thread = None
             raise failure[0]
 
-    def _serve(self, ready: threading.Event, failure: list[OSError]) -> None:
+    def _serve(self, runner: web.AppRunner, ready: threading.Event, failure: list[OSError]) -> None:
         loop = self._loop
         asyncio.set_event_loop(loop)
-        assert self._runner is not None
         try:
-            loop.run_until_complete(self._runner.setup())
-            site = web.TCPSite(self._runner, self.host, self.port)
+            loop.run_until_complete(runner.setup())
+            site = web.TCPSite(runner, self.host, self.port)
             loop.run_until_complete(site.start())
         except OSError as err:
             failure.append(err)
-            loop.run_until_complete(self._runner.cleanup())
+            loop.run_until_complete(runner.cleanup())
             loop.close()
             ready.set()
             return
