@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import signal
 import sys
@@ -58,7 +59,9 @@ def _host_port(text: str) -> tuple[str, int]:
     host, sep, port = text.rpartition(":")
     if not sep:
         host, port = "127.0.0.1", text
-    return host or "127.0.0.1", _tcp_port(port, f"expected HOST:PORT or PORT, got '{text}'")
+    if host.startswith("[") and host.endswith("]"):  # an IPv6 address: [::1]:7777
+        host = host[1:-1]
+    return host or "127.0.0.1", _tcp_port(port, f"expected HOST:PORT, [IPV6]:PORT or PORT, got '{text}'")
 
 
 def _positive(text: str) -> float:
@@ -66,8 +69,8 @@ def _positive(text: str) -> float:
         value = float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected a number of seconds, got '{text}'") from None
-    if value <= 0:
-        raise argparse.ArgumentTypeError(f"must be above 0, got {text}")
+    if not math.isfinite(value) or value <= 0:
+        raise argparse.ArgumentTypeError(f"must be a number above 0, got {text}")
     return value
 
 
@@ -112,6 +115,13 @@ def cmd_emulator(args: argparse.Namespace) -> int:
     except OSError as err:
         return _fail(f"cannot serve on {args.tcp[0]}:{args.tcp[1]}: {err.strerror or err}", EXIT_LINK)
     print(server.url, flush=True)
+    if getattr(server, "public", False):
+        print(
+            f"autonomy: warning: serving on every network address ({args.tcp[0]}): anyone who can reach this "
+            "machine can drive the robot; use 127.0.0.1 unless you mean it",
+            file=sys.stderr,
+            flush=True,
+        )
     print(
         f"emulated robot in world '{emulator.world.name}', {args.baud} baud, faults: {emulator.faults}; Ctrl-C to stop",
         file=sys.stderr,

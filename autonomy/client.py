@@ -202,6 +202,7 @@ class Client:
         self._trusted_s = 0.0
         self._confirmed = False
         self._heard = bytearray()
+        self._waiting_ready = False  # while True, stale input is read into _heard, not discarded
         port.timeout = timeout_s
 
     # ------------------------------------------------------------------ lifecycle
@@ -242,8 +243,15 @@ class Client:
             ReplyTimeout: no valid answer within ``ready_timeout_s``; the message tells
                 a silent port (robot off, wrong port) from one that sends bytes that
                 never form a reply (wrong baud rate).
-            LinkLost: the port failed while waiting.
+            LinkLost: the port failed while waiting (with what it said, when it said something).
         """
+        self._waiting_ready = True
+        try:
+            return self._wait_ready(ready_timeout_s)
+        finally:
+            self._waiting_ready = False
+
+    def _wait_ready(self, ready_timeout_s: float) -> str:
         deadline = self.clock.now() + ready_timeout_s
         received_before = self.stats.bytes_received
         while True:
@@ -459,6 +467,21 @@ class Client:
             seen = "a servo step does not show in the status, so it may or may not have moved"
         raise CommandUnconfirmed(f"{failure}; the link answers, but {seen}", frame) from failure
 
+    def _drain_heard(self) -> None:
+        """Reads what came unasked (a server's notice, a board's boot banner) into :meth:`heard_text`."""
+        try:
+            for _ in range(256):
+                if not getattr(self.port, "in_waiting", 0):
+                    return
+                data = self.port.read(1)
+                if not data:
+                    return
+                self._heard += data
+        except PORT_ERRORS:
+            return  # the request that follows fails, and says so
+        finally:
+            del self._heard[:-120]
+
     def heard_text(self) -> str:
         """The last bytes received, when they read as a line of text (a server saying why it closed)."""
         text = bytes(self._heard).decode("ascii", "replace").strip()
@@ -472,7 +495,10 @@ class Client:
     def _exchange(self, command: Command, frame: bytes) -> Reply:
         """One attempt: discard stale input, send, read until a reply or the time-out."""
         self.stats.attempts += 1
-        self._io(self.port.reset_input_buffer)
+        if self._waiting_ready:
+            self._drain_heard()
+        else:
+            self._io(self.port.reset_input_buffer)
         self._io(self.port.write, frame)
         self.stats.bytes_sent += len(frame)
         decoder = ReplyDecoder.for_command(command)

@@ -94,6 +94,7 @@ class RunSummary:
     retries: int = 0
     refused: int = 0
     framing_errors: int = 0
+    implausible: int = 0
 
     def to_json(self) -> dict:
         """The counts as plain JSON."""
@@ -117,7 +118,8 @@ class RunSummary:
         end = " It was stopped at the end." if self.stopped else " The stop could NOT be confirmed: check the robot."
         link = (
             f" Link: {plural(self.requests, 'request')}, {plural(self.retries, 'retry', 'retries')}, "
-            f"{self.refused} refused, {plural(self.framing_errors, 'framing error')}."
+            f"{self.refused} refused, {plural(self.framing_errors, 'framing error')}"
+            + (f", {plural(self.implausible, 'implausible status packet')} ignored." if self.implausible else ".")
         )
         return head + body + end + link
 
@@ -195,6 +197,7 @@ class Runner:
         self._pose = Pose(0.0, 0.0, 0.0)
         self._start_s = 0.0
         self._framing_before = 0
+        self._implausible_before = 0
         self._last_slow_s = -float("inf")
         self._battery, self._healthy = 0, True
         self._stop_reason = ""
@@ -284,6 +287,7 @@ class Runner:
             if self._on_exchange in self.client.listeners:
                 self.client.listeners.remove(self._on_exchange)
             summary.framing_errors = self.client.stats.framing_errors - self._framing_before
+            summary.implausible = self.client.stats.implausible - self._implausible_before
             self._finish()
         return summary
 
@@ -312,6 +316,7 @@ class Runner:
         """Hands every node the run's context, starts the clock, sends the header; :meth:`run` calls it."""
         self.client.listeners.append(self._on_exchange)
         self._framing_before = self.client.stats.framing_errors
+        self._implausible_before = self.client.stats.implausible
         for node in self.root.iterate():
             node.setup(robot=self.context)
         self._start_s = self.clock.now()

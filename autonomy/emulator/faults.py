@@ -15,6 +15,7 @@ A spec is a comma-separated list, e.g. ``drop=0.01,corrupt=0.01,no=0.02,pace``:
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, fields
 
 PROBABILITIES = ("drop", "corrupt", "delay", "garbage", "no")
@@ -59,6 +60,8 @@ class FaultSpec:
                 value = float(raw)
             except ValueError:
                 raise FaultSpecError(f"fault '{name}' needs a number, as in {name}=0.05; got '{item}'") from None
+            if not math.isfinite(value):
+                raise FaultSpecError(f"fault '{name}' needs a finite number, got '{raw.strip()}'")
             if name in PROBABILITIES and not 0.0 <= value <= 1.0:
                 raise FaultSpecError(f"fault '{name}' is a probability 0..1, got {value}")
             if value < 0:

@@ -2,8 +2,11 @@
 
 Both run one loop that waits for bytes (or for the next reply byte to fall due), hands
 them to the :class:`~autonomy.emulator.core.Emulator` and writes its replies back, in real
-time. A serial line has one peer: the TCP server talks to one connection at a time and
-closes any other that arrives meanwhile.
+time. A serial line has one peer: the TCP server talks to one connection at a time. One that
+arrives meanwhile is answered, at its first request, with a line of text saying so, and
+closed (:data:`TURN_AWAY_S` at the latest); a peer that has closed its side is
+let go first, so a client that reconnects at once is always served; a peer that sends nothing
+for :data:`IDLE_PEER_S` is dropped, so a forgotten connection cannot hold the robot.
 """
 
 from __future__ import annotations
@@ -19,6 +22,12 @@ from autonomy.emulator.core import Emulator
 
 #: Longest the loop sleeps with nothing due, so the physics keeps up and stop() is seen.
 IDLE_POLL_S = 0.02
+#: A TCP peer that sends nothing for this long is dropped.
+IDLE_PEER_S = 60.0
+#: What a TCP client that comes while another is served reads before the server closes it.
+#: How long such a client is kept waiting for its first request before it is closed anyway.
+TURN_AWAY_S = 2.0
+BUSY_LINE = b"BUSY: another client is connected to this emulator; one at a time, as on a serial line\n"
 
 
 class _Server:
@@ -54,7 +63,11 @@ class _Server:
             out = self.emulator.read_ready()
             if out:
                 self._send(out)
+            self._check_idle()
         self._close()
+
+    def _check_idle(self) -> None:
+        """Drops a peer that has been silent too long (TCP only)."""
 
     def start(self) -> _Server:
         """Runs the loop in a background thread; returns self."""
@@ -92,12 +105,18 @@ class TcpServer(_Server):
         port: TCP port; 0 picks a free one (see :attr:`address`).
     """
 
-    def __init__(self, emulator: Emulator, host: str = "127.0.0.1", port: int = 7777) -> None:
+    def __init__(
+        self, emulator: Emulator, host: str = "127.0.0.1", port: int = 7777, idle_peer_s: float = IDLE_PEER_S
+    ) -> None:
         super().__init__(emulator)
-        self._listener = socket.create_server((host, port), reuse_port=False)
+        family = socket.AF_INET6 if ":" in host else socket.AF_INET
+        self._listener = socket.create_server((host, port), family=family, reuse_port=False)
         self._listener.setblocking(False)
         self._selector.register(self._listener, selectors.EVENT_READ, self._accept)
         self._conn: socket.socket | None = None
+        self.idle_peer_s = idle_peer_s
+        self._heard_s = 0.0
+        self._turned_away: dict[socket.socket, float] = {}
 
     @property
     def address(self) -> tuple[str, int]:
@@ -109,31 +128,66 @@ class TcpServer(_Server):
     def url(self) -> str:
         """``socket://HOST:PORT``."""
         host, port = self.address
-        return f"socket://{host}:{port}"
+        return f"socket://[{host}]:{port}" if ":" in host else f"socket://{host}:{port}"
+
+    @property
+    def public(self) -> bool:
+        """True when bound to every address (0.0.0.0 or ::), not only this machine's."""
+        return self.address[0] in ("0.0.0.0", "::")
 
     def _accept(self) -> None:
-        conn, _ = self._listener.accept()
-        if self._conn is not None:
-            conn.close()  # one peer at a time, like a serial line
+        try:
+            conn, _ = self._listener.accept()
+        except OSError:
+            return
+        while self._conn is not None and self._receive():
+            pass  # read what the current peer sent: a peer that has closed is let go now
+        if self._conn is not None:  # one peer at a time, like a serial line: say so at its first request
+            conn.setblocking(False)
+            self._turned_away[conn] = self.emulator.clock.now()
+            self._selector.register(conn, selectors.EVENT_READ, lambda: self._turn_away(conn))
             return
         conn.setblocking(False)
         conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
         self._conn = conn
+        self._heard_s = self.emulator.clock.now()
         self._selector.register(conn, selectors.EVENT_READ, self._receive)
 
-    def _receive(self) -> None:
+    def _receive(self) -> bool:
+        """Reads what the peer sent; returns True when more may be waiting."""
         if self._conn is None:
-            return
+            return False
         try:
             data = self._conn.recv(4096)
         except (BlockingIOError, InterruptedError):
-            return
+            return False
         except OSError:
             data = b""
         if not data:
             self._drop_connection()
-            return
+            return False
+        self._heard_s = self.emulator.clock.now()
         self.emulator.receive(data)
+        return True
+
+    def _turn_away(self, conn: socket.socket) -> None:
+        try:
+            conn.sendall(BUSY_LINE)
+        except OSError:
+            pass
+        self._selector.unregister(conn)
+        del self._turned_away[conn]
+        conn.close()
+
+    def _check_idle(self) -> None:
+        now_s = self.emulator.clock.now()
+        if self._conn is not None and now_s - self._heard_s > self.idle_peer_s:
+            self._drop_connection()
+        for conn, since_s in list(self._turned_away.items()):
+            if now_s - since_s > TURN_AWAY_S:
+                self._selector.unregister(conn)
+                del self._turned_away[conn]
+                conn.close()
 
     def _drop_connection(self) -> None:
         if self._conn is not None:
@@ -151,6 +205,10 @@ class TcpServer(_Server):
 
     def _close(self) -> None:
         self._drop_connection()
+        for conn in list(self._turned_away):
+            self._selector.unregister(conn)
+            conn.close()
+        self._turned_away.clear()
         self._selector.unregister(self._listener)
         self._listener.close()
         super()._close()

@@ -147,3 +147,31 @@ def test_emulator_port_in_use_is_one_line_and_exit_3():
         port = sock.getsockname()[1]
         result = autonomy("emulator", "--tcp", f"127.0.0.1:{port}", timeout=20)
     assert_one_line_error(result, 3, f"cannot serve on 127.0.0.1:{port}")
+
+
+@pytest.mark.parametrize("served", [["--tcp", "0.0.0.0:0"]], indirect=True)
+def test_emulator_serving_every_address_warns_of_the_risk(served):
+    process, url = served
+    assert url.startswith("socket://0.0.0.0:")
+    warning = process.stderr.readline()
+    assert warning.startswith("autonomy: warning: serving on every network address") and "anyone" in warning
+
+
+@pytest.mark.parametrize("served", [["--tcp", "127.0.0.1:0"]], indirect=True)
+def test_a_second_client_hears_that_the_emulator_is_busy(served):
+    process, url = served
+    from autonomy.client import Client
+
+    first = Client.open(url)
+    try:
+        result = autonomy("probe", "--port", url)
+    finally:
+        first.close()
+    assert_one_line_error(result, 3, "BUSY: another client is connected")
+
+
+@pytest.mark.parametrize("value", ["nan", "inf", "-1", "0"])
+def test_max_seconds_must_be_a_finite_positive_number(value):
+    result = autonomy("run", "missions/square.yaml", "--max-seconds", value)
+    assert result.returncode == 2 and "Traceback" not in result.stderr
+    assert "--max-seconds" in result.stderr and "above 0" in result.stderr

@@ -1,5 +1,7 @@
 """The same client over every way in: emu:// (virtual time), a real TCP socket, a real pty."""
 
+import socket
+
 import pytest
 
 from autonomy.client import Client
@@ -50,16 +52,48 @@ def test_driving_moves_the_odometer_and_the_emulator_sees_each_command(link):
     assert emulator.robot.beeps[0][1:] == ((1, 6, 2), 5)
 
 
-def test_tcp_server_serves_one_peer_at_a_time():
+def test_tcp_server_serves_one_peer_at_a_time_and_tells_the_other_why():
     with TcpServer(Emulator("box"), port=0) as server:
         first = Client.open(server.url)
-        with pytest.raises((LinkLost, ReplyTimeout)):
+        with pytest.raises(LinkLost, match="BUSY: another client is connected"):
             Client.open(server.url, ready_timeout_s=0.5)
         assert first.firmware() == "E10"
         first.close()
         second = Client.open(server.url)  # the line is free again
         assert second.firmware() == "E10"
         second.close()
+
+
+def test_a_client_that_reconnects_at_once_is_always_served():
+    with TcpServer(Emulator("box"), port=0) as server:
+        host, port = server.address
+        for _ in range(100):
+            with socket.create_connection((host, port)) as sock:
+                sock.sendall(b"GF000\n")
+                assert sock.recv(16) == b"FE10\n"  # served, not turned away
+
+
+def test_a_silent_peer_is_dropped_after_the_idle_time_out():
+    with TcpServer(Emulator("box"), port=0, idle_peer_s=0.2) as server:
+        silent = socket.create_connection(server.address)
+        silent.settimeout(3.0)
+        assert silent.recv(16) == b""  # closed by the server
+        client = Client.open(server.url)  # and the line is free
+        assert client.firmware() == "E10"
+        client.close()
+        silent.close()
+
+
+def test_tcp_server_speaks_ipv6_on_loopback():
+    try:
+        server = TcpServer(Emulator("box"), host="::1", port=0)
+    except OSError:
+        pytest.skip("this machine has no IPv6 loopback")
+    with server:
+        assert server.url.startswith("socket://[::1]:") and not server.public
+        client = Client.open(server.url)
+        assert client.firmware() == "E10"
+        client.close()
 
 
 @pytest.mark.parametrize("kind", ["tcp", "pty"])
