@@ -371,6 +371,7 @@ def cmd_run(args: argparse.Namespace) -> int:
             else:
                 summary = runner.run()
         finally:
+            interrupts.raised = True  # from here on Ctrl-C waits: the stop and the summary come first
             client.close()
         output(summary.paragraph)
         _print_crash(runner.end, args.debug)

@@ -224,7 +224,8 @@ def test_a_remote_emulator_is_told_to_not_get_the_missions_world():
         process.communicate(timeout=10)
 
 
-def test_a_second_ctrl_c_does_not_cut_the_final_stop_short(tmp_path):
+@pytest.mark.parametrize(("presses", "gap_s"), [(3, 0.03), (10, 0.0), (10, 0.005), (6, 0.05)])
+def test_a_second_ctrl_c_does_not_cut_the_final_stop_short(tmp_path, presses, gap_s):
     trace = tmp_path / "run.jsonl"
     slow_link = "emu://?faults=pace,delay=1,delay_s=0.2"  # every reply 0.2 s late: the stop takes a while
     process = subprocess.Popen(
@@ -236,9 +237,9 @@ def test_a_second_ctrl_c_does_not_cut_the_final_stop_short(tmp_path):
     )
     process.stdout.readline()  # Running 'patrol' ...
     assert "move until" in process.stdout.readline()
-    for _ in range(3):
+    for _ in range(presses):
         process.send_signal(signal.SIGINT)
-        time.sleep(0.03)
+        time.sleep(gap_s)
     out, err = process.communicate(timeout=20)
     assert process.returncode == 130 and "It was stopped at the end." in out
     assert "stopping the robot first" in err and "Traceback" not in err
