@@ -276,7 +276,7 @@ class Runner:
             summary.outcome = CRASHED
             summary.reason = err.event.message
             self._events.append(err.event)
-        except Exception as err:  # noqa: BLE001 - a bug anywhere must still end in a stopped robot
+        except (Exception, SystemExit) as err:  # noqa: BLE001 - a bug anywhere must still end in a stopped robot
             summary.outcome = CRASHED
             summary.reason = f"{type(err).__name__}: {err}"
             self._events.append(Event("exception", summary.reason, traceback="".join(traceback.format_exc())))
@@ -500,7 +500,7 @@ class Runner:
         if self.root.status == Status.RUNNING:
             try:
                 self.root.stop(Status.INVALID)
-            except Exception as err:  # noqa: BLE001 - the final stop below still runs
+            except (Exception, SystemExit) as err:  # noqa: BLE001 - the final stop below still runs
                 self._log(f"halting the tree raised {type(err).__name__}: {err}", "warning")
 
     def _final_stop(self) -> bool:

@@ -11,7 +11,7 @@ from __future__ import annotations
 import py_trees
 
 from autonomy.behaviours.tree import NodeSource
-from autonomy.mission.validate import MissionSpec, NodeSpec
+from autonomy.mission.validate import MissionInvalid, MissionSpec, NodeSpec, Problem
 
 
 def build_node(spec: NodeSpec, mission: MissionSpec) -> py_trees.behaviour.Behaviour:
@@ -23,7 +23,12 @@ def build_node(spec: NodeSpec, mission: MissionSpec) -> py_trees.behaviour.Behav
             root.name = spec.args["subtree"]
         return root
     children = [build_node(child, mission) for child in spec.children]
-    node = spec.type.build(spec.display_name, spec.args, children)
+    try:
+        node = spec.type.build(spec.display_name, spec.args, children)
+    except BaseException as err:  # noqa: BLE001 - a plugin's class that cannot be built is the file's problem
+        why = f"{type(err).__name__}: {err}".rstrip(": ")
+        problem = f"cannot build node '{spec.display_name}' ({spec.type.origin}): {why}"
+        raise MissionInvalid([Problem(mission.source, spec.line, spec.column, spec.path, problem)]) from None
     node.mission_source = NodeSource(
         spec.type.name, spec.type.category, dict(spec.args), mission.source, spec.line, spec.column
     )
@@ -31,5 +36,9 @@ def build_node(spec: NodeSpec, mission: MissionSpec) -> py_trees.behaviour.Behav
 
 
 def build_tree(mission: MissionSpec) -> py_trees.behaviour.Behaviour:
-    """Builds the mission's tree (the root node; nothing is set up or connected)."""
+    """Builds the mission's tree (the root node; nothing is set up or connected).
+
+    Raises:
+        MissionInvalid: a node's class could not be built (a plugin's fault).
+    """
     return build_node(mission.tree, mission)

@@ -8,7 +8,7 @@ prints as ``FILE:LINE:COL: PATH: message``, where PATH is the YAML path
 from __future__ import annotations
 
 import hashlib
-import importlib
+import importlib.util
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -213,8 +213,8 @@ class _Validator:
                 continue
             try:
                 module = import_plugin(item.value, base_dir)
-            except (Exception, SystemExit) as err:  # noqa: BLE001 - any failure to import is the file's to report
-                why = f"{type(err).__name__}: {err}" if str(err) else type(err).__name__
+            except BaseException as err:  # noqa: BLE001 - sys.exit() or Ctrl-C raised by a plugin is its file's fault
+                why = str(err) if isinstance(err, PluginNotFound) else f"{type(err).__name__}: {err}".rstrip(": ")
                 self.problem(item, path, f"cannot import plugin '{item.value}': {why}")
                 continue
             classes = leaf_classes_in(module)
@@ -493,17 +493,56 @@ class _Invalid:
 _INVALID = _Invalid()
 
 
+class PluginNotFound(ImportError):
+    """No ``NAME.py`` (or package ``NAME/``) beside the mission."""
+
+
 def import_plugin(module_name: str, base_dir: Path) -> Any:
-    """Imports a plugin module, looking next to the mission file first."""
-    path = str(base_dir.resolve())
+    """Imports the plugin ``module_name`` from the mission's folder, and from nowhere else.
+
+    The plugin is ``base_dir/NAME.py`` (or the package ``base_dir/NAME/``); an installed module
+    of that name is never imported in its place. Each file is loaded under a module name of its
+    own, made from its path, so two missions whose folders both hold a ``beh.py`` each get their
+    own. While it loads, its folder is on ``sys.path``, so it may import files beside it.
+
+    Raises:
+        PluginNotFound: there is no such file beside the mission.
+        BaseException: whatever the plugin's code raised while it was imported.
+    """
+    if not module_name.isidentifier():
+        raise PluginNotFound(f"'{module_name}' is not a module name: name a file beside the mission, without '.py'")
+    folder = base_dir.resolve()
+    file, package = folder / f"{module_name}.py", folder / module_name / "__init__.py"
+    if not file.is_file():
+        if not package.is_file():
+            raise PluginNotFound(
+                f"no plugin '{module_name}': plugins are Python files beside the mission, "
+                f"and there is no {module_name}.py in {folder}"
+            )
+        file = package
+    unique = f"autonomy_plugin_{hashlib.sha256(str(file).encode()).hexdigest()[:12]}_{module_name}"
+    if unique in sys.modules:
+        return sys.modules[unique]
+    spec = importlib.util.spec_from_file_location(
+        unique, file, submodule_search_locations=[str(file.parent)] if file == package else None
+    )
+    if spec is None or spec.loader is None:
+        raise PluginNotFound(f"cannot load {file} as Python")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[unique] = module
+    path = str(folder)
     added = path not in sys.path
     if added:
         sys.path.insert(0, path)
     try:
-        return importlib.import_module(module_name)
+        spec.loader.exec_module(module)
+    except BaseException:
+        del sys.modules[unique]
+        raise
     finally:
         if added:
             sys.path.remove(path)
+    return module
 
 
 def validate_text(
