@@ -11,15 +11,15 @@ repeat (``G X F M S``) are asked again after a time-out, a framing error or a ``
 relative moves (``T D``) never are, since a repeat after a lost ``OK`` would move twice:
 a lost reply to one of them is settled by reading the status instead.
 
-The protocol has no checksum, so every status packet is checked against the last trusted
-one: a packet whose odometer, heading or tilt moved further than the robot can in the time
-between them, or that shows a new collision the next packet does not confirm, is counted and
-polled again, and never returned. The first packet of a link is trusted once a second one
-agrees with it.
+The protocol has no checksum, so every status packet is checked (:class:`StatusGuard`): one
+whose odometer, heading or tilt moved further than the robot can in the time since the last
+believed packet, or whose flags changed, is believed only once the next packet agrees with it.
+A refused packet is counted and polled again, and never returned.
 """
 
 from __future__ import annotations
 
+import enum
 import errno
 import threading
 from collections.abc import Callable
@@ -84,17 +84,19 @@ DEFAULT_RETRIES = 3
 DEFAULT_READY_TIMEOUT_S = 3.0
 DEFAULT_STOP_TRIES = 5
 
-#: What a robot of this size cannot exceed between two status polls (several times the
-#: fastest setting of the emulator); a packet beyond it holds a corrupted byte.
-PLAUSIBLE_SPEED_MM_S = 1000.0
-PLAUSIBLE_TURN_RATE_DEG_S = 360.0
-PLAUSIBLE_TILT_RATE_DEG_S = 600.0
+#: What a robot of this size cannot exceed between two status polls (twice the fastest
+#: setting of the emulator, or more); a packet beyond it holds a corrupted byte.
+PLAUSIBLE_SPEED_MM_S = 800.0
+PLAUSIBLE_TURN_RATE_DEG_S = 180.0
+PLAUSIBLE_TILT_RATE_DEG_S = 400.0
 #: Allowed on top, for whole-unit readings and polls close together.
-PLAUSIBLE_SLACK_MM = 20
-PLAUSIBLE_SLACK_DEG = 10
-#: Implausible status packets one request polls again before it gives up (they do not use up
-#: its retries: at 1% corrupted bytes a packet is bad 9% of the time).
-IMPLAUSIBLE_LIMIT = 8
+PLAUSIBLE_SLACK_MM = 10
+PLAUSIBLE_SLACK_DEG = 3
+PLAUSIBLE_TILT_SLACK_DEG = 10
+#: Garbled replies (framing errors, implausible status packets) a repeatable request asks
+#: again for before they use up its retries: at 1% corrupted bytes, 9% of status packets are
+#: garbled, and a run of 20 Hz polls would otherwise lose the link about once an hour.
+GARBLED_LIMIT = 8
 #: After a lost reply to ``T``: how many status polls look for the turn, and the wait between them.
 SETTLE_POLLS = 3
 SETTLE_WAIT_S = 0.05
@@ -115,6 +117,7 @@ class LinkStats:
     framing_errors: int = 0
     refusals: int = 0
     implausible: int = 0
+    rebased: int = 0
     settled: int = 0
     bytes_sent: int = 0
     bytes_received: int = 0
@@ -163,6 +166,83 @@ def _open_reason(err: BaseException) -> str:
     return _reason(err)
 
 
+class Verdict(enum.Enum):
+    """What to do with a status packet: see :meth:`StatusGuard.judge`."""
+
+    ACCEPT = "accept"
+    READ_AGAIN = "read again"
+    REFUSE = "refuse"
+
+
+def status_jump(earlier: Status, earlier_s: float, later: Status, later_s: float) -> str:
+    """Says how ``later`` cannot follow ``earlier`` in the time between them (empty: it can)."""
+    elapsed_s = max(0.0, later_s - earlier_s)
+    moved_mm = abs(odometer_delta_mm(earlier.odometer_mm, later.odometer_mm))
+    if moved_mm > PLAUSIBLE_SPEED_MM_S * elapsed_s + PLAUSIBLE_SLACK_MM:
+        return f"odometer {earlier.odometer_mm} -> {later.odometer_mm} mm in {elapsed_s:.2f} s"
+    turned_deg = abs(heading_delta_deg(earlier.heading_deg, later.heading_deg))
+    if turned_deg > PLAUSIBLE_TURN_RATE_DEG_S * elapsed_s + PLAUSIBLE_SLACK_DEG:
+        return f"heading {earlier.heading_deg} -> {later.heading_deg} deg in {elapsed_s:.2f} s"
+    if abs(later.tilt_deg - earlier.tilt_deg) > PLAUSIBLE_TILT_RATE_DEG_S * elapsed_s + PLAUSIBLE_TILT_SLACK_DEG:
+        return f"tilt {earlier.tilt_deg} -> {later.tilt_deg} deg in {elapsed_s:.2f} s"
+    return ""
+
+
+def _flags(packet: Status) -> tuple[int, bool, bool, bool]:
+    return packet.mode, packet.auto_mode, packet.collided, packet.moving
+
+
+class StatusGuard:
+    """Decides which status packets to believe, since the protocol has no checksum.
+
+    A packet is believed when it can follow the last believed one (see :func:`status_jump`).
+    Otherwise it is held, and the next packet decides: if the two agree with each other the
+    robot really is there (a packet believed earlier was the bad one, or the robot was moved):
+    the new one is believed and :attr:`rebased` counted; if not, whichever of them agrees with
+    the last believed packet wins. The link's first packet, and one whose flags (mode, auto,
+    collision, moving) changed, are held the same way until the next agrees: a real change
+    lasts, a flipped bit does not.
+
+    Attributes:
+        trusted: The last believed packet (None before the first).
+        rebased: How many times two agreeing packets replaced the believed state.
+    """
+
+    def __init__(self) -> None:
+        self.trusted: Status | None = None
+        self.rebased = 0
+        self._trusted_s = 0.0
+        self._held: Status | None = None
+        self._held_s = 0.0
+
+    def judge(self, packet: Status, now_s: float) -> tuple[Verdict, str]:
+        """Returns what to do with ``packet``, read at ``now_s``, and why.
+
+        The reason comes with a refusal, and with an acceptance that drops the packet held
+        before (a collision flag the next packet did not show), so that it can be counted.
+        """
+        held, self._held = self._held, None
+        if held is not None and not status_jump(held, self._held_s, packet, now_s):
+            if self.trusted is not None and status_jump(self.trusted, self._trusted_s, held, self._held_s):
+                self.rebased += 1
+            trusted = self.trusted
+            flipped = trusted is not None and _flags(held) != _flags(packet) and _flags(packet) == _flags(trusted)
+            return self._believe(packet, now_s, "a change of flags the next packet did not show" if flipped else "")
+        trusted = self.trusted
+        if trusted is None:  # nothing believed yet: a packet that disagrees with the one held is refused
+            why = status_jump(held, self._held_s, packet, now_s) if held is not None else ""
+        else:
+            why = status_jump(trusted, self._trusted_s, packet, now_s)
+        if trusted is not None and not why and _flags(packet) == _flags(trusted):
+            return self._believe(packet, now_s)
+        self._held, self._held_s = packet, now_s
+        return (Verdict.REFUSE, why) if why else (Verdict.READ_AGAIN, "")
+
+    def _believe(self, packet: Status, now_s: float, dropped: str = "") -> tuple[Verdict, str]:
+        self.trusted, self._trusted_s = packet, now_s
+        return Verdict.ACCEPT, dropped
+
+
 class Client:
     """Talks to one robot over an open pyserial port.
 
@@ -198,9 +278,7 @@ class Client:
         self.firmware_version = ""
         self._lock = threading.RLock()
         self._closed = False
-        self._trusted: Status | None = None
-        self._trusted_s = 0.0
-        self._confirmed = False
+        self.guard = StatusGuard()
         self._heard = bytearray()
         self._waiting_ready = False  # while True, stale input is read into _heard, not discarded
         port.timeout = timeout_s
@@ -357,8 +435,7 @@ class Client:
             tries = 1 + ((self.retries if retries is None else retries) if command.retryable else 0)
             self.stats.requests += 1
             failure: AutonomyError = ReplyTimeout(f"no reply to {_text(frame)} from {self.name}")
-            attempt = implausible = 0
-            candidate: Status | None = None  # a new collision, waiting for the next packet to agree
+            attempt = garbled = 0
             while tries > 0:
                 if attempt:
                     self.stats.retries += 1
@@ -368,34 +445,32 @@ class Client:
                 except (ReplyTimeout, FramingError) as err:
                     failure = err
                     self._notify(frame, err, attempt - 1)
-                    tries -= 1
+                    if isinstance(err, FramingError) and command.retryable and garbled < GARBLED_LIMIT:
+                        garbled += 1
+                    else:
+                        tries -= 1
                     continue
                 if isinstance(reply, Status):
-                    if candidate is not None and candidate.collided and not reply.collided and self._confirmed:
-                        self.stats.implausible += 1  # a collision one packet showed and the next did not
-                        implausible += 1
-                        candidate = None
-                    why = self._implausible(reply, candidate)
-                    if why:
-                        self.stats.implausible += 1
-                        implausible += 1
-                        candidate = None
-                        if not self._confirmed:  # the link's first packet may have been the bad one
-                            self._trusted, self._trusted_s = reply, self.clock.now()
-                        self._notify(frame, ImplausibleStatus(f"implausible status: {why}", reply.raw), attempt - 1)
-                        if implausible > IMPLAUSIBLE_LIMIT:
-                            raise ReplyTimeout(
-                                f"no plausible status from {self.name}: {implausible} packets in a row were not "
-                                f"possible ({why}); did the robot restart?"
-                            )
-                        continue
-                    self._notify(frame, reply, attempt - 1)
-                    if not self._trust(reply, candidate):
-                        candidate = reply  # read again before believing it: a request of its own
+                    verdict, why = self.guard.judge(reply, self.clock.now())
+                    self.stats.rebased = self.guard.rebased
+                    if verdict is Verdict.ACCEPT:
+                        self.stats.implausible += bool(why)
+                        self._notify(frame, reply, attempt - 1)
+                        return reply
+                    if verdict is Verdict.READ_AGAIN:  # believed once the next packet agrees: a request of its own
+                        self._notify(frame, reply, attempt - 1)
                         self.stats.requests += 1
                         attempt = 0
                         continue
-                    return reply
+                    self.stats.implausible += 1
+                    garbled += 1
+                    self._notify(frame, ImplausibleStatus(f"implausible status: {why}", reply.raw), attempt - 1)
+                    if garbled > GARBLED_LIMIT:
+                        raise ReplyTimeout(
+                            f"no plausible status from {self.name}: {garbled} packets in a row were garbled or did not "
+                            f"agree with each other ({why})"
+                        )
+                    continue
                 self._notify(frame, reply, attempt - 1)
                 if isinstance(reply, Ack) and not reply.ok:
                     self.stats.refusals += 1
@@ -409,37 +484,6 @@ class Client:
                 raise ReplyTimeout(f"no valid reply to {_text(frame)} from {self.name}: {failure}") from failure
             raise failure
 
-    def _implausible(self, packet: Status, candidate: Status | None) -> str:
-        """Says how ``packet`` is impossible after the last trusted one (empty: it is possible)."""
-        last = candidate or self._trusted
-        if last is None:
-            return ""
-        elapsed_s = max(0.0, self.clock.now() - self._trusted_s)
-        moved_mm = abs(odometer_delta_mm(last.odometer_mm, packet.odometer_mm))
-        if moved_mm > PLAUSIBLE_SPEED_MM_S * elapsed_s + PLAUSIBLE_SLACK_MM:
-            return f"odometer {last.odometer_mm} -> {packet.odometer_mm} mm in {elapsed_s:.2f} s"
-        turned_deg = abs(heading_delta_deg(last.heading_deg, packet.heading_deg))
-        if turned_deg > PLAUSIBLE_TURN_RATE_DEG_S * elapsed_s + PLAUSIBLE_SLACK_DEG:
-            return f"heading {last.heading_deg} -> {packet.heading_deg} deg in {elapsed_s:.2f} s"
-        tilted_deg = abs(packet.tilt_deg - last.tilt_deg)
-        if tilted_deg > PLAUSIBLE_TILT_RATE_DEG_S * elapsed_s + 2 * PLAUSIBLE_SLACK_DEG:
-            return f"tilt {last.tilt_deg} -> {packet.tilt_deg} deg in {elapsed_s:.2f} s"
-        return ""
-
-    def _trust(self, packet: Status, candidate: Status | None) -> bool:
-        """Takes ``packet`` as the robot's state, or returns False when the next packet must agree first.
-
-        The link's first packet waits for the next, and so does one showing a new collision.
-        """
-        last, now_s = self._trusted, self.clock.now()
-        if last is None:
-            self._trusted, self._trusted_s = packet, now_s
-            return False
-        if candidate is None and self._confirmed and packet.collided and not last.collided:
-            return False
-        self._trusted, self._trusted_s, self._confirmed = packet, now_s, True
-        return True
-
     def _settle(self, command: Command, frame: bytes, failure: ReplyTimeout) -> Reply:
         """Settles a lost reply to ``T`` or ``D`` by reading the status, never by sending it again.
 
@@ -451,7 +495,7 @@ class Client:
                 (a servo step cannot be seen in the status at all).
             LinkError: the status cannot be read either: the link is really gone.
         """
-        before = self._trusted
+        before = self.guard.trusted
         if isinstance(command, Turn):
             for poll in range(SETTLE_POLLS):
                 status = self.status()

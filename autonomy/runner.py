@@ -198,6 +198,7 @@ class Runner:
         self._start_s = 0.0
         self._framing_before = 0
         self._implausible_before = 0
+        self._rebased = 0
         self._last_slow_s = -float("inf")
         self._battery, self._healthy = 0, True
         self._stop_reason = ""
@@ -228,9 +229,17 @@ class Runner:
         """Counts distance, turns and collisions; moves the dead-reckoned pose. Returns the speed."""
         last = self._last
         speed_mm_s = 0.0
+        rebased, self._rebased = self._rebased, self.client.stats.rebased
+        first = last is None
+        self.context.rebased = rebased != self._rebased
+        if last is not None and self.context.rebased:  # the robot's odometer or heading started anew
+            self._log(
+                "two status packets in a row disagreed with the one believed before: counting from them", "warning"
+            )
+            last = None
         if last is None:
             self._pose = Pose(self._pose.x_mm, self._pose.y_mm, float(status.heading_deg))
-            if status.collided:
+            if status.collided and first:
                 self.summary.collisions += 1
         else:
             moved_mm = odometer_delta_mm(last.odometer_mm, status.odometer_mm)
@@ -317,6 +326,7 @@ class Runner:
         self.client.listeners.append(self._on_exchange)
         self._framing_before = self.client.stats.framing_errors
         self._implausible_before = self.client.stats.implausible
+        self._rebased = self.client.stats.rebased
         for node in self.root.iterate():
             node.setup(robot=self.context)
         self._start_s = self.clock.now()

@@ -14,6 +14,50 @@ from autonomy.behaviours.base import Param, RobotAction
 from autonomy.protocol import heading_delta_deg, odometer_delta_mm
 
 
+class WrongWay:
+    """Notices a motion going against the way it was asked, from its progress tick by tick.
+
+    A robot still rolling from an earlier motion goes the wrong way for a moment, slowing down;
+    one sent the wrong way (a corrupted sign byte) does not slow down. Progress is summed over
+    windows of at least :attr:`WINDOW_S`, so that whole-unit readings at high tick rates do not
+    hide the slowing down. It counts as going the wrong way once two windows in a row go
+    backward by more than ``step_limit`` each without getting smaller, or once the wrong-way
+    travel adds up to ``total_limit``.
+
+    Args:
+        step_limit: Smallest wrong-way travel in a window that counts (mm or degrees); also the
+            allowance for whole-unit readings when windows are compared.
+        total_limit: Wrong-way travel that counts whatever the windows show.
+    """
+
+    WINDOW_S = 0.05
+
+    def __init__(self, step_limit: float, total_limit: float) -> None:
+        self.step_limit, self.total_limit = step_limit, total_limit
+        self.reset(0.0)
+
+    def reset(self, now_s: float) -> None:
+        """Starts anew, for a motion starting at ``now_s``."""
+        self._total = 0.0
+        self._window = 0.0
+        self._window_start_s = now_s
+        self._last_window = 0.0
+        self._backward = 0
+
+    def update(self, step: float, now_s: float) -> float:
+        """Takes one tick's progress (positive: the asked way); returns the wrong-way travel once it counts, else 0."""
+        self._total = min(0.0, self._total + step)
+        self._window += step
+        if now_s - self._window_start_s >= self.WINDOW_S - 1e-9:
+            window, self._window, self._window_start_s = self._window, 0.0, now_s
+            slowing = window > self._last_window + self.step_limit
+            self._backward = self._backward + 1 if window < -self.step_limit and not slowing else 0
+            self._last_window = window
+        if self._backward >= 2 or -self._total >= self.total_limit:
+            return -self._total
+        return 0.0
+
+
 class Move(RobotAction):
     """Drive straight until an ending condition holds, then stop.
 
@@ -24,9 +68,10 @@ class Move(RobotAction):
 
     #: How long the robot may stand still after F before the move counts as blocked.
     STALL_S = 0.5
-    #: Odometer travel the wrong way that stops the move: at once, or over two ticks in a row.
-    WRONG_WAY_MM = 10
-    WRONG_WAY_TICKS_MM = 2
+    #: Going the wrong way: more than this much a tick, not slowing down, two ticks in a row
+    #: (a robot still rolling back from an earlier move slows down); or this far in all.
+    WRONG_WAY_STEP_MM = 1.0
+    WRONG_WAY_TOTAL_MM = 100.0
 
     node_type = "move"
     doc = "Drive straight (F) until distance_mm, seconds or until_obstacle_mm holds, then stop (X)."
@@ -63,13 +108,14 @@ class Move(RobotAction):
         self._start_s = 0.0
         self._collision_armed = True
         self._failed = False
-        self._wrong_ticks = 0
+        self._wrong_way = WrongWay(self.WRONG_WAY_STEP_MM, self.WRONG_WAY_TOTAL_MM)
+        self._last_odometer_mm = 0
 
     def initialise(self) -> None:
         """Notes where it starts and sends ``F``."""
-        self._wrong_ticks = 0
+        self._wrong_way.reset(self.clock.now())
         status = self.robot_status
-        self._start_odometer_mm = status.odometer_mm
+        self._start_odometer_mm = self._last_odometer_mm = status.odometer_mm
         self._start_s = self.clock.now()
         # A collision flag still held from an earlier impact is not this move's collision.
         self._collision_armed = not status.collided
@@ -99,24 +145,20 @@ class Move(RobotAction):
             why = "pushing against an obstacle" if status.collided else "not moving (an obstacle, or its remote?)"
             self.feedback_message = f"blocked after {self.travelled_mm()} mm: the robot is {why}"
             return Status.FAILURE
-        wrong_way = self._wrong_way_mm()
-        if wrong_way:
+        step_mm = odometer_delta_mm(self._last_odometer_mm, status.odometer_mm)
+        self._last_odometer_mm = status.odometer_mm
+        asked = self.args["direction"]
+        step_mm = 0 if self.context.rebased else step_mm  # a corrected reading, not a motion
+        wrong_mm = self._wrong_way.update(-step_mm if asked == "backward" else step_mm, self.clock.now())
+        if wrong_mm:
             self.stop_motion()
-            asked = self.args["direction"]
-            self.feedback_message = f"moving the wrong way: {wrong_way} mm {_opposite(asked)} (asked {asked})"
+            self.feedback_message = f"moving the wrong way: {wrong_mm:.0f} mm {_opposite(asked)} (asked {asked})"
             return Status.FAILURE
         reason = self._ending()
         if reason:
             return Status.SUCCESS if self.stop_motion() else Status.FAILURE
         self.feedback_message = f"{self.travelled_mm()} mm, front {status.front_distance_mm} mm"
         return Status.RUNNING
-
-    def _wrong_way_mm(self) -> int:
-        """The distance driven against the asked direction, once it is clearly so (else 0)."""
-        moved_mm = odometer_delta_mm(self._start_odometer_mm, self.robot_status.odometer_mm)
-        wrong_mm = moved_mm if self.args["direction"] == "backward" else -moved_mm
-        self._wrong_ticks = self._wrong_ticks + 1 if wrong_mm > self.WRONG_WAY_TICKS_MM else 0
-        return wrong_mm if wrong_mm > self.WRONG_WAY_MM or self._wrong_ticks >= 2 else 0
 
     def _ending(self) -> str:
         args, status = self.args, self.robot_status
@@ -144,8 +186,10 @@ class Turn(RobotAction):
 
     #: How close to the target heading counts as there.
     TOLERANCE_DEG = 3.0
-    #: Turned the wrong way by this much stops the turn at once; by 1 degree, after two ticks.
-    WRONG_WAY_DEG = 3.0
+    #: Turning the wrong way: more than this much a tick, not slowing down, two ticks in a row;
+    #: or this far in all.
+    WRONG_WAY_STEP_DEG = 1.0
+    WRONG_WAY_TOTAL_DEG = 20.0
     #: Time-out: this many times the expected duration, plus the margin.
     TIMEOUT_FACTOR = 2.0
     TIMEOUT_MARGIN_S = 2.0
@@ -164,12 +208,12 @@ class Turn(RobotAction):
         self._last_heading = 0
         self._deadline_s = 0.0
         self._failed = False
-        self._wrong_ticks = 0
+        self._wrong_way = WrongWay(self.WRONG_WAY_STEP_DEG, self.WRONG_WAY_TOTAL_DEG)
 
     def initialise(self) -> None:
         """Sends ``T`` and starts following the heading."""
         self._turned_deg = 0.0
-        self._wrong_ticks = 0
+        self._wrong_way.reset(self.clock.now())
         self._last_heading = self.robot_status.heading_deg
         expected_s = abs(self.angle_deg) / self.context.turn_rate_deg_s
         self._deadline_s = self.clock.now() + expected_s * self.TIMEOUT_FACTOR + self.TIMEOUT_MARGIN_S
@@ -182,16 +226,17 @@ class Turn(RobotAction):
         if self._failed:
             return Status.FAILURE
         status = self.robot_status
-        self._turned_deg += heading_delta_deg(self._last_heading, status.heading_deg)  # turns past 180 add up
+        step_deg = heading_delta_deg(self._last_heading, status.heading_deg)
+        self._turned_deg += step_deg  # turns past 180 add up
         self._last_heading = status.heading_deg
         remaining = self.angle_deg - self._turned_deg
         if status.collided:
             self.stop_motion()
             self.feedback_message = f"collided with {remaining:.0f} deg to go"
             return Status.FAILURE
-        wrong_deg = -self._turned_deg if self.angle_deg > 0 else self._turned_deg
-        self._wrong_ticks = self._wrong_ticks + 1 if wrong_deg >= 1.0 else 0
-        if self.angle_deg and (wrong_deg > self.WRONG_WAY_DEG or self._wrong_ticks >= 2):
+        forward_deg = 0 if self.context.rebased else -step_deg if self.angle_deg < 0 else step_deg
+        wrong_deg = self._wrong_way.update(forward_deg, self.clock.now()) if self.angle_deg else 0.0
+        if wrong_deg:
             self.stop_motion()
             asked = "left" if self.angle_deg > 0 else "right"
             self.feedback_message = f"turning the wrong way: {wrong_deg:.0f} deg {_opposite(asked)} (asked {asked})"

@@ -124,6 +124,9 @@ class RobotContext:
         polled: The values polled before this tick (status packet, battery, health), as the
             runner also puts them on the blackboard: read here, they cost a leaf no blackboard
             look-up (None when no runner polls, and the blackboard is read instead).
+        rebased: True when this tick's packet replaced a believed state that was wrong (see
+            :class:`~autonomy.client.StatusGuard`): the step from the last tick's packet is
+            not a motion, and the wrong-way checks leave it out.
     """
 
     client: Client
@@ -132,6 +135,7 @@ class RobotContext:
     turn_rate_deg_s: float = 90.0
     motion_owner: object | None = None
     polled: tuple[Packet, int, bool] | None = None
+    rebased: bool = False
 
 
 class RobotBehaviour(py_trees.behaviour.Behaviour):

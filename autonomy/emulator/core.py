@@ -149,6 +149,18 @@ class Emulator:
                 self._inbox.append((now, data))
             self.advance()
 
+    def hang_up(self) -> None:
+        """The peer went away: bytes still on the wire either way are lost, not kept for the next one.
+
+        Commands already received are carried out; a frame cut off halfway is dropped.
+        """
+        with self._lock:
+            self.advance()
+            self._inbox.clear()
+            self._outbox.clear()
+            self._in_free_s = self._out_free_s = 0.0
+            self.firmware.frames(b"\n")  # ends a partial frame (the robot answers nobody)
+
     def ready_count(self) -> int:
         """How many reply bytes have arrived and wait to be read."""
         with self._lock:

@@ -194,6 +194,7 @@ class TcpServer(_Server):
             self._selector.unregister(self._conn)
             self._conn.close()
             self._conn = None
+            self.emulator.hang_up()
 
     def _send(self, data: bytes) -> None:
         if self._conn is None:

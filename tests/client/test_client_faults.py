@@ -4,7 +4,7 @@ import pytest
 from py_trees.common import Status as TreeStatus
 
 from autonomy.behaviours.actions import Move, Turn
-from autonomy.client import IMPLAUSIBLE_LIMIT, Client
+from autonomy.client import GARBLED_LIMIT, Client
 from autonomy.errors import CommandUnconfirmed, ReplyTimeout
 from autonomy.protocol import Status
 from tests.client.fakes import ScriptedPort, frames_of
@@ -50,9 +50,11 @@ def test_an_acknowledgement_to_a_value_request_is_a_framing_error_and_asked_agai
 
 
 def test_a_robot_that_only_acknowledges_value_requests_times_out_cleanly():
-    port = ScriptedPort([b"OK\n"] * 10)
+    port = ScriptedPort([b"OK\n"] * 30)
+    client = client_for(port)
     with pytest.raises(ReplyTimeout, match="no valid reply to GF000"):
-        client_for(port).firmware()
+        client.firmware()
+    assert client.stats.framing_errors == 8 + 4  # garbled replies asked again, then the retries
 
 
 # --------------------------------------------------------------------------- corrupted packets
@@ -112,13 +114,40 @@ def test_a_new_collision_must_show_in_the_next_packet_too():
     assert client.stats.implausible == 1
 
 
-def test_packets_that_keep_jumping_end_in_a_clear_link_error():
-    port = TimedPort([packet(455), packet(455)] + [packet(30000)] * (IMPLAUSIBLE_LIMIT + 5))
+def test_a_jump_two_packets_agree_on_is_believed_as_a_new_start():
+    port = TimedPort([packet(455), packet(455), packet(30000), packet(30001)])
     client = client_for(port)
     client.status()
-    with pytest.raises(ReplyTimeout, match="did the robot restart"):
+    assert client.status().odometer_mm == 30001  # the robot restarted or was moved: both say so
+    assert client.stats.implausible == 1 and client.stats.rebased == 1
+
+
+def test_a_believed_packet_that_was_corrupt_is_replaced_once_two_agree():
+    # heading 333 corrupted to 325 passes (a robot can turn 8 degrees in 50 ms); the real 333 comes back
+    port = TimedPort([packet(heading_deg=333), packet(heading_deg=333), packet(heading_deg=325)])
+    port.replies.extend([packet(heading_deg=333)] * 3)
+    client = client_for(port)
+    client.status()
+    assert client.status().heading_deg == 325
+    assert client.status().heading_deg == 333 and client.stats.rebased == 0
+
+
+def test_packets_that_never_agree_end_in_a_clear_link_error():
+    noise = [packet(odometer_mm=(7919 * n) % 65536, heading_deg=(97 * n) % 360) for n in range(1, 30)]
+    port = TimedPort([packet(455), packet(455), *noise])
+    client = client_for(port)
+    client.status()
+    with pytest.raises(ReplyTimeout, match="packets in a row were garbled or did not agree with each other"):
         client.status()
-    assert client.stats.implausible == IMPLAUSIBLE_LIMIT + 1
+    assert client.stats.implausible == GARBLED_LIMIT + 1
+
+
+def test_a_run_does_not_count_a_jump_its_robot_made_as_distance():
+    rig = Rig(Move("m", speed=1, direction="forward", seconds=0.5), "world=empty")
+    rig.tick()
+    rig.robot.odometer_mm += 20000  # as if the robot restarted its odometer mid-run
+    rig.tick_until_done()
+    assert rig.client.stats.rebased == 1 and rig.runner.summary.distance_mm < 200
 
 
 def test_corrupted_bytes_never_reach_a_run_summary():
@@ -223,3 +252,12 @@ def test_a_motion_the_wrong_way_is_stopped_within_3_ticks(node, rewrite, why):
     assert rig.sent()[-1].letter == "X"
     rig.client.clock.sleep(0.5)  # it slows down at its acceleration
     assert not rig.robot.moving
+
+
+@pytest.mark.parametrize("tick_hz", [20.0, 50.0, 100.0, 200.0])
+def test_a_move_that_starts_while_the_robot_still_rolls_back_is_not_the_wrong_way(tick_hz):
+    rig = Rig(Move("m", speed=2, direction="forward", distance_mm=300), "world=empty", tick_hz=tick_hz)
+    robot = rig.robot
+    robot.speed_mm_s = robot.target_speed_mm_s = -robot.params.speed_mm_s(4)  # backing at full speed
+    assert rig.tick_until_done() == TreeStatus.SUCCESS, rig.root.feedback_message
+    assert rig.root.feedback_message.startswith("drove")

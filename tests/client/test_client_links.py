@@ -73,6 +73,20 @@ def test_a_client_that_reconnects_at_once_is_always_served():
                 assert sock.recv(16) == b"FE10\n"  # served, not turned away
 
 
+def test_a_reconnecting_client_never_gets_the_replies_meant_for_the_one_before():
+    with TcpServer(Emulator("box", faults="pace"), port=0) as server:
+        for _ in range(30):
+            with socket.create_connection(server.address) as sock:
+                sock.sendall(b"GB000\n")  # closed before the paced reply is out
+            with socket.create_connection(server.address) as sock:
+                sock.settimeout(2.0)
+                sock.sendall(b"GF000\n")
+                reply = b""
+                while not reply.endswith(b"\n"):
+                    reply += sock.recv(16)
+                assert reply == b"FE10\n"
+
+
 def test_a_silent_peer_is_dropped_after_the_idle_time_out():
     with TcpServer(Emulator("box"), port=0, idle_peer_s=0.2) as server:
         silent = socket.create_connection(server.address)
