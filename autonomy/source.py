@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import difflib
 import math
+import re
 import unicodedata
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -74,12 +75,12 @@ def suggest(word: str, options: list[str]) -> str:
 
 
 def control_character(text: str) -> str:
-    """The first control or formatting character in ``text`` (escaped, as ``'\\x1b'``), or empty.
+    """The first control or formatting character, or lone surrogate, in ``text`` (escaped), or empty.
 
     Tabs and newlines are whitespace, not control: a description may span lines.
     """
     for char in text:
-        if unicodedata.category(char) in ("Cc", "Cf") and char not in "\t\n":
+        if unicodedata.category(char) in ("Cc", "Cf", "Cs") and char not in "\t\n":
             return repr(char)
     return ""
 
@@ -91,11 +92,17 @@ MAX_DEPTH = 100
 
 
 class UnreadableFile(Exception):
-    """A file that cannot be read as text: :attr:`reason` says why, in a few words."""
+    """A file that cannot be read as text: :attr:`reason` says why, in a few words.
 
-    def __init__(self, reason: str) -> None:
+    Attributes:
+        reason: Why, in a few words.
+        line: Where the trouble is, when it is at a place (a byte that is not UTF-8).
+        column: The column there, counted in characters.
+    """
+
+    def __init__(self, reason: str, line: int = 1, column: int = 1) -> None:
         super().__init__(reason)
-        self.reason = reason
+        self.reason, self.line, self.column = reason, line, column
 
 
 def read_text(path: str | Path, max_bytes: int = MAX_FILE_BYTES) -> str:
@@ -123,7 +130,15 @@ def read_text(path: str | Path, max_bytes: int = MAX_FILE_BYTES) -> str:
         return data.decode("utf-8")
     except UnicodeDecodeError as err:
         line = data[: err.start].count(b"\n") + 1
-        raise UnreadableFile(f"not UTF-8 text (line {line}: {err.reason}); save it as UTF-8") from None
+        line_start = data.rfind(b"\n", 0, err.start) + 1
+        column = len(data[line_start : err.start].decode("utf-8", "replace")) + 1
+        byte = data[err.start]
+        raise UnreadableFile(
+            f"the byte 0x{byte:02x} here is not UTF-8 text (a file saved as Latin-1 or Windows-1252?): "
+            "save it as UTF-8",
+            line,
+            column,
+        ) from None
 
 
 def shown(number: float) -> str:
@@ -183,84 +198,298 @@ class SourceError:
     message: str
 
 
-def _where(node: yaml.Node) -> tuple[int, int]:
-    return node.start_mark.line + 1, node.start_mark.column + 1
+#: Characters YAML does not allow in a file, and the ones it takes as line breaks besides
+#: ``\n`` and ``\r`` (NEL, LINE and PARAGRAPH SEPARATOR), which would put every later problem
+#: on the wrong line.
+_NOT_TEXT = re.compile("[^\t\n\r\x20-\x7e\xa0-\ud7ff\ue000-\ufffd\U00010000-\U0010ffff]|[\u2028\u2029]")
+_NAMES = {"\x00": "NUL", "\x07": "BEL", "\x08": "BACKSPACE", "\x1b": "ESC", "\x7f": "DEL", "\x85": "NEL"}
+#: Most characters a number may be written with (a longer one is not a number a robot uses).
+MAX_NUMBER_CHARS = 40
+_INT_TAG = "tag:yaml.org,2002:int"
+_FLOAT_TAG = "tag:yaml.org,2002:float"
+_MERGE_TAG = "tag:yaml.org,2002:merge"
+_SAFE_TAGS = {
+    f"tag:yaml.org,2002:{name}"
+    for name in ("null", "bool", "int", "float", "str", "seq", "map", "binary", "timestamp", "merge", "omap", "set")
+}
+
+
+def _position(text: str, index: int) -> tuple[int, int]:
+    line_start = text.rfind("\n", 0, index) + 1
+    return text.count("\n", 0, index) + 1, index - line_start + 1
+
+
+def _text_problems(text: str) -> list[SourceError]:
+    """Characters that have no place in a text file, each where it stands (at most 20)."""
+    problems = []
+    for match in _NOT_TEXT.finditer(text, 1 if text.startswith("\ufeff") else 0):
+        char = match.group()
+        line, column = _position(text, match.start())
+        code = f"U+{ord(char):04X}"
+        if "\ud800" <= char <= "\udfff":
+            what = f"a lone surrogate ({code}), which is not text"
+        elif char in "\u2028\u2029\ufeff":
+            what = f"an invisible {unicodedata.name(char).lower()} ({code})"
+        else:
+            what = f"the control character {_NAMES.get(char, code)}" + (f" ({code})" if char in _NAMES else "")
+        problems.append(SourceError(line, column, f"{what}: remove it; a mission file is plain text"))
+        if len(problems) == 20:
+            break
+    return problems
+
+
+def _plain_words(err: yaml.MarkedYAMLError, text: str) -> SourceError:
+    """A YAML parser's complaint, said in words a student can act on, at its line and column."""
+    mark = err.problem_mark or err.context_mark
+    line, column = (mark.line + 1, mark.column + 1) if mark else (1, 1)
+    problem, context = err.problem or "", err.context or ""
+    index = mark.index if mark is not None else -1
+    here = text[index] if 0 <= index < len(text) else ""
+    if "cannot start any token" in problem:
+        if here == "\t":
+            message = "a tab: indent with spaces (YAML does not allow tabs for indentation)"
+        else:
+            message = f"{here!r} cannot start a value here: put the value in quotes"
+    elif "expected <block end>" in problem or "did not find expected key" in problem:
+        message = (
+            "this line does not line up with the ones above it: the items of one list or mapping "
+            "start in the same column"
+        )
+    elif "mapping values are not allowed" in problem:
+        message = (
+            "a ': ' where a plain value was expected: put the value in quotes, or start the mapping on its own line"
+        )
+    elif "could not find expected ':'" in problem:
+        message = "a key without ':' after it, or a line indented by mistake, ends here"
+    elif "',' or ']'" in problem:
+        message = "a '[' list is not closed with ']', or its items are not separated by ','"
+    elif "',' or '}'" in problem:
+        message = "a '{' mapping is not closed with '}', or its entries are not separated by ','"
+    elif "unexpected end of stream" in problem and "quoted" in context:
+        message = "a quoted text is not closed: add the closing quote"
+    elif "invalid Unicode character escape" in problem:
+        message = "an escape for a code that is not a character (\\ud800 to \\udfff are not): write plain text"
+    elif "unknown escape character" in problem:
+        message = "an unknown escape in a double-quoted text: write \\\\ for a backslash, or use single quotes"
+    elif "undefined alias" in problem:
+        message = "an alias (*name) that no anchor (&name) before it defines"
+    elif "duplicate anchor" in context:
+        message = "an anchor (&name) defined a second time: give each its own name"
+    elif "single document" in context:
+        message = "a second document: a file holds one, so remove the '---' line"
+    elif "could not determine a constructor for the tag" in problem:
+        message = f"the tag {problem.rsplit(' ', 1)[-1]} is not allowed: plain YAML only"
+    else:
+        message = f"not valid YAML: {problem or context or err}"
+    return SourceError(line, column, message)
+
+
+class _Refused(Exception):
+    """Ends the parse: the file is too large or too deep to read on."""
+
+    def __init__(self, line: int, column: int, message: str) -> None:
+        self.error = SourceError(line, column, message)
+
+
+@dataclass
+class _Open:
+    """A list or mapping being read: where it stands, and (for a mapping) the key waiting for its value."""
+
+    located: Located
+    start_count: int
+    anchor: str | None
+    key: tuple[str, int, int] | None = None
+    key_refused: bool = False
+    merges: list[tuple[Located, int, int]] = field(default_factory=list)
+
+
+class _Composer:
+    """Builds :class:`Located` values from the YAML parser's events, in a loop.
+
+    Reading events (not PyYAML's node tree) keeps the work proportional to what is read:
+    a file past :data:`MAX_NODES` values or :data:`MAX_DEPTH` levels is refused where it
+    crosses the limit, before the rest is read, and nothing recurses, however deep the file.
+    """
+
+    def __init__(self, loader: yaml.SafeLoader) -> None:
+        self.loader = loader
+        self.errors: list[SourceError] = []
+        self.count = 0
+        self.anchors: dict[str, tuple[Located | None, int]] = {}  # None: still open
+
+    def document(self) -> Located | None:
+        loader = self.loader
+        loader.get_event()  # stream start
+        if loader.check_event(yaml.StreamEndEvent):
+            return None
+        loader.get_event()  # document start
+        root = self.node()
+        loader.get_event()  # document end
+        if not loader.check_event(yaml.StreamEndEvent):
+            mark = loader.peek_event().start_mark
+            raise _Refused(
+                mark.line + 1, mark.column + 1, "a second document: a file holds one, so remove the '---' line"
+            )
+        return root
+
+    def node(self) -> Located:
+        stack: list[_Open] = []
+        while True:
+            event = self.loader.get_event()
+            mark = event.start_mark
+            line, column = mark.line + 1, mark.column + 1
+            if isinstance(event, (yaml.SequenceEndEvent, yaml.MappingEndEvent)):
+                done = stack.pop()
+                self._close(done)
+                value = done.located
+            elif isinstance(event, yaml.AliasEvent):
+                value = self._alias(event.anchor, line, column)
+            else:
+                self.count += 1
+                if self.count > MAX_NODES:
+                    raise _Refused(line, column, f"the file holds more than {MAX_NODES:,} values")
+                tag = getattr(event, "tag", None)
+                if isinstance(event, yaml.ScalarEvent):
+                    value = self._scalar(event, line, column)
+                    self._anchor(event.anchor, value, self.count - 1)
+                else:
+                    if len(stack) >= MAX_DEPTH:
+                        raise _Refused(line, column, f"nested more than {MAX_DEPTH} levels deep")
+                    if tag not in (None, "!", SEQ_TAG, MAP_TAG):
+                        self.errors.append(SourceError(line, column, f"the tag {tag} is not allowed: plain YAML only"))
+                    mapping = isinstance(event, yaml.MappingStartEvent)
+                    located = Located({} if mapping else [], line, column)
+                    if event.anchor is not None:
+                        self.anchors[event.anchor] = (None, 0)
+                    stack.append(_Open(located, self.count - 1, event.anchor))
+                    continue
+            if not stack:
+                return value
+            self._add(stack[-1], value, event)
+
+    def _close(self, done: _Open) -> None:
+        located = done.located
+        for merged, line, column in done.merges:  # '<<' entries: keys given in the mapping win
+            for key, item in merged.value.items():
+                if key not in located.value:
+                    located.value[key] = item
+                    located.keys[key] = (line, column)
+        if done.anchor is not None:
+            self.anchors[done.anchor] = (located, self.count - done.start_count)
+
+    def _alias(self, anchor: str, line: int, column: int) -> Located:
+        if anchor not in self.anchors:
+            self.errors.append(SourceError(line, column, f"the alias *{anchor} has no anchor &{anchor} before it"))
+            return Located(None, line, column)
+        target, size = self.anchors[anchor]
+        if target is None:
+            self.errors.append(SourceError(line, column, f"the alias *{anchor} refers to itself"))
+            return Located(None, line, column)
+        self.count += size
+        if self.count > MAX_NODES:
+            raise _Refused(line, column, f"the file expands to more than {MAX_NODES:,} values (through aliases)")
+        return target
+
+    def _anchor(self, anchor: str | None, value: Located, start_count: int) -> None:
+        if anchor is not None:
+            self.anchors[anchor] = (value, self.count - start_count)
+
+    def _scalar(self, event: yaml.ScalarEvent, line: int, column: int) -> Located:
+        loader = self.loader
+        if event.tag not in (None, "!"):
+            tag = event.tag
+            if tag not in _SAFE_TAGS:
+                self.errors.append(SourceError(line, column, f"the tag {tag} is not allowed: plain YAML only"))
+                return Located(None, line, column)
+        else:
+            tag = loader.resolve(yaml.ScalarNode, event.value, event.implicit)
+        if tag in (_INT_TAG, _FLOAT_TAG) and len(event.value) > MAX_NUMBER_CHARS:
+            digits = sum(char.isalnum() for char in event.value)
+            self.errors.append(
+                SourceError(
+                    line, column, f"a number written with {digits:,} digits: no value here needs more than a few"
+                )
+            )
+            return Located(None, line, column)
+        if tag == _MERGE_TAG:
+            return Located(_MERGE, line, column)
+        node = yaml.ScalarNode(tag, event.value, event.start_mark, event.end_mark, event.style)
+        try:
+            value = loader.construct_object(node, deep=True)
+        except (yaml.YAMLError, ValueError, OverflowError) as err:
+            self.errors.append(
+                SourceError(line, column, f"cannot read {event.value[:20]!r} as {tag.rsplit(':', 1)[-1]}: {err}")
+            )
+            return Located(None, line, column)
+        return Located(value, line, column)
+
+    def _add(self, into: _Open, value: Located, event: yaml.Event) -> None:
+        container = into.located
+        if isinstance(container.value, list):
+            container.value.append(value)
+            return
+        if into.key is None and not into.key_refused:
+            if value.value is _MERGE:
+                into.key = ("<<", value.line, value.column)
+            elif not isinstance(value.value, str):
+                self.errors.append(SourceError(value.line, value.column, f"keys must be names, got {value.plain!r}"))
+                into.key_refused = True
+            else:
+                into.key = (value.value, value.line, value.column)
+            return
+        if into.key_refused:
+            into.key_refused = False
+            return
+        waiting = into.key
+        into.key = None
+        if waiting is None:
+            return
+        key, line, column = waiting
+        if key == "<<" and value.value is not _MERGE:
+            merged = value.value if isinstance(value.value, list) else [value]
+            for item in merged:
+                if isinstance(item.value, dict):
+                    into.merges.append((item, line, column))
+                else:
+                    self.errors.append(SourceError(item.line, item.column, "'<<' merges mappings only"))
+            return
+        if key in container.value:
+            first = container.keys[key]
+            self.errors.append(SourceError(line, column, f"'{key}' is given twice (first on line {first[0]})"))
+            return
+        container.keys[key] = (line, column)
+        container.value[key] = value
+
+
+_MERGE = object()
+_Loader = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
 
 
 def parse(text: str) -> tuple[Located | None, list[SourceError]]:
-    """Parses one YAML document.
+    """Parses one YAML document, with the positions of its values.
+
+    Control characters, nesting deeper than :data:`MAX_DEPTH`, more than :data:`MAX_NODES`
+    values, tags that build objects and numbers written with absurdly many digits are
+    refused where they stand; the YAML parser's own complaints come in plain words.
 
     Returns:
         The document (None when it could not be read at all) and the problems found.
     """
-    loader = yaml.SafeLoader(text)
-    errors: list[SourceError] = []
-    count = 0
+    bad = _text_problems(text)
+    if bad:
+        return None, bad
+    loader = _Loader(text)
+    composer = _Composer(loader)
     try:
-        root = loader.get_single_node()
+        root = composer.document()
         if root is None:
             return None, [SourceError(1, 1, "the file is empty")]
-
-        def convert(node: yaml.Node, stack: tuple[int, ...]) -> Located:
-            nonlocal count
-            count += 1
-            line, column = _where(node)
-            if count > MAX_NODES:
-                raise _TooLarge(line, column)
-            if len(stack) >= MAX_DEPTH:
-                raise _TooDeep(line, column)
-            if id(node) in stack:
-                errors.append(SourceError(line, column, "an alias refers to itself"))
-                return Located(None, line, column)
-            stack = (*stack, id(node))
-            if isinstance(node, (yaml.SequenceNode, yaml.MappingNode)) and node.tag not in (SEQ_TAG, MAP_TAG):
-                errors.append(SourceError(line, column, f"the tag {node.tag} is not allowed: plain YAML only"))
-                return Located(None, line, column)
-            if isinstance(node, yaml.SequenceNode):
-                return Located([convert(item, stack) for item in node.value], line, column)
-            if isinstance(node, yaml.MappingNode):
-                loader.flatten_mapping(node)  # apply '<<' merge keys as safe_load does
-                located = Located({}, line, column)
-                for key_node, value_node in node.value:
-                    key = loader.construct_object(key_node, deep=True)
-                    key_line, key_column = _where(key_node)
-                    if not isinstance(key, str):
-                        errors.append(SourceError(key_line, key_column, f"keys must be names, got {key!r}"))
-                        continue
-                    if key in located.value:
-                        first = located.keys[key]
-                        errors.append(
-                            SourceError(key_line, key_column, f"'{key}' is given twice (first on line {first[0]})")
-                        )
-                        continue
-                    located.keys[key] = (key_line, key_column)
-                    located.value[key] = convert(value_node, stack)
-                return located
-            return Located(loader.construct_object(node, deep=True), line, column)
-
-        return convert(root, ()), errors
-    except _TooLarge as err:
-        return None, [SourceError(err.line, err.column, f"the file expands to more than {MAX_NODES} values")]
-    except _TooDeep as err:
-        return None, [SourceError(err.line, err.column, f"nested more than {MAX_DEPTH} levels deep")]
-    except RecursionError:  # the YAML reader itself gives up on deeper nesting still
-        return None, [SourceError(1, 1, f"nested more than {MAX_DEPTH} levels deep")]
+        return root, composer.errors
+    except _Refused as err:
+        return None, [*composer.errors, err.error]
     except yaml.MarkedYAMLError as err:
-        mark = err.problem_mark or err.context_mark
-        line, column = (mark.line + 1, mark.column + 1) if mark else (1, 1)
-        problem = err.problem or err.context or "not valid YAML"
-        return None, [SourceError(line, column, f"not valid YAML: {problem}")]
+        return None, [*composer.errors, _plain_words(err, text)]
     except yaml.YAMLError as err:
-        return None, [SourceError(1, 1, f"not valid YAML: {err}")]
+        return None, [*composer.errors, SourceError(1, 1, f"not valid YAML: {err}")]
     finally:
         loader.dispose()
-
-
-class _TooLarge(Exception):
-    def __init__(self, line: int, column: int) -> None:
-        self.line, self.column = line, column
-
-
-class _TooDeep(Exception):
-    def __init__(self, line: int, column: int) -> None:
-        self.line, self.column = line, column

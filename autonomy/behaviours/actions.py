@@ -10,7 +10,7 @@ from typing import Any
 
 from py_trees.common import Status
 
-from autonomy.behaviours.base import Param, RobotAction
+from autonomy.behaviours.base import MAX_DISTANCE_MM, MAX_SECONDS, Param, RobotAction
 from autonomy.protocol import heading_delta_deg, odometer_delta_mm
 
 
@@ -78,8 +78,15 @@ class Move(RobotAction):
     params = (
         Param("speed", "int", "speed setting, 1 slow .. 4 very fast", required=True, minimum=1, maximum=4, example=2),
         Param("direction", "choice", "which way to drive", default="forward", choices=("forward", "backward")),
-        Param("distance_mm", "number", "stop after this distance, by the odometer", unit="mm", positive=True),
-        Param("seconds", "number", "stop after this long", unit="s", positive=True),
+        Param(
+            "distance_mm",
+            "number",
+            "stop after this distance, by the odometer",
+            unit="mm",
+            positive=True,
+            maximum=MAX_DISTANCE_MM,
+        ),
+        Param("seconds", "number", "stop after this long", unit="s", positive=True, maximum=MAX_SECONDS),
         Param(
             "until_obstacle_mm",
             "int",
@@ -314,7 +321,11 @@ class Wait(RobotAction):
 
     node_type = "wait"
     doc = "Stay RUNNING for a number of seconds, then succeed."
-    params = (Param("seconds", "number", "how long", unit="s", required=True, positive=True, example=1.5),)
+    params = (
+        Param(
+            "seconds", "number", "how long", unit="s", required=True, positive=True, maximum=MAX_SECONDS, example=1.5
+        ),
+    )
 
     def __init__(self, name: str, **args: Any) -> None:
         super().__init__(name, **args)

@@ -42,6 +42,12 @@ BATTERY_KEY = "/robot/battery"
 HEALTHY_KEY = "/robot/healthy"
 ROBOT_KEYS = (STATUS_KEY, BATTERY_KEY, HEALTHY_KEY)
 
+#: The longest duration a node takes (an hour) and the longest drive (100 m).
+MAX_SECONDS = 3600
+MAX_DISTANCE_MM = 100_000
+#: Largest size of any number in a mission, for parameters that declare no maximum of their own.
+MAX_NUMBER = 1_000_000_000
+
 #: Parameter kinds a node type may declare.
 KINDS = ("int", "number", "bool", "string", "choice", "tones", "node", "nodes")
 
@@ -99,16 +105,16 @@ class Param:
         if self.kind == "tones":
             return "[t1, t2, t3], each 1..9"
         if self.minimum is not None and self.maximum is not None:
-            return f"{_num(self.minimum)}..{_num(self.maximum)}"
+            return f"{_num(self.minimum, ',')}..{_num(self.maximum, ',')}"
         if self.positive:
-            return "> 0"
+            return f"above 0, at most {_num(self.maximum, ',')}" if self.maximum is not None else "> 0"
         if self.minimum is not None:
             return f">= {_num(self.minimum)}"
         return ""
 
 
-def _num(value: float) -> str:
-    return str(int(value)) if float(value).is_integer() else str(value)
+def _num(value: float, thousands: str = "") -> str:
+    return f"{int(value):{thousands}}" if float(value).is_integer() else str(value)
 
 
 @dataclass

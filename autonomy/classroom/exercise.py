@@ -377,7 +377,9 @@ def load_exercise(path: str | Path) -> Exercise:
     try:
         text = read_text(path)
     except UnreadableFile as err:
-        raise ExerciseInvalid([Problem(label, 1, 1, "", f"cannot read the exercise: {err.reason}")]) from None
+        raise ExerciseInvalid(
+            [Problem(label, err.line, err.column, "", f"cannot read the exercise: {err.reason}")]
+        ) from None
     root, errors = parse(text)
     problems = [Problem(label, e.line, e.column, "", e.message) for e in errors]
     reader = _Reader(label, path.parent)

@@ -152,7 +152,7 @@ def check_submission(exercise: Exercise, path: Path, allow_plugins: bool) -> tup
     try:
         text = read_text(path)
     except UnreadableFile as err:
-        return None, [f"{label}:1:1: cannot read the file: {err.reason}"]
+        return None, [f"{label}:{err.line}:{err.column}: cannot read the file: {err.reason}"]
     root, _ = parse(text)
     if not allow_plugins and root is not None and isinstance(root.value, dict) and "plugins" in root.value:
         line, column = root.keys["plugins"]

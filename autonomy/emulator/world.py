@@ -571,5 +571,7 @@ def load_world(name_or_path: str | Path) -> World:
     try:
         source = read_text(path)
     except UnreadableFile as err:
-        raise WorldInvalid([Problem(text, 1, 1, "", f"cannot read the world file: {err.reason}")]) from None
+        raise WorldInvalid(
+            [Problem(text, err.line, err.column, "", f"cannot read the world file: {err.reason}")]
+        ) from None
     return _read_text(source, text, path.stem)

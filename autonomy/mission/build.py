@@ -15,12 +15,22 @@ from autonomy.mission.validate import MissionInvalid, MissionSpec, NodeSpec, Pro
 
 
 def build_node(spec: NodeSpec, mission: MissionSpec) -> py_trees.behaviour.Behaviour:
-    """Builds one node and everything below it."""
-    if spec.type.category == "reference":
+    """Builds one node and everything below it.
+
+    A chain of subtree references is followed in a loop, not by recursion: only the tree's
+    own levels (at most ``MAX_TREE_DEPTH``) recurse. The outermost reference names the node,
+    unless the subtree it names has a name of its own.
+    """
+    names: list[str | None] = []
+    while spec.type.category == "reference":
         target = mission.subtrees[spec.args["subtree"]]
-        root = build_node(target, mission)
-        if target.name is None:
-            root.name = spec.args["subtree"]
+        names.append(spec.args["subtree"] if target.name is None else None)
+        spec = target
+    if names:
+        root = build_node(spec, mission)
+        for name in reversed(names):
+            if name is not None:
+                root.name = name
         return root
     children = [build_node(child, mission) for child in spec.children]
     try:

@@ -28,16 +28,21 @@ ENDERS = ("parallel", "timeout", "while")
 def _walk(
     spec: MissionSpec, node: NodeSpec, above: tuple[NodeSpec, ...]
 ) -> Iterator[tuple[NodeSpec, tuple[NodeSpec, ...]]]:
-    """Every node with the nodes above it, subtrees expanded where they are used."""
-    yield node, above
-    children = node.children
-    if node.type.name == "subtree":
-        target = spec.subtrees.get(node.args.get("subtree", ""))
-        if target is None or any(a.type.name == "subtree" and a.args == node.args for a in above):
-            return
-        children = [target]
-    for child in children:
-        yield from _walk(spec, child, (*above, node))
+    """Every node with the nodes above it, in preorder, subtrees expanded where they are used.
+
+    A loop, not recursion: a chain of thousands of subtree references is walked too.
+    """
+    todo = [(node, above)]
+    while todo:
+        node, above = todo.pop()
+        yield node, above
+        children = node.children
+        if node.type.name == "subtree":
+            target = spec.subtrees.get(node.args.get("subtree", ""))
+            if target is None or any(a.type.name == "subtree" and a.args == node.args for a in above):
+                continue
+            children = [target]
+        todo.extend((child, (*above, node)) for child in reversed(children))
 
 
 def _is_condition(node: NodeSpec) -> bool:

@@ -16,6 +16,7 @@ import py_trees
 from py_trees.common import OneShotPolicy, ParallelPolicy
 
 from autonomy.behaviours import BUILTIN_ACTIONS, BUILTIN_CONDITIONS, ClockTimeout, Param, RobotBehaviour
+from autonomy.behaviours.base import MAX_SECONDS
 
 Behaviour = py_trees.behaviour.Behaviour
 #: Builds a node from its display name, validated arguments and built children.
@@ -149,21 +150,21 @@ BUILTIN_STRUCTURE = (
     _decorator(
         "repeat",
         "Run the child again each time it succeeds: times times, or forever. Fails when the child fails.",
-        (Param("times", "int", "how many successes (forever when left out)", minimum=1),),
+        (Param("times", "int", "how many successes (forever when left out)", minimum=1, maximum=1_000_000),),
         lambda n, a, c: py_trees.decorators.Repeat(n, _only(c), num_success=a["times"] or -1),
         lambda a: f"repeat x{a['times']}" if a.get("times") else "repeat forever",
     ),
     _decorator(
         "retry",
         "Run the child again each time it fails, up to attempts tries in all.",
-        (Param("attempts", "int", "tries in all", required=True, minimum=1),),
+        (Param("attempts", "int", "tries in all", required=True, minimum=1, maximum=1000),),
         lambda n, a, c: py_trees.decorators.Retry(n, _only(c), num_failures=a["attempts"]),
         lambda a: f"retry x{a['attempts']}",
     ),
     _decorator(
         "timeout",
         "Fail, halting the child, if it is still running after seconds.",
-        (Param("seconds", "number", "time allowed", unit="s", required=True, positive=True),),
+        (Param("seconds", "number", "time allowed", unit="s", required=True, positive=True, maximum=MAX_SECONDS),),
         lambda n, a, c: ClockTimeout(n, _only(c), a["seconds"]),
         lambda a: f"timeout {a['seconds']} s",
     ),

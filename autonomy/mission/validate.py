@@ -9,12 +9,14 @@ from __future__ import annotations
 
 import hashlib
 import importlib.util
+import math
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from autonomy.behaviours import Param
+from autonomy.behaviours.base import MAX_NUMBER
 from autonomy.emulator.world import SHIPPED, WorldError, WorldInvalid, load_world
 from autonomy.errors import AutonomyError
 from autonomy.mission.registry import BUILTINS, NodeType, Registry, leaf_classes_in, leaf_type
@@ -23,7 +25,12 @@ from autonomy.source import suggest as _suggest
 
 TOP_LEVEL = ("mission", "description", "tick_hz", "world", "subtrees", "tree", "plugins")
 DEFAULT_TICK_HZ = 20.0
+MIN_TICK_HZ = 1.0
 MAX_TICK_HZ = 200.0
+#: Deepest a tree may be, counted in nodes from the root down, subtrees expanded.
+MAX_TREE_DEPTH = 50
+#: Most nodes a tree may have, subtrees expanded (each use of a subtree is a copy).
+MAX_TREE_NODES = 10_000
 
 
 class MissionInvalid(AutonomyError):
@@ -74,7 +81,8 @@ def _type_name(value: Any) -> str:
     if isinstance(value, bool):
         return f"{str(value).lower()} (true/false)"
     if isinstance(value, str):
-        return f"'{value}' (text)"
+        shown = value if len(value) <= 40 else f"{value[:40]}... ({len(value):,} characters)"
+        return f"'{shown}' (text)"
     if isinstance(value, (list, dict)):
         return "a list" if isinstance(value, list) else "a mapping"
     return repr(value)
@@ -120,14 +128,15 @@ class _Validator:
             value = doc["tick_hz"].value
             if isinstance(value, bool) or not isinstance(value, (int, float)):
                 self.problem(doc["tick_hz"], "tick_hz", f"tick_hz must be a number, got {_type_name(value)}")
-            elif not 0 < value <= MAX_TICK_HZ:
+            elif not MIN_TICK_HZ <= value <= MAX_TICK_HZ:  # NaN fails this too
                 self.problem(
-                    doc["tick_hz"], "tick_hz", f"tick_hz must be above 0 and at most {MAX_TICK_HZ:g}, got {value}"
+                    doc["tick_hz"], "tick_hz", f"tick_hz must be from {MIN_TICK_HZ:g} to {MAX_TICK_HZ:g}, got {value}"
                 )
             else:
                 tick_hz = float(value)
         plugins = self.plugins(doc.get("plugins"), base_dir)
         subtrees: dict[str, NodeSpec] = {}
+        known: list[str] = []
         if "subtrees" in doc:
             block = doc["subtrees"]
             if not isinstance(block.value, dict):
@@ -138,8 +147,6 @@ class _Validator:
                     if spec is not None:
                         subtrees[sub_name] = spec
                 known = list(block.value)
-        else:
-            known = []
         tree = None
         if "tree" not in doc:
             self.problem(root, "", "missing 'tree:', the root node of the mission")
@@ -147,6 +154,9 @@ class _Validator:
             tree = self.node(doc["tree"], "tree", owner="")
         self.check_references(known)
         if self.problems or tree is None or name is None:
+            return None
+        self.check_size(tree, subtrees)
+        if self.problems:
             return None
         return MissionSpec(name, description, tick_hz, world, tree, subtrees, self.registry, self.source, plugins)
 
@@ -445,6 +455,9 @@ class _Validator:
             self.problem(located, path, f"{what} must be {expected}, got {_type_name(value)}")
             return _INVALID
         low, high = param.minimum, param.maximum
+        if not math.isfinite(value) or abs(value) > MAX_NUMBER:
+            self.problem(located, path, f"{what} must be a finite number of at most {MAX_NUMBER:,}, got {value}")
+            return _INVALID
         if (low is not None and value < low) or (high is not None and value > high) or (param.positive and value <= 0):
             unit = f" {param.unit}" if param.unit else ""
             self.problem(located, path, f"{what} must be {param.describe_range()}{unit}, got {value} ({param.doc})")
@@ -459,11 +472,79 @@ class _Validator:
                 self.problem(where, path, f"unknown subtree '{target}'{_suggest(target, known)}{listed}")
             else:
                 graph.setdefault(owner, set()).add(target)
+        suspects = _reaching_a_cycle(graph)
         reported: set[str] = set()
         for _owner, target, where, path in self.references:
-            if target in known and target not in reported and _reaches(graph, target, target):
+            if target in suspects and target not in reported and _reaches(graph, target, target):
                 reported.add(target)
                 self.problem(where, path, f"subtree '{target}' includes itself (directly or through other subtrees)")
+
+    def check_size(self, tree: NodeSpec, subtrees: dict[str, NodeSpec]) -> None:
+        """Refuses a tree too deep or too large once its subtrees are expanded (each use is a copy).
+
+        Sizes are worked out once per subtree, without recursion, so a chain of thousands of
+        subtrees is measured, and refused, in no time.
+        """
+        measured: dict[int, tuple[int, int]] = {}  # id(spec) -> (depth, nodes)
+        todo: list[tuple[NodeSpec, bool]] = [(tree, False)]
+        while todo:
+            spec, ready = todo.pop()
+            if id(spec) in measured:
+                continue
+            below = [subtrees[spec.args["subtree"]]] if spec.type.category == "reference" else spec.children
+            if not ready:
+                todo.append((spec, True))
+                todo.extend((child, False) for child in below if id(child) not in measured)
+                continue
+            sizes = [measured[id(child)] for child in below]
+            if spec.type.category == "reference":
+                measured[id(spec)] = sizes[0]
+            else:
+                depth = 1 + max((d for d, _ in sizes), default=0)
+                nodes = 1 + sum(n for _, n in sizes)
+                measured[id(spec)] = (depth, min(nodes, MAX_TREE_NODES + 1))
+        depth, nodes = measured[id(tree)]
+        if depth > MAX_TREE_DEPTH:
+            crossing, level = tree, 1  # follow the deepest branch to the first node past the limit
+            while True:
+                while crossing.type.category == "reference":
+                    crossing = subtrees[crossing.args["subtree"]]
+                if level > MAX_TREE_DEPTH:
+                    break
+                crossing = max(crossing.children, key=lambda child: measured[id(child)][0])
+                level += 1
+            self.problem(
+                (crossing.line, crossing.column),
+                crossing.path,
+                f"the tree is {depth} nodes deep with its subtrees expanded, and this node is level "
+                f"{MAX_TREE_DEPTH + 1} from the root; at most {MAX_TREE_DEPTH} levels are allowed",
+            )
+        if nodes > MAX_TREE_NODES:
+            self.problem(
+                (tree.line, tree.column),
+                "tree",
+                f"the tree has more than {MAX_TREE_NODES:,} nodes with its subtrees expanded "
+                "(each use of a subtree is a copy)",
+            )
+
+
+def _reaching_a_cycle(graph: dict[str, set[str]]) -> set[str]:
+    """The names from which a cycle can be reached: what is left once sinks are peeled off, in linear time."""
+    users: dict[str, set[str]] = {}
+    for owner, targets in graph.items():
+        for target in targets:
+            users.setdefault(target, set()).add(owner)
+    names = set(graph) | set(users)
+    left = {name: len(graph.get(name, ())) for name in names}
+    sinks = [name for name, count in left.items() if count == 0]
+    while sinks:
+        name = sinks.pop()
+        del left[name]
+        for owner in users.get(name, ()):
+            left[owner] -= 1
+            if left[owner] == 0:
+                sinks.append(owner)
+    return set(left)
 
 
 def _reaches(graph: dict[str, set[str]], start: str, goal: str) -> bool:
@@ -569,7 +650,8 @@ def validate_text(
     problems = [Problem(source, e.line, e.column, "", e.message) for e in errors]
     validator = _Validator(source, (registry or BUILTINS).copy(), check_world)
     spec = validator.mission(root, base_dir or Path.cwd()) if root is not None else None
-    problems += validator.problems
+    causes = {(e.line, e.column) for e in errors}  # a value the reader refused is not missing as well
+    problems += [p for p in validator.problems if (p.line, p.column) not in causes]
     if problems or spec is None:
         raise MissionInvalid(problems or [Problem(source, 1, 1, "", "not a mission")])
     spec.sha256 = hashlib.sha256(text.encode("utf-8")).hexdigest()
@@ -586,5 +668,7 @@ def validate_file(path: str | Path, check_world: bool = True) -> MissionSpec:
     try:
         text = read_text(path)
     except UnreadableFile as err:
-        raise MissionInvalid([Problem(str(path), 1, 1, "", f"cannot read the file: {err.reason}")]) from None
+        raise MissionInvalid(
+            [Problem(str(path), err.line, err.column, "", f"cannot read the file: {err.reason}")]
+        ) from None
     return validate_text(text, str(path), path.parent, check_world=check_world)

@@ -45,7 +45,7 @@ def test_ray_casts_against_boxes_and_circles():
         ("arena_mm: [1000, 1000]\nstart: {x_mm: .nan}", "2:15: start.x_mm", "must be from"),
         ("arena_mm: [1000, 1000]\nstart: {heading: 90}", "2:9: start.heading", "did you mean 'heading_deg'?"),
         ("arena_mm: [1000, 1000]\nobstacle: []", "2:1: obstacle", "did you mean 'obstacles'?"),
-        ("arena_mm: [10, 10\n", "2:1", "not valid YAML"),
+        ("arena_mm: [10, 10\n", "2:1", "is not closed with ']'"),
         ("arena_mm: [3000, 3000]\nstart: {x_mm: 5000, y_mm: 500}", "2:8: start", "the start is outside"),
         (
             "arena_mm: [3000, 3000]\nstart: {x_mm: 500, y_mm: 500}\nobstacles:\n"

@@ -1,0 +1,163 @@
+"""Hostile mission files: each is refused with FILE:LINE:COL problems, never an exception of another kind."""
+
+from __future__ import annotations
+
+import pytest
+
+from autonomy.mission import MissionInvalid, load_mission, validate_text
+from autonomy.mission.validate import MAX_TREE_DEPTH, MAX_TREE_NODES
+from autonomy.source import MAX_DEPTH, control_character
+
+
+def problems(text: str) -> list[str]:
+    with pytest.raises(MissionInvalid) as caught:
+        validate_text(text, "m.yaml")
+    return [str(p) for p in caught.value.problems]
+
+
+@pytest.mark.parametrize(
+    ("char", "name"),
+    [("\x00", "NUL"), ("\x07", "BEL"), ("\x7f", "DEL"), ("\x85", "NEL"), ("\x9b", "U+009B"), ("\x1b", "ESC")],
+)
+@pytest.mark.parametrize("where", ["value", "comment"])
+def test_a_control_character_anywhere_is_named_where_it_stands(char, name, where):
+    text = f"mission: t{char}x\ntree: stop\n" if where == "value" else f"mission: tx\ntree: stop # {char}\n"
+    found = problems(text)
+    place = "m.yaml:1:11" if where == "value" else "m.yaml:2:14"
+    assert found == [f"{place}: the control character {name}" + found[0].split(name, 1)[1]]
+    assert "remove it" in found[0]
+
+
+def test_a_lone_surrogate_is_refused_in_the_text_and_in_an_escape():
+    assert problems("mission: t\ud800\ntree: stop\n")[0].startswith("m.yaml:1:11: a lone surrogate (U+D800)")
+    escaped = problems('mission: "t\\ud800x"\ntree: stop\n')
+    assert len(escaped) == 1 and "an escape for a code that is not a character" in escaped[0]
+    assert "not a character" in problems('mission: t\ntree: {log: {message: "a\\udfffb"}}\n')[0]
+    assert control_character("name\ud800") == "'\\ud800'"  # for values that reach a check some other way
+
+
+def test_deep_flow_nesting_is_refused_where_it_crosses_the_limit():
+    found = problems("mission: t\ntree: " + "[" * 1000 + "]" * 1000 + "\n")
+    assert found == [f"m.yaml:2:{7 + MAX_DEPTH - 1}: nested more than {MAX_DEPTH} levels deep"]
+    assert problems("x: " + "[" * 200_000)[0].endswith(f"nested more than {MAX_DEPTH} levels deep")
+
+
+def test_deeply_nested_nodes_are_refused_at_their_place():
+    text = "mission: t\ntree:\n"
+    for level in range(300):
+        text += "  " * (level + 1) + "sequence:\n" + "  " * (level + 1) + "- "  # one node per level
+        text = text[: -len("- ")] + "  " * 0 + "- "
+        text += "\n"
+    found = problems(text)
+    assert len(found) == 1 and f"nested more than {MAX_DEPTH} levels deep" in found[0]
+    assert not found[0].startswith("m.yaml:1:1:")
+
+
+def subtree_chain(length: int, wrap: bool) -> str:
+    lines = ["mission: chain", "subtrees:"]
+    for index in range(length):
+        body = f"{{sequence: [{{subtree: s{index + 1}}}]}}" if wrap else f"{{subtree: s{index + 1}}}"
+        lines.append(f"  s{index}: {body}")
+    lines += [f"  s{length}: stop", "tree: {subtree: s0}"]
+    return "\n".join(lines) + "\n"
+
+
+def test_a_chain_of_2000_subtrees_is_checked_and_built_without_recursion(tmp_path):
+    mission = tmp_path / "chain.yaml"
+    mission.write_text(subtree_chain(2000, wrap=False))
+    spec = load_mission(mission)
+    from autonomy.mission import build_tree
+
+    assert build_tree(spec).name == "s0"
+
+
+def test_subtrees_cannot_get_round_the_depth_limit():
+    found = problems(subtree_chain(300, wrap=True))
+    assert len(found) == 1
+    assert f"m.yaml:{3 + MAX_TREE_DEPTH}:" in found[0] and f"at most {MAX_TREE_DEPTH} levels" in found[0]
+
+
+def test_a_subtree_used_twice_at_every_level_cannot_blow_up():
+    lines = ["mission: bomb", "subtrees:"]
+    lines += [f"  s{i}: {{sequence: [{{subtree: s{i + 1}}}, {{subtree: s{i + 1}}}]}}" for i in range(30)]
+    lines += ["  s30: stop", "tree: {subtree: s0}"]
+    found = problems("\n".join(lines) + "\n")
+    assert found == [
+        f"m.yaml:34:8: tree: the tree has more than {MAX_TREE_NODES:,} nodes with its subtrees expanded "
+        "(each use of a subtree is a copy)"
+    ]
+
+
+@pytest.mark.parametrize("block", ["3", "[a, b]", "", "'text'"])
+def test_subtrees_that_are_not_a_mapping(block):
+    assert problems(f"mission: t\nsubtrees: {block}\ntree: stop\n") == [
+        f"m.yaml:2:{11 if block else 10}: subtrees: subtrees is a mapping of names to trees"
+    ]
+
+
+@pytest.mark.parametrize(
+    "number",
+    ["9" * 5000, "0x" + "f" * 5000, "0b" + "1" * 20000, "0" + "7" * 5000, "1" * 5000 + ".5", "1:" * 3000 + "1"],
+)
+@pytest.mark.parametrize("where", ["tree:\n  wait: {seconds: %s}\n", "tick_hz: %s\ntree: stop\n"])
+def test_numbers_written_with_thousands_of_digits(number, where):
+    found = problems("mission: t\n" + where % number)
+    assert len(found) == 1 and "digits" in found[0]
+
+
+@pytest.mark.parametrize("value", [".nan", ".NaN", ".inf", ".Inf", "-.inf", "1e400", "1.0e+400"])
+@pytest.mark.parametrize(
+    "node", ["wait: {seconds: %s}", "move: {speed: 1, seconds: %s}", "timeout: {seconds: %s, do: stop}"]
+)
+def test_every_number_is_finite(value, node):
+    found = problems("mission: t\ntree:\n  " + node % value + "\n")
+    assert len(found) == 1 and "seconds" in found[0], found
+
+
+@pytest.mark.parametrize(("value", "shown"), [("1.0e-300", "1e-300"), (".nan", "nan"), ("0.5", "0.5"), ("201", "201")])
+def test_tick_hz_has_a_documented_range(value, shown):
+    assert problems(f"mission: t\ntick_hz: {value}\ntree: stop\n") == [
+        f"m.yaml:2:10: tick_hz: tick_hz must be from 1 to 200, got {shown}"
+    ]
+
+
+@pytest.mark.parametrize(
+    ("text", "place", "words"),
+    [
+        ("mission: t\ntree:\n  sequence:\n\t- stop\n", "4:1", "a tab: indent with spaces"),
+        ("mission: t\ntree:\n  sequence:\n    - stop\n   - beep\n", "5:4", "does not line up"),
+        ("mission: t: u\ntree: stop\n", "1:11", "put the value in quotes"),
+        ("mission: 't\ntree: stop\n", "3:1", "a quoted text is not closed"),
+        ('mission: "a\\qb"\ntree: stop\n', "1:", "unknown escape"),
+        ("mission: *x\ntree: stop\n", "1:10", "no anchor &x"),
+        ("mission: t\n---\ntree: stop\n", "2:1", "a second document"),
+    ],
+)
+def test_yaml_mistakes_are_said_in_plain_words(text, place, words):
+    found = problems(text)
+    assert len(found) == 1 and found[0].startswith(f"m.yaml:{place}") and words in found[0], found
+    assert "<block" not in found[0] and "token" not in found[0]
+
+
+def test_a_latin1_file_is_refused_at_the_line_and_column_of_its_first_odd_byte(tmp_path):
+    mission = tmp_path / "m.yaml"
+    mission.write_bytes("mission: t\ndescription: caf\xe9 au lait\ntree: stop\n".encode("latin-1"))
+    with pytest.raises(MissionInvalid) as caught:
+        load_mission(mission)
+    [problem] = caught.value.problems
+    assert (problem.line, problem.column) == (2, 17) and "0xe9" in problem.message and "UTF-8" in problem.message
+
+
+def test_a_refused_tag_is_the_only_problem_reported():
+    assert problems('mission: t\ntree: !!python/object/apply:os.system ["echo hi"]\n') == [
+        "m.yaml:2:7: the tag tag:yaml.org,2002:python/object/apply:os.system is not allowed: plain YAML only"
+    ]
+
+
+def test_anchors_aliases_and_merge_keys_still_work():
+    spec = validate_text(
+        "mission: t\nsubtrees:\n  a: &corner {sequence: [{move: &fwd {speed: 2, distance_mm: 100}}, "
+        "{move: {<<: *fwd, speed: 3}}]}\ntree: *corner\n"
+    )
+    first, second = spec.tree.children
+    assert first.args["speed"] == 2 and second.args["speed"] == 3 and second.args["distance_mm"] == 100
