@@ -446,7 +446,8 @@ class Runner:
                 self.summary.reason = f"the mission was still running after {self.max_seconds:g} s"
                 return TIME_LIMIT
             next_tick_s += period_s
-            delay_s = next_tick_s - self.clock.now()
+            wake_s = next_tick_s if self.max_seconds is None else min(next_tick_s, self._start_s + self.max_seconds)
+            delay_s = wake_s - self.clock.now()
             if delay_s > 0:
                 self.clock.sleep(delay_s)
             else:

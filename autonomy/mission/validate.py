@@ -30,7 +30,7 @@ MAX_TICK_HZ = 200.0
 #: Deepest a tree may be, counted in nodes from the root down, subtrees expanded.
 MAX_TREE_DEPTH = 50
 #: Most nodes a tree may have, subtrees expanded (each use of a subtree is a copy).
-MAX_TREE_NODES = 10_000
+MAX_TREE_NODES = 5_000
 
 
 class MissionInvalid(AutonomyError):

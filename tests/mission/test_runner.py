@@ -2,6 +2,7 @@
 
 import math
 
+import pytest
 from py_trees.common import Status
 
 from autonomy.behaviours import RobotAction
@@ -193,3 +194,8 @@ def test_a_plugin_calling_sys_exit_ends_the_run_as_an_error_with_the_robot_stopp
     summary = Runner(build_tree(load_mission(mission)), client, mission="q").run()
     assert summary.outcome == CRASHED and "raised SystemExit: 0" in summary.reason
     assert summary.stopped and last_motion(client.port.emulator) == Stop()
+
+
+def test_the_time_limit_is_kept_when_ticks_are_further_apart_than_it():
+    summary, _ = run("  wait: {seconds: 30}\n", tick_hz=1.0, max_seconds=0.3)
+    assert summary.outcome == TIME_LIMIT and summary.time_s == pytest.approx(0.3, abs=0.01)
