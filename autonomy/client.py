@@ -11,15 +11,13 @@ repeat (``G X F M S``) are asked again after a time-out, a framing error or a ``
 relative moves (``T D``) never are, since a repeat after a lost ``OK`` would move twice:
 a lost reply to one of them is settled by reading the status instead.
 
-The protocol has no checksum, so every status packet is checked (:class:`StatusGuard`): one
-whose odometer, heading or tilt moved further than the robot can in the time since the last
-believed packet, or whose flags changed, is believed only once the next packet agrees with it.
-A refused packet is counted and polled again, and never returned.
+The protocol has no checksum, so every status packet is judged by a
+:class:`~autonomy.guard.StatusGuard` before it is returned: one the robot cannot have sent is
+counted and polled again, and never returned.
 """
 
 from __future__ import annotations
 
-import enum
 import errno
 import threading
 from collections.abc import Callable
@@ -42,6 +40,7 @@ from autonomy.errors import (
     PortError,
     ReplyTimeout,
 )
+from autonomy.guard import StatusGuard, Verdict
 from autonomy.protocol import (
     Ack,
     Beep,
@@ -57,8 +56,6 @@ from autonomy.protocol import (
     Status,
     Stop,
     Turn,
-    heading_delta_deg,
-    odometer_delta_mm,
 )
 
 try:
@@ -84,15 +81,6 @@ DEFAULT_RETRIES = 3
 DEFAULT_READY_TIMEOUT_S = 3.0
 DEFAULT_STOP_TRIES = 5
 
-#: What a robot of this size cannot exceed between two status polls (twice the fastest
-#: setting of the emulator, or more); a packet beyond it holds a corrupted byte.
-PLAUSIBLE_SPEED_MM_S = 800.0
-PLAUSIBLE_TURN_RATE_DEG_S = 180.0
-PLAUSIBLE_TILT_RATE_DEG_S = 400.0
-#: Allowed on top, for whole-unit readings and polls close together.
-PLAUSIBLE_SLACK_MM = 10
-PLAUSIBLE_SLACK_DEG = 3
-PLAUSIBLE_TILT_SLACK_DEG = 10
 #: Garbled replies (framing errors, implausible status packets) a repeatable request asks
 #: again for before they use up its retries: at 1% corrupted bytes, 9% of status packets are
 #: garbled, and a run of 20 Hz polls would otherwise lose the link about once an hour.
@@ -164,83 +152,6 @@ def _open_reason(err: BaseException) -> str:
     if code == errno.ECONNREFUSED or f"[Errno {errno.ECONNREFUSED}]" in str(err):  # pyserial drops errno here
         return "connection refused (is the emulator running there?)"
     return _reason(err)
-
-
-class Verdict(enum.Enum):
-    """What to do with a status packet: see :meth:`StatusGuard.judge`."""
-
-    ACCEPT = "accept"
-    READ_AGAIN = "read again"
-    REFUSE = "refuse"
-
-
-def status_jump(earlier: Status, earlier_s: float, later: Status, later_s: float) -> str:
-    """Says how ``later`` cannot follow ``earlier`` in the time between them (empty: it can)."""
-    elapsed_s = max(0.0, later_s - earlier_s)
-    moved_mm = abs(odometer_delta_mm(earlier.odometer_mm, later.odometer_mm))
-    if moved_mm > PLAUSIBLE_SPEED_MM_S * elapsed_s + PLAUSIBLE_SLACK_MM:
-        return f"odometer {earlier.odometer_mm} -> {later.odometer_mm} mm in {elapsed_s:.2f} s"
-    turned_deg = abs(heading_delta_deg(earlier.heading_deg, later.heading_deg))
-    if turned_deg > PLAUSIBLE_TURN_RATE_DEG_S * elapsed_s + PLAUSIBLE_SLACK_DEG:
-        return f"heading {earlier.heading_deg} -> {later.heading_deg} deg in {elapsed_s:.2f} s"
-    if abs(later.tilt_deg - earlier.tilt_deg) > PLAUSIBLE_TILT_RATE_DEG_S * elapsed_s + PLAUSIBLE_TILT_SLACK_DEG:
-        return f"tilt {earlier.tilt_deg} -> {later.tilt_deg} deg in {elapsed_s:.2f} s"
-    return ""
-
-
-def _flags(packet: Status) -> tuple[int, bool, bool, bool]:
-    return packet.mode, packet.auto_mode, packet.collided, packet.moving
-
-
-class StatusGuard:
-    """Decides which status packets to believe, since the protocol has no checksum.
-
-    A packet is believed when it can follow the last believed one (see :func:`status_jump`).
-    Otherwise it is held, and the next packet decides: if the two agree with each other the
-    robot really is there (a packet believed earlier was the bad one, or the robot was moved):
-    the new one is believed and :attr:`rebased` counted; if not, whichever of them agrees with
-    the last believed packet wins. The link's first packet, and one whose flags (mode, auto,
-    collision, moving) changed, are held the same way until the next agrees: a real change
-    lasts, a flipped bit does not.
-
-    Attributes:
-        trusted: The last believed packet (None before the first).
-        rebased: How many times two agreeing packets replaced the believed state.
-    """
-
-    def __init__(self) -> None:
-        self.trusted: Status | None = None
-        self.rebased = 0
-        self._trusted_s = 0.0
-        self._held: Status | None = None
-        self._held_s = 0.0
-
-    def judge(self, packet: Status, now_s: float) -> tuple[Verdict, str]:
-        """Returns what to do with ``packet``, read at ``now_s``, and why.
-
-        The reason comes with a refusal, and with an acceptance that drops the packet held
-        before (a collision flag the next packet did not show), so that it can be counted.
-        """
-        held, self._held = self._held, None
-        if held is not None and not status_jump(held, self._held_s, packet, now_s):
-            if self.trusted is not None and status_jump(self.trusted, self._trusted_s, held, self._held_s):
-                self.rebased += 1
-            trusted = self.trusted
-            flipped = trusted is not None and _flags(held) != _flags(packet) and _flags(packet) == _flags(trusted)
-            return self._believe(packet, now_s, "a change of flags the next packet did not show" if flipped else "")
-        trusted = self.trusted
-        if trusted is None:  # nothing believed yet: a packet that disagrees with the one held is refused
-            why = status_jump(held, self._held_s, packet, now_s) if held is not None else ""
-        else:
-            why = status_jump(trusted, self._trusted_s, packet, now_s)
-        if trusted is not None and not why and _flags(packet) == _flags(trusted):
-            return self._believe(packet, now_s)
-        self._held, self._held_s = packet, now_s
-        return (Verdict.REFUSE, why) if why else (Verdict.READ_AGAIN, "")
-
-    def _believe(self, packet: Status, now_s: float, dropped: str = "") -> tuple[Verdict, str]:
-        self.trusted, self._trusted_s = packet, now_s
-        return Verdict.ACCEPT, dropped
 
 
 class Client:
@@ -474,6 +385,15 @@ class Client:
                 self._notify(frame, reply, attempt - 1)
                 if isinstance(reply, Ack) and not reply.ok:
                     self.stats.refusals += 1
+                    if isinstance(command, Get):  # always valid: a NO means the request arrived garbled
+                        failure = FramingError(
+                            f"the robot answered NO to {_text(frame)}, a request that is always valid"
+                        )
+                        if garbled < GARBLED_LIMIT:
+                            garbled += 1
+                        else:
+                            tries -= 1
+                        continue
                     failure = CommandRefused(f"the robot refused {_text(frame)} (answered NO)", frame)
                     tries -= 1
                     continue

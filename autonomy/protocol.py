@@ -385,10 +385,13 @@ def decode_status(packet: bytes) -> Status:
     """Decodes one 9-byte status packet.
 
     Raises:
-        FramingError: wrong length, byte 0 not ``b`` or byte 8 not ``\\n``.
+        FramingError: wrong length, byte 0 not ``b``, byte 8 not ``\\n``, or bit 7 of the
+            flags set (it is unused and always 0: a packet with it set was damaged).
     """
     if len(packet) != STATUS_LENGTH or packet[0] != ord("b") or packet[8] != NEWLINE:
         raise FramingError(f"not a status packet: {packet!r}", bytes(packet))
+    if packet[1] & 0x80:
+        raise FramingError(f"a status packet with the unused flag bit 7 set: {packet!r}", bytes(packet))
     flags = packet[1]
     tilt = packet[2] - 256 if packet[2] > 127 else packet[2]
     heading = int.from_bytes(packet[3:5], "big", signed=True) % 360
