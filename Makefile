@@ -6,7 +6,7 @@ STAMP := $(VENV)/.installed
 
 CHROMIUM ?= /usr/bin/chromium
 
-.PHONY: run test bench docs clean chromium
+.PHONY: run test bench fuzz docs clean chromium
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -34,11 +34,16 @@ test: $(STAMP) chromium
 	$(BIN)/ruff format --check .
 	AUTONOMY_CHROMIUM="$(CHROMIUM)" $(BIN)/python -m pytest -q
 
+## fuzz: the fuzz tests run long: 100,000 cases each (make test runs a few hundred)
+fuzz: $(STAMP)
+	AUTONOMY_FUZZ_CASES=100000 $(BIN)/python -m pytest -q tests/fuzz
+
 ## bench: the link, emulator and mission benchmarks (figures for the README)
 bench: $(STAMP)
 	$(BIN)/python benchmarks/link.py
 	$(BIN)/python benchmarks/missions.py
 	$(BIN)/python benchmarks/views.py
+	$(BIN)/python benchmarks/hostile.py
 
 ## docs: make the node reference in docs/missions.md anew from the registry
 docs: $(STAMP)

@@ -256,7 +256,14 @@ class Client:
                     continue
                 received = self.stats.bytes_received - received_before
                 baud = getattr(self.port, "baudrate", DEFAULT_BAUD)
-                if received:
+                heard = bytes(self._heard[-16:])
+                if received and heard.endswith(b"\n") and all(32 <= byte < 127 or byte == 10 for byte in heard):
+                    last = heard.decode("ascii", "replace").strip().splitlines()[-1]
+                    hint = (
+                        f"{received} bytes came back, lines of text but none the reply asked for "
+                        f"(the last: {last!r}): does this robot speak this protocol?"
+                    )
+                elif received:
                     other = " or ".join(str(b) for b in SUPPORTED_BAUD_RATES if b != baud)
                     hint = f"{received} bytes came back but none formed a reply: is the robot set to {other} baud?"
                 else:

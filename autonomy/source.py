@@ -21,7 +21,7 @@ import yaml
 
 #: Most values (scalars, lists, mappings; aliases count what they repeat) one file may hold:
 #: far more than any mission, world or exercise needs, and refused in well under a second.
-MAX_NODES = 20_000
+MAX_NODES = 10_000
 SEQ_TAG = "tag:yaml.org,2002:seq"
 MAP_TAG = "tag:yaml.org,2002:map"
 
@@ -55,7 +55,8 @@ class Problem:
     """One thing wrong with a file, where it stands: prints as ``FILE:LINE:COL: PATH: message``.
 
     PATH is the YAML path of the value (``tree.repeat.do.sequence[1].turn``), empty for the
-    file as a whole.
+    file as a whole. Whatever of the file the path or message quotes is shown with its
+    invisible characters escaped (a tab as ``\\t``), so that a problem is always one plain line.
     """
 
     file: str
@@ -64,9 +65,23 @@ class Problem:
     path: str
     message: str
 
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "path", visible(self.path))
+        object.__setattr__(self, "message", visible(self.message))
+
     def __str__(self) -> str:
         where = f"{self.path}: " if self.path else ""
         return f"{self.file}:{self.line}:{self.column}: {where}{self.message}"
+
+
+_HIDDEN = ("Cc", "Cf", "Cs", "Co", "Cn", "Zl", "Zp")
+
+
+def visible(text: str) -> str:
+    """``text`` with control, format and separator characters escaped as Python writes them."""
+    if text.isprintable():
+        return text
+    return "".join(repr(c)[1:-1] if unicodedata.category(c) in _HIDDEN else c for c in text)
 
 
 def suggest(word: str, options: list[str]) -> str:
@@ -90,6 +105,22 @@ def control_character(text: str) -> str:
 MAX_FILE_BYTES = 1_000_000
 #: Deepest nesting of lists and mappings a file may have.
 MAX_DEPTH = 100
+
+
+def is_file(path: Path) -> bool:
+    """Whether ``path`` is a file; False, not an error, for a name no file can have (too long, a NUL)."""
+    try:
+        return path.is_file()
+    except (OSError, ValueError):
+        return False
+
+
+def exists(path: Path) -> bool:
+    """Whether anything is at ``path``; False, not an error, for a name no file can have."""
+    try:
+        return path.exists()
+    except (OSError, ValueError):
+        return False
 
 
 class UnreadableFile(Exception):
@@ -202,7 +233,13 @@ class SourceError:
 #: Characters YAML does not allow in a file, and the ones it takes as line breaks besides
 #: ``\n`` and ``\r`` (NEL, LINE and PARAGRAPH SEPARATOR), which would put every later problem
 #: on the wrong line.
-_NOT_TEXT = re.compile("[^\t\n\r\x20-\x7e\xa0-\ud7ff\ue000-\ufffd\U00010000-\U0010ffff]|[\u2028\u2029]")
+_NOT_TEXT = re.compile(
+    "[^\t\n\r\x20-\x7e\xa0-\ud7ff\ue000-\ufffd\U00010000-\U0010ffff]|[\u2028\u2029]"
+    # invisible format characters (Unicode category Cf): zero-width and bidirectional controls
+    # can make a file read differently from what it says
+    "|[\xad\u0600-\u0605\u061c\u06dd\u070f\u0890\u0891\u08e2\u180e\u200b-\u200f\u202a-\u202e\u2060-\u2064\u2066-\u206f"
+    "\ufeff\ufff9-\ufffb\U000110bd\U000110cd\U00013430-\U0001343f\U0001bca0-\U0001bca3\U0001d173-\U0001d17a\U000e0001\U000e0020-\U000e007f]"
+)
 _NAMES = {"\x00": "NUL", "\x07": "BEL", "\x08": "BACKSPACE", "\x1b": "ESC", "\x7f": "DEL", "\x85": "NEL"}
 #: Most characters a number may be written with (a longer one is not a number a robot uses).
 MAX_NUMBER_CHARS = 40
@@ -230,8 +267,8 @@ def _text_problems(text: str) -> list[SourceError]:
         code = f"U+{ord(char):04X}"
         if "\ud800" <= char <= "\udfff":
             what = f"a lone surrogate ({code}), which is not text"
-        elif char in "\u2028\u2029\ufeff":
-            what = f"an invisible {unicodedata.name(char).lower()} ({code})"
+        elif unicodedata.category(char) in ("Zl", "Zp", "Cf"):
+            what = f"an invisible {unicodedata.name(char, 'format character').lower()} ({code})"
         else:
             what = f"the control character {_NAMES.get(char, code)}" + (f" ({code})" if char in _NAMES else "")
         problems.append(SourceError(line, column, f"{what}: remove it; a mission file is plain text"))

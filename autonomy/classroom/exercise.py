@@ -28,7 +28,7 @@ from autonomy.emulator.faults import FaultSpec, FaultSpecError
 from autonomy.emulator.world import SHIPPED, World, WorldError, WorldInvalid, load_world
 from autonomy.errors import AutonomyError
 from autonomy.mission.registry import BUILTINS
-from autonomy.source import Located, Problem, Reader, UnreadableFile, parse, read_text, suggest
+from autonomy.source import Located, Problem, Reader, UnreadableFile, is_file, parse, read_text, suggest
 
 TOP_LEVEL = ("exercise", "title", "description", "world", "time_limit_s", "seeds", "allowed_nodes", "criteria")
 SEED_KEYS = ("seed", "noise_mm", "faults")
@@ -183,7 +183,7 @@ class _Reader(Reader):
             if not path.is_absolute():
                 path = self.base_dir / path
             ref = str(path)
-            if not path.is_file():
+            if not is_file(path):
                 hint = suggest(name, list(SHIPPED))
                 self.problem(
                     located, "world", f"no world named '{name}'{hint}: use one of {', '.join(SHIPPED)} or a world file"

@@ -18,7 +18,18 @@ from typing import Any
 import yaml
 
 from autonomy.errors import AutonomyError
-from autonomy.source import Located, Problem, Reader, UnreadableFile, control_character, parse, read_text, suggest
+from autonomy.source import (
+    Located,
+    Problem,
+    Reader,
+    UnreadableFile,
+    control_character,
+    exists,
+    is_file,
+    parse,
+    read_text,
+    suggest,
+)
 
 EPSILON_MM = 1e-6
 #: The footprint the start pose is checked with (the emulated robot's ``body_radius_mm``).
@@ -561,9 +572,9 @@ def load_world(name_or_path: str | Path) -> World:
         source = resources.files("autonomy.emulator").joinpath("worlds", f"{text}.yaml").read_text(encoding="utf-8")
         return _read_text(source, f"{text}.yaml", text)
     path = Path(text)
-    if not path.exists():
+    if not exists(path):
         hint = suggest(text, list(SHIPPED))
-        if not hint and path.with_suffix(".yaml").is_file():
+        if not hint and is_file(path.with_suffix(".yaml")):
             hint = f" (did you mean '{path.with_suffix('.yaml')}'?)"
         raise WorldError(
             f"no world named '{text}'{hint}: use one of {', '.join(SHIPPED)} or the path of a world file (.yaml)"

@@ -20,7 +20,7 @@ from autonomy.behaviours.base import MAX_NUMBER
 from autonomy.emulator.world import SHIPPED, WorldError, WorldInvalid, load_world
 from autonomy.errors import AutonomyError
 from autonomy.mission.registry import BUILTINS, NodeType, Registry, leaf_classes_in, leaf_type
-from autonomy.source import Located, Problem, UnreadableFile, control_character, parse, read_text
+from autonomy.source import Located, Problem, UnreadableFile, control_character, is_file, parse, read_text
 from autonomy.source import suggest as _suggest
 
 TOP_LEVEL = ("mission", "description", "tick_hz", "world", "subtrees", "tree", "plugins")
@@ -30,7 +30,7 @@ MAX_TICK_HZ = 200.0
 #: Deepest a tree may be, counted in nodes from the root down, subtrees expanded.
 MAX_TREE_DEPTH = 50
 #: Most nodes a tree may have, subtrees expanded (each use of a subtree is a copy).
-MAX_TREE_NODES = 5_000
+MAX_TREE_NODES = 3_000
 
 
 class MissionInvalid(AutonomyError):
@@ -187,9 +187,9 @@ class _Validator:
         if name in SHIPPED:
             return name
         path = Path(name)
-        if not path.is_absolute() and (base_dir / path).is_file():
+        if not path.is_absolute() and is_file(base_dir / path):
             path = base_dir / path
-        if not path.is_file():
+        if not is_file(path):
             hint = _suggest(name, list(SHIPPED))
             self.problem(
                 where,

@@ -175,3 +175,23 @@ def test_max_seconds_must_be_a_finite_positive_number(value):
     result = autonomy("run", "missions/square.yaml", "--max-seconds", value)
     assert result.returncode == 2 and "Traceback" not in result.stderr
     assert "--max-seconds" in result.stderr and "above 0" in result.stderr
+
+
+def test_probe_of_a_robot_that_only_says_ok_is_one_line_and_exit_3():
+    import socket
+    import threading
+
+    listener = socket.create_server(("127.0.0.1", 0))
+
+    def serve() -> None:
+        conn, _ = listener.accept()
+        with conn:
+            while conn.recv(64):
+                conn.sendall(b"OK\n")  # the wrong kind of reply to every request for a value
+
+    threading.Thread(target=serve, daemon=True).start()
+    try:
+        result = autonomy("probe", "--port", f"socket://127.0.0.1:{listener.getsockname()[1]}", timeout=30)
+    finally:
+        listener.close()
+    assert_one_line_error(result, 3, "no answer from", "lines of text but none the reply asked for", "'OK'")

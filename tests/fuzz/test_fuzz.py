@@ -1,0 +1,99 @@
+"""Fuzzing: the validator and the reply decoder meet only their own errors, whatever they are fed.
+
+`make test` runs 3,000 mutants and 300 generated cases a test, the same ones every time;
+`make fuzz` sets AUTONOMY_FUZZ_CASES=100000, for that many of each, new ones every run.
+"""
+
+from __future__ import annotations
+
+import os
+import unicodedata
+
+import yaml
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from autonomy.errors import FramingError
+from autonomy.mission import MissionInvalid, MissionSpec, validate_text
+from autonomy.protocol import ReplyDecoder, ReplyKind
+from tests.fuzz.mutants import ROOT, WORDS, mutant
+
+LONG = os.environ.get("AUTONOMY_FUZZ_CASES")
+MUTANTS = int(LONG or 3000)
+EXAMPLES = int(LONG or 300)
+FUZZ = settings(max_examples=EXAMPLES, deadline=None, suppress_health_check=list(HealthCheck), derandomize=not LONG)
+MISSIONS = ROOT / "missions"
+
+
+def outcome(text: str, source: str = "m.yaml") -> MissionSpec | MissionInvalid:
+    """The validator's answer: a mission, or its own error with every problem at a place."""
+    try:
+        return validate_text(text, source, MISSIONS)
+    except MissionInvalid as err:
+        assert err.problems, "an error with no problem in it"
+        for problem in err.problems:
+            assert problem.line >= 1 and problem.column >= 1 and problem.message, problem
+            hidden = [
+                c for c in problem.message if unicodedata.category(c) in ("Cc", "Cf", "Cs", "Co", "Cn", "Zl", "Zp")
+            ]
+            assert not hidden, f"a message that would garble a terminal: {problem.message!r}"
+        return err
+
+
+def test_mutants_of_the_shipped_missions_meet_only_positioned_problems():
+    for number in range(MUTANTS):
+        source, text = mutant(number)
+        try:
+            outcome(text, source)
+        except Exception as err:  # noqa: BLE001 - the point: name the mutant that broke through
+            raise AssertionError(f"mutant {number} of {source} raised {type(err).__name__}: {err}") from err
+
+
+names = st.sampled_from(WORDS) | st.text(min_size=1, max_size=8)
+scalars = (
+    st.none()
+    | st.booleans()
+    | st.integers(-(10**12), 10**12)
+    | st.floats(allow_nan=True, allow_infinity=True)
+    | st.text(max_size=20)
+    | names
+)
+documents = st.recursive(
+    scalars,
+    lambda inner: st.lists(inner, max_size=4) | st.dictionaries(names, inner, max_size=4),
+    max_leaves=40,
+)
+
+
+@FUZZ
+@given(st.dictionaries(names, documents, max_size=6))
+def test_any_yaml_document_meets_only_positioned_problems(document):
+    outcome(yaml.safe_dump(document, allow_unicode=True))
+
+
+@FUZZ
+@given(st.text(max_size=300))
+def test_any_text_meets_only_positioned_problems(text):
+    outcome(text)
+
+
+@FUZZ
+@given(
+    st.binary(max_size=64),
+    st.sampled_from(
+        [(ReplyKind.ACK, ""), (ReplyKind.HEALTH, ""), (ReplyKind.STATUS, "")]
+        + [(ReplyKind.PARAMETER, p) for p in "DBFVA"]
+    ),
+    st.integers(1, 9),
+)
+def test_any_bytes_meet_only_framing_errors_in_the_reply_decoder(data, kind, chunk):
+    decoder = ReplyDecoder(*kind)
+    for start in range(0, len(data), chunk):
+        decoder.feed(data[start : start + chunk])
+        for _ in range(len(data) + 2):
+            try:
+                if decoder.next_reply() is None:
+                    break
+            except FramingError:
+                continue
+    assert decoder.buffered <= len(data)
