@@ -423,19 +423,24 @@ class Client:
             LinkError: the status cannot be read either: the link is really gone.
         """
         before = self.guard.trusted
-        if isinstance(command, Turn):
-            for poll in range(SETTLE_POLLS):
-                status = self.status()
-                turned = before is not None and status.heading_deg != before.heading_deg
-                if turned or (status.moving and (before is None or not before.moving)):
-                    self.stats.settled += 1
-                    return Ack(True)
-                if poll + 1 < SETTLE_POLLS:
-                    self.clock.sleep(SETTLE_WAIT_S)
-            seen = "the robot is not turning"
-        else:
-            self.status()
-            seen = "a servo step does not show in the status, so it may or may not have moved"
+        try:
+            if isinstance(command, Turn):
+                for poll in range(SETTLE_POLLS):
+                    status = self.status()
+                    turned = before is not None and status.heading_deg != before.heading_deg
+                    if turned or (status.moving and (before is None or not before.moving)):
+                        self.stats.settled += 1
+                        return Ack(True)
+                    if poll + 1 < SETTLE_POLLS:
+                        self.clock.sleep(SETTLE_WAIT_S)
+                seen = "the robot is not turning"
+            else:
+                self.status()
+                seen = "a servo step does not show in the status, so it may or may not have moved"
+        except LinkLost:
+            raise
+        except LinkError as err:
+            raise ReplyTimeout(f"{failure}, and the status cannot be read either ({err})") from err
         raise CommandUnconfirmed(f"{failure}; the link answers, but {seen}", frame) from failure
 
     def _drain_heard(self) -> None:

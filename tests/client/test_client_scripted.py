@@ -195,3 +195,43 @@ def test_one_request_in_flight_across_threads():
         t.join()
     assert not lock_violations
     assert sorted(results) == list(range(1, 801))  # every request got its own reply
+
+
+def test_a_turn_answered_with_noise_then_no_is_refused_not_accepted():
+    port = ScriptedPort([b"\x13\xfeNO\n"])
+    client = client_for(port)
+    with pytest.raises(CommandRefused, match="refused T\\+090"):
+        client.turn(90)
+    assert frames_of(port) == [b"T+090"]
+
+
+class TricklingPort(ScriptedPort):
+    """A line that brings one byte of noise every 10 ms, for ever."""
+
+    reads = 0
+
+    def read(self, size: int = 1) -> bytes:
+        self.reads += 1
+        if self.reads > 1000:
+            raise AssertionError("the client reads for ever: its time-out does not end the attempt")
+        self.clock.sleep(0.01)
+        return b"\xff"
+
+
+def test_a_turn_amid_endless_noise_times_out_when_its_time_is_up():
+    port = TricklingPort()
+    client = client_for(port)
+    with pytest.raises(ReplyTimeout, match="no reply to T\\+090 from scripted within 0.25 s"):
+        client.turn(90)
+    assert frames_of(port)[0] == b"T+090" and frames_of(port).count(b"T+090") == 1
+
+
+def test_client_open_keeps_its_time_out_and_retries():
+    client = Client.open("emu://?time=virtual", timeout_s=0.1, retries=1)
+    assert client.timeout_s == 0.1 and client.retries == 1 and client.port.timeout == 0.1
+    client.port.emulator.faults = type(client.port.emulator.faults)(drop=1.0)  # nothing gets through now
+    start = client.clock.now()
+    with pytest.raises(ReplyTimeout):
+        client.battery()
+    assert client.stats.attempts - 1 == 2  # the first request and its one retry (after wait_ready's GF)
+    assert client.clock.now() - start == pytest.approx(0.2, abs=0.05)

@@ -13,6 +13,7 @@ from autonomy.protocol import (
     Status,
     Stop,
     decode_status,
+    heading_delta_deg,
     odometer_delta_mm,
 )
 
@@ -156,3 +157,46 @@ def test_invalid_parameter_values_are_framing_errors(wire, reason):
     parameter = chr(wire[0])
     replies, errors = decode_all(ReplyDecoder.for_command(Get(parameter)), wire)
     assert replies == [] and errors == 1, reason
+
+
+def decode_at_once(decoder: ReplyDecoder, data: bytes):
+    """Feeds all of ``data`` in one go, as one read of a busy line brings it."""
+    decoder.feed(data)
+    replies, errors = [], 0
+    while True:
+        try:
+            reply = decoder.next_reply()
+        except FramingError:
+            errors += 1
+            continue
+        if reply is None:
+            return replies, errors
+        replies.append(reply)
+
+
+@pytest.mark.parametrize("asked", ["D", "B", "V", "A", "F"])
+def test_a_value_of_another_letter_is_not_the_one_asked_for(asked):
+    other = {"D": b"B200\n", "B": b"D200\n", "V": b"A+20\n", "A": b"V+20\n", "F": b"D123\n"}[asked]
+    assert decode_all(ReplyDecoder.for_command(Get(asked)), other) == ([], 1)
+    assert decode_at_once(ReplyDecoder.for_command(Get(asked)), other) == ([], 1)
+
+
+@pytest.mark.parametrize("noise", [b"\x00", b"\xff\x13", b"OK\n", b"b", b"N"])
+def test_a_status_packet_in_the_same_read_as_noise_is_kept(noise):
+    good = Status(1, True, False, True, -3, 271, 10, 513).encode()
+    replies, errors = decode_at_once(ReplyDecoder(ReplyKind.STATUS), noise + good)
+    assert replies == [decode_status(good)] and errors >= 1
+
+
+@pytest.mark.parametrize("noise", [b"\x00", b"zz", b"OK", b"D4"])
+def test_a_value_in_the_same_read_as_noise_is_kept(noise):
+    replies, _ = decode_at_once(ReplyDecoder.for_command(Get("D")), noise + b"\nD042\n")
+    assert replies == [Parameter("D", 42)]
+
+
+@pytest.mark.parametrize(
+    ("earlier", "later", "turned"),
+    [(359, 0, 1), (0, 359, -1), (10, 190, -180), (190, 10, -180), (350, 10, 20), (10, 350, -20), (0, 179, 179)],
+)
+def test_heading_deltas_wrap_at_360(earlier, later, turned):
+    assert heading_delta_deg(earlier, later) == turned
