@@ -34,7 +34,7 @@ test: $(STAMP) chromium
 	$(BIN)/ruff format --check .
 	AUTONOMY_CHROMIUM="$(CHROMIUM)" $(BIN)/python -m pytest -q
 
-## fuzz: the fuzz tests run long: 100,000 cases each (make test runs a few hundred)
+## fuzz: the fuzz tests run long: 100,000 mutants, texts and reply byte strings, 10,000 YAML documents
 fuzz: $(STAMP)
 	AUTONOMY_FUZZ_CASES=100000 $(BIN)/python -m pytest -q tests/fuzz
 
