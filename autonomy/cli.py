@@ -19,7 +19,8 @@ from urllib.parse import quote
 from autonomy import __version__
 from autonomy.client import DEFAULT_BAUD, SUPPORTED_BAUD_RATES, Client
 from autonomy.emulator import FaultSpec, FaultSpecError, WorldError, WorldInvalid, emulator_from_options
-from autonomy.errors import AutonomyError, LinkError
+from autonomy.errors import AutonomyError, Interrupted, LinkError
+from autonomy.source import visible
 
 EXIT_OK = 0
 EXIT_FAILED = 1
@@ -59,9 +60,12 @@ def _host_port(text: str) -> tuple[str, int]:
     host, sep, port = text.rpartition(":")
     if not sep:
         host, port = "127.0.0.1", text
+    usage = f"expected HOST:PORT, [IPV6]:PORT or PORT, got {visible(text)!r}"
     if host.startswith("[") and host.endswith("]"):  # an IPv6 address: [::1]:7777
         host = host[1:-1]
-    return host or "127.0.0.1", _tcp_port(port, f"expected HOST:PORT, [IPV6]:PORT or PORT, got '{text}'")
+    if not host.isprintable() or "[" in host or "]" in host or " " in host:
+        raise argparse.ArgumentTypeError(usage)
+    return host or "127.0.0.1", _tcp_port(port, usage)
 
 
 def _positive(text: str) -> float:
@@ -194,7 +198,7 @@ def _load(path: str) -> Any:
 
 
 def _interrupt(*_: object) -> None:
-    raise KeyboardInterrupt
+    raise Interrupted
 
 
 class _InterruptOnce:
@@ -213,7 +217,7 @@ class _InterruptOnce:
     def __call__(self, *_: object) -> None:
         if not self.raised:
             self.raised = True
-            raise KeyboardInterrupt
+            raise Interrupted
         print("autonomy: stopping the robot first; one moment", file=sys.stderr, flush=True)
 
 
@@ -255,6 +259,10 @@ def _choose_port(args: argparse.Namespace, spec: Any) -> tuple[str, str, str]:
     """
     from autonomy.urlhandler.protocol_emu import parse_emu_url
 
+    if args.port is not None and not args.port.strip():
+        return "", "", "--port is empty: give a serial device, socket://HOST:PORT, or leave it out for the emulator"
+    if args.world is not None and not args.world.strip():
+        return "", "", "--world is empty: give a world's name or file, or leave it out"
     port = args.port or "emu://"
     if not port.lower().startswith("emu://"):
         if args.fast:
@@ -340,8 +348,9 @@ def cmd_run(args: argparse.Namespace) -> int:
         except OSError as err:
             return _fail(f"cannot write the trace to {args.trace}: {err.strerror}", EXIT_USAGE)
     listeners: list[Any] = []
-    if trace is not None:
-        listeners.append(TraceWriter(trace))
+    writer = TraceWriter(trace) if trace is not None else None
+    if writer is not None:
+        listeners.append(writer)
     server = live = None
     try:
         if args.view:
@@ -380,12 +389,19 @@ def cmd_run(args: argparse.Namespace) -> int:
             _serve_until_interrupted(server, "the run is over")
     finally:
         if trace is not None:
-            trace.close()
+            try:
+                trace.close()
+            except OSError as err:
+                if writer is not None and not writer.failure:
+                    writer.failure = err.strerror or str(err)
+            if writer is not None and writer.failure:
+                print(f"autonomy: the trace {args.trace} is incomplete: {writer.failure}", file=sys.stderr)
         if server is not None:
             server.stop()
-    return {SUCCEEDED: EXIT_OK, FAILED: EXIT_FAILED, LINK_LOST: EXIT_LINK, INTERRUPTED: EXIT_INTERRUPTED}.get(
+    code = {SUCCEEDED: EXIT_OK, FAILED: EXIT_FAILED, LINK_LOST: EXIT_LINK, INTERRUPTED: EXIT_INTERRUPTED}.get(
         summary.outcome, EXIT_FAILED
     )
+    return EXIT_FAILED if code == EXIT_OK and writer is not None and writer.failure else code
 
 
 def _start_view(args: argparse.Namespace, mode: str = "live") -> tuple[Any, str]:
@@ -704,10 +720,9 @@ def _view_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _tcp_port(text: str, not_a_number: str = "") -> int:
-    try:
-        number = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(not_a_number or f"expected a port number, got '{text}'") from None
+    if not (text.isascii() and text.isdigit()):
+        raise argparse.ArgumentTypeError(not_a_number or f"expected a port number, got {visible(text)!r}")
+    number = int(text)
     if not 0 <= number <= 65535:
         raise argparse.ArgumentTypeError(f"port must be 0..65535, got {number}")
     return number

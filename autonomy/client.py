@@ -80,6 +80,8 @@ DEFAULT_TIMEOUT_S = 0.25
 DEFAULT_RETRIES = 3
 DEFAULT_READY_TIMEOUT_S = 3.0
 DEFAULT_STOP_TRIES = 5
+#: Pause between two tries of a robot that is not ready yet.
+READY_RETRY_S = 0.05
 
 #: Garbled replies (framing errors, implausible status packets) a repeatable request asks
 #: again for before they use up its retries: at 1% corrupted bytes, 9% of status packets are
@@ -124,6 +126,10 @@ def open_port(url: str, baud: int = DEFAULT_BAUD, clock: Clock | None = None) ->
     """
     if baud not in SUPPORTED_BAUD_RATES:
         raise PortError(f"baud rate {baud} is not supported; the robot speaks 57600 or 115200")
+    if url.lower().startswith("socket://"):
+        host, _, port = url[len("socket://") :].split("?")[0].split("/")[0].rpartition(":")
+        if not host or not (port.isascii() and port.isdigit()) or not 1 <= int(port) <= 65535:
+            raise PortError(f"cannot open {url}: expected socket://HOST:PORT, with a PORT from 1 to 65535")
     try:
         port = serial.serial_for_url(url, baudrate=baud, timeout=DEFAULT_TIMEOUT_S, do_not_open=True)
         if clock is not None and hasattr(port, "clock"):
@@ -244,6 +250,7 @@ class Client:
         deadline = self.clock.now() + ready_timeout_s
         received_before = self.stats.bytes_received
         while True:
+            tried_s = self.clock.now()
             try:
                 reply = self.request(Get("F"), retries=0)
             except LinkLost as err:
@@ -253,6 +260,8 @@ class Client:
                 raise
             except (ReplyTimeout, FramingError, CommandRefused):
                 if self.clock.now() < deadline:
+                    if self.clock.now() - tried_s < READY_RETRY_S:  # answered at once, wrongly: not asked in a spin
+                        self.clock.sleep(READY_RETRY_S)
                     continue
                 received = self.stats.bytes_received - received_before
                 baud = getattr(self.port, "baudrate", DEFAULT_BAUD)

@@ -25,6 +25,14 @@ class AutonomyError(Exception):
     """Root of every error raised by the autonomy package."""
 
 
+class Interrupted(KeyboardInterrupt):
+    """Ctrl-C or SIGTERM, as the command line's signal handler raises it.
+
+    A plain ``KeyboardInterrupt`` raised while such a handler is installed cannot be a Ctrl-C:
+    the runner takes it as an error of the behaviour that raised it.
+    """
+
+
 class ProtocolError(AutonomyError):
     """Bytes or values that do not follow the robot's serial protocol."""
 

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 import os
+import signal
 import traceback
 from collections import Counter
 from collections.abc import Iterable
@@ -379,6 +380,10 @@ class Runner:
             raise
         except (Exception, SystemExit) as err:  # a plugin's sys.exit() ends the run as an error, not the program
             raise BehaviourCrashed(self._crash_event(err)) from err
+        except KeyboardInterrupt as err:
+            if type(err) is KeyboardInterrupt and signal.getsignal(signal.SIGINT) is not signal.default_int_handler:
+                raise BehaviourCrashed(self._crash_event(err)) from err  # raised by a behaviour, not by Ctrl-C
+            raise
         self.summary.ticks += 1
         self._emit(
             TickRecord(
@@ -503,7 +508,7 @@ class Runner:
         ]
         if not failed:
             return ""
-        node = failed[0]
+        node = failed[-1]  # the last tried: a sequence stops at it, a selector tried it after all the others
         return f"'{node.name}' failed" + (f" ({node.feedback_message})" if node.feedback_message else "")
 
     def _halt(self) -> None:

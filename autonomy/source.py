@@ -66,8 +66,8 @@ class Problem:
     message: str
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "path", visible(self.path))
-        object.__setattr__(self, "message", visible(self.message))
+        object.__setattr__(self, "path", _cut(visible(self.path)))
+        object.__setattr__(self, "message", _cut(visible(self.message)))
 
     def __str__(self) -> str:
         where = f"{self.path}: " if self.path else ""
@@ -75,6 +75,12 @@ class Problem:
 
 
 _HIDDEN = ("Cc", "Cf", "Cs", "Co", "Cn", "Zl", "Zp")
+#: Longest message or path a problem shows (a 900 KB key is quoted, not printed whole).
+MAX_PROBLEM_CHARS = 400
+
+
+def _cut(text: str) -> str:
+    return text if len(text) <= MAX_PROBLEM_CHARS else f"{text[:MAX_PROBLEM_CHARS]}... ({len(text):,} characters)"
 
 
 def visible(text: str) -> str:
@@ -96,7 +102,7 @@ def control_character(text: str) -> str:
     Tabs and newlines are whitespace, not control: a description may span lines.
     """
     for char in text:
-        if unicodedata.category(char) in ("Cc", "Cf", "Cs") and char not in "\t\n":
+        if unicodedata.category(char) in ("Cc", "Cf", "Cs", "Zl", "Zp") and char not in "\t\n":
             return repr(char)
     return ""
 
@@ -193,7 +199,9 @@ class Reader:
         self.problems: list[Problem] = []
 
     def problem(self, where: Located | tuple[int, int], path: str, message: str) -> None:
-        """Notes one problem at a value (or a line and column)."""
+        """Notes one problem at a value (or a line and column); none at a value the reader refused."""
+        if isinstance(where, Located) and refused(where):
+            return
         line, column = (where.line, where.column) if isinstance(where, Located) else where
         self.problems.append(Problem(self.label, line, column, path, message))
 
@@ -247,10 +255,8 @@ _INT_TAG = "tag:yaml.org,2002:int"
 _FLOAT_TAG = "tag:yaml.org,2002:float"
 _MERGE_TAG = "tag:yaml.org,2002:merge"
 _STR_TAG = "tag:yaml.org,2002:str"
-_SAFE_TAGS = {
-    f"tag:yaml.org,2002:{name}"
-    for name in ("null", "bool", "int", "float", "str", "seq", "map", "binary", "timestamp", "merge", "omap", "set")
-}
+#: Tags a value may carry explicitly (``!!str 5``): the plain kinds a mission is made of.
+_SAFE_TAGS = {f"tag:yaml.org,2002:{name}" for name in ("null", "bool", "int", "float", "str")}
 
 
 def _position(text: str, index: int) -> tuple[int, int]:
@@ -337,6 +343,7 @@ class _Open:
     located: Located
     start_count: int
     anchor: str | None
+    refused: bool = False
     key: tuple[str, int, int] | None = None
     key_refused: bool = False
     merges: list[tuple[Located, int, int]] = field(default_factory=list)
@@ -380,7 +387,7 @@ class _Composer:
             if isinstance(event, (yaml.SequenceEndEvent, yaml.MappingEndEvent)):
                 done = stack.pop()
                 self._close(done)
-                value = done.located
+                value = Located(REFUSED, done.located.line, done.located.column) if done.refused else done.located
             elif isinstance(event, yaml.AliasEvent):
                 value = self._alias(event.anchor, line, column)
             else:
@@ -394,13 +401,14 @@ class _Composer:
                 else:
                     if len(stack) >= MAX_DEPTH:
                         raise _Refused(line, column, f"nested more than {MAX_DEPTH} levels deep")
-                    if tag not in (None, "!", SEQ_TAG, MAP_TAG):
+                    bad_tag = tag not in (None, "!", SEQ_TAG, MAP_TAG)
+                    if bad_tag:
                         self.errors.append(SourceError(line, column, f"the tag {tag} is not allowed: plain YAML only"))
                     mapping = isinstance(event, yaml.MappingStartEvent)
                     located = Located({} if mapping else [], line, column)
                     if event.anchor is not None:
                         self.anchors[event.anchor] = (None, 0)
-                    stack.append(_Open(located, self.count - 1, event.anchor))
+                    stack.append(_Open(located, self.count - 1, event.anchor, refused=bad_tag))
                     continue
             if not stack:
                 return value
@@ -419,11 +427,11 @@ class _Composer:
     def _alias(self, anchor: str, line: int, column: int) -> Located:
         if anchor not in self.anchors:
             self.errors.append(SourceError(line, column, f"the alias *{anchor} has no anchor &{anchor} before it"))
-            return Located(None, line, column)
+            return Located(REFUSED, line, column)
         target, size = self.anchors[anchor]
         if target is None:
             self.errors.append(SourceError(line, column, f"the alias *{anchor} refers to itself"))
-            return Located(None, line, column)
+            return Located(REFUSED, line, column)
         self.count += size
         if self.count > MAX_NODES:
             raise _Refused(line, column, f"the file expands to more than {MAX_NODES:,} values (through aliases)")
@@ -439,7 +447,7 @@ class _Composer:
             tag = event.tag
             if tag not in _SAFE_TAGS:
                 self.errors.append(SourceError(line, column, f"the tag {tag} is not allowed: plain YAML only"))
-                return Located(None, line, column)
+                return Located(REFUSED, line, column)
         else:
             tag = loader.resolve(yaml.ScalarNode, event.value, event.implicit)
         if tag in (_INT_TAG, _FLOAT_TAG) and len(event.value) > MAX_NUMBER_CHARS:
@@ -449,7 +457,7 @@ class _Composer:
                     line, column, f"a number written with {digits:,} digits: no value here needs more than a few"
                 )
             )
-            return Located(None, line, column)
+            return Located(REFUSED, line, column)
         if tag == _STR_TAG:
             return Located(event.value, line, column)  # most values: no constructor needed
         if tag == _MERGE_TAG:
@@ -457,11 +465,10 @@ class _Composer:
         node = yaml.ScalarNode(tag, event.value, event.start_mark, event.end_mark, event.style)
         try:
             value = loader.construct_object(node, deep=True)
-        except (yaml.YAMLError, ValueError, OverflowError) as err:
-            self.errors.append(
-                SourceError(line, column, f"cannot read {event.value[:20]!r} as {tag.rsplit(':', 1)[-1]}: {err}")
-            )
-            return Located(None, line, column)
+        except Exception:  # noqa: BLE001 - PyYAML's constructors fail in many ways on a value a tag forces
+            kind = tag.rsplit(":", 1)[-1]
+            self.errors.append(SourceError(line, column, f"{event.value[:20]!r} is not a {kind}: write a plain value"))
+            return Located(REFUSED, line, column)
         return Located(value, line, column)
 
     def _add(self, into: _Open, value: Located, event: yaml.Event) -> None:
@@ -486,7 +493,10 @@ class _Composer:
         if waiting is None:
             return
         key, line, column = waiting
-        if key == "<<" and value.value is not _MERGE:
+        if value.value is _MERGE:  # '<<' where a value belongs
+            self.errors.append(SourceError(value.line, value.column, "'<<' merges a mapping in, as a key only"))
+            value = Located(REFUSED, value.line, value.column)
+        if key == "<<":
             merged = value.value if isinstance(value.value, list) else [value]
             for item in merged:
                 if isinstance(item.value, dict):
@@ -503,6 +513,28 @@ class _Composer:
 
 
 _MERGE = object()
+
+
+class _RefusedValue:
+    """The value of something the reader refused (its problem is reported where it stands)."""
+
+    def __repr__(self) -> str:
+        return "<refused>"
+
+
+#: What a refused value reads as: readers leave it alone, its problem is already reported.
+REFUSED = _RefusedValue()
+
+
+def refused(located: Located) -> bool:
+    """Whether ``located`` was refused by the reader, or is a list holding such a value.
+
+    Its problem is reported where it stands; a check of the value around it says nothing more.
+    """
+    value = located.value
+    return value is REFUSED or (isinstance(value, list) and any(item.value is REFUSED for item in value))
+
+
 _Loader = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
 
 

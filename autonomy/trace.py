@@ -44,14 +44,21 @@ class TraceWriter:
         self.stream = stream
         self.clock = clock or RealClock()
         self._flushed_s = self.clock.now()
+        #: Why the trace stopped being written (a full disk), or empty. The run goes on.
+        self.failure = ""
 
     def __call__(self, record: Record) -> None:
-        """Writes one record."""
-        self.stream.write(to_line(record) + "\n")
-        now = self.clock.now()
-        if not isinstance(record, TickRecord) or now - self._flushed_s >= self.FLUSH_S:
-            self.stream.flush()
-            self._flushed_s = now
+        """Writes one record; once the file cannot be written to, notes why and writes no more."""
+        if self.failure:
+            return
+        try:
+            self.stream.write(to_line(record) + "\n")
+            now = self.clock.now()
+            if not isinstance(record, TickRecord) or now - self._flushed_s >= self.FLUSH_S:
+                self.stream.flush()
+                self._flushed_s = now
+        except (OSError, ValueError) as err:  # a full disk, a file that takes no writes, a closed stream
+            self.failure = getattr(err, "strerror", None) or str(err)
 
 
 @dataclass

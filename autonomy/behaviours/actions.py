@@ -123,12 +123,12 @@ class Move(RobotAction):
         self._wrong_way.reset(self.clock.now())
         status = self.robot_status
         self._start_odometer_mm = self._last_odometer_mm = status.odometer_mm
-        self._start_s = self.clock.now()
         # A collision flag still held from an earlier impact is not this move's collision.
         self._collision_armed = not status.collided
         self._failed = not self.send(
             lambda: self.client.move(self.args["speed"], backward=self.args["direction"] == "backward")
         )
+        self._start_s = self.clock.now()  # once F is accepted: its retries may have taken a while
         if not self._failed:
             self.started_motion()
 

@@ -163,6 +163,22 @@ class RobotBehaviour(py_trees.behaviour.Behaviour):
     #: "action" or "condition".
     category: ClassVar[str] = "action"
 
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        """Checks what every ``update`` of a subclass returns (py_trees would only log it and go on)."""
+        super().__init_subclass__(**kwargs)
+        update = cls.__dict__.get("update")
+        if update is not None and not getattr(update, "_checked", False):
+
+            def checked(self: RobotBehaviour) -> Status:
+                status = update(self)
+                if not isinstance(status, Status):
+                    raise TypeError(f"update() returned {status!r}; it must return Status.RUNNING, SUCCESS or FAILURE")
+                return status
+
+            checked._checked = True  # type: ignore[attr-defined]
+            checked.__doc__, checked.__name__, checked.__qualname__ = update.__doc__, "update", update.__qualname__
+            cls.update = checked  # type: ignore[method-assign]
+
     def __init__(self, name: str, **args: Any) -> None:
         super().__init__(name)
         self.args = args

@@ -8,6 +8,7 @@ pty server are thin shells around it.
 
 from __future__ import annotations
 
+import math
 import random
 import threading
 from collections import deque
@@ -278,17 +279,20 @@ def emulator_from_options(options: dict[str, str], clock: Clock | None = None) -
     if unknown:
         raise ValueError(f"unknown emulator option '{sorted(unknown)[0]}': use {', '.join(OPTIONS)}")
 
-    def number(key: str, kind: type, default: float) -> Any:
+    def number(key: str, kind: type, default: float, low: float = -math.inf, high: float = math.inf) -> Any:
         try:
-            return kind(options.get(key, default))
+            value = kind(options.get(key, default))
         except ValueError:
             raise ValueError(f"emulator option {key} must be a number, got '{options[key]}'") from None
+        if not (math.isfinite(value) and low <= value <= high):
+            raise ValueError(f"emulator option {key} must be from {low:g} to {high:g}, got '{options[key]}'")
+        return value
 
     params = RobotParams()
     if "battery" in options:
-        params = replace(params, battery_start=number("battery", float, 230))
+        params = replace(params, battery_start=number("battery", float, 230, 0, 255))
     if "noise" in options:
-        params = replace(params, sensor_noise_mm=number("noise", float, 0))
+        params = replace(params, sensor_noise_mm=number("noise", float, 0, 0, 100))
     time_mode = options.get("time", "real")
     if time_mode not in ("real", "virtual"):
         raise ValueError(f"emulator option time must be real or virtual, got '{time_mode}'")
@@ -301,7 +305,7 @@ def emulator_from_options(options: dict[str, str], clock: Clock | None = None) -
         seed=number("seed", int, 0),
         clock=clock,
         baud=number("baud", int, DEFAULT_EMULATOR_BAUD),
-        boot_s=number("boot", float, 0.0),
+        boot_s=number("boot", float, 0.0, 0, 60),
     )
     mode = options.get("mode", "auto")
     if mode not in ("auto", "manual"):

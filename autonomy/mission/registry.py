@@ -75,13 +75,25 @@ def _leaf_label(cls: type[RobotBehaviour]) -> Callable[[dict[str, Any]], str]:
 
 
 def leaf_type(cls: type[RobotBehaviour], origin: str = "built-in") -> NodeType:
-    """Makes the node type a leaf class declares."""
-    if not cls.node_type:
-        raise ValueError(f"{cls.__name__} declares no node_type")
+    """Makes the node type a leaf class declares.
+
+    Raises:
+        ValueError: the class declares its node type wrongly (the message says how to mend it).
+    """
+    name = cls.__name__
+    if not isinstance(cls.node_type, str) or not cls.node_type.isidentifier():
+        raise ValueError(f"{name}.node_type must be a name such as 'turn_until_clear', got {cls.node_type!r}")
+    if not isinstance(cls.params, tuple) or not all(isinstance(p, Param) for p in cls.params):
+        raise ValueError(f"{name}.params must be a tuple of Param(...), got {cls.params!r}"[:200])
+    if not isinstance(cls.exactly_one_of, tuple):
+        raise ValueError(f"{name}.exactly_one_of must be a tuple of tuples of parameter names")
+    if not isinstance(cls.doc, str):
+        raise ValueError(f"{name}.doc must be one line of text, got {cls.doc!r}"[:200])
+    described = (cls.__doc__ or "").strip().splitlines()
     return NodeType(
         name=cls.node_type,
         category=cls.category,
-        doc=cls.doc or (cls.__doc__ or "").strip().splitlines()[0],
+        doc=cls.doc or (described[0] if described else f"{cls.node_type} (from {origin})"),
         params=cls.params,
         build=lambda name, args, children: cls(name, **args),
         label=_leaf_label(cls),

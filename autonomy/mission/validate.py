@@ -10,6 +10,7 @@ from __future__ import annotations
 import hashlib
 import importlib.util
 import math
+import re
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -20,7 +21,16 @@ from autonomy.behaviours.base import MAX_NUMBER
 from autonomy.emulator.world import SHIPPED, WorldError, WorldInvalid, load_world
 from autonomy.errors import AutonomyError
 from autonomy.mission.registry import BUILTINS, NodeType, Registry, leaf_classes_in, leaf_type
-from autonomy.source import Located, Problem, UnreadableFile, control_character, is_file, parse, read_text
+from autonomy.source import (
+    Located,
+    Problem,
+    UnreadableFile,
+    control_character,
+    is_file,
+    parse,
+    read_text,
+    refused,
+)
 from autonomy.source import suggest as _suggest
 
 TOP_LEVEL = ("mission", "description", "tick_hz", "world", "subtrees", "tree", "plugins")
@@ -31,6 +41,8 @@ MAX_TICK_HZ = 200.0
 MAX_TREE_DEPTH = 50
 #: Most nodes a tree may have, subtrees expanded (each use of a subtree is a copy).
 MAX_TREE_NODES = 3_000
+#: Longest text (a name, a message, a description) a mission may hold.
+MAX_TEXT_CHARS = 1_000
 
 
 class MissionInvalid(AutonomyError):
@@ -75,6 +87,9 @@ class MissionSpec:
     sha256: str = ""
 
 
+_EXPONENT_AS_TEXT = re.compile(r"^[-+]?\d+(\.\d*)?[eE][-+]?\d+$")
+
+
 def _type_name(value: Any) -> str:
     if value is None:
         return "nothing"
@@ -97,6 +112,8 @@ class _Validator:
         self.references: list[tuple[str, str, Located, str]] = []  # (owner, subtree name, where, path)
 
     def problem(self, where: Located | tuple[int, int], path: str, message: str) -> None:
+        if isinstance(where, Located) and refused(where):  # the reader said why already
+            return
         line, column = (where.line, where.column) if isinstance(where, Located) else where
         self.problems.append(Problem(self.source, line, column, path, message))
 
@@ -172,10 +189,16 @@ class _Validator:
         return self.plain_text(value, doc[key], key)
 
     def plain_text(self, value: str, where: Located, path: str) -> str | None:
-        """``value``, or None and a problem when it holds a control character (it would reach terminals)."""
+        """``value``, or None and a problem when it holds a control character (it would reach terminals).
+
+        Text is at most :data:`MAX_TEXT_CHARS` long: it is shown in one line of a terminal.
+        """
         bad = control_character(value)
         if bad:
             self.problem(where, path, f"contains the control character {bad}; write plain text")
+            return None
+        if len(value) > MAX_TEXT_CHARS:
+            self.problem(where, path, f"is {len(value):,} characters long; at most {MAX_TEXT_CHARS:,}")
             return None
         return value
 
@@ -452,7 +475,10 @@ class _Validator:
             or (kind == "int" and not isinstance(value, int))
         ):
             expected = "a whole number" if kind == "int" else "a number"
-            self.problem(located, path, f"{what} must be {expected}, got {_type_name(value)}")
+            hint = ""
+            if isinstance(value, str) and _EXPONENT_AS_TEXT.match(value):
+                hint = f" (YAML reads {value} as text: write it out, or with a point and a sign, as 1.0e+3)"
+            self.problem(located, path, f"{what} must be {expected}, got {_type_name(value)}{hint}")
             return _INVALID
         low, high = param.minimum, param.maximum
         if not math.isfinite(value) or abs(value) > MAX_NUMBER:
@@ -491,14 +517,17 @@ class _Validator:
             spec, ready = todo.pop()
             if id(spec) in measured:
                 continue
-            below = [subtrees[spec.args["subtree"]]] if spec.type.category == "reference" else spec.children
+            if spec.type.category == "reference":  # a subtree the reader refused is missing: nothing to measure
+                below = [subtrees[spec.args["subtree"]]] if spec.args["subtree"] in subtrees else []
+            else:
+                below = spec.children
             if not ready:
                 todo.append((spec, True))
                 todo.extend((child, False) for child in below if id(child) not in measured)
                 continue
             sizes = [measured[id(child)] for child in below]
             if spec.type.category == "reference":
-                measured[id(spec)] = sizes[0]
+                measured[id(spec)] = sizes[0] if sizes else (0, 0)
             else:
                 depth = 1 + max((d for d, _ in sizes), default=0)
                 nodes = 1 + sum(n for _, n in sizes)
@@ -507,7 +536,7 @@ class _Validator:
         if depth > MAX_TREE_DEPTH:
             crossing, level = tree, 1  # follow the deepest branch to the first node past the limit
             while True:
-                while crossing.type.category == "reference":
+                while crossing.type.category == "reference" and crossing.args["subtree"] in subtrees:
                     crossing = subtrees[crossing.args["subtree"]]
                 if level > MAX_TREE_DEPTH:
                     break

@@ -108,3 +108,28 @@ def test_a_plugin_class_that_cannot_be_built_is_a_problem_of_the_file(tmp_path):
         assert result.returncode == 2 and "Traceback" not in result.stderr, result.stderr
         assert "m.yaml:4:" in result.stderr and "cannot build node 'half' (plugin beh)" in result.stderr
         assert "abstract method update" in result.stderr
+
+
+@pytest.mark.parametrize(
+    ("body", "said"),
+    [
+        ("raise KeyboardInterrupt", "raised KeyboardInterrupt"),
+        ("return None", "update() returned None; it must return Status.RUNNING, SUCCESS or FAILURE"),
+        ("return 42", "update() returned 42"),
+    ],
+)
+def test_a_behaviour_that_raises_ctrl_c_or_returns_no_status_ends_the_run_as_its_error(tmp_path, body, said):
+    (tmp_path / "beh.py").write_text(
+        "from py_trees.common import Status\n"
+        "from autonomy.behaviours import RobotAction\n\n"
+        "class Odd(RobotAction):\n"
+        "    node_type = 'odd'\n"
+        "    def update(self):\n"
+        f"        {body}\n"
+    )
+    mission = tmp_path / "m.yaml"
+    mission.write_text("mission: m\nplugins: [beh]\ntree: {parallel: [{move: {speed: 1}}, odd]}\n")
+    result = autonomy("run", str(mission), "--fast", "--max-seconds", "5")
+    assert result.returncode == 1 and "Traceback" not in result.stderr, result.stdout + result.stderr
+    assert "stopped by an error" in result.stdout and "node 'odd'" in result.stdout and said in result.stdout
+    assert "It was stopped at the end." in result.stdout and "[ERROR]" not in result.stdout

@@ -247,3 +247,10 @@ def test_a_second_ctrl_c_does_not_cut_the_final_stop_short(tmp_path, presses, ga
     assert "stopping the robot first" in err and "Traceback" not in err
     end = json.loads(trace.read_text().splitlines()[-1])
     assert end["type"] == "end" and end["stopped"] and end["wire"][-1][:2] == ["X0000", "OK"]
+
+
+def test_a_trace_that_cannot_be_written_is_said_once_and_the_run_goes_on():
+    result = autonomy("run", "missions/square.yaml", "--fast", "--trace", "/dev/full")
+    assert result.returncode == 1 and "Traceback" not in result.stderr
+    assert "Mission 'square' succeeded" in result.stdout and "It was stopped at the end." in result.stdout
+    assert result.stderr.strip() == "autonomy: the trace /dev/full is incomplete: No space left on device"

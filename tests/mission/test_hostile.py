@@ -161,3 +161,78 @@ def test_anchors_aliases_and_merge_keys_still_work():
     )
     first, second = spec.tree.children
     assert first.args["speed"] == 2 and second.args["speed"] == 3 and second.args["distance_mm"] == 100
+
+
+@pytest.mark.parametrize(
+    ("value", "said"),
+    [
+        ("!!bool 'maybe'", "'maybe' is not a bool: write a plain value"),
+        ("!!bool ''", "'' is not a bool"),
+        ("!!int ''", "'' is not a int"),
+        ("!!int '-'", "'-' is not a int"),
+        ("!!float '_'", "'_' is not a float"),
+        ("!!timestamp 'x'", "the tag tag:yaml.org,2002:timestamp is not allowed"),
+        ("!!binary 'a'", "the tag tag:yaml.org,2002:binary is not allowed"),
+        ("!!seq x", "the tag tag:yaml.org,2002:seq is not allowed"),
+        ("!!merge x", "the tag tag:yaml.org,2002:merge is not allowed"),
+    ],
+)
+def test_a_value_forced_by_a_tag_is_one_plain_problem(value, said):
+    found = problems(f"mission: t\ntree:\n  wait: {{seconds: {value}}}\n")
+    assert len(found) == 1 and said in found[0] and "\\n" not in found[0], found
+
+
+def test_a_bad_number_inside_a_list_is_reported_once():
+    found = problems("mission: t\ntree:\n  beep: {tones: [0x" + "f" * 5000 + ", 1, 1]}\n")
+    assert len(found) == 1 and "5,002 digits" in found[0]
+
+
+@pytest.mark.parametrize("text", ["1e3", "2E2", "-1e3", "1.5e2"])
+def test_a_number_yaml_reads_as_text_gets_a_hint(text):
+    [found] = problems(f"mission: t\ntree:\n  move: {{speed: 1, distance_mm: {text}}}\n")
+    assert f"YAML reads {text} as text" in found
+
+
+@pytest.mark.parametrize("separator", ["\\L", "\\P"])
+def test_a_line_separator_in_a_name_is_refused(separator):
+    [found] = problems(f'mission: "a{separator}b"\ntree: stop\n')
+    assert "control character" in found
+
+
+def test_text_is_at_most_1000_characters_and_problems_quote_it_short():
+    [found] = problems(f"mission: {'n' * 900_00}\ntree: stop\n")
+    assert found.endswith("is 90,000 characters long; at most 1,000")
+    [key] = problems(f"mission: t\n? {'k' * 500_000}\n: 1\ntree: stop\n")
+    assert len(key) < 1000 and "(500,000 characters)" in key
+
+
+@pytest.mark.parametrize(
+    ("body", "said"),
+    [
+        ("node_type = 5", "node_type must be a name such as 'turn_until_clear', got 5"),
+        ("node_type = 'bad name'", "node_type must be a name"),
+        ("node_type = 'p5'\n    params = 5", "params must be a tuple of Param(...), got 5"),
+        ("node_type = 'p6'\n    doc = 7", "doc must be one line of text, got 7"),
+    ],
+)
+def test_a_plugin_class_declared_wrongly_is_a_problem_of_the_file(tmp_path, body, said):
+    (tmp_path / "beh.py").write_text(
+        f"from autonomy.behaviours import RobotCondition\n\nclass C(RobotCondition):\n    {body}\n"
+    )
+    [found] = problems_in(tmp_path, "mission: t\nplugins: [beh]\ntree: stop\n")
+    assert found.startswith("m.yaml:2:11: plugins[0]: plugin 'beh': C.") and said in found
+
+
+def problems_in(folder, text: str) -> list[str]:
+    with pytest.raises(MissionInvalid) as caught:
+        validate_text(text, "m.yaml", folder)
+    return [str(p) for p in caught.value.problems]
+
+
+def test_a_plugin_class_without_doc_or_docstring_is_named_by_its_type(tmp_path):
+    (tmp_path / "beh.py").write_text(
+        "from autonomy.behaviours import RobotCondition\n\nclass C(RobotCondition):\n    node_type = 'quiet'\n"
+        "    def check(self):\n        return True\n"
+    )
+    spec = validate_text("mission: t\nplugins: [beh]\ntree: quiet\n", "m.yaml", tmp_path)
+    assert spec.registry.get("quiet").doc == "quiet (from plugin beh)"
