@@ -6,7 +6,7 @@ STAMP := $(VENV)/.installed
 
 CHROMIUM ?= /usr/bin/chromium
 
-.PHONY: run test bench fuzz docs clean chromium
+.PHONY: run test bench fuzz mutation docs clean chromium
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -38,6 +38,12 @@ test: $(STAMP) chromium
 fuzz: $(STAMP)
 	AUTONOMY_FUZZ_CASES=100000 $(BIN)/python -m pytest -q tests/fuzz
 
+## mutation: mutation testing of the five modules where a change shows (mutmut; hours on 2 cores), then the score
+mutation: $(STAMP)
+	$(BIN)/python -m pip install --quiet -e '.[test,mutation]'
+	-$(BIN)/mutmut run
+	$(BIN)/python benchmarks/mutation.py
+
 ## bench: the link, emulator and mission benchmarks (figures for the README)
 bench: $(STAMP)
 	$(BIN)/python benchmarks/link.py
@@ -50,4 +56,4 @@ docs: $(STAMP)
 	$(BIN)/python -c "from autonomy.mission.catalogue import update_reference; update_reference('docs/missions.md')"
 
 clean:
-	rm -rf $(VENV) build *.egg-info .pytest_cache .ruff_cache .hypothesis
+	rm -rf $(VENV) build *.egg-info .pytest_cache .ruff_cache .hypothesis mutants
