@@ -26,6 +26,7 @@ from autonomy.source import (
     Problem,
     UnreadableFile,
     control_character,
+    exists,
     is_file,
     parse,
     read_text,
@@ -210,9 +211,12 @@ class _Validator:
         if name in SHIPPED:
             return name
         path = Path(name)
-        if not path.is_absolute() and is_file(base_dir / path):
+        if not path.is_absolute() and exists(base_dir / path):
             path = base_dir / path
         if not is_file(path):
+            if exists(path):
+                self.problem(where, "world", f"'{name}' is not a world file (a folder, a device or a pipe)")
+                return None
             hint = _suggest(name, list(SHIPPED))
             self.problem(
                 where,

@@ -54,8 +54,12 @@ def test_a_world_file_with_problems_is_reported_with_each_of_them_at_its_place(t
 
 def test_a_world_that_cannot_be_read_is_one_problem(tmp_path):
     (tmp_path / "folder.yaml").mkdir()
-    found = problems("mission: t\nworld: folder.yaml\ntree: stop\n", tmp_path)
-    assert len(found) == 1 and found[0].startswith("m.yaml:2:8: world:")
+    assert problems("mission: t\nworld: folder.yaml\ntree: stop\n", tmp_path) == [
+        "m.yaml:2:8: world: 'folder.yaml' is not a world file (a folder, a device or a pipe)"
+    ]
+    assert problems("mission: t\nworld: /dev/zero\ntree: stop\n", tmp_path) == [
+        "m.yaml:2:8: world: '/dev/zero' is not a world file (a folder, a device or a pipe)"
+    ]
 
 
 def test_the_world_is_not_looked_at_when_grading_asks_not_to(tmp_path):
