@@ -283,50 +283,63 @@ def _text_problems(text: str) -> list[SourceError]:
     return problems
 
 
+#: What the YAML parsers say (PyYAML's and libyaml's words both), and what it means to a student.
+#: Each entry: the words to find, where ("problem" or "context"), and the plain message.
+_PLAIN_WORDS = (
+    (
+        ("expected <block end>", "did not find expected key"),
+        "problem",
+        "this line does not line up with the ones above it: the items of one list or mapping start in the same column",
+    ),
+    (
+        ("mapping values are not allowed",),
+        "problem",
+        "a ': ' where a plain value was expected: put the value in quotes, or start the mapping on its own line",
+    ),
+    (
+        ("could not find expected ':'",),
+        "problem",
+        "a key without ':' after it, or a line indented by mistake, ends here",
+    ),
+    (("',' or ']'",), "problem", "a '[' list is not closed with ']', or its items are not separated by ','"),
+    (("',' or '}'",), "problem", "a '{' mapping is not closed with '}', or its entries are not separated by ','"),
+    (("quoted scalar",), "context", "a quoted text is not closed: add the closing quote"),
+    (
+        ("invalid Unicode character escape",),
+        "problem",
+        "an escape for a code that is not a character (\\ud800 to \\udfff are not): write plain text",
+    ),
+    (
+        ("unknown escape character",),
+        "problem",
+        "an unknown escape in a double-quoted text: write \\\\ for a backslash, or use single quotes",
+    ),
+    (("undefined alias",), "problem", "an alias (*name) that no anchor (&name) before it defines"),
+    (("duplicate anchor",), "context", "an anchor (&name) defined a second time: give each its own name"),
+    (("single document",), "context", "a second document: a file holds one, so remove the '---' line"),
+)
+
+
 def _plain_words(err: yaml.MarkedYAMLError, text: str) -> SourceError:
     """A YAML parser's complaint, said in words a student can act on, at its line and column."""
     mark = err.problem_mark or err.context_mark
     line, column = (mark.line + 1, mark.column + 1) if mark else (1, 1)
-    problem, context = err.problem or "", err.context or ""
+    said = {"problem": err.problem or "", "context": err.context or ""}
     index = mark.index if mark is not None else -1
     here = text[index] if 0 <= index < len(text) else ""
-    if "cannot start any token" in problem:
+    if "cannot start any token" in said["problem"]:
         if here == "\t":
-            message = "a tab: indent with spaces (YAML does not allow tabs for indentation)"
-        else:
-            message = f"{here!r} cannot start a value here: put the value in quotes"
-    elif "expected <block end>" in problem or "did not find expected key" in problem:
-        message = (
-            "this line does not line up with the ones above it: the items of one list or mapping "
-            "start in the same column"
-        )
-    elif "mapping values are not allowed" in problem:
-        message = (
-            "a ': ' where a plain value was expected: put the value in quotes, or start the mapping on its own line"
-        )
-    elif "could not find expected ':'" in problem:
-        message = "a key without ':' after it, or a line indented by mistake, ends here"
-    elif "',' or ']'" in problem:
-        message = "a '[' list is not closed with ']', or its items are not separated by ','"
-    elif "',' or '}'" in problem:
-        message = "a '{' mapping is not closed with '}', or its entries are not separated by ','"
-    elif "unexpected end of stream" in problem and "quoted" in context:
-        message = "a quoted text is not closed: add the closing quote"
-    elif "invalid Unicode character escape" in problem:
-        message = "an escape for a code that is not a character (\\ud800 to \\udfff are not): write plain text"
-    elif "unknown escape character" in problem:
-        message = "an unknown escape in a double-quoted text: write \\\\ for a backslash, or use single quotes"
-    elif "undefined alias" in problem:
-        message = "an alias (*name) that no anchor (&name) before it defines"
-    elif "duplicate anchor" in context:
-        message = "an anchor (&name) defined a second time: give each its own name"
-    elif "single document" in context:
-        message = "a second document: a file holds one, so remove the '---' line"
-    elif "could not determine a constructor for the tag" in problem:
-        message = f"the tag {problem.rsplit(' ', 1)[-1]} is not allowed: plain YAML only"
-    else:
-        message = f"not valid YAML: {problem or context or err}"
-    return SourceError(line, column, message)
+            return SourceError(line, column, "a tab: indent with spaces (YAML does not allow tabs for indentation)")
+        return SourceError(line, column, f"{here!r} cannot start a value here: put the value in quotes")
+    if "could not determine a constructor for the tag" in said["problem"]:
+        tag = said["problem"].rsplit(" ", 1)[-1]
+        return SourceError(line, column, f"the tag {tag} is not allowed: plain YAML only")
+    for needles, where, message in _PLAIN_WORDS:
+        if any(needle in said[where] for needle in needles):
+            if needles == ("quoted scalar",) and "end of stream" not in said["problem"]:
+                continue
+            return SourceError(line, column, message)
+    return SourceError(line, column, f"not valid YAML: {said['problem'] or said['context'] or err}")
 
 
 class _Refused(Exception):

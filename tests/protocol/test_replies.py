@@ -18,11 +18,11 @@ from autonomy.protocol import (
 )
 
 
-def decode_all(decoder: ReplyDecoder, data: bytes):
-    """Feeds data one byte at a time; returns the replies and the number of framing errors."""
+def decode_all(decoder: ReplyDecoder, data: bytes, chunk: int = 1):
+    """Feeds data ``chunk`` bytes at a time; returns the replies and the number of framing errors."""
     replies, errors = [], 0
-    for byte in data:
-        decoder.feed(bytes([byte]))
+    for start in range(0, len(data), max(chunk, 1)):
+        decoder.feed(data[start : start + chunk])
         while True:
             try:
                 reply = decoder.next_reply()
@@ -161,17 +161,7 @@ def test_invalid_parameter_values_are_framing_errors(wire, reason):
 
 def decode_at_once(decoder: ReplyDecoder, data: bytes):
     """Feeds all of ``data`` in one go, as one read of a busy line brings it."""
-    decoder.feed(data)
-    replies, errors = [], 0
-    while True:
-        try:
-            reply = decoder.next_reply()
-        except FramingError:
-            errors += 1
-            continue
-        if reply is None:
-            return replies, errors
-        replies.append(reply)
+    return decode_all(decoder, data, chunk=len(data))
 
 
 @pytest.mark.parametrize("asked", ["D", "B", "V", "A", "F"])
