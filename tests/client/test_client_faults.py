@@ -4,9 +4,10 @@ import pytest
 from py_trees.common import Status as TreeStatus
 
 from autonomy.behaviours.actions import Move, Turn
-from autonomy.client import GARBLED_LIMIT, Client
+from autonomy.client import GARBLED_LIMIT, SETTLE_POLLS, SETTLE_WAIT_S, Client
 from autonomy.errors import CommandUnconfirmed, ReplyTimeout
-from autonomy.protocol import Status
+from autonomy.protocol import Ack, Status
+from autonomy.protocol import Turn as TurnFrame
 from tests.client.fakes import ScriptedPort, frames_of
 from tests.harness import Rig
 
@@ -261,3 +262,77 @@ def test_a_move_that_starts_while_the_robot_still_rolls_back_is_not_the_wrong_wa
     robot.speed_mm_s = robot.target_speed_mm_s = -robot.params.speed_mm_s(4)  # backing at full speed
     assert rig.tick_until_done() == TreeStatus.SUCCESS, rig.root.feedback_message
     assert rig.root.feedback_message.startswith("drove")
+
+
+def settle_rig(before: bytes, after: bytes) -> tuple[Client, TimedPort]:
+    """A client whose T reply is lost, with the robot reading ``before`` until the T and ``after`` since."""
+    state = {"turned": False}
+
+    def respond(frame: bytes) -> bytes | None:
+        if frame.startswith(b"T"):
+            state["turned"] = True
+            return None
+        return after if state["turned"] else before
+
+    port = TimedPort(responder=respond)
+    client = client_for(port)
+    client.status()
+    return client, port
+
+
+@pytest.mark.parametrize(
+    ("before", "after", "settled"),
+    [
+        (packet(heading_deg=90), packet(heading_deg=93), True),  # turned, already stopped
+        (packet(heading_deg=90), packet(heading_deg=90, moving=True, mode=2), True),  # just started
+        (packet(heading_deg=90, moving=True, mode=1), packet(heading_deg=90, moving=True, mode=1), False),  # driving on
+        (packet(heading_deg=90), packet(heading_deg=90), False),  # nothing happened
+    ],
+)
+def test_a_lost_turn_reply_is_settled_only_by_a_turn_the_status_shows(before, after, settled):
+    client, port = settle_rig(before, after)
+    start_s = client.clock.now()
+    if settled:
+        assert client.request(TurnFrame(30)) == Ack(True)
+        assert client.stats.settled == 1
+    else:
+        with pytest.raises(CommandUnconfirmed, match="the robot is not turning"):
+            client.request(TurnFrame(30))
+        polls = [f for f in frames_of(port) if f == b"Gb000"]
+        assert len(polls) >= 2 + SETTLE_POLLS and client.stats.settled == 0
+        waited_s = client.clock.now() - start_s
+        assert waited_s >= client.timeout_s + (SETTLE_POLLS - 1) * SETTLE_WAIT_S
+    assert frames_of(port).count(b"T+030") == 1
+
+
+def test_each_settled_turn_is_counted():
+    turns = []
+
+    def respond(frame: bytes) -> bytes | None:
+        if frame.startswith(b"T"):
+            turns.append(frame)
+            return None
+        return packet(heading_deg=90 + 5 * len(turns))
+
+    client = client_for(TimedPort(responder=respond))
+    client.status()
+    client.turn(30)
+    client.turn(30)
+    assert client.stats.settled == 2 and len(turns) == 2
+
+
+@pytest.mark.parametrize(
+    ("heard", "said"),
+    [
+        (b"BUSY: another client\n", "BUSY: another client"),
+        (b"\x00\xff\nHELLO 12345678\n", "HELLO 12345678"),  # the last line only
+        (b"1234567\n", ""),  # too short to be a notice
+        (b"abc\x07defgh\n", ""),  # not printable
+        (b"caf\xe9 au lait!\n", ""),  # not ASCII
+        (b"", ""),
+    ],
+)
+def test_what_a_port_said_is_shown_only_when_it_is_a_line_of_text(heard, said):
+    client = client_for(ScriptedPort())
+    client._heard = bytearray(heard)
+    assert client.heard_text() == said

@@ -199,3 +199,24 @@ def test_a_plugin_calling_sys_exit_ends_the_run_as_an_error_with_the_robot_stopp
 def test_the_time_limit_is_kept_when_ticks_are_further_apart_than_it():
     summary, _ = run("  wait: {seconds: 30}\n", tick_hz=1.0, max_seconds=0.3)
     assert summary.outcome == TIME_LIMIT and summary.time_s == pytest.approx(0.3, abs=0.01)
+
+
+def test_a_crash_deep_in_a_plugin_shows_its_last_three_frames_and_the_whole_traceback(tmp_path):
+    (tmp_path / "deep.py").write_text(
+        "from autonomy.behaviours import RobotAction\n\n\n"
+        "def one():\n    return two()\n\n\ndef two():\n    return three()\n\n\ndef three():\n    return 1 / 0\n\n\n"
+        "class Deep(RobotAction):\n    node_type = 'deep'\n\n    def update(self):\n        return one()\n"
+    )
+    mission = tmp_path / "m.yaml"
+    mission.write_text("mission: m\nplugins: [deep]\ntree: deep\n")
+    recorder = Recorder()
+    client = Client.open("emu://?time=virtual")
+    summary = Runner.for_mission(load_mission(mission), client, listeners=[recorder]).run()
+    [event] = [e for e in recorder.end.events if e.kind == "exception"]
+    assert [frame.rsplit(":", 1)[0].split(" in ")[1] for frame in event.frames] == ["one", "two", "three"]
+    assert event.frames[-1].endswith("deep.py:13 in three: return 1 / 0")
+    assert summary.reason == event.message and event.message.endswith(
+        "raised ZeroDivisionError: division by zero at " + event.frames[-1].split(": ", 1)[0]
+    )
+    assert event.traceback.startswith("Traceback (most recent call last)")
+    assert event.traceback.rstrip().endswith("ZeroDivisionError: division by zero")

@@ -129,3 +129,16 @@ def test_a_value_of_the_wrong_kind_is_named_as_a_student_would(value, shown):
     assert problems(f"mission: t\ntree:\n  move: {{speed: {value}}}\n") == [
         f"m.yaml:3:17: tree.move.speed: move speed must be a whole number, got {shown}"
     ]
+
+
+def test_a_plugin_may_import_the_files_beside_it_and_a_package_its_own_modules(tmp_path):
+    (tmp_path / "shared_helpers_for_test.py").write_text("ANSWER = 42\n")
+    (tmp_path / "uses_helper.py").write_text("from shared_helpers_for_test import ANSWER\n")
+    assert import_plugin("uses_helper", tmp_path).ANSWER == 42
+    package = tmp_path / "pkgplug"
+    package.mkdir()
+    (package / "inner.py").write_text("VALUE = 'inner'\n")
+    (package / "__init__.py").write_text("from .inner import VALUE\n")
+    assert import_plugin("pkgplug", tmp_path).VALUE == "inner"
+    assert str(tmp_path) not in sys.path  # the folder is on the path only while a plugin loads
+    sys.modules.pop("shared_helpers_for_test", None)
