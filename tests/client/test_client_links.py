@@ -183,3 +183,13 @@ def test_client_can_run_on_a_clock_of_its_own():
     assert client.clock is clock and client.port.emulator.clock is clock
     assert clock.now() >= 101.5  # it polled through the boot time, on this clock
     client.close()
+
+
+def test_why_a_port_did_not_open_says_what_to_do():
+    with pytest.raises(PortError, match=r"no such port \(serial ports on this machine: "):
+        Client.open("/dev/ttyNOSUCH")
+    listener = socket.create_server(("127.0.0.1", 0))
+    free_port = listener.getsockname()[1]
+    listener.close()  # nothing listens there now
+    with pytest.raises(PortError, match=r"connection refused \(is the emulator running there\?\)"):
+        Client.open(f"socket://127.0.0.1:{free_port}")
