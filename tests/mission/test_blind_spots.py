@@ -3,6 +3,7 @@ short, a clock not starting at 0, a tick longer than its period, subtrees that l
 
 from __future__ import annotations
 
+import re
 import threading
 
 import pytest
@@ -11,7 +12,7 @@ from py_trees.common import Status
 from autonomy.behaviours.actions import Move, Stop, Turn
 from autonomy.client import Client, open_port
 from autonomy.clock import VirtualClock
-from autonomy.mission import MissionInvalid, validate_text
+from autonomy.mission import MissionInvalid, load_mission, validate_text
 from autonomy.runner import TIME_LIMIT, Runner
 from tests.harness import Rig
 from tests.mission.test_runner import Explodes, tree_of
@@ -148,3 +149,71 @@ def test_a_loop_among_subtrees_past_the_start_is_found_at_once():
 def test_tick_hz_must_be_a_number(value):
     with pytest.raises(MissionInvalid, match="tick_hz must be a number"):
         validate_text(f"mission: t\ntick_hz: {value}\ntree: stop\n")
+
+
+def test_a_stop_asked_for_without_a_reason_still_gives_one():
+    client = Client.open("emu://?time=virtual&world=empty")
+    runner = Runner(tree_of("  wait: {seconds: 10}\n"), client)
+    runner.request_stop("")
+    assert runner.run().reason == "stop requested"
+    other = Runner(tree_of("  wait: {seconds: 10}\n"), client)
+    other.request_stop("its output was closed")
+    assert other.run().reason == "its output was closed"
+
+
+def test_the_failure_reason_names_the_leaf_that_failed_and_what_it_said():
+    summary, _ = run_tree(
+        "  sequence: [beep, {selector: [collided, {move: {speed: 1, distance_mm: 100}}]}]\n", "mode=manual"
+    )
+    assert summary.reason.startswith("'move 100 mm' failed (the robot refused F+100 (answered NO)")
+    bare, _ = run_tree("  sequence: [beep, collided]\n")
+    assert bare.reason == "'collided' failed"  # nothing said, nothing added
+
+
+def run_tree(tree: str, query: str = ""):
+    client = Client.open(f"emu://?time=virtual&world=empty{'&' + query if query else ''}")
+    summary = Runner(tree_of(tree), client, max_seconds=5).run()
+    return summary, client
+
+
+@pytest.mark.parametrize(
+    ("text", "said"),
+    [
+        ("mission: t\ntree:\n  move: 5\n", "move takes its parameters as a mapping, e.g. move: {speed: 2}"),
+        ("mission: t\ntree:\n  move:\n", "'move' needs parameters: speed"),
+        ("mission: t\ntree: move\n", "'move' needs parameters (speed); write it as move: {speed: 2}"),
+        ("mission: t\ntree:\n  sequence: [turn]\n", "tree.sequence[0].turn: 'turn' needs parameters (left or right)"),
+    ],
+)
+def test_a_node_without_its_parameters_is_shown_how_to_write_them(text, said):
+    with pytest.raises(MissionInvalid, match=re.escape(said)):
+        validate_text(text, "m.yaml")
+
+
+@pytest.mark.parametrize(
+    ("length", "shown"), [(40, "'" + "x" * 40 + "' (text)"), (41, "'" + "x" * 40 + "... (41 characters)' (text)")]
+)
+def test_long_text_is_quoted_short_in_problems(length, shown):
+    with pytest.raises(MissionInvalid) as caught:
+        validate_text(f"mission: t\ntree:\n  move: {{speed: {'x' * length}}}\n", "m.yaml")
+    assert str(caught.value.problems[0]).endswith(f"got {shown}")
+
+
+def test_validating_a_file_can_leave_its_world_alone(tmp_path):
+    mission = tmp_path / "m.yaml"
+    mission.write_text("mission: t\nworld: nowhere\ntree: stop\n")
+    assert load_mission(mission, check_world=False).world == "nowhere"
+    with pytest.raises(MissionInvalid, match="no world named 'nowhere'"):
+        load_mission(mission)
+
+
+@pytest.mark.parametrize(("args", "label"), [({"left": 90}, "turn left 90 deg"), ({"right": 45}, "turn right 45 deg")])
+def test_a_turn_is_named_by_its_side_and_angle(args, label):
+    assert Turn.label(args) == label
+
+
+def test_a_turn_says_how_far_it_has_to_go_each_tick():
+    rig = Rig(Turn("t", left=90), "world=empty")
+    rig.tick(3)
+    assert re.fullmatch(r"\d+ deg to go", rig.root.feedback_message)
+    assert 70 <= int(rig.root.feedback_message.split()[0]) < 90

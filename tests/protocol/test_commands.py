@@ -1,9 +1,24 @@
 """Command frames: golden bytes from the protocol document, ranges, and the firmware's parse."""
 
+import re
+
 import pytest
 
 from autonomy.errors import FramingError, InvalidCommand
-from autonomy.protocol import Beep, Get, Move, ServoBy, ServoTo, Stop, Turn, parse_command
+from autonomy.protocol import (
+    Beep,
+    Get,
+    Move,
+    ReplyDecoder,
+    ReplyKind,
+    ServoBy,
+    ServoTo,
+    Status,
+    Stop,
+    Turn,
+    decode_status,
+    parse_command,
+)
 
 # Every example of the original document, and the command that produces it.
 GOLDEN = [
@@ -99,3 +114,40 @@ def test_firmware_parse_rejects_bad_arguments(frame):
 def test_firmware_parse_rejects_bad_framing(frame):
     with pytest.raises(FramingError):
         parse_command(frame)
+
+
+@pytest.mark.parametrize(
+    ("build", "said"),
+    [
+        (lambda: Beep((0, 5, 5), 3), "tone must be in 1..9, got 0"),
+        (lambda: Beep((5, 5, 5), 6), "volume must be in 0..5, got 6"),
+        (lambda: Beep((5, 5), 3), "a beep has exactly 3 tones, got 2"),
+        (lambda: ServoTo(3, 0), "servo id must be in 0..2, got 3"),
+        (lambda: ServoTo(0, 100), "servo angle must be in -99..99, got 100"),
+        (lambda: ServoBy(3, 1), "servo id must be in 0..2, got 3"),
+        (lambda: ServoBy(0, -10), "servo step must be in -9..9, got -10"),
+        (lambda: ServoBy(0, 10), "servo step must be in -9..9, got 10"),
+    ],
+)
+def test_a_command_out_of_range_says_which_value_and_its_range(build, said):
+    with pytest.raises(InvalidCommand, match=re.escape(said)):
+        build()
+
+
+@pytest.mark.parametrize(("delta", "frame"), [(0, b"D0+00\n"), (1, b"D0+10\n"), (-1, b"D0-10\n"), (9, b"D0+90\n")])
+def test_servo_steps_encode_their_sign(delta, frame):
+    assert ServoBy(0, delta).encode() == frame
+
+
+def test_a_status_packet_shows_its_bytes_as_spaced_hex():
+    packet = Status(1, True, False, True, -4, 270, 10, 65535)
+    assert packet.as_dict()["raw"] == "62 51 fc 01 0e 0a ff ff 0a"
+    assert decode_status(packet.encode()).as_dict()["raw"] == "62 51 fc 01 0e 0a ff ff 0a"
+
+
+def test_junk_is_handed_over_with_the_framing_error():
+    decoder = ReplyDecoder(ReplyKind.ACK)
+    decoder.feed(b"zz\nOK\n")
+    with pytest.raises(FramingError, match=r"3 byte\(s\) that are not a valid reply: b'zz\\n'") as caught:
+        decoder.next_reply()
+    assert caught.value.data == b"zz\n"
