@@ -235,3 +235,9 @@ def test_client_open_keeps_its_time_out_and_retries():
         client.battery()
     assert client.stats.attempts - 1 == 2  # the first request and its one retry (after wait_ready's GF)
     assert client.clock.now() - start == pytest.approx(0.2, abs=0.05)
+
+
+def test_a_beep_by_default_is_three_rising_tones_at_volume_3():
+    port = ScriptedPort([b"OK\n"])
+    client_for(port).beep()
+    assert frames_of(port) == [b"S5793"]

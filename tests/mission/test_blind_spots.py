@@ -21,9 +21,12 @@ from tests.mission.test_runner import Explodes, tree_of
 class Meddling:
     """An emulator port whose robot turns short (``T+090`` becomes ``T+080``) or refuses ``X``."""
 
-    def __init__(self, query: str = "world=empty", short_turn: bool = False, refuse_stop: bool = False) -> None:
+    def __init__(
+        self, query: str = "world=empty", short_turn: bool = False, refuse_stop: bool = False, refuse: bytes = b""
+    ) -> None:
         self.inner = open_port(f"emu://?time=virtual&{query}")
         self.short_turn, self.refuse_stop = short_turn, refuse_stop
+        self.refuse = refuse or (b"X" if refuse_stop else b"")
         self.refused = 0
         self._pending = b""
 
@@ -31,7 +34,7 @@ class Meddling:
         return getattr(self.inner, name)
 
     def write(self, data: bytes) -> int:
-        if self.refuse_stop and data.startswith(b"X"):
+        if self.refuse and data.startswith(self.refuse):
             self.refused += 1
             self._pending = b"NO\n"
             return len(data)
@@ -217,3 +220,23 @@ def test_a_turn_says_how_far_it_has_to_go_each_tick():
     rig.tick(3)
     assert re.fullmatch(r"\d+ deg to go", rig.root.feedback_message)
     assert 70 <= int(rig.root.feedback_message.split()[0]) < 90
+
+
+def test_actions_fail_when_the_robot_refuses_them():
+    from autonomy.behaviours.actions import Beep, Servo
+
+    servo = Rig(Servo("s", id=0, angle=10, by=None), "mode=manual")  # manual mode: M is refused
+    assert servo.tick() == Status.FAILURE and "refused M0+10" in servo.root.feedback_message
+    beeping = rig_on(Meddling(refuse=b"S"), Beep("b", tones=[1, 2, 3], volume=2))
+    assert beeping.tick() == Status.FAILURE and "refused S1232" in beeping.root.feedback_message
+    heard = rig_on(Meddling(), Beep("b", tones=[1, 2, 3], volume=2))
+    assert heard.tick() == Status.SUCCESS and heard.robot.beeps[-1][1:] == ((1, 2, 3), 2)
+
+
+def test_a_crash_outside_the_working_folder_keeps_its_whole_path():
+    from autonomy.runner import _short_path
+
+    assert _short_path("/somewhere/else/beh.py") == "/somewhere/else/beh.py"
+    import os
+
+    assert _short_path(os.path.join(os.getcwd(), "missions", "beh.py")) == os.path.join("missions", "beh.py")

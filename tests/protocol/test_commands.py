@@ -151,3 +151,8 @@ def test_junk_is_handed_over_with_the_framing_error():
     with pytest.raises(FramingError, match=r"3 byte\(s\) that are not a valid reply: b'zz\\n'") as caught:
         decoder.next_reply()
     assert caught.value.data == b"zz\n"
+
+
+@pytest.mark.parametrize(("angle", "frame"), [(0, b"T+000\n"), (1, b"T+001\n"), (-1, b"T-001\n")])
+def test_turns_encode_their_sign(angle, frame):
+    assert Turn(angle).encode() == frame
