@@ -5,7 +5,7 @@ import threading
 import pytest
 import serial
 
-from autonomy.client import Client
+from autonomy.client import GARBLED_LIMIT, Client
 from autonomy.errors import CommandRefused, LinkError, LinkLost, ReplyTimeout
 from autonomy.protocol import Status
 from tests.client.fakes import ScriptedPort, frames_of
@@ -241,3 +241,30 @@ def test_a_beep_by_default_is_three_rising_tones_at_volume_3():
     port = ScriptedPort([b"OK\n"])
     client_for(port).beep()
     assert frames_of(port) == [b"S5793"]
+
+
+def test_waiting_for_a_robot_asks_once_a_try_and_never_retries_within_a_try():
+    client = client_for(ScriptedPort([None] * 100))
+    with pytest.raises(ReplyTimeout):
+        client.wait_ready(1.0)
+    assert client.stats.retries == 0 and client.stats.attempts == 4  # one GF000 each 0.25 s time-out
+
+
+def test_a_robot_that_answers_at_once_but_wrongly_is_asked_again_after_a_pause():
+    port = ScriptedPort(responder=lambda frame: b"OK\n")
+    client = client_for(port)
+    with pytest.raises(ReplyTimeout) as caught:
+        client.wait_ready(1.0)
+    tries = len(port.writes) / (GARBLED_LIMIT + 1)  # a garbled reply is asked again at once, GARBLED_LIMIT times
+    assert 18 <= tries <= 22  # then one try each 50 ms, not thousands
+    message = str(caught.value)
+    assert "lines of text but none the reply asked for (the last: 'OK')" in message
+    assert f"{caught.value.received} bytes came back" in message and caught.value.received == 3 * len(port.writes)
+    assert client._waiting_ready is False
+
+
+@pytest.mark.parametrize("noise", [b"\x7f\x7f\n", b"\x01ab\n", b"ab\x1f\n", b"\x80\n"])
+def test_bytes_that_are_not_text_point_at_the_baud_rate(noise):
+    client = client_for(ScriptedPort(responder=lambda frame: noise))
+    with pytest.raises(ReplyTimeout, match="none formed a reply: is the robot set to 115200 baud"):
+        client.wait_ready(0.5)
