@@ -240,3 +240,37 @@ def test_a_crash_outside_the_working_folder_keeps_its_whole_path():
     import os
 
     assert _short_path(os.path.join(os.getcwd(), "missions", "beh.py")) == os.path.join("missions", "beh.py")
+
+
+@pytest.mark.parametrize(
+    ("node", "rewrite", "said"),
+    [
+        (Turn("t", left=60), (b"T+", b"T-"), r"turning the wrong way: \d+ deg right \(asked left\)"),
+        (Turn("t", right=60), (b"T-", b"T+"), r"turning the wrong way: \d+ deg left \(asked right\)"),
+    ],
+)
+def test_a_turn_the_wrong_way_says_which_way_it_went_and_which_was_asked(node, rewrite, said):
+    from tests.client.test_client_faults import LosingPort
+
+    port = LosingPort("emu://?time=virtual&world=empty", b"?", rewrite)
+    rig = Rig(node, client=Client(port, clock=port.inner.clock, name="flipped"))
+    assert rig.tick_until_done() == Status.FAILURE
+    assert re.fullmatch(said, node.feedback_message), node.feedback_message
+
+
+def test_a_turn_says_how_far_it_turned_and_a_turn_of_nothing_is_done_at_once():
+    rig = Rig(Turn("t", left=90), "world=empty")
+    assert rig.tick_until_done() == Status.SUCCESS and re.fullmatch(
+        r"turned (8[7-9]|9[0-3]) deg", rig.root.feedback_message
+    )
+    nothing = Rig(Turn("t", left=0), "world=empty")
+    assert nothing.tick_until_done() == Status.SUCCESS
+
+
+@pytest.mark.parametrize(
+    ("args", "label"), [({"id": 0, "angle": 45}, "servo 0 to 45 deg"), ({"id": 1, "by": -5}, "servo 1 by -5 deg")]
+)
+def test_a_servo_node_is_named_by_what_it_does(args, label):
+    from autonomy.behaviours.actions import Servo
+
+    assert Servo.label(args) == label
