@@ -220,3 +220,17 @@ def test_a_crash_deep_in_a_plugin_shows_its_last_three_frames_and_the_whole_trac
     )
     assert event.traceback.startswith("Traceback (most recent call last)")
     assert event.traceback.rstrip().endswith("ZeroDivisionError: division by zero")
+
+
+def test_a_runner_for_a_mission_carries_its_name_file_hash_rate_and_limit(tmp_path):
+    mission = tmp_path / "m.yaml"
+    mission.write_text("mission: named\ntick_hz: 10\ntree:\n  wait: {seconds: 30}\n")
+    spec = load_mission(mission)
+    recorder = Recorder()
+    client = Client.open("emu://?time=virtual")
+    runner = Runner.for_mission(spec, client, max_seconds=0.5, listeners=[recorder])
+    summary = runner.run()
+    header = recorder.header
+    assert (header.mission, header.mission_file, header.mission_sha256) == ("named", str(mission), spec.sha256)
+    assert len(spec.sha256) == 64 and header.tick_hz == 10 and summary.tick_hz == 10
+    assert summary.outcome == TIME_LIMIT and summary.time_s == pytest.approx(0.5, abs=0.11)
