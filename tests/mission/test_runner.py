@@ -234,3 +234,19 @@ def test_a_runner_for_a_mission_carries_its_name_file_hash_rate_and_limit(tmp_pa
     assert (header.mission, header.mission_file, header.mission_sha256) == ("named", str(mission), spec.sha256)
     assert len(spec.sha256) == 64 and header.tick_hz == 10 and summary.tick_hz == 10
     assert summary.outcome == TIME_LIMIT and summary.time_s == pytest.approx(0.5, abs=0.11)
+
+
+def test_a_crash_in_a_helper_object_is_still_put_on_the_node_that_called_it(tmp_path):
+    (tmp_path / "helped.py").write_text(
+        "from autonomy.behaviours import RobotAction\n\n\n"
+        "class Helper:\n    def compute(self):\n        return {}['missing']\n\n\n"
+        "class Helped(RobotAction):\n    node_type = 'helped'\n\n"
+        "    def update(self):\n        return Helper().compute()\n"
+    )
+    mission = tmp_path / "m.yaml"
+    mission.write_text("mission: m\nplugins: [helped]\ntree: {sequence: [beep, helped]}\n")
+    recorder = Recorder()
+    summary = Runner.for_mission(load_mission(mission), Client.open("emu://?time=virtual"), listeners=[recorder]).run()
+    [event] = [e for e in recorder.end.events if e.kind == "exception"]
+    assert event.node == 2 and event.message.startswith("node 'helped' (helped, ")
+    assert "raised KeyError: 'missing'" in summary.reason
