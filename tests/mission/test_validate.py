@@ -102,6 +102,7 @@ def test_exactly_one_of():
         ("selector: {children: []}", "tree.selector.children: selector needs at least one child"),
         ("repeat: {do: [stop, beep]}", "tree.repeat.do: do takes one node; to do several things, wrap them"),
         ("sequence: stop", "tree.sequence: sequence takes a list of children"),
+        ("selector: {children: 5}", "m.yaml:3:24: tree.selector.children: selector takes a list of children, got 5"),
         ("invert: stop", "tree.invert: invert takes a mapping, e.g. invert: {do: NODE}"),
         ("repeat: 3", "tree.repeat: repeat takes a mapping, e.g. repeat: {times: ..., do: NODE}"),
         ("while: collided", "tree.while: while takes a mapping, e.g. while: {condition: ..., do: NODE}"),
