@@ -477,8 +477,11 @@ class Runner:
         self._emit(self.end)
 
     def _crash_event(self, err: BaseException) -> Event:
-        """Names the node whose code raised, its mission file and line, and the last frames."""
-        node = None
+        """Names the node whose code raised (the innermost on the stack), its file and line, and the last frames.
+
+        The root's own tick is always on the stack, so some node is always named.
+        """
+        node = self.root
         tb: TracebackType | None = err.__traceback__
         while tb is not None:
             candidate = tb.tb_frame.f_locals.get("self")
@@ -490,10 +493,8 @@ class Runner:
         lines = tuple(f"{_short_path(f.filename)}:{f.lineno} in {f.name}: {(f.line or '').strip()}" for f in own[-3:])
         error = f"{type(err).__name__}: {err}"
         full = "".join(traceback.format_exception(type(err), err, err.__traceback__))
-        if node is None or self.header is None:  # the header is sent before the first tick
-            return Event("exception", f"{error} (at {lines[-1]})" if lines else error, frames=lines, traceback=full)
         node_id = self._ids[id(node)]
-        info = self.header.nodes[node_id]
+        info = (self.header.nodes if self.header is not None else describe_tree(self.root))[node_id]
         where = info.where
         message = f"node '{node.name}' ({info.type}{', ' + where if where else ''}) raised {error}"
         if lines:
