@@ -683,8 +683,7 @@ def validate_text(
     problems = [Problem(source, e.line, e.column, "", e.message) for e in errors]
     validator = _Validator(source, (registry or BUILTINS).copy(), check_world)
     spec = validator.mission(root, base_dir or Path.cwd()) if root is not None else None
-    causes = {(e.line, e.column) for e in errors}  # a value the reader refused is not missing as well
-    problems += [p for p in validator.problems if (p.line, p.column) not in causes]
+    problems += validator.problems
     if problems or spec is None:
         raise MissionInvalid(problems or [Problem(source, 1, 1, "", "not a mission")])
     spec.sha256 = hashlib.sha256(text.encode("utf-8")).hexdigest()
