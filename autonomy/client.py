@@ -572,8 +572,9 @@ class Client:
         return int(self._parameter("A"))
 
     def healthy(self) -> bool:
-        """Returns True when the platform reports itself healthy (``GR``)."""
-        return _expect(self.request(Get("R")), Health).ok
+        """Returns True when the platform reports itself healthy (``GR``); an unhealthy answer is asked twice."""
+        # A robot answers NO to a request that reached it garbled, too: a NO is believed once it is said twice.
+        return _expect(self.request(Get("R")), Health).ok or _expect(self.request(Get("R")), Health).ok
 
 
 def _text(frame: bytes) -> str:

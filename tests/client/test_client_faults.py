@@ -336,3 +336,11 @@ def test_what_a_port_said_is_shown_only_when_it_is_a_line_of_text(heard, said):
     client = client_for(ScriptedPort())
     client._heard = bytearray(heard)
     assert client.heard_text() == said
+
+
+def test_health_is_not_taken_as_bad_from_one_garbled_request():
+    port = ScriptedPort([b"NO\n", b"OK\n"])  # the first GR000 arrived garbled, so the robot said NO
+    client = client_for(port)
+    assert client.healthy() is True and frames_of(port) == [b"GR000", b"GR000"]
+    unhealthy = ScriptedPort([b"NO\n", b"NO\n"])
+    assert client_for(unhealthy).healthy() is False and len(unhealthy.writes) == 2

@@ -90,9 +90,9 @@ def test_no_to_a_turn_is_not_retried():
 
 
 def test_health_no_is_an_answer_not_a_refusal():
-    port = ScriptedPort([b"NO\n"])
+    port = ScriptedPort([b"NO\n", b"NO\n"])
     assert client_for(port).healthy() is False
-    assert frames_of(port) == [b"GR000"]
+    assert frames_of(port) == [b"GR000"] * 2  # not retried as a refusal; asked once more to be believed
 
 
 def test_close_sends_stop_until_acknowledged():
