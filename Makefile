@@ -50,6 +50,7 @@ bench: $(STAMP)
 	$(BIN)/python benchmarks/missions.py
 	$(BIN)/python benchmarks/views.py
 	$(BIN)/python benchmarks/hostile.py
+	$(BIN)/python benchmarks/groot.py
 
 ## docs: make the node reference in docs/missions.md anew from the registry
 docs: $(STAMP)

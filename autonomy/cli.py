@@ -351,8 +351,29 @@ def cmd_run(args: argparse.Namespace) -> int:
     writer = TraceWriter(trace) if trace is not None else None
     if writer is not None:
         listeners.append(writer)
-    server = live = None
+    server = live = groot = btlog = btlog_writer = None
     try:
+        if args.btlog or args.groot:
+            from autonomy.mission.btcpp import ExportError, instance
+
+            try:
+                tree = instance(spec)
+            except ExportError as err:
+                return _fail(f"{args.mission}: {err}", EXIT_USAGE)
+        if args.btlog:
+            from autonomy.btlog import BtlogWriter
+
+            try:
+                btlog = open(args.btlog, "wb")  # noqa: SIM115 - closed in finally
+            except OSError as err:
+                return _fail(f"cannot write the log to {args.btlog}: {err.strerror}", EXIT_USAGE)
+            btlog_writer = BtlogWriter(btlog, tree)
+            listeners.append(btlog_writer)
+        if args.groot:
+            groot, error = _start_groot(args, tree)
+            if groot is None:
+                return _fail(error, EXIT_USAGE)
+            listeners.append(groot)
         if args.view:
             server, error = _start_view(args)
             if server is None:
@@ -396,12 +417,41 @@ def cmd_run(args: argparse.Namespace) -> int:
                     writer.failure = err.strerror or str(err)
             if writer is not None and writer.failure:
                 print(f"autonomy: the trace {args.trace} is incomplete: {writer.failure}", file=sys.stderr)
+        if btlog is not None:
+            try:
+                btlog.close()
+            except OSError as err:
+                if btlog_writer is not None and not btlog_writer.failure:
+                    btlog_writer.failure = err.strerror or str(err)
+            if btlog_writer is not None and btlog_writer.failure:
+                print(f"autonomy: the log {args.btlog} is incomplete: {btlog_writer.failure}", file=sys.stderr)
+        if groot is not None:
+            groot.stop()
         if server is not None:
             server.stop()
     code = {SUCCEEDED: EXIT_OK, FAILED: EXIT_FAILED, LINK_LOST: EXIT_LINK, INTERRUPTED: EXIT_INTERRUPTED}.get(
         summary.outcome, EXIT_FAILED
     )
-    return EXIT_FAILED if code == EXIT_OK and writer is not None and writer.failure else code
+    lost = (writer is not None and writer.failure) or (btlog_writer is not None and btlog_writer.failure)
+    return EXIT_FAILED if code == EXIT_OK and lost else code
+
+
+def _start_groot(args: argparse.Namespace, tree: Any) -> tuple[Any, str]:
+    """Starts the Groot2 publisher; returns it, or None and why not."""
+    from autonomy.groot import GrootPublisher
+
+    host = args.groot_host
+    try:
+        groot = GrootPublisher(tree, host, args.groot_port).start()
+    except OSError as err:
+        return None, f"cannot publish to Groot2 on {host}:{args.groot_port}: {err.strerror or err}"
+    if host not in ("127.0.0.1", "localhost", "::1"):
+        print(
+            f"warning: Groot2 is served on {host}: anyone who can reach this machine can watch the run",
+            file=sys.stderr,
+        )
+    print(f"groot2: attach to {host} port {groot.port}", file=sys.stderr, flush=True)
+    return groot, ""
 
 
 def _start_view(args: argparse.Namespace, mode: str = "live") -> tuple[Any, str]:
@@ -433,13 +483,19 @@ def _serve_until_interrupted(server: Any, why: str) -> None:
 
 def cmd_replay(args: argparse.Namespace) -> int:
     """Plays a trace back: in the terminal view, or in the browser with --view."""
+    from autonomy.btlog import MAGIC, BtlogError, read_btlog
     from autonomy.clock import RealClock
     from autonomy.trace import TraceError, read_trace, replay
     from autonomy.views.lines import LinePrinter
 
     try:
-        trace = read_trace(args.trace)
-    except TraceError as err:
+        with open(args.trace, "rb") as stream:
+            is_btlog = stream.read(len(MAGIC)) == MAGIC
+    except OSError:
+        is_btlog = False
+    try:
+        trace = read_btlog(args.trace) if is_btlog else read_trace(args.trace)
+    except (TraceError, BtlogError) as err:
         return _fail(str(err), EXIT_USAGE)
     if trace.cut_off_line:
         print(f"note: {args.trace} was cut off at line {trace.cut_off_line}; playing what came before", file=sys.stderr)
@@ -480,9 +536,16 @@ def cmd_plot(args: argparse.Namespace) -> int:
     suffix = out.rsplit(".", 1)[-1].lower() if "." in out else ""
     if suffix not in ("png", "svg", "html"):
         return _fail(f"-o must end in .png, .svg or .html, got '{out}'", EXIT_USAGE)
+    from autonomy.btlog import MAGIC, BtlogError, read_btlog
+
     try:
-        trace = read_trace(args.trace)
-    except TraceError as err:
+        with open(args.trace, "rb") as stream:
+            is_btlog = stream.read(len(MAGIC)) == MAGIC
+    except OSError:
+        is_btlog = False
+    try:
+        trace = read_btlog(args.trace) if is_btlog else read_trace(args.trace)
+    except (TraceError, BtlogError) as err:
         return _fail(str(err), EXIT_USAGE)
     try:
         if suffix == "html":
@@ -679,6 +742,49 @@ def cmd_show(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def _write_out(text: str, output: str | None) -> int:
+    if not output or output == "-":
+        sys.stdout.write(text)
+        return EXIT_OK
+    try:
+        with open(output, "w", encoding="utf-8") as stream:
+            stream.write(text)
+    except OSError as err:
+        return _fail(f"cannot write {output}: {err.strerror or err}", EXIT_USAGE)
+    print(f"wrote {output}", file=sys.stderr)
+    return EXIT_OK
+
+
+def cmd_export(args: argparse.Namespace) -> int:
+    """Writes a mission as BehaviorTree.CPP 4 XML, or the node palette for Groot2."""
+    from autonomy.mission import BUILTINS
+    from autonomy.mission.btcpp import ExportError, export_xml, palette_xml
+
+    spec = None
+    if args.mission:
+        spec = _load(args.mission)
+        if spec is None:
+            return EXIT_USAGE
+    if args.palette:
+        return _write_out(palette_xml(spec.registry if spec is not None else BUILTINS), args.output)
+    if spec is None:
+        return _fail("export needs a MISSION, or --palette", EXIT_USAGE)
+    try:
+        return _write_out(export_xml(spec), args.output)
+    except ExportError as err:
+        return _fail(f"{args.mission}: {err}", EXIT_USAGE)
+
+
+def cmd_import(args: argparse.Namespace) -> int:
+    """Writes a BehaviorTree.CPP 4 file that uses autonomy's nodes as a YAML mission."""
+    from autonomy.mission.btcpp import to_yaml
+
+    spec = _load(args.tree)
+    if spec is None:
+        return EXIT_USAGE
+    return _write_out(to_yaml(spec), args.output)
+
+
 def cmd_behaviours(args: argparse.Namespace) -> int:
     """Lists every node type with its parameters (with a mission: its plugins' too)."""
     from autonomy.mission import BUILTINS
@@ -772,13 +878,25 @@ def build_parser() -> argparse.ArgumentParser:
     probe.set_defaults(func=cmd_probe)
 
     run = sub.add_parser("run", help="run a mission on the robot or the built-in emulator")
-    run.add_argument("mission", metavar="MISSION", help="a mission file (.yaml)")
+    run.add_argument("mission", metavar="MISSION", help="a mission file (.yaml, or BehaviorTree.CPP 4 .xml)")
     run.add_argument("--port", metavar="URL", help="the robot (default: the built-in emulator, in the mission's world)")
     run.add_argument("--baud", type=int, choices=SUPPORTED_BAUD_RATES, default=DEFAULT_BAUD)
     run.add_argument("--world", metavar="NAME|PATH", help="the emulator's arena (overrides the mission's world)")
     run.add_argument("--fast", action="store_true", help="virtual time: as fast as the machine allows (emulator only)")
     run.add_argument("--max-seconds", type=_positive, metavar="S", help="stop the mission after this long")
     run.add_argument("--trace", metavar="FILE", help="record the run: a header, one JSON line per tick, an end")
+    run.add_argument("--btlog", metavar="FILE", help="record the run for Groot2: BehaviorTree.CPP's FileLogger2 format")
+    run.add_argument("--groot", action="store_true", help="let Groot2 attach and watch the run (see --groot-port)")
+    run.add_argument(
+        "--groot-port",
+        type=_tcp_port,
+        default=1667,
+        metavar="PORT",
+        help="Groot2's port (default 1667; the next one is taken too; 0: any free)",
+    )
+    run.add_argument(
+        "--groot-host", default="127.0.0.1", metavar="HOST", help="the interface for Groot2 (default 127.0.0.1)"
+    )
     shown = run.add_mutually_exclusive_group()
     shown.add_argument("--quiet", action="store_true", help="only the summary")
     shown.add_argument("--live", action="store_true", help="a full-screen view of the tree and the robot")
@@ -787,7 +905,9 @@ def build_parser() -> argparse.ArgumentParser:
     run.set_defaults(func=cmd_run)
 
     replay = sub.add_parser("replay", help="play a recorded run back, in the terminal or the browser")
-    replay.add_argument("trace", metavar="TRACE", help="a trace file written by run --trace")
+    replay.add_argument(
+        "trace", metavar="TRACE", help="a trace written by run --trace, or a .btlog (ours or BehaviorTree.CPP's)"
+    )
     _view_arguments(replay)
     replay.add_argument("--speed", type=_positive, default=1.0, metavar="X", help="playback speed (default 1)")
     replay.add_argument("--lines", action="store_true", help="line output even on a terminal")
@@ -845,6 +965,17 @@ def build_parser() -> argparse.ArgumentParser:
     show.add_argument("mission", metavar="MISSION")
     show.add_argument("--format", choices=("unicode", "dot", "svg"), default="unicode")
     show.set_defaults(func=cmd_show)
+
+    export = sub.add_parser("export", help="write a mission as BehaviorTree.CPP 4 XML, or the palette for Groot2")
+    export.add_argument("mission", nargs="?", metavar="MISSION", help="the mission (with --palette: add its plugins)")
+    export.add_argument("--palette", action="store_true", help="the model of every node type, for Groot2's editor")
+    export.add_argument("-o", "--output", metavar="FILE", help="where to write it (default: standard output)")
+    export.set_defaults(func=cmd_export)
+
+    imports = sub.add_parser("import", help="write a BehaviorTree.CPP 4 file of autonomy's nodes as a YAML mission")
+    imports.add_argument("tree", metavar="TREE.xml")
+    imports.add_argument("-o", "--output", metavar="FILE", help="where to write it (default: standard output)")
+    imports.set_defaults(func=cmd_import)
 
     behaviours = sub.add_parser("behaviours", help="list every node type and its parameters")
     behaviours.add_argument("mission", nargs="?", metavar="MISSION", help="also list this mission's plugin behaviours")

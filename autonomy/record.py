@@ -183,6 +183,8 @@ class RunHeader:
         clock: ``real`` or ``virtual``.
         autonomy_version: The version of the package that ran it.
         date: When the run started, ISO 8601 with the time zone.
+        telemetry: Whether the ticks carry what the robot reported (a BehaviorTree.CPP log
+            read back has the tree's statuses only).
     """
 
     mission: str
@@ -198,6 +200,7 @@ class RunHeader:
     clock: str = "real"
     autonomy_version: str = ""
     date: str = ""
+    telemetry: bool = True
     version: int = RECORD_VERSION
 
     def to_json(self) -> dict[str, Any]:
@@ -468,6 +471,7 @@ def record_from_json(value: Any) -> Record:
                 clock=str(value.get("clock", "real")),
                 autonomy_version=str(value.get("autonomy_version", "")),
                 date=str(value.get("date", "")),
+                telemetry=bool(value.get("telemetry", True)),
                 version=version,
             )
         if kind == "tick":

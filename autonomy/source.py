@@ -264,7 +264,7 @@ def _position(text: str, index: int) -> tuple[int, int]:
     return text.count("\n", 0, index) + 1, index - line_start + 1
 
 
-def _text_problems(text: str) -> list[SourceError]:
+def text_problems(text: str) -> list[SourceError]:
     """Characters that have no place in a text file, each where it stands (at most 20)."""
     problems = []
     for match in _NOT_TEXT.finditer(text, 1 if text.startswith("\ufeff") else 0):
@@ -561,7 +561,7 @@ def parse(text: str) -> tuple[Located | None, list[SourceError]]:
     Returns:
         The document (None when it could not be read at all) and the problems found.
     """
-    bad = _text_problems(text)
+    bad = text_problems(text)
     if bad:
         return None, bad
     loader = _Loader(text)

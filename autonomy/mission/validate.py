@@ -21,6 +21,7 @@ from autonomy.behaviours.base import MAX_NUMBER
 from autonomy.emulator.world import SHIPPED, WorldError, WorldInvalid, load_world
 from autonomy.errors import AutonomyError
 from autonomy.mission.registry import BUILTINS, NodeType, Registry, leaf_classes_in, leaf_type
+from autonomy.mission.xml_read import AttributeText, parse_xml
 from autonomy.source import (
     Located,
     Problem,
@@ -442,6 +443,8 @@ class _Validator:
 
     def value(self, param: Param, located: Located, path: str, node_type: NodeType) -> Any:
         value = located.plain
+        if isinstance(value, AttributeText):
+            value = _from_attribute(param.kind, value)
         kind = param.kind
         what = f"{node_type.name} {param.name}"
         if kind == "bool":
@@ -593,6 +596,30 @@ def _reaches(graph: dict[str, set[str]], start: str, goal: str) -> bool:
     return False
 
 
+_DECIMAL = re.compile(r"[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?|[-+]?(inf|nan)", re.IGNORECASE)
+
+
+def _from_attribute(kind: str, text: str) -> Any:
+    """An XML attribute's text as a value of ``kind``; the text itself when it is not one."""
+    word = text.strip()
+    if kind == "bool":
+        return {"true": True, "false": False, "1": True, "0": False}.get(word.lower(), text)
+    if kind == "tones":
+        parts = [p.strip() for p in word.split(";")]
+        return [int(p) for p in parts] if all(re.fullmatch(r"\d{1,3}", p) for p in parts) else text
+    if kind == "int":
+        return int(word) if re.fullmatch(r"[-+]?\d{1,40}", word) else text
+    if kind == "number":
+        if re.fullmatch(r"[-+]?\d{1,40}", word):
+            return int(word)
+        if (
+            re.fullmatch(r"[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?|[-+]?(inf|nan)", word, re.IGNORECASE)
+            and len(word) <= 40
+        ):
+            return float(word)
+    return str(text)
+
+
 def example_arguments(node_type: NodeType) -> str:
     """A short, valid-looking argument list for hints, e.g. ``left: 90``."""
     wanted = [p for p in node_type.params if p.required]
@@ -679,7 +706,8 @@ def validate_text(
     Raises:
         MissionInvalid: with every problem found.
     """
-    root, errors = parse(text)
+    xml = source.lower().endswith(".xml") or text.lstrip("\ufeff \t\r\n").startswith("<")
+    root, errors = parse_xml(text) if xml else parse(text)
     problems = [Problem(source, e.line, e.column, "", e.message) for e in errors]
     validator = _Validator(source, (registry or BUILTINS).copy(), check_world)
     spec = validator.mission(root, base_dir or Path.cwd()) if root is not None else None

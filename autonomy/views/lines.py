@@ -83,5 +83,7 @@ class LinePrinter:
         columns = (
             f"{record.time_s:7.2f} s  front {s.front_distance_mm:3d} mm  hdg {s.heading_deg:3d}  "
             f"odo {s.odometer_mm:5d} mm  bat {record.battery:3d}  "
+            if self.header.telemetry
+            else f"{record.time_s:7.2f} s  "
         )
         self.write(fit(columns + what, WIDTH))

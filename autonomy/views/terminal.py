@@ -159,6 +159,10 @@ class LiveView:
         if last is None:
             table.add_row("status", "waiting")
             return table
+        if self.header is not None and not self.header.telemetry:
+            table.add_row("status", "not recorded")
+            table.add_row("time", f"{last.time_s:.2f} s")
+            return table
         s = last.status
         rows = [
             ("front", f"{s.front_distance_mm} mm"),

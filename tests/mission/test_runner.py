@@ -1,6 +1,7 @@
 """The runner ends every run with the robot stopped, and says how it went."""
 
 import math
+import signal
 
 import pytest
 from py_trees.common import Status
@@ -70,7 +71,9 @@ def test_time_limit_halts_the_tree_and_stops():
     assert emulator.robot.mode == 0
 
 
-def test_ctrl_c_stops_the_robot():
+def test_ctrl_c_stops_the_robot(monkeypatch):
+    # Ctrl-C as Python's own SIGINT handler raises it (a test runner may have installed its own).
+    monkeypatch.setattr(signal, "getsignal", lambda signum: signal.default_int_handler)
     summary, emulator = run_with(Explodes("boom", KeyboardInterrupt(), after_ticks=10))
     assert summary.outcome == INTERRUPTED and summary.stopped
     assert last_motion(emulator) == Stop() and emulator.robot.mode == 0

@@ -66,7 +66,9 @@ function load(payload) {
   const h = payload.header;
   if (h) {
     const world = h.world ? `world ${h.world.name}` : "world unknown (dead reckoning only)";
-    $("where").textContent = `${world} · ${h.port} · ${h.clock} time · ${h.date}`;
+    $("where").textContent = h.telemetry === false
+      ? `a BehaviorTree.CPP log: node statuses only, no telemetry · ${h.date}`
+      : `${world} · ${h.port} · ${h.clock} time · ${h.date}`;
   }
   for (const t of payload.ticks || []) addTick(t);
   if (payload.end) addEnd(payload.end);

@@ -1,0 +1,247 @@
+"""BehaviorTree.CPP's FileLogger2 files (``.btlog``): written from tick records, and read back.
+
+The format (BehaviorTree.CPP 4, what Groot2 opens)::
+
+    "BTCPP4-FileLogger2"  a byte 1  XML length (4 bytes, little-endian)  the tree's XML
+    start time: microseconds since the epoch (8 bytes, little-endian)
+    then one 9-byte record per status change:
+        microseconds since the start (6 bytes)  node uid (2 bytes)  status (1 byte)
+
+Statuses are IDLE 0, RUNNING 1, SUCCESS 2, FAILURE 3, SKIPPED 4; uids count from 1 in the
+order :func:`autonomy.mission.btcpp.instance` gives (a ``SubTree`` node has one too, and
+changes with its subtree's root).
+
+:class:`BtlogWriter` is a record listener, like the trace writer. :func:`read_btlog` reads a
+file (ours or BehaviorTree.CPP's) into a :class:`~autonomy.trace.Trace`, so a replay, the
+terminal view and the browser view play it like any trace; it has the tree and its statuses
+only, no telemetry.
+"""
+
+from __future__ import annotations
+
+import struct
+from datetime import datetime
+from pathlib import Path
+from typing import BinaryIO
+
+from autonomy.errors import AutonomyError
+from autonomy.mission.btcpp import Instance
+from autonomy.mission.xml_read import COMPOSITES, DECORATORS, Element, XmlUnreadable, read_elements
+from autonomy.protocol import Status as Packet
+from autonomy.record import (
+    FAILURE,
+    INVALID,
+    RUNNING,
+    SUCCESS,
+    NodeInfo,
+    NodeState,
+    Pose,
+    Record,
+    RunEnd,
+    RunHeader,
+    TickRecord,
+)
+from autonomy.trace import Trace
+
+MAGIC = b"BTCPP4-FileLogger2"
+VERSION = 1
+#: Our statuses as BehaviorTree.CPP's numbers, and back (SKIPPED reads as not run).
+CODES = {INVALID: 0, RUNNING: 1, SUCCESS: 2, FAILURE: 3}
+STATUSES = {0: INVALID, 1: RUNNING, 2: SUCCESS, 3: FAILURE, 4: INVALID}
+#: Changes this close together are one tick when a file is read back.
+SAME_TICK_US = 1000
+#: Largest file read back.
+MAX_BYTES = 200_000_000
+_RECORD = struct.Struct("<6sHB")
+
+
+class BtlogError(AutonomyError):
+    """A file that is not a FileLogger2 file this can read; the message says where and why."""
+
+
+def epoch_us(iso_date: str) -> int:
+    """An ISO 8601 date with its time zone as microseconds since the epoch (0 when there is none)."""
+    try:
+        return round(datetime.fromisoformat(iso_date).timestamp() * 1_000_000)
+    except ValueError:
+        return 0
+
+
+class BtlogWriter:
+    """A listener that writes a run as a FileLogger2 file.
+
+    Args:
+        stream: A binary file open for writing.
+        tree: The mission's tree as BehaviorTree.CPP numbers it.
+    """
+
+    def __init__(self, stream: BinaryIO, tree: Instance) -> None:
+        self.stream = stream
+        self.tree = tree
+        self.uids: dict[int, list[int]] = {}
+        for uid, record_id in enumerate(tree.record_ids, start=1):
+            self.uids.setdefault(record_id, []).append(uid)
+        self.failure = ""
+
+    def __call__(self, record: Record) -> None:
+        """Writes the header, or one tick's changes; once writing fails, notes why and stops."""
+        if self.failure:
+            return
+        try:
+            if isinstance(record, RunHeader):
+                xml = self.tree.xml.encode("utf-8")
+                start = epoch_us(record.date)
+                self.stream.write(
+                    MAGIC + bytes([VERSION]) + struct.pack("<I", len(xml)) + xml + struct.pack("<Q", start)
+                )
+                self.stream.flush()
+            elif isinstance(record, TickRecord) and record.nodes:
+                changes = sorted(
+                    (uid, CODES.get(state.status, 0))
+                    for node_id, state in record.nodes.items()
+                    for uid in self.uids.get(node_id, ())
+                )
+                self.write_changes(round(record.time_s * 1_000_000), changes)
+            elif isinstance(record, RunEnd):
+                self.stream.flush()
+        except (OSError, ValueError) as err:
+            self.failure = getattr(err, "strerror", None) or str(err)
+
+    def write_changes(self, time_us: int, changes: list[tuple[int, int]]) -> None:
+        """Writes status changes as they are: ``(uid, status code)`` at ``time_us`` after the start.
+
+        Raises:
+            OSError: the file cannot be written.
+        """
+        offset = min(max(0, time_us), (1 << 48) - 1).to_bytes(6, "little")
+        self.stream.write(b"".join(_RECORD.pack(offset, uid, code) for uid, code in changes))
+
+
+def _category(tag: str) -> str:
+    if tag in COMPOSITES:
+        return "composite"
+    if tag in DECORATORS or tag == "SubTree":
+        return "decorator"
+    return "action"
+
+
+def _nodes(root: Element, where: str) -> list[NodeInfo]:
+    """The tree in the XML as nodes with ids uid - 1, subtrees under their ``SubTree`` nodes."""
+    trees = {tree.attributes.get("_fullpath", ""): tree for tree in root.children if tree.tag == "BehaviorTree"}
+    if "" not in trees:
+        raise BtlogError(f'{where}: its XML has no main tree (a <BehaviorTree _fullpath="">)')
+    found: dict[int, NodeInfo] = {}
+    todo: list[tuple[Element, int | None]] = [(child, None) for child in reversed(trees[""].children)]
+    while todo:
+        element, parent = todo.pop()
+        try:
+            uid = int(element.attributes["_uid"])
+        except (KeyError, ValueError):
+            raise BtlogError(f"{where}: <{element.tag}> at XML line {element.line} has no _uid") from None
+        if uid in found or not 1 <= uid <= 65535:
+            raise BtlogError(f"{where}: uid {uid} at XML line {element.line} is given twice or out of range")
+        tag = element.tag
+        ports = {k: v for k, v in element.attributes.items() if not k.startswith("_") and k not in ("name", "ID")}
+        if tag == "SubTree":
+            name = element.attributes.get("ID", "SubTree")
+            inner = trees.get(element.attributes.get("_fullpath", ""))
+            children = inner.children if inner is not None else []
+        else:
+            name = element.attributes.get("name") or tag
+            if name == tag and ports:
+                name = f"{tag} " + " ".join(f"{k}={v}" for k, v in ports.items())
+            children = element.children
+        found[uid] = NodeInfo(uid - 1, name, tag, _category(tag), ports, parent)
+        todo.extend((child, uid - 1) for child in reversed(children))
+    if sorted(found) != list(range(1, len(found) + 1)):
+        raise BtlogError(f"{where}: its uids are not 1..{len(found)}")
+    return [found[uid] for uid in range(1, len(found) + 1)]
+
+
+def read_btlog(path: str | Path) -> Trace:
+    """Reads a FileLogger2 file as a trace: its tree, and one tick per burst of changes.
+
+    Changes less than :data:`SAME_TICK_US` apart are one tick; within a tick, a node that
+    goes back to IDLE keeps the status it had (as Groot2 shows it, faded).
+
+    Raises:
+        BtlogError: not a FileLogger2 file, or one whose tree cannot be read.
+    """
+    path = Path(path)
+    try:
+        with open(path, "rb") as stream:
+            data = stream.read(MAX_BYTES + 1)
+    except OSError as err:
+        raise BtlogError(f"{path}: cannot read it: {err.strerror or err}") from None
+    if len(data) > MAX_BYTES:
+        raise BtlogError(f"{path}: larger than {MAX_BYTES:,} bytes")
+    if not data.startswith(MAGIC):
+        raise BtlogError(f"{path}: not a BehaviorTree.CPP FileLogger2 file (it starts {data[:18]!r})")
+    head = len(MAGIC)
+    if len(data) < head + 5:
+        raise BtlogError(f"{path}: cut off in its header")
+    (length,) = struct.unpack_from("<I", data, head + 1)
+    xml_end = head + 5 + length
+    if len(data) < xml_end + 8:
+        raise BtlogError(f"{path}: cut off in its tree ({length:,} bytes of XML announced)")
+    try:
+        root = read_elements(data[head + 5 : xml_end].decode("utf-8"))
+    except UnicodeDecodeError:
+        raise BtlogError(f"{path}: its tree is not UTF-8 text") from None
+    except XmlUnreadable as err:
+        raise BtlogError(f"{path}: its tree's XML, line {err.error.line}: {err.error.message}") from None
+    nodes = _nodes(root, str(path))
+    (start_us,) = struct.unpack_from("<Q", data, xml_end)
+    date = datetime.fromtimestamp(start_us / 1_000_000).astimezone().isoformat() if start_us else ""
+    header = RunHeader(
+        mission=root.children[0].attributes.get("ID", path.stem) if root.children else path.stem,
+        nodes=nodes,
+        tick_hz=0.0,
+        mission_file=str(path),
+        port="btlog",
+        date=date,
+        clock="recorded",
+        telemetry=False,
+    )
+    ticks: list[TickRecord] = []
+    body = memoryview(data)[xml_end + 8 :]
+    whole = len(body) - len(body) % _RECORD.size
+    group: dict[int, NodeState] = {}
+    group_us = last_us = -1
+    zero = Packet(
+        mode=0,
+        auto_mode=False,
+        collided=False,
+        moving=False,
+        tilt_deg=0,
+        heading_deg=0,
+        front_distance_mm=0,
+        odometer_mm=0,
+    )
+    pose = Pose(0.0, 0.0, 0.0)
+
+    def close(at_us: int) -> None:
+        if group:
+            time_s = at_us / 1_000_000
+            ticks.append(TickRecord(len(ticks) + 1, time_s, zero, 0, True, 0.0, pose, nodes=dict(group)))
+            group.clear()
+
+    for offset in range(0, whole, _RECORD.size):
+        stamp, uid, code = _RECORD.unpack_from(body, offset)
+        at_us = int.from_bytes(stamp, "little")
+        if uid < 1 or uid > len(nodes) or code not in STATUSES:
+            raise BtlogError(f"{path}: record {offset // _RECORD.size + 1} names uid {uid}, status {code}")
+        if last_us >= 0 and at_us - last_us > SAME_TICK_US:
+            close(group_us)
+        if not group:
+            group_us = at_us
+        last_us = at_us
+        status = STATUSES[code]
+        if status != INVALID or uid - 1 not in group:
+            group[uid - 1] = NodeState(status)
+    close(group_us)
+    end_s = ticks[-1].time_s if ticks else 0.0
+    root_state = next((t.nodes[0].status for t in reversed(ticks) if 0 in t.nodes), INVALID)
+    outcome = {SUCCESS: "succeeded", FAILURE: "failed"}.get(root_state, "recorded")
+    end = RunEnd(outcome, "", False, end_s, paragraph=f"{path.name}: {len(ticks)} ticks recorded, root {root_state}")
+    return Trace(header, ticks, end, cut_off_line=len(body) % _RECORD.size and len(ticks) + 1)

@@ -1,0 +1,177 @@
+"""A live publisher Groot2 attaches to, as BehaviorTree.CPP's ``Groot2Publisher`` is.
+
+Groot2 connects a ZeroMQ REQ socket to port 1667 (by default) and asks; we answer on a REP
+socket, from a thread of our own, so the run never waits on Groot2 and costs nothing while
+nobody asks. Each request's first frame is a 6-byte header: the protocol (2), the request
+type (one letter) and a 4-byte id. A reply is two frames: the header echoed with the 16-byte
+id of the tree added, then the answer:
+
+=====  =========================================================================
+``T``  the tree's XML, every node with its ``_uid`` (:func:`~autonomy.mission.btcpp.instance`)
+``S``  3 bytes per node, uid (2 bytes, little-endian) then status; a node back to IDLE
+       reports 10 + the status it had
+``B``  the blackboards named in the second frame (``;``-separated), as MessagePack: a map
+       of each name to nil (autonomy has no blackboard)
+``D``  the breakpoints set: none (``[]``)
+``A``, ``X``  remove or disable every breakpoint: the header alone
+=====  =========================================================================
+
+Anything else gets ``[b"error", reason]``. The publisher also binds the next port (1668) for
+Groot2's subscriber, as the reference does, and publishes nothing on it.
+"""
+
+from __future__ import annotations
+
+import struct
+import threading
+import uuid
+
+import zmq
+
+from autonomy.btlog import CODES
+from autonomy.mission.btcpp import Instance
+from autonomy.record import INVALID, Record, RunHeader, TickRecord
+
+PROTOCOL = 2
+DEFAULT_PORT = 1667
+
+
+def _msgpack_nils(names: list[str]) -> bytes:
+    """``{name: nil, ...}`` as MessagePack, the names in sorted order."""
+    out = bytearray()
+    count = len(names)
+    out += bytes([0x80 | count]) if count < 16 else b"\xde" + struct.pack(">H", count)
+    for name in sorted(names):
+        raw = name.encode("utf-8")
+        if len(raw) < 32:
+            out += bytes([0xA0 | len(raw)])
+        elif len(raw) < 256:
+            out += b"\xd9" + bytes([len(raw)])
+        else:
+            out += b"\xda" + struct.pack(">H", len(raw))
+        out += raw + b"\xc0"
+    return bytes(out)
+
+
+class GrootPublisher:
+    """A record listener that keeps every node's status, and answers Groot2 from a thread.
+
+    Args:
+        tree: The mission's tree as BehaviorTree.CPP numbers it.
+        host: The interface to listen on.
+        port: The request port (the next one is bound too); 0 picks a free pair.
+
+    Raises:
+        OSError: the ports cannot be bound.
+    """
+
+    def __init__(self, tree: Instance, host: str = "127.0.0.1", port: int = DEFAULT_PORT) -> None:
+        self.tree = tree
+        self.tree_id = uuid.uuid4().bytes
+        self.xml = tree.xml.encode("utf-8")
+        #: Per record node: the status byte Groot2 is told.
+        self.codes: dict[int, int] = {record_id: 0 for record_id in tree.record_ids}
+        self._context = zmq.Context()
+        self._reply = self._context.socket(zmq.REP)
+        self._publish = self._context.socket(zmq.PUB)
+        self._reply.setsockopt(zmq.LINGER, 0)
+        self._publish.setsockopt(zmq.LINGER, 0)
+        address = f"[{host}]" if ":" in host else host
+        if ":" in host:
+            self._reply.setsockopt(zmq.IPV6, 1)
+            self._publish.setsockopt(zmq.IPV6, 1)
+        try:
+            port = self._bind(address, port)
+        except zmq.ZMQError as err:
+            self._context.destroy(linger=0)
+            raise OSError(err.errno, f"cannot listen on {host}:{port} and {port + 1}: {err.strerror}") from None
+        self.host, self.port = host, port
+        self._stopped = False
+        self._thread = threading.Thread(target=self._serve, name="groot2", daemon=True)
+        #: Requests answered, for the curious.
+        self.requests = 0
+
+    def _bind(self, address: str, port: int) -> int:
+        if port:
+            self._reply.bind(f"tcp://{address}:{port}")
+            self._publish.bind(f"tcp://{address}:{port + 1}")
+            return port
+        for _ in range(20):  # a free port whose next one is free too
+            port = self._reply.bind_to_random_port(f"tcp://{address}", min_port=20000, max_port=60000)
+            try:
+                self._publish.bind(f"tcp://{address}:{port + 1}")
+                return port
+            except zmq.ZMQError:
+                self._reply.unbind(self._reply.last_endpoint)
+        raise zmq.ZMQError(zmq.EADDRINUSE)
+
+    def start(self) -> GrootPublisher:
+        """Starts answering."""
+        self._thread.start()
+        return self
+
+    def __call__(self, record: Record) -> None:
+        """Takes in a tick's changes (a few dictionary writes; the answers are made on request)."""
+        if isinstance(record, TickRecord):
+            codes = self.codes
+            for node_id, state in record.nodes.items():
+                if state.status == INVALID:
+                    previous = codes.get(node_id, 0)
+                    codes[node_id] = previous + 10 if 0 < previous < 10 else previous
+                else:
+                    codes[node_id] = CODES.get(state.status, 0)
+        elif isinstance(record, RunHeader):
+            pass
+
+    def status_bytes(self) -> bytes:
+        """The ``S`` answer: uid and status of every node, in uid order."""
+        codes = self.codes
+        return b"".join(
+            struct.pack("<HB", uid, codes.get(record_id, 0))
+            for uid, record_id in enumerate(self.tree.record_ids, start=1)
+        )
+
+    def answer(self, frames: list[bytes]) -> list[bytes]:
+        """The reply to one request."""
+        header = frames[0] if frames else b""
+        if len(header) < 6:
+            return [b"error", b"wrong request header"]
+        kind = header[1:2]
+        head = header[:6] + self.tree_id
+        if kind == b"T":
+            return [head, self.xml]
+        if kind == b"S":
+            return [head, self.status_bytes()]
+        if kind == b"B":
+            if len(frames) != 2:
+                return [b"error", b"must be 2 parts message"]
+            names = [n for n in frames[1].decode("utf-8", "replace").split(";") if n]
+            return [head, _msgpack_nils(names)]
+        if kind == b"D":
+            return [head, b"[]"]
+        if kind in (b"A", b"X"):
+            return [head]
+        return [b"error", b"Request not recognized"]
+
+    def _serve(self) -> None:
+        """Answers until :meth:`stop` ends the context, which wakes the waiting receive."""
+        try:
+            while True:
+                frames = self._reply.recv_multipart()
+                self._reply.send_multipart(self.answer(frames))
+                self.requests += 1
+        except zmq.ZMQError:  # ETERM: stop() ended the context
+            pass
+        finally:
+            self._reply.close(linger=0)
+
+    def stop(self) -> None:
+        """Stops answering and closes the sockets."""
+        if self._stopped:
+            return
+        self._stopped = True
+        self._publish.close(linger=0)
+        if not self._thread.is_alive():
+            self._reply.close(linger=0)
+        self._context.term()  # returns once the serving thread has closed its socket
+        self._thread.join()

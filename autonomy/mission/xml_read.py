@@ -1,0 +1,464 @@
+"""BehaviorTree.CPP 4 XML -> the same located document a YAML mission file gives.
+
+A mission drawn in Groot2 (or written for BehaviorTree.CPP) is read into the mapping the YAML
+reader would have made of the equivalent mission file, every value at its line and column, and
+then checked by the very same validator: the same ``FILE:LINE:COL`` problems, the same
+did-you-means. What this module decides is only how BehaviorTree.CPP's words map to ours:
+
+========================================  ==================================================
+BehaviorTree.CPP 4                         autonomy
+========================================  ==================================================
+``Sequence`` / ``ReactiveSequence``        ``sequence`` with ``memory: true`` / ``false``
+``Fallback`` / ``ReactiveFallback``        ``selector`` with ``memory: true`` / ``false``
+``Parallel success_count= failure_count=`` ``parallel``: -1 (all) or 1 (one), failing on 1
+``Repeat num_cycles``                      ``repeat times`` (-1: forever)
+``RetryUntilSuccessful num_attempts``      ``retry attempts``
+``Timeout msec``                           ``timeout seconds``
+``Inverter``, ``ForceSuccess``,            ``invert``, ``force_success``, ``force_failure``,
+``ForceFailure``, ``RunOnce``              ``once``
+``While`` (ours, in the model)             ``while``: the condition, then the child
+``SubTree ID=``                            ``subtree:``
+``<move speed="2"/>``, ``<Action ID=..>``  the leaf, its attributes its parameters
+========================================  ==================================================
+
+The main ``<BehaviorTree>`` (``main_tree_to_execute``, or the only one) is the mission's tree
+and its ``ID`` the mission's name; the others are its subtrees. The mission's other settings
+ride on the main tree as attributes BehaviorTree.CPP ignores: ``_description``, ``_tick_hz``,
+``_world`` and ``_plugins``. Attribute values stay text (:class:`AttributeText`) until the
+validator reads them as the parameter's kind.
+
+Untrusted files are safe to read: a DOCTYPE (and with it every entity) is refused, and the
+limits of YAML files hold here too (1 MB, :data:`~autonomy.source.MAX_NODES` elements,
+:data:`~autonomy.source.MAX_DEPTH` levels).
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+from xml.parsers import expat
+
+from autonomy.source import MAX_DEPTH, MAX_NODES, Located, SourceError, text_problems
+
+#: BehaviorTree.CPP's structure nodes that autonomy has, and the node type each becomes.
+COMPOSITES = {
+    "Sequence": ("sequence", {"memory": True}),
+    "ReactiveSequence": ("sequence", {"memory": False}),
+    "Fallback": ("selector", {"memory": True}),
+    "ReactiveFallback": ("selector", {"memory": False}),
+    "Parallel": ("parallel", {}),
+    "While": ("while", {}),
+}
+DECORATORS = {
+    "Repeat": "repeat",
+    "RetryUntilSuccessful": "retry",
+    "Timeout": "timeout",
+    "Inverter": "invert",
+    "ForceSuccess": "force_success",
+    "ForceFailure": "force_failure",
+    "RunOnce": "once",
+}
+#: BehaviorTree.CPP's own nodes autonomy has nothing like, and what to use instead.
+UNSUPPORTED = {
+    "SequenceWithMemory": "use Sequence (autonomy's sequence starts over after a failure)",
+    "AsyncSequence": "use Sequence",
+    "AsyncFallback": "use Fallback",
+    "ParallelAll": "use Parallel",
+    "IfThenElse": "use a Fallback of a ReactiveSequence and the else branch",
+    "WhileDoElse": "use While",
+    "KeepRunningUntilFailure": "use Repeat with num_cycles -1",
+    "Delay": "use autonomy's wait before the child",
+    "Sleep": "use autonomy's wait",
+    "Precondition": "use While, or a ReactiveSequence with the condition first",
+    "Script": "autonomy has no blackboard scripts",
+    "ScriptCondition": "autonomy has no blackboard scripts",
+    "SetBlackboard": "autonomy has no blackboard",
+    "UnsetBlackboard": "autonomy has no blackboard",
+    "AlwaysSuccess": "use force_success over a node, or wait 0",
+    "AlwaysFailure": "use force_failure over a node",
+    "Switch2": "use a Fallback",
+    "Switch3": "use a Fallback",
+    "Switch4": "use a Fallback",
+    "Switch5": "use a Fallback",
+    "Switch6": "use a Fallback",
+}
+#: Elements that name their node type in ``ID=`` rather than in their tag.
+EXPLICIT = ("Action", "Condition", "Control", "Decorator")
+#: Attributes BehaviorTree.CPP writes for itself, which say nothing about the mission.
+BOOKKEEPING = ("_uid", "_fullpath", "_autoremap")
+#: The mission's settings, as attributes of the main ``<BehaviorTree>``.
+SETTINGS = {"_description": "description", "_tick_hz": "tick_hz", "_world": "world", "_plugins": "plugins"}
+
+
+class AttributeText(str):
+    """An attribute's value: text, to be read as the kind of the parameter it gives."""
+
+
+@dataclass
+class Element:
+    """One XML element, where it starts, its attributes where they stand, and its children."""
+
+    tag: str
+    line: int
+    column: int
+    attributes: dict[str, str]
+    places: dict[str, tuple[int, int]]
+    children: list[Element] = field(default_factory=list)
+
+    def at(self, name: str) -> tuple[int, int]:
+        """Where attribute ``name`` stands (the element's start when it is not there)."""
+        return self.places.get(name, (self.line, self.column))
+
+    def text(self, name: str) -> Located:
+        """Attribute ``name`` as a located :class:`AttributeText`."""
+        return Located(AttributeText(self.attributes[name]), *self.at(name))
+
+
+class XmlUnreadable(Exception):
+    """XML that cannot be read; ``error`` says where and why."""
+
+    def __init__(self, error: SourceError) -> None:
+        super().__init__(error.message)
+        self.error = error
+
+
+_ATTRIBUTE = re.compile(r"""([^\s=/>]+)\s*=\s*("[^"]*"|'[^']*')""")
+_START_TAG = re.compile(rb"""<[^\s/>]+(?:\s+[^\s=/>]+\s*=\s*(?:"[^"]*"|'[^']*'))*\s*/?>""")
+_PLAIN_EXPAT = {
+    "not well-formed (invalid token)": "not well-formed XML here (a stray '<' or '&', or a character XML forbids)",
+    "mismatched tag": "this closing tag does not match the element it closes",
+    "no element found": "the XML ends before its elements are closed",
+    "unclosed token": "an element or attribute is not closed here",
+    "junk after document element": "text after the end of the root element: a file holds one <root>",
+    "duplicate attribute": "an attribute given twice",
+    "syntax error": 'not XML: a BehaviorTree.CPP file starts with <root BTCPP_format="4">',
+}
+
+
+def read_elements(text: str) -> Element:
+    """Parses XML into elements, with the line and column of each element and attribute.
+
+    Raises:
+        XmlUnreadable: not well-formed, a DOCTYPE, or past the limits.
+    """
+    data = text.encode("utf-8")
+    line_starts = [0] + [m.end() for m in re.finditer(b"\n", data)]
+    parser = expat.ParserCreate()
+    parser.SetParamEntityParsing(expat.XML_PARAM_ENTITY_PARSING_NEVER)
+    stack: list[Element] = []
+    done: list[Element] = []
+    count = [0]
+
+    def position(offset: int) -> tuple[int, int]:
+        low, high = 0, len(line_starts) - 1
+        while low < high:  # the last line start at or before offset
+            middle = (low + high + 1) // 2
+            if line_starts[middle] <= offset:
+                low = middle
+            else:
+                high = middle - 1
+        start = line_starts[low]
+        return low + 1, len(data[start:offset].decode("utf-8", "replace")) + 1
+
+    def refuse(message: str) -> None:
+        raise XmlUnreadable(SourceError(*position(parser.CurrentByteIndex), message))
+
+    def start(tag: str, attributes: dict[str, str]) -> None:
+        count[0] += 1
+        if count[0] > MAX_NODES:
+            refuse(f"the file holds more than {MAX_NODES:,} elements")
+        if len(stack) >= MAX_DEPTH:
+            refuse(f"elements nested more than {MAX_DEPTH} levels deep")
+        offset = parser.CurrentByteIndex
+        tag_text = _START_TAG.match(data, offset)
+        places = {}
+        if tag_text is not None:
+            decoded = tag_text.group().decode("utf-8", "replace")
+            for match in _ATTRIBUTE.finditer(decoded):
+                places[match.group(1)] = position(offset + len(decoded[: match.start(1)].encode("utf-8")))
+        element = Element(tag, *position(offset), dict(attributes), places)
+        (stack[-1].children if stack else done).append(element)
+        stack.append(element)
+
+    def end(tag: str) -> None:
+        stack.pop()
+
+    def doctype(*_: object) -> None:
+        start = data.rfind(b"<!DOCTYPE", 0, parser.CurrentByteIndex + 1)
+        if start >= 0:
+            raise XmlUnreadable(
+                SourceError(
+                    *position(start),
+                    "a DOCTYPE: BehaviorTree.CPP files have none, and entities are not read; remove it",
+                )
+            )
+        refuse("a DOCTYPE: BehaviorTree.CPP files have none, and entities are not read; remove it")
+
+    def characters(content: str) -> None:
+        if content.strip() and stack and stack[-1].tag not in ("input_port", "output_port", "inout_port", "Metadata"):
+            refuse(f"text inside <{stack[-1].tag}>: nodes are elements, their parameters attributes")
+
+    parser.StartElementHandler = start
+    parser.EndElementHandler = end
+    parser.StartDoctypeDeclHandler = doctype
+    parser.EntityDeclHandler = doctype
+    parser.CharacterDataHandler = characters
+    try:
+        parser.Parse(data, True)
+    except expat.ExpatError as err:
+        words = expat.errors.messages[err.code] if err.code in expat.errors.messages else str(err)
+        line, column = err.lineno, err.offset + 1
+        raise XmlUnreadable(
+            SourceError(line, column, _PLAIN_EXPAT.get(words, f"not well-formed XML: {words}"))
+        ) from None
+    return done[0]
+
+
+def _node(element: Element, problems: list[SourceError]) -> Located | None:
+    """One node element as the YAML reader would have read the node."""
+    tag, where = element.tag, (element.line, element.column)
+    if tag in EXPLICIT or tag == "SubTree":
+        if "ID" not in element.attributes:
+            problems.append(SourceError(*where, f'<{tag}> needs ID="...", the node type'))
+            return None
+        if tag != "SubTree":
+            tag = element.attributes["ID"]
+    for name in element.attributes:
+        if name.startswith("_") and name not in BOOKKEEPING:
+            problems.append(
+                SourceError(
+                    *element.at(name),
+                    f"BehaviorTree.CPP's {name} (pre- and post-conditions, scripts) is not something autonomy runs",
+                )
+            )
+            return None
+    if tag == "SubTree":
+        for name in element.attributes:
+            if name not in ("ID", "name", *BOOKKEEPING):
+                problems.append(
+                    SourceError(*element.at(name), f"SubTree port '{name}': autonomy has no blackboard to remap")
+                )
+                return None
+        return Located({"subtree": element.text("ID")}, *where, keys={"subtree": where})
+    if tag in UNSUPPORTED:
+        problems.append(SourceError(*where, f"BehaviorTree.CPP's {tag} has no autonomy equivalent: {UNSUPPORTED[tag]}"))
+        return None
+    params: dict[str, Located] = {}
+    keys: dict[str, tuple[int, int]] = {}
+
+    def put(key: str, value: Located) -> None:
+        params[key] = value
+        keys[key] = (value.line, value.column)
+
+    children = [_node(child, problems) for child in element.children]
+    if any(child is None for child in children):
+        return None
+    kids: list[Located] = children  # type: ignore[assignment]
+    ours = tag
+    ports = {k: v for k, v in element.attributes.items() if k not in BOOKKEEPING and k != "ID"}
+    name = ports.pop("name", None)
+    if name is not None and name not in (tag, element.tag):  # BehaviorTree.CPP names an unnamed node by its ID
+        put("name", element.text("name"))
+    if tag in COMPOSITES:
+        ours, fixed = COMPOSITES[tag]
+        for key, value in fixed.items():
+            put(key, Located(value, *where))
+        if tag == "Parallel":
+            counts = _parallel(element, ports, problems)
+            if counts is None:
+                return None
+            put("policy", Located(counts, *where))
+        elif tag == "While":
+            if len(kids) != 2:
+                problems.append(
+                    SourceError(*where, f"While takes two children, the condition and the node; got {len(kids)}")
+                )
+                return None
+            put("condition", kids[0])
+            put("do", kids[1])
+            kids = []
+        if kids:
+            put("children", Located(kids, *where))
+    elif tag in DECORATORS:
+        ours = DECORATORS[tag]
+        if not _decorator_ports(element, ports, put, problems):
+            return None
+        if len(kids) != 1:
+            problems.append(SourceError(*where, f"{tag} takes exactly one child, got {len(kids)}"))
+            return None
+        put("do", kids[0])
+    else:
+        if kids:
+            problems.append(SourceError(*where, f"<{tag}> is a leaf here: its children are not read"))
+            return None
+        for key in ports:
+            put(key, element.text(key))
+    return Located({ours: Located(params, *where, keys=keys)}, *where, keys={ours: where})
+
+
+def _whole(element: Element, key: str, problems: list[SourceError]) -> int | None:
+    text = element.attributes[key].strip()
+    if not re.fullmatch(r"[-+]?\d{1,12}", text):
+        problems.append(SourceError(*element.at(key), f"{element.tag} {key} must be a whole number, got '{text}'"))
+        return None
+    return int(text)
+
+
+def _parallel(element: Element, ports: dict[str, str], problems: list[SourceError]) -> str | None:
+    for key in ports:
+        if key not in ("success_count", "failure_count"):
+            problems.append(
+                SourceError(
+                    *element.at(key), f"unknown port '{key}' for Parallel: it takes success_count, failure_count"
+                )
+            )
+            return None
+    success = _whole(element, "success_count", problems) if "success_count" in ports else -1
+    failure = _whole(element, "failure_count", problems) if "failure_count" in ports else 1
+    if success is None or failure is None:
+        return None
+    if failure != 1 or success not in (-1, 1):
+        where = element.at("success_count" if success not in (-1, 1) else "failure_count")
+        problems.append(
+            SourceError(
+                *where,
+                f"autonomy's parallel succeeds when all (success_count -1) or one (1) child has, and fails on "
+                f"the first failure (failure_count 1); got success_count {success}, failure_count {failure}",
+            )
+        )
+        return None
+    return "all" if success == -1 else "one"
+
+
+_DECORATOR_PORTS = {
+    "Repeat": ("num_cycles", "times"),
+    "RetryUntilSuccessful": ("num_attempts", "attempts"),
+    "Timeout": ("msec", "seconds"),
+    "RunOnce": ("then_skip", ""),
+}
+
+
+def _decorator_ports(element: Element, ports: dict[str, str], put, problems: list[SourceError]) -> bool:
+    port, ours = _DECORATOR_PORTS.get(element.tag, ("", ""))
+    for key in ports:
+        if key != port:
+            known = f"it takes {port}" if port else "it takes no ports"
+            problems.append(SourceError(*element.at(key), f"unknown port '{key}' for {element.tag}: {known}"))
+            return False
+    if not port or port not in ports:
+        if element.tag in ("RetryUntilSuccessful", "Timeout"):
+            problems.append(SourceError(element.line, element.column, f"{element.tag} needs {port}"))
+            return False
+        return True
+    if element.tag == "RunOnce":  # autonomy's once returns the child's result afterwards either way
+        return True
+    value = _whole(element, port, problems)
+    if value is None:
+        return False
+    where = element.at(port)
+    if element.tag == "Repeat" and value == -1:
+        return True  # forever
+    if element.tag == "Timeout":
+        put(ours, Located(value // 1000 if value % 1000 == 0 else value / 1000, *where))
+    else:
+        put(ours, Located(value, *where))
+    return True
+
+
+def _setting(key: str, value: Located) -> Located:
+    if key == "tick_hz":
+        try:
+            return Located(float(value.value), value.line, value.column)
+        except ValueError:
+            return value
+    if key == "plugins":
+        names = [n.strip() for n in re.split(r"[;,]", value.value) if n.strip()]
+        return Located([Located(n, value.line, value.column) for n in names], value.line, value.column)
+    return Located(str(value.value), value.line, value.column)
+
+
+def parse_xml(text: str) -> tuple[Located | None, list[SourceError]]:
+    """Reads a BehaviorTree.CPP 4 file into a mission document.
+
+    Returns:
+        The document (None when it could not be read at all) and the problems found.
+    """
+    bad = text_problems(text)
+    if bad:
+        return None, bad
+    if not text.strip():
+        return None, [SourceError(1, 1, "the file is empty")]
+    try:
+        root = read_elements(text)
+    except XmlUnreadable as stop:
+        return None, [stop.error]
+    where = (root.line, root.column)
+    if root.tag != "root":
+        return None, [SourceError(*where, f'expected <root BTCPP_format="4">, found <{root.tag}>')]
+    problems: list[SourceError] = []
+    version = root.attributes.get("BTCPP_format")
+    if version is not None and version.strip() != "4":
+        problems.append(SourceError(*root.at("BTCPP_format"), f"BTCPP_format {version!r}: autonomy reads format 4"))
+    trees = [child for child in root.children if child.tag == "BehaviorTree"]
+    for child in root.children:
+        if child.tag not in ("BehaviorTree", "TreeNodesModel", "include"):
+            problems.append(SourceError(child.line, child.column, f"unexpected <{child.tag}> in <root>"))
+        elif child.tag == "include":
+            problems.append(SourceError(child.line, child.column, "<include> is not read: put every tree in this file"))
+    if not trees:
+        return None, [*problems, SourceError(*where, 'no <BehaviorTree ID="..."> in this file')]
+    seen: dict[str, Element] = {}
+    for tree in trees:
+        if "ID" not in tree.attributes:
+            problems.append(SourceError(tree.line, tree.column, '<BehaviorTree> needs ID="...", its name'))
+        elif tree.attributes["ID"] in seen:
+            problems.append(SourceError(*tree.at("ID"), f"a second tree with ID '{tree.attributes['ID']}'"))
+        else:
+            seen[tree.attributes["ID"]] = tree
+    main_id = root.attributes.get("main_tree_to_execute")
+    if main_id is None:
+        if len(trees) > 1:
+            problems.append(
+                SourceError(*where, 'several trees: say which is the mission with main_tree_to_execute="ID" on <root>')
+            )
+            return None, problems
+        main_id = trees[0].attributes.get("ID", "")
+    elif main_id not in seen:
+        problems.append(SourceError(*root.at("main_tree_to_execute"), f'no <BehaviorTree ID="{main_id}"> in this file'))
+        return None, problems
+    main = seen.get(main_id)
+    if main is None:
+        return None, problems
+    doc: dict[str, Located] = {}
+    keys: dict[str, tuple[int, int]] = {}
+    doc["mission"] = main.text("ID")
+    keys["mission"] = main.at("ID")
+    for attribute, key in SETTINGS.items():
+        if attribute in main.attributes:
+            doc[key] = _setting(key, main.text(attribute))
+            keys[key] = main.at(attribute)
+    subtrees: dict[str, Located] = {}
+    sub_keys: dict[str, tuple[int, int]] = {}
+    for tree_id, tree in seen.items():
+        if len(tree.children) != 1:
+            problems.append(
+                SourceError(
+                    tree.line, tree.column, f"tree '{tree_id}' needs exactly one root node, got {len(tree.children)}"
+                )
+            )
+            continue
+        node = _node(tree.children[0], problems)
+        if node is None:
+            continue
+        if tree is main:
+            doc["tree"] = node
+            keys["tree"] = (node.line, node.column)
+        else:
+            subtrees[tree_id] = node
+            sub_keys[tree_id] = tree.at("ID")
+    if subtrees:
+        doc["subtrees"] = Located(subtrees, main.line, main.column, keys=sub_keys)
+        keys["subtrees"] = (main.line, main.column)
+    if problems:
+        return None, problems
+    return Located(doc, *where, keys=keys), []

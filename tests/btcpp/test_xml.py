@@ -1,0 +1,182 @@
+"""Missions in BehaviorTree.CPP 4 XML: exported, read back with the same checks as YAML, and imported to YAML."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from autonomy.mission import MissionInvalid, load_mission, validate_text
+from autonomy.mission.btcpp import ExportError, export_xml, palette_xml, shape, to_yaml
+from autonomy.mission.registry import BUILTINS
+
+MISSIONS = sorted(Path("missions").glob("*.yaml"))
+
+
+def tree_of(spec):
+    return shape(spec.tree), {name: shape(sub) for name, sub in spec.subtrees.items()}
+
+
+def settings_of(spec):
+    return spec.name, spec.description.strip(), spec.tick_hz, spec.world, spec.plugins
+
+
+@pytest.mark.parametrize("path", MISSIONS, ids=lambda p: p.stem)
+def test_yaml_to_xml_to_yaml_gives_the_same_mission(path):
+    spec = load_mission(path)
+    from_xml = validate_text(export_xml(spec), str(path.with_suffix(".xml")), path.parent)
+    back = validate_text(to_yaml(from_xml), str(path), path.parent)
+    assert tree_of(from_xml) == tree_of(spec) == tree_of(back)
+    assert settings_of(from_xml) == settings_of(spec) == settings_of(back)
+
+
+def problems(xml: str) -> list[str]:
+    with pytest.raises(MissionInvalid) as caught:
+        validate_text(xml, "tree.xml")
+    return [str(p) for p in caught.value.problems]
+
+
+def one(body: str, main: str = "m", extra: str = "") -> str:
+    head = f'<root BTCPP_format="4" main_tree_to_execute="{main}">\n  <BehaviorTree ID="m">\n'
+    return f"{head}{body}\n  </BehaviorTree>{extra}\n</root>\n"
+
+
+def test_a_drawn_tree_checks_like_yaml_with_line_column_and_did_you_mean():
+    xml = one(
+        '    <Sequence>\n      <mvoe speed="2"/>\n      <move sped="2"/>\n      <turn left="ninety"/>\n    </Sequence>'
+    )
+    assert problems(xml) == [
+        "tree.xml:4:7: tree.sequence.children[0].mvoe: unknown node 'mvoe' (did you mean 'move'?)",
+        "tree.xml:5:7: tree.sequence.children[1].move: move needs 'speed' (speed setting, 1 slow .. 4 very fast)",
+        "tree.xml:5:13: tree.sequence.children[1].move.sped: unknown parameter 'sped' for move "
+        "(did you mean 'speed'?); it takes speed, direction, distance_mm, seconds, until_obstacle_mm, name",
+        "tree.xml:6:13: tree.sequence.children[2].turn.left: turn left must be a whole number, got 'ninety' (text)",
+    ]
+
+
+def test_values_are_read_as_their_parameters_kind():
+    xml = one(
+        '    <Sequence>\n      <beep tones="1;5;9" volume="0"/>\n'
+        '      <move speed="+3" seconds="1.5e0"/>\n    </Sequence>'
+    )
+    spec = validate_text(xml, "tree.xml")
+    beep, move = spec.tree.children
+    assert beep.args["tones"] == [1, 5, 9] and beep.args["volume"] == 0
+    assert move.args["speed"] == 3 and move.args["seconds"] == 1.5
+    assert problems(one('    <beep tones="1;5"/>'))[0].endswith(
+        "beep tones must be three tones 1..9, as in [5, 7, 9]; got '1;5'"
+    )
+
+
+def test_behaviortree_cpp_structure_maps_to_ours():
+    xml = one(
+        """    <ReactiveFallback name="top">
+      <Repeat num_cycles="-1"><Timeout msec="2500"><move speed="1"/></Timeout></Repeat>
+      <RetryUntilSuccessful num_attempts="3"><Inverter><collided/></Inverter></RetryUntilSuccessful>
+      <Parallel success_count="1" failure_count="1">
+        <ForceSuccess><stop/></ForceSuccess><RunOnce><beep/></RunOnce>
+      </Parallel>
+      <Action ID="turn" left="90"/>
+      <Condition ID="collided" name="hit"/>
+    </ReactiveFallback>"""
+    )
+    spec = validate_text(xml, "tree.xml")
+    top = spec.tree
+    assert (top.type.name, top.args["memory"], top.name) == ("selector", False, "top")
+    repeat, retry, parallel, turn, hit = top.children
+    assert (repeat.type.name, repeat.args["times"]) == ("repeat", None)
+    assert (repeat.children[0].type.name, repeat.children[0].args["seconds"]) == ("timeout", 2.5)
+    assert (retry.args["attempts"], retry.children[0].type.name) == (3, "invert")
+    assert parallel.args["policy"] == "one"
+    assert [c.type.name for c in parallel.children] == ["force_success", "once"]
+    assert (turn.type.name, turn.args["left"], hit.type.name, hit.name) == ("turn", 90, "collided", "hit")
+
+
+@pytest.mark.parametrize(
+    ("body", "expected"),
+    [
+        ('<Parallel success_count="2"><stop/><stop/></Parallel>', "3:15: autonomy's parallel succeeds when all"),
+        ('<Delay delay_msec="5"><stop/></Delay>', "3:5: BehaviorTree.CPP's Delay has no autonomy equivalent: use"),
+        ('<Timeout msec="soon"><stop/></Timeout>', "3:14: Timeout msec must be a whole number, got 'soon'"),
+        ("<Inverter><stop/><stop/></Inverter>", "3:5: Inverter takes exactly one child, got 2"),
+        ('<stop _skipIf="x"/>', "3:11: BehaviorTree.CPP's _skipIf"),
+        ("<stop><stop/></stop>", "3:5: <stop> is a leaf here"),
+        ('<SubTree ID="m" goal="{g}"/>', "3:21: SubTree port 'goal': autonomy has no blackboard to remap"),
+        ("<Action/>", '3:5: <Action> needs ID="..."'),
+    ],
+)
+def test_what_behaviortree_cpp_has_and_autonomy_does_not_is_said_where_it_stands(body, expected):
+    found = problems(one("    " + body))
+    assert any(expected in p for p in found), found
+
+
+@pytest.mark.parametrize(
+    ("xml", "expected"),
+    [
+        ("", "tree.xml:1:1: the file is empty"),
+        ("hello", "tree.xml:1:1: not XML: a BehaviorTree.CPP file starts with"),
+        ("<root><BehaviorTree ID='m'><stop></BehaviorTree></root>", "tree.xml:1:36: this closing tag does not match"),
+        ('<!DOCTYPE r [<!ENTITY a "aaaa">]><root/>', "tree.xml:1:1: a DOCTYPE"),
+        ("<root/>", 'tree.xml:1:1: no <BehaviorTree ID="..."> in this file'),
+        ("<tree/>", 'tree.xml:1:1: expected <root BTCPP_format="4">, found <tree>'),
+        ('<root BTCPP_format="3"><BehaviorTree ID="m"><stop/></BehaviorTree></root>', "tree.xml:1:7: BTCPP_format '3'"),
+        (
+            "<root><BehaviorTree ID='a'><stop/></BehaviorTree><BehaviorTree ID='b'><stop/></BehaviorTree></root>",
+            "tree.xml:1:1: several trees: say which is the mission",
+        ),
+        (
+            '<root main_tree_to_execute="x"><BehaviorTree ID="m"><stop/></BehaviorTree></root>',
+            'tree.xml:1:7: no <BehaviorTree ID="x"> in this file',
+        ),
+        ("<root><BehaviorTree ID='m'><stop/>text</BehaviorTree></root>", "text inside <BehaviorTree>"),
+        (
+            "<root><BehaviorTree ID='m'>\u200b<stop/></BehaviorTree></root>",
+            "tree.xml:1:28: an invisible zero width space",
+        ),
+    ],
+)
+def test_a_file_that_is_not_a_tree_says_so_where_it_goes_wrong(xml, expected):
+    found = problems(xml)
+    assert any(expected in p for p in found), found
+
+
+def test_a_billion_laughs_or_a_deep_or_huge_tree_is_refused_without_expanding():
+    laughs = (
+        '<?xml version="1.0"?><!DOCTYPE lolz [<!ENTITY lol "lol"><!ENTITY lol2 "&lol;&lol;&lol;">]><root>&lol2;</root>'
+    )
+    assert "a DOCTYPE" in problems(laughs)[0]
+    deep = "<Inverter>" * 150 + "<stop/>" + "</Inverter>" * 150
+    assert "nested more than 100 levels deep" in problems(one(deep))[0]
+    many = "<Sequence>" + "<stop/>" * 10_001 + "</Sequence>"
+    assert "more than 10,000 elements" in problems(one(many))[0]
+
+
+def test_subtrees_and_the_missions_settings_come_back():
+    xml = one(
+        '    <SubTree ID="corner"/>',
+        extra='\n  <BehaviorTree ID="corner"><Sequence><turn left="90"/><beep/></Sequence></BehaviorTree>',
+    ).replace('<BehaviorTree ID="m">', '<BehaviorTree ID="m" _tick_hz="50" _description="a square" _world="box">')
+    spec = validate_text(xml, "tree.xml")
+    assert (spec.name, spec.tick_hz, spec.description, spec.world) == ("m", 50.0, "a square", "box")
+    assert spec.tree.type.name == "subtree" and list(spec.subtrees) == ["corner"]
+    bad = xml.replace('_tick_hz="50"', '_tick_hz="fast"').replace('SubTree ID="corner"', 'SubTree ID="cornr"')
+    found = problems(bad)
+    assert any("tree.xml:2:24: tick_hz: tick_hz must be a number, got 'fast' (text)" in p for p in found), found
+    assert any("unknown subtree 'cornr' (did you mean 'corner'?)" in p for p in found), found
+
+
+def test_a_timeout_of_a_fraction_of_a_millisecond_is_not_exported_as_a_lie():
+    spec = validate_text("mission: m\ntree:\n  timeout: {seconds: 0.0005, do: stop}\n", "m.yaml")
+    with pytest.raises(ExportError, match="not a whole number of milliseconds"):
+        export_xml(spec)
+
+
+def test_the_palette_declares_every_leaf_with_its_ports_and_our_while():
+    text = palette_xml(BUILTINS)
+    for node_type in BUILTINS:
+        if node_type.category in ("action", "condition"):
+            tag = "Action" if node_type.category == "action" else "Condition"
+            assert f'<{tag} ID="{node_type.name}">' in text
+            for param in node_type.params:
+                assert f'<input_port name="{param.name}"' in text
+    assert '<Control ID="While">' in text and "Sequence" not in text
