@@ -143,7 +143,7 @@ def read_elements(text: str) -> Element:
     """
     data = text.encode("utf-8")
     line_starts = [0] + [m.end() for m in re.finditer(b"\n", data)]
-    parser = expat.ParserCreate()
+    parser = expat.ParserCreate(encoding="utf-8")  # the text is UTF-8 whatever its declaration says
     parser.SetParamEntityParsing(expat.XML_PARAM_ENTITY_PARSING_NEVER)
     stack: list[Element] = []
     done: list[Element] = []

@@ -120,3 +120,20 @@ def test_groot2_attaches_to_a_running_mission_on_this_machine_only():
     finally:
         process.kill()
         process.wait()
+
+
+def test_a_taken_groot2_port_is_one_line_and_another_interface_a_warning():
+    context = zmq.Context()
+    taken = context.socket(zmq.REP)
+    port = taken.bind_to_random_port("tcp://127.0.0.1", min_port=20000, max_port=60000)
+    try:
+        result = autonomy("run", "missions/square.yaml", "--fast", "--groot", "--groot-port", str(port))
+        assert_one_line_error(result, 2, f"cannot publish to Groot2 on 127.0.0.1:{port}")
+    finally:
+        taken.close(linger=0)
+        context.term()
+    result = autonomy(
+        "run", "missions/square.yaml", "--fast", "--quiet", "--groot", "--groot-host", "0.0.0.0", "--groot-port", "0"
+    )
+    assert result.returncode == 0, result.stderr
+    assert "warning: Groot2 is served on 0.0.0.0: anyone who can reach this machine can watch the run" in result.stderr

@@ -100,3 +100,78 @@ def test_any_bytes_meet_only_framing_errors_in_the_reply_decoder(data, kind, chu
             except FramingError:
                 continue
     assert decoder.buffered <= len(data)
+
+
+def _exported() -> list[tuple[str, str]]:
+    from autonomy.mission import load_mission
+    from autonomy.mission.btcpp import export_xml
+
+    return [(str(p.with_suffix(".xml")), export_xml(load_mission(p))) for p in sorted(MISSIONS.glob("*.yaml"))]
+
+
+XML_PIECES = [
+    "<",
+    ">",
+    "/>",
+    "</",
+    '"',
+    "'",
+    "=",
+    "&amp;",
+    "&x;",
+    "<!DOCTYPE a>",
+    "<![CDATA[x]]>",
+    "<?pi x?>",
+    "<!-- c -->",
+    "\x00",
+    "\u200b",
+    "\ufeff",
+    "é",
+    " ",
+    "\n",
+    "_uid",
+    "ID",
+    "SubTree",
+    "While",
+    "-1",
+    "1e999",
+]
+
+
+def test_mutants_of_the_exported_missions_as_xml_meet_only_positioned_problems():
+    import random
+
+    sources = _exported()
+    for number in range(MUTANTS):
+        rng = random.Random(number)
+        source, text = rng.choice(sources)
+        for _ in range(rng.randint(1, 4)):
+            at = rng.randrange(len(text) + 1)
+            cut = rng.choice([0, 0, 1, rng.randint(1, 40)])
+            text = text[:at] + rng.choice(XML_PIECES + [text[rng.randrange(len(text)) :][:30]]) + text[at + cut :]
+        try:
+            outcome(text, source)
+        except Exception as err:  # noqa: BLE001 - the point: name the mutant that broke through
+            raise AssertionError(f"XML mutant {number} of {source} raised {type(err).__name__}: {err}") from err
+
+
+@FUZZ
+@given(st.binary(max_size=400), st.integers(0, 2))
+def test_any_btlog_bytes_meet_only_btlog_errors(tail, how):
+    import struct
+    import tempfile
+    from pathlib import Path
+
+    from autonomy.btlog import MAGIC, BtlogError, read_btlog
+
+    xml = b'<root><BehaviorTree _fullpath=""><Sequence _uid="1"><stop _uid="2"/></Sequence></BehaviorTree></root>'
+    head = [MAGIC + b"\x01" + struct.pack("<I", len(xml)) + xml + struct.pack("<Q", 1), MAGIC + b"\x01", b""][how]
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / "x.btlog"
+        path.write_bytes(head + tail)
+        try:
+            trace = read_btlog(path)
+        except BtlogError as err:
+            assert str(err).startswith(str(path)), err
+        else:
+            assert all(set(tick.nodes) <= {0, 1} for tick in trace.ticks)

@@ -101,3 +101,39 @@ def test_a_saved_page_works_offline_from_one_file(tmp_path, page):
     page.locator("#slider").fill("203")
     assert page.text_content("#state") == "succeeded" and fill(page, 0) == GREEN
     assert "Mission 'square' succeeded" in page.text_content("#summary")
+
+
+def test_a_behaviortree_cpp_log_replays_in_the_page_with_its_tree_and_no_made_up_telemetry(tmp_path, page, serve):
+    from autonomy.btlog import read_btlog
+    from autonomy.mission import load_mission
+    from tests.btcpp.reference import bt, factory, for_reference, leaf_names
+
+    spec = load_mission(ROOT / "missions" / "square.yaml")
+    from autonomy.mission.btcpp import export_xml
+
+    made = factory(spec)
+    made.register_behavior_tree_from_text(for_reference(export_xml(spec), leaf_names(spec)))
+    tree = made.create_tree(spec.name)
+    log = tmp_path / "theirs.btlog"
+    logger = bt.FileLogger(tree, str(log))
+    for _ in range(3):
+        tree.tick_once()
+    logger.flush()
+    del logger
+    trace = read_btlog(log)
+    served = serve("replay", str(log), "--view")
+    page.goto(served.url)
+    page.wait_for_selector("#controls:not([hidden])")
+    assert page.eval_on_selector_all("#tree .node", "els => els.length") == len(trace.header.nodes) == 7
+    assert "a BehaviorTree.CPP log: node statuses only, no telemetry" in page.text_content("#where")
+    last = len(trace.ticks) - 1
+    page.locator("#slider").fill(str(last))
+    state = TreeState(trace.header)
+    for tick in trace.ticks:
+        state.apply(tick)
+    seen = page.eval_on_selector_all(
+        "#tree .node", "els => els.map(e => [+e.dataset.node, getComputedStyle(e.querySelector('rect')).fill])"
+    )
+    assert dict(seen) == {n: FILL_OF[s.status] for n, s in state.nodes.items()}
+    assert YELLOW in dict(seen).values()  # the move runs: BehaviorTree.CPP's statuses are shown as they were
+    assert served.interrupt()[0] == 0
