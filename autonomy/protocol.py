@@ -206,10 +206,11 @@ def reply_kind(command: Command) -> ReplyKind:
     return command.reply_kind if isinstance(command, Get) else ReplyKind.ACK
 
 
-def _digit(byte: int, low: int = 0, high: int = 9) -> int:
+def _digit(byte: int) -> int:
+    """One ASCII digit's value; the command's own checks then say which values it takes."""
     value = byte - 0x30
-    if not low <= value <= high:
-        raise InvalidCommand(f"expected a digit {low}..{high}, got {bytes([byte])!r}")
+    if not 0 <= value <= 9:
+        raise InvalidCommand(f"expected a digit, got {bytes([byte])!r}")
     return value
 
 
@@ -232,17 +233,17 @@ def parse_command(frame: bytes) -> Command:
     letter = chr(frame[0])
     a1, a2, a3, a4 = frame[1:5]
     if letter == "S":
-        return Beep((_digit(a1, 1), _digit(a2, 1), _digit(a3, 1)), _digit(a4, 0, 5))
+        return Beep((_digit(a1), _digit(a2), _digit(a3)), _digit(a4))
     if letter == "X":
         return Stop()
     if letter == "F":
-        return Move(_digit(a2, 1, 4), backward=a1 == ord("-"))
+        return Move(_digit(a2), backward=a1 == ord("-"))
     if letter == "M":
         angle = _digit(a3) * 10 + _digit(a4)
-        return ServoTo(_digit(a1, 0, 2), -angle if a2 == ord("-") else angle)
+        return ServoTo(_digit(a1), -angle if a2 == ord("-") else angle)
     if letter == "D":
         delta = _digit(a3)
-        return ServoBy(_digit(a1, 0, 2), -delta if a2 == ord("-") else delta)
+        return ServoBy(_digit(a1), -delta if a2 == ord("-") else delta)
     if letter == "T":
         angle = _digit(a2) * 100 + _digit(a3) * 10 + _digit(a4)
         return Turn(-angle if a1 == ord("-") else angle)

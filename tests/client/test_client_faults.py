@@ -183,9 +183,10 @@ def test_a_lost_reply_to_a_turn_the_robot_did_not_take_fails_the_command_not_the
     port = TimedPort(responder=lambda frame: None if frame.startswith(b"T") else packet())
     client = client_for(port)
     client.status()
-    with pytest.raises(CommandUnconfirmed, match="the robot is not turning"):
+    with pytest.raises(CommandUnconfirmed, match="the robot is not turning") as caught:
         client.turn(60)
     assert frames_of(port).count(b"T+060") == 1
+    assert caught.value.frame == b"T+060\n"  # the command that was not confirmed travels with the error
 
 
 def test_a_lost_reply_to_a_servo_step_fails_the_command_not_the_link():
@@ -298,10 +299,13 @@ def test_a_lost_turn_reply_is_settled_only_by_a_turn_the_status_shows(before, af
     else:
         with pytest.raises(CommandUnconfirmed, match="the robot is not turning"):
             client.request(TurnFrame(30))
-        polls = [f for f in frames_of(port) if f == b"Gb000"]
-        assert len(polls) >= 2 + SETTLE_POLLS and client.stats.settled == 0
+        frames = frames_of(port)
+        after = frames[frames.index(b"T+030") + 1 :]
+        assert after == [b"Gb000"] * SETTLE_POLLS and client.stats.settled == 0
         waited_s = client.clock.now() - start_s
-        assert waited_s >= client.timeout_s + (SETTLE_POLLS - 1) * SETTLE_WAIT_S
+        # Each frame takes 50 ms on this port; the time-out; a wait between polls, none after the last.
+        frame_s = 0.05 * (1 + SETTLE_POLLS)
+        assert waited_s == pytest.approx(frame_s + client.timeout_s + (SETTLE_POLLS - 1) * SETTLE_WAIT_S)
     assert frames_of(port).count(b"T+030") == 1
 
 
@@ -327,6 +331,7 @@ def test_each_settled_turn_is_counted():
         (b"BUSY: another client\n", "BUSY: another client"),
         (b"\x00\xff\nHELLO 12345678\n", "HELLO 12345678"),  # the last line only
         (b"1234567\n", ""),  # too short to be a notice
+        (b"12345678\n", "12345678"),  # long enough
         (b"abc\x07defgh\n", ""),  # not printable
         (b"caf\xe9 au lait!\n", ""),  # not ASCII
         (b"", ""),

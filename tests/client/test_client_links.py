@@ -193,3 +193,48 @@ def test_why_a_port_did_not_open_says_what_to_do():
     listener.close()  # nothing listens there now
     with pytest.raises(PortError, match=r"connection refused \(is the emulator running there\?\)"):
         Client.open(f"socket://127.0.0.1:{free_port}")
+
+
+@pytest.mark.parametrize(
+    "url",
+    [
+        "socket://127.0.0.1:0",
+        "socket://127.0.0.1:65536",
+        "socket://127.0.0.1:abc",
+        "socket://127.0.0.1:\uff17\uff17",  # digits, but not ASCII ones
+        "socket://:7777",
+        "SOCKET://127.0.0.1:0",  # the scheme in capitals is checked the same
+    ],
+)
+def test_a_socket_url_without_a_host_and_a_port_from_1_to_65535_is_refused_before_connecting(url):
+    with pytest.raises(PortError, match=r"expected socket://HOST:PORT, with a PORT from 1 to 65535"):
+        Client.open(url)
+
+
+@pytest.mark.parametrize("port", [1, 65535])
+def test_ports_1_and_65535_are_tried(port):
+    with pytest.raises(PortError, match="connection refused"):  # nothing listens there: tried, and refused
+        Client.open(f"socket://127.0.0.1:{port}")
+
+
+@pytest.mark.parametrize("suffix", ["", "/", "?logging=warning"])
+def test_a_socket_url_may_end_in_a_path_or_pyserial_options(suffix):
+    with TcpServer(Emulator("box"), port=0) as server:
+        url = server.url + suffix
+        client = Client.open(url)
+        assert client.name == url and client.status().heading_deg == 0
+        client.close()
+
+
+def test_an_unknown_scheme_or_an_empty_error_still_says_something():
+    from autonomy.client import _open_reason, _reason
+
+    with pytest.raises(PortError, match=r"cannot open nosuch://x: invalid URL"):
+        Client.open("nosuch://x")
+    assert _reason(TimeoutError()) == "TimeoutError"
+    assert _open_reason(ValueError("first line\nsecond")) == "first line"
+
+
+def test_closing_twice_reports_the_stop_both_times():
+    client = Client.open("emu://?time=virtual")
+    assert client.close() is True and client.close() is True and client.closed

@@ -75,7 +75,7 @@ def test_ctrl_c_stops_the_robot(monkeypatch):
     # Ctrl-C as Python's own SIGINT handler raises it (a test runner may have installed its own).
     monkeypatch.setattr(signal, "getsignal", lambda signum: signal.default_int_handler)
     summary, emulator = run_with(Explodes("boom", KeyboardInterrupt(), after_ticks=10))
-    assert summary.outcome == INTERRUPTED and summary.stopped
+    assert summary.outcome == INTERRUPTED and summary.stopped and summary.reason == "Ctrl-C or SIGTERM"
     assert last_motion(emulator) == Stop() and emulator.robot.mode == 0
 
 
@@ -253,3 +253,46 @@ def test_a_crash_in_a_helper_object_is_still_put_on_the_node_that_called_it(tmp_
     [event] = [e for e in recorder.end.events if e.kind == "exception"]
     assert event.node == 2 and event.message.startswith("node 'helped' (helped, ")
     assert "raised KeyError: 'missing'" in summary.reason
+
+
+def test_the_failing_node_named_is_the_leaf_that_failed_not_a_sibling_it_stopped():
+    summary, _ = run("  sequence: [{move: {speed: 2}}, beep, stop]\n", "world=box")
+    assert summary.outcome == FAILED and summary.reason.startswith("'move' failed (collided after")
+
+
+def test_a_listener_that_raises_ends_the_run_as_a_crash_with_the_robot_stopped():
+    def listener(record):
+        if isinstance(record, TickRecord) and record.tick == 3:
+            raise RuntimeError("the disk caught fire")
+
+    client = Client.open("emu://?time=virtual&world=empty")
+    recorder = Recorder()
+    summary = Runner(tree_of("  move: {speed: 2}\n"), client, mission="t", listeners=[listener, recorder]).run()
+    assert (summary.outcome, summary.reason, summary.stopped) == (CRASHED, "RuntimeError: the disk caught fire", True)
+    assert last_motion(client.port.emulator) == Stop()
+    crash = [e for e in recorder.end.events if e.kind == "exception"]
+    assert [e.message for e in crash] == ["RuntimeError: the disk caught fire"]
+    assert "Traceback" in crash[0].traceback and "RuntimeError: the disk caught fire" in crash[0].traceback
+    assert client.listeners == []  # the runner's own listener is taken off the client
+
+
+def test_a_runner_for_a_mission_carries_its_name_file_hash_rate_and_time_limit():
+    spec = load_mission("missions/square.yaml")
+    client = Client.open("emu://?time=virtual&world=box")
+    recorder = Recorder()
+    summary = Runner.for_mission(spec, client, max_seconds=1.0, listeners=[recorder]).run()
+    header = recorder.header
+    assert (header.mission, header.mission_file, header.mission_sha256) == (spec.name, spec.source, spec.sha256)
+    assert header.tick_hz == spec.tick_hz == 20 and len(spec.sha256) == 64
+    assert summary.outcome == TIME_LIMIT and summary.time_s == pytest.approx(1.0, abs=0.06)
+    assert summary.reason == "the mission was still running after 1 s"
+    assert summary.to_json()["commands"] == {"F": 1, "X": 2}  # the move, its stop, the final stop
+
+
+def test_link_errors_counted_are_this_runs_only():
+    client = Client.open("emu://?time=virtual&world=empty")
+    client.stats.framing_errors, client.stats.implausible = 5, 7  # what an earlier run on this link saw
+    summary = Runner(tree_of("  move: {speed: 2, seconds: 1}\n"), client, mission="t").run()
+    assert (summary.framing_errors, summary.implausible) == (0, 0)
+    client.stats.framing_errors += 2
+    assert Runner(tree_of("  beep\n"), client, mission="t").run().framing_errors == 0

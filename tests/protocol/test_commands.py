@@ -112,8 +112,34 @@ def test_firmware_parse_rejects_bad_arguments(frame):
 
 @pytest.mark.parametrize("frame", [b"X000\n", b"X00000\n", b"X0000\r", b"", b"X0000\n\n"])
 def test_firmware_parse_rejects_bad_framing(frame):
-    with pytest.raises(FramingError):
+    with pytest.raises(FramingError, match=r"a command frame is 6 bytes ending in \\n, got ") as caught:
         parse_command(frame)
+    assert caught.value.data == frame
+
+
+@pytest.mark.parametrize(
+    ("frame", "said"),
+    [
+        (b"S0625\n", "tone must be in 1..9, got 0"),
+        (b"S6025\n", "tone must be in 1..9, got 0"),
+        (b"S6205\n", "tone must be in 1..9, got 0"),
+        (b"S6216\n", "volume must be in 0..5, got 6"),
+        (b"F+500\n", "speed must be in 1..4, got 5"),
+        (b"F+000\n", "speed must be in 1..4, got 0"),
+        (b"M3+10\n", "servo id must be in 0..2, got 3"),
+        (b"D3+10\n", "servo id must be in 0..2, got 3"),
+        (b"T+0a5\n", "expected a digit, got b'a'"),
+        (b"Q0000\n", "unknown command letter 'Q'"),
+    ],
+)
+def test_what_the_firmware_refuses_it_says_in_the_words_of_the_commands_own_check(frame, said):
+    with pytest.raises(InvalidCommand, match=re.escape(said)):
+        parse_command(frame)
+
+
+def test_a_turn_out_of_range_names_the_turn_angle():
+    with pytest.raises(InvalidCommand, match=re.escape("turn angle must be in -999..999, got 1000")):
+        Turn(1000)
 
 
 @pytest.mark.parametrize(
