@@ -24,6 +24,7 @@ from datetime import datetime
 from pathlib import Path
 from typing import BinaryIO
 
+from autonomy.clock import Clock, RealClock
 from autonomy.errors import AutonomyError
 from autonomy.mission.btcpp import Instance
 from autonomy.mission.xml_read import COMPOSITES, DECORATORS, Element, XmlUnreadable, read_elements
@@ -50,8 +51,8 @@ CODES = {INVALID: 0, RUNNING: 1, SUCCESS: 2, FAILURE: 3}
 STATUSES = {0: INVALID, 1: RUNNING, 2: SUCCESS, 3: FAILURE, 4: INVALID}
 #: Changes this close together are one tick when a file is read back.
 SAME_TICK_US = 1000
-#: Largest file read back.
-MAX_BYTES = 200_000_000
+#: Largest file read back: 2.2 million status changes (each costs some 700 bytes once read).
+MAX_BYTES = 20_000_000
 _RECORD = struct.Struct("<6sHB")
 
 
@@ -75,9 +76,14 @@ class BtlogWriter:
         tree: The mission's tree as BehaviorTree.CPP numbers it.
     """
 
-    def __init__(self, stream: BinaryIO, tree: Instance) -> None:
+    #: Real seconds between flushes: a run killed at any moment loses at most this much of its log.
+    FLUSH_S = 0.1
+
+    def __init__(self, stream: BinaryIO, tree: Instance, clock: Clock | None = None) -> None:
         self.stream = stream
         self.tree = tree
+        self.clock = clock or RealClock()
+        self._flushed_s = self.clock.now()
         self.uids: dict[int, list[int]] = {}
         for uid, record_id in enumerate(tree.record_ids, start=1):
             self.uids.setdefault(record_id, []).append(uid)
@@ -102,6 +108,10 @@ class BtlogWriter:
                     for uid in self.uids.get(node_id, ())
                 )
                 self.write_changes(round(record.time_s * 1_000_000), changes)
+                now = self.clock.now()
+                if now - self._flushed_s >= self.FLUSH_S:
+                    self.stream.flush()
+                    self._flushed_s = now
             elif isinstance(record, RunEnd):
                 self.stream.flush()
         except (OSError, ValueError) as err:
@@ -180,6 +190,8 @@ def read_btlog(path: str | Path) -> Trace:
     head = len(MAGIC)
     if len(data) < head + 5:
         raise BtlogError(f"{path}: cut off in its header")
+    if data[head] != VERSION:
+        raise BtlogError(f"{path}: FileLogger2 version {data[head]}; this reads version {VERSION}")
     (length,) = struct.unpack_from("<I", data, head + 1)
     xml_end = head + 5 + length
     if len(data) < xml_end + 8:
@@ -190,9 +202,14 @@ def read_btlog(path: str | Path) -> Trace:
         raise BtlogError(f"{path}: its tree is not UTF-8 text") from None
     except XmlUnreadable as err:
         raise BtlogError(f"{path}: its tree's XML, line {err.error.line}: {err.error.message}") from None
+    if root.tag != "root":
+        raise BtlogError(f"{path}: its tree's XML is <{root.tag}>, not a BehaviorTree.CPP <root>")
     nodes = _nodes(root, str(path))
-    (start_us,) = struct.unpack_from("<Q", data, xml_end)
-    date = datetime.fromtimestamp(start_us / 1_000_000).astimezone().isoformat() if start_us else ""
+    (start_us,) = struct.unpack_from("<q", data, xml_end)  # BehaviorTree.CPP writes it signed
+    try:
+        date = datetime.fromtimestamp(start_us / 1_000_000).astimezone().isoformat() if start_us > 0 else ""
+    except (ValueError, OverflowError, OSError):
+        date = ""  # not a date this machine can show: the run's own times are all that matter
     header = RunHeader(
         mission=root.children[0].attributes.get("ID", path.stem) if root.children else path.stem,
         nodes=nodes,

@@ -336,6 +336,11 @@ def cmd_run(args: argparse.Namespace) -> int:
     port, where, error = _choose_port(args, spec)
     if error:
         return _fail(error, EXIT_USAGE)
+    written = [os.path.realpath(p) for p in (args.trace, args.btlog) if p]
+    if len(set(written)) < len(written) or os.path.realpath(args.mission) in written:
+        return _fail("--trace and --btlog need files of their own (not each other, not the mission)", EXIT_USAGE)
+    if args.groot and args.groot_port == 65535:
+        return _fail("--groot-port takes 0..65534: the next port is Groot2's too", EXIT_USAGE)
     interrupts = _InterruptOnce()
     interrupts.install()
     output = _Output()
@@ -354,12 +359,9 @@ def cmd_run(args: argparse.Namespace) -> int:
     server = live = groot = btlog = btlog_writer = None
     try:
         if args.btlog or args.groot:
-            from autonomy.mission.btcpp import ExportError, instance
+            from autonomy.mission.btcpp import instance
 
-            try:
-                tree = instance(spec)
-            except ExportError as err:
-                return _fail(f"{args.mission}: {err}", EXIT_USAGE)
+            tree = instance(spec)
         if args.btlog:
             from autonomy.btlog import BtlogWriter
 
@@ -481,22 +483,36 @@ def _serve_until_interrupted(server: Any, why: str) -> None:
         pass
 
 
-def cmd_replay(args: argparse.Namespace) -> int:
-    """Plays a trace back: in the terminal view, or in the browser with --view."""
-    from autonomy.btlog import MAGIC, BtlogError, read_btlog
-    from autonomy.clock import RealClock
-    from autonomy.trace import TraceError, read_trace, replay
-    from autonomy.views.lines import LinePrinter
+def _read_recording(path: str) -> tuple[Any, str]:
+    """A trace or a ``.btlog``, read; or None and why not."""
+    from pathlib import Path
 
+    from autonomy.btlog import MAGIC, BtlogError, read_btlog
+    from autonomy.source import exists, is_file
+    from autonomy.trace import TraceError, read_trace
+
+    if exists(Path(path)) and not is_file(Path(path)):
+        return None, f"{path}: not a recording (a folder, a device or a pipe)"
     try:
-        with open(args.trace, "rb") as stream:
+        with open(path, "rb") as stream:
             is_btlog = stream.read(len(MAGIC)) == MAGIC
     except OSError:
-        is_btlog = False
+        is_btlog = False  # read_trace says why
     try:
-        trace = read_btlog(args.trace) if is_btlog else read_trace(args.trace)
+        return (read_btlog(path) if is_btlog else read_trace(path)), ""
     except (TraceError, BtlogError) as err:
-        return _fail(str(err), EXIT_USAGE)
+        return None, str(err)
+
+
+def cmd_replay(args: argparse.Namespace) -> int:
+    """Plays a trace back: in the terminal view, or in the browser with --view."""
+    from autonomy.clock import RealClock
+    from autonomy.trace import replay
+    from autonomy.views.lines import LinePrinter
+
+    trace, error = _read_recording(args.trace)
+    if trace is None:
+        return _fail(error, EXIT_USAGE)
     if trace.cut_off_line:
         print(f"note: {args.trace} was cut off at line {trace.cut_off_line}; playing what came before", file=sys.stderr)
     signal.signal(signal.SIGTERM, _interrupt)
@@ -530,23 +546,19 @@ def cmd_replay(args: argparse.Namespace) -> int:
 
 def cmd_plot(args: argparse.Namespace) -> int:
     """Draws a recorded run: PNG or SVG with matplotlib, or a self-contained HTML page."""
-    from autonomy.trace import TraceError, read_trace
-
     out = args.output
     suffix = out.rsplit(".", 1)[-1].lower() if "." in out else ""
     if suffix not in ("png", "svg", "html"):
         return _fail(f"-o must end in .png, .svg or .html, got '{out}'", EXIT_USAGE)
-    from autonomy.btlog import MAGIC, BtlogError, read_btlog
-
-    try:
-        with open(args.trace, "rb") as stream:
-            is_btlog = stream.read(len(MAGIC)) == MAGIC
-    except OSError:
-        is_btlog = False
-    try:
-        trace = read_btlog(args.trace) if is_btlog else read_trace(args.trace)
-    except (TraceError, BtlogError) as err:
-        return _fail(str(err), EXIT_USAGE)
+    trace, error = _read_recording(args.trace)
+    if trace is None:
+        return _fail(error, EXIT_USAGE)
+    if not trace.header.telemetry and suffix != "html":
+        return _fail(
+            f"{args.trace} holds node statuses only, no telemetry or path to plot: "
+            "record the run with --trace, or write -o FILE.html to see its tree",
+            EXIT_USAGE,
+        )
     try:
         if suffix == "html":
             from autonomy.views.web import standalone_html

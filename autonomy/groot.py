@@ -22,6 +22,7 @@ Groot2's subscriber, as the reference does, and publishes nothing on it.
 
 from __future__ import annotations
 
+import re
 import struct
 import threading
 import uuid
@@ -36,12 +37,18 @@ PROTOCOL = 2
 DEFAULT_PORT = 1667
 
 
+#: Largest request taken in (Groot2's are a few bytes; a bigger one is refused by ZeroMQ).
+MAX_REQUEST_BYTES = 65_536
+
+
 def _msgpack_nils(names: list[str]) -> bytes:
-    """``{name: nil, ...}`` as MessagePack, the names in sorted order."""
-    out = bytearray()
-    count = len(names)
-    out += bytes([0x80 | count]) if count < 16 else b"\xde" + struct.pack(">H", count)
-    for name in sorted(names):
+    """``{name: nil, ...}`` as MessagePack, each name once, in sorted order; nil when there are none."""
+    unique = sorted(set(names))
+    if not unique:
+        return b"\xc0"
+    count = len(unique)
+    out = bytearray(bytes([0x80 | count]) if count < 16 else b"\xde" + struct.pack(">H", count))
+    for name in unique:
         raw = name.encode("utf-8")
         if len(raw) < 32:
             out += bytes([0xA0 | len(raw)])
@@ -75,6 +82,7 @@ class GrootPublisher:
         self._reply = self._context.socket(zmq.REP)
         self._publish = self._context.socket(zmq.PUB)
         self._reply.setsockopt(zmq.LINGER, 0)
+        self._reply.setsockopt(zmq.MAXMSGSIZE, MAX_REQUEST_BYTES)
         self._publish.setsockopt(zmq.LINGER, 0)
         address = f"[{host}]" if ":" in host else host
         if ":" in host:
@@ -84,8 +92,14 @@ class GrootPublisher:
             port = self._bind(address, port)
         except zmq.ZMQError as err:
             self._context.destroy(linger=0)
-            raise OSError(err.errno, f"cannot listen on {host}:{port} and {port + 1}: {err.strerror}") from None
+            raise OSError(err.errno, f"ports {port} and {port + 1}: {err.strerror}") from None
         self.host, self.port = host, port
+        #: Blackboard names Groot2 may ask for: the main tree's and each use of a subtree's.
+        self.blackboards = set(re.findall(r'<BehaviorTree ID="[^"]*" _fullpath="([^"]*)"', tree.xml))
+        self.blackboards.discard("")
+        self.blackboards.add(
+            re.search(r'<BehaviorTree ID="([^"]*)"', tree.xml).group(1) if "<BehaviorTree" in tree.xml else ""
+        )
         self._stopped = False
         self._thread = threading.Thread(target=self._serve, name="groot2", daemon=True)
         #: Requests answered, for the curious.
@@ -134,10 +148,10 @@ class GrootPublisher:
     def answer(self, frames: list[bytes]) -> list[bytes]:
         """The reply to one request."""
         header = frames[0] if frames else b""
-        if len(header) < 6:
+        if len(header) != 6:
             return [b"error", b"wrong request header"]
         kind = header[1:2]
-        head = header[:6] + self.tree_id
+        head = bytes([PROTOCOL]) + header[1:6] + self.tree_id
         if kind == b"T":
             return [head, self.xml]
         if kind == b"S":
@@ -145,8 +159,8 @@ class GrootPublisher:
         if kind == b"B":
             if len(frames) != 2:
                 return [b"error", b"must be 2 parts message"]
-            names = [n for n in frames[1].decode("utf-8", "replace").split(";") if n]
-            return [head, _msgpack_nils(names)]
+            names = frames[1].decode("utf-8", "replace").split(";")
+            return [head, _msgpack_nils([n for n in names if n in self.blackboards])]
         if kind == b"D":
             return [head, b"[]"]
         if kind in (b"A", b"X"):
@@ -158,7 +172,11 @@ class GrootPublisher:
         try:
             while True:
                 frames = self._reply.recv_multipart()
-                self._reply.send_multipart(self.answer(frames))
+                try:
+                    reply = self.answer(frames)
+                except Exception as err:  # noqa: BLE001 - a request we cannot answer must not end the publisher
+                    reply = [b"error", f"cannot answer: {type(err).__name__}".encode()]
+                self._reply.send_multipart(reply)
                 self.requests += 1
         except zmq.ZMQError:  # ETERM: stop() ended the context
             pass
@@ -171,7 +189,9 @@ class GrootPublisher:
             return
         self._stopped = True
         self._publish.close(linger=0)
-        if not self._thread.is_alive():
+        started = self._thread.ident is not None
+        if not started or not self._thread.is_alive():
             self._reply.close(linger=0)
         self._context.term()  # returns once the serving thread has closed its socket
-        self._thread.join()
+        if started:
+            self._thread.join()

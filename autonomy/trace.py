@@ -140,8 +140,15 @@ def read_trace(path: str | Path) -> Trace:
     return Trace(header, ticks, end, cut_off)
 
 
+#: Longest wait between two ticks of a replay, in played seconds: a longer quiet spell is cut short.
+MAX_QUIET_S = 5.0
+
+
 def replay(trace: Trace, listener: Listener, clock: Clock | None = None, speed: float = 1.0) -> None:
     """Hands a trace's records to ``listener`` as a run would have, paced on ``clock``.
+
+    A run's ticks come every tick period; a ``.btlog`` holds only changes, and a quiet spell of
+    more than :data:`MAX_QUIET_S` between two of them is played as that long.
 
     Args:
         trace: The trace to play.
@@ -151,9 +158,14 @@ def replay(trace: Trace, listener: Listener, clock: Clock | None = None, speed: 
     """
     listener(trace.header)
     start_s = clock.now() if clock is not None else 0.0
+    skipped_s = previous_s = 0.0
     for tick in trace.ticks:
         if clock is not None:
-            clock.sleep(start_s + tick.time_s / speed - clock.now())
+            quiet_s = (tick.time_s - previous_s) / speed
+            if quiet_s > MAX_QUIET_S:  # nothing happened for a long while (or a recording says so): go on
+                skipped_s += quiet_s - MAX_QUIET_S
+            previous_s = tick.time_s
+            clock.sleep(start_s + tick.time_s / speed - skipped_s - clock.now())
         listener(tick)
     if trace.end is not None:
         listener(trace.end)

@@ -28,6 +28,7 @@ import yaml
 from autonomy.behaviours import Param
 from autonomy.mission.registry import NodeType, Registry
 from autonomy.mission.validate import MissionSpec, NodeSpec
+from autonomy.mission.xml_read import EXPLICIT, KNOWN_TAGS
 
 INDENT = "    "
 #: Our structure types and the BehaviorTree.CPP node each is (``While`` is ours, declared in the model).
@@ -106,14 +107,19 @@ def _ports(node_type: NodeType, args: dict[str, Any]) -> dict[str, str]:
     return out
 
 
-def bt_node(spec: NodeSpec) -> BtNode:
+def bt_node(spec: NodeSpec, exact: bool = True) -> BtNode:
     """The mission's node (and everything below it, subtrees as references) as BehaviorTree.CPP's.
 
+    Args:
+        spec: The node.
+        exact: Refuse what BehaviorTree.CPP would run differently (a timeout in fractions of a
+            millisecond); else round it, for a description of the tree that is not run.
+
     Raises:
-        ExportError: a timeout that is not a whole number of milliseconds.
+        ExportError: ``exact``, and a timeout that is not a whole number of milliseconds.
     """
     node_type, args = spec.type, spec.args
-    kids = [bt_node(child) for child in spec.children]
+    kids = [bt_node(child, exact) for child in spec.children]
     if node_type.category == "reference":
         return BtNode("SubTree", None, {}, subtree=args["subtree"], spec=spec)
     name = node_type.name
@@ -132,15 +138,18 @@ def bt_node(spec: NodeSpec) -> BtNode:
             ports["num_attempts"] = str(args["attempts"])
         elif name == "timeout":
             msec = args["seconds"] * 1000
-            if abs(msec - round(msec)) > 1e-6:
+            if exact and abs(msec - round(msec)) > 1e-6:
                 raise ExportError(
                     f"{spec.path}: timeout {args['seconds']} s is not a whole number of milliseconds, "
                     "which BehaviorTree.CPP's Timeout (msec) needs"
                 )
-            ports["msec"] = str(round(msec))
+            ports["msec"] = str(max(1, round(msec)))
         elif name == "once":
             ports["then_skip"] = "false"
         return BtNode(_DECORATOR_TAGS[name], spec.name, ports, kids, spec=spec)
+    if name in KNOWN_TAGS or name in EXPLICIT:  # a plugin's leaf named like BehaviorTree.CPP's own nodes
+        tag = "Action" if node_type.category == "action" else "Condition"
+        return BtNode(tag, spec.name, {"ID": name, **_ports(node_type, args)}, kids, spec=spec)
     return BtNode(name, spec.name, _ports(node_type, args), kids, spec=spec)
 
 
@@ -153,7 +162,9 @@ def _element(node: BtNode, depth: int) -> Iterator[str]:
     if node.tag == "SubTree":
         yield f"{pad}<SubTree ID={quoteattr(node.subtree)}/>"
         return
-    pairs = ([("name", node.name)] if node.name else []) + list(node.ports.items())
+    ports = dict(node.ports)
+    pairs = [("ID", ports.pop("ID"))] if "ID" in ports else []
+    pairs += ([("name", node.name)] if node.name else []) + list(ports.items())
     if not node.children:
         yield f"{pad}<{node.tag}{_attributes(pairs)}/>"
         return
@@ -263,10 +274,8 @@ class Instance:
 def instance(mission: MissionSpec) -> Instance:
     """Numbers the mission's nodes as BehaviorTree.CPP would.
 
-    Depth first, from 1, a subtree's nodes right after its ``SubTree`` node.
-
-    Raises:
-        ExportError: the mission holds something BehaviorTree.CPP cannot express.
+    Depth first, from 1, a subtree's nodes right after its ``SubTree`` node. A timeout is shown
+    to the nearest millisecond: this describes the tree autonomy runs, for loggers and Groot2.
     """
     record_ids: list[int] = []
     tags: list[str] = []
@@ -290,12 +299,15 @@ def instance(mission: MissionSpec) -> Instance:
             path = f"{fullpath}/{inner}" if fullpath else inner
             block.append(f'{pad}<SubTree ID={quoteattr(node.subtree)} _fullpath={quoteattr(path)} _uid="{uid}"/>')
             target = mission.subtrees[node.subtree]
-            tree_block(bt_node(target), node.subtree, path)
+            tree_block(bt_node(target, exact=False), node.subtree, path)
             record_ids[uid - 1] = record_ids[uid]
             return
         record_ids.append(next_record[0])
         next_record[0] += 1
-        pairs = [("name", node.name or node.tag), ("_uid", str(uid)), *sorted(node.ports.items())]
+        ports = dict(node.ports)
+        explicit = [("ID", ports.pop("ID"))] if "ID" in ports else []
+        pairs = [*explicit, ("name", node.name or explicit[0][1] if explicit else node.name or node.tag)]
+        pairs += [("_uid", str(uid)), *sorted(ports.items())]
         if not node.children:
             block.append(f"{pad}<{node.tag}{_attributes(pairs)}/>")
             return
@@ -304,7 +316,7 @@ def instance(mission: MissionSpec) -> Instance:
             element(child, depth + 1, fullpath, block)
         block.append(f"{pad}</{node.tag}>")
 
-    tree_block(bt_node(mission.tree), mission.name, "")
+    tree_block(bt_node(mission.tree, exact=False), mission.name, "")
     lines = ['<root BTCPP_format="4">']
     for block in blocks:
         lines += block

@@ -34,11 +34,12 @@ limits of YAML files hold here too (1 MB, :data:`~autonomy.source.MAX_NODES` ele
 
 from __future__ import annotations
 
+import bisect
 import re
 from dataclasses import dataclass, field
 from xml.parsers import expat
 
-from autonomy.source import MAX_DEPTH, MAX_NODES, Located, SourceError, text_problems
+from autonomy.source import MAX_DEPTH, MAX_NODES, REFUSED, Located, SourceError, suggest, text_problems
 
 #: BehaviorTree.CPP's structure nodes that autonomy has, and the node type each becomes.
 COMPOSITES = {
@@ -81,7 +82,18 @@ UNSUPPORTED = {
     "Switch4": "use a Fallback",
     "Switch5": "use a Fallback",
     "Switch6": "use a Fallback",
+    "LoopInt": "autonomy has no blackboard queues",
+    "LoopDouble": "autonomy has no blackboard queues",
+    "LoopString": "autonomy has no blackboard queues",
+    "LoopBool": "autonomy has no blackboard queues",
+    "SkipUnlessUpdated": "autonomy has no blackboard",
+    "WaitValueUpdate": "autonomy has no blackboard",
+    "WasEntryUpdated": "autonomy has no blackboard",
+    "ManualSelector": "use a Fallback",
 }
+#: Every BehaviorTree.CPP node name this reader knows, for did-you-mean.
+KNOWN_TAGS = [*COMPOSITES, *DECORATORS, *UNSUPPORTED, "SubTree"]
+_BLACKBOARD = re.compile(r"^\s*\{.*\}\s*$", re.DOTALL)
 #: Elements that name their node type in ``ID=`` rather than in their tag.
 EXPLICIT = ("Action", "Condition", "Control", "Decorator")
 #: Attributes BehaviorTree.CPP writes for itself, which say nothing about the mission.
@@ -149,16 +161,25 @@ def read_elements(text: str) -> Element:
     done: list[Element] = []
     count = [0]
 
+    bom = 3 if data.startswith(b"\xef\xbb\xbf") else 0
+    ascii_text = data.isascii()
+    columns: dict[int, list[int]] = {}  # per non-ASCII line: the character column of each byte
+
     def position(offset: int) -> tuple[int, int]:
-        low, high = 0, len(line_starts) - 1
-        while low < high:  # the last line start at or before offset
-            middle = (low + high + 1) // 2
-            if line_starts[middle] <= offset:
-                low = middle
-            else:
-                high = middle - 1
-        start = line_starts[low]
-        return low + 1, len(data[start:offset].decode("utf-8", "replace")) + 1
+        line = bisect.bisect_right(line_starts, offset) - 1
+        start = line_starts[line] + (bom if line == 0 else 0)
+        if ascii_text:
+            return line + 1, offset - start + 1
+        if line not in columns:
+            end = line_starts[line + 1] if line + 1 < len(line_starts) else len(data)
+            chars, count = [], 0
+            for byte in data[start:end]:
+                chars.append(count)
+                count += (byte & 0xC0) != 0x80  # a byte that starts a character
+            chars.append(count)
+            columns[line] = chars
+        chars = columns[line]
+        return line + 1, chars[min(max(offset - start, 0), len(chars) - 1)] + 1
 
     def refuse(message: str) -> None:
         raise XmlUnreadable(SourceError(*position(parser.CurrentByteIndex), message))
@@ -214,35 +235,51 @@ def read_elements(text: str) -> Element:
     return done[0]
 
 
-def _node(element: Element, problems: list[SourceError]) -> Located | None:
-    """One node element as the YAML reader would have read the node."""
+def _node(element: Element, problems: list[SourceError], main_id: str = "") -> Located:
+    """One node element as the YAML reader would have read the node.
+
+    A node that cannot be read is reported and stands as a refused value, so that the rest of
+    the file is still read and checked: every problem comes at once.
+    """
     tag, where = element.tag, (element.line, element.column)
+    refused = Located(REFUSED, *where)
+    leaf_only = tag in ("Action", "Condition")  # <Action ID="Timeout"/> is a leaf called Timeout
     if tag in EXPLICIT or tag == "SubTree":
-        if "ID" not in element.attributes:
+        if not element.attributes.get("ID", "").strip():
             problems.append(SourceError(*where, f'<{tag}> needs ID="...", the node type'))
-            return None
+            return refused
         if tag != "SubTree":
             tag = element.attributes["ID"]
-    for name in element.attributes:
+    before = len(problems)
+    for name, value in element.attributes.items():
         if name.startswith("_") and name not in BOOKKEEPING:
+            said = "pre- and post-conditions, scripts" if not name.startswith("__") else "blackboards"
+            problems.append(
+                SourceError(*element.at(name), f"BehaviorTree.CPP's {name} ({said}) is not something autonomy runs")
+            )
+        elif _BLACKBOARD.match(value) and name != "ID":
             problems.append(
                 SourceError(
                     *element.at(name),
-                    f"BehaviorTree.CPP's {name} (pre- and post-conditions, scripts) is not something autonomy runs",
+                    f'{name}="{value.strip()}" reads a blackboard entry; autonomy has no blackboard: write the value',
                 )
             )
-            return None
+    if len(problems) > before:
+        return refused
     if tag == "SubTree":
         for name in element.attributes:
             if name not in ("ID", "name", *BOOKKEEPING):
-                problems.append(
-                    SourceError(*element.at(name), f"SubTree port '{name}': autonomy has no blackboard to remap")
-                )
-                return None
+                said = f"SubTree port '{name}': autonomy has no blackboard to remap"
+                problems.append(SourceError(*element.at(name), said))
+                return refused
+        if element.attributes["ID"] == main_id:
+            said = f"SubTree '{main_id}' is the main tree: it would hold itself"
+            problems.append(SourceError(*element.at("ID"), said))
+            return refused
         return Located({"subtree": element.text("ID")}, *where, keys={"subtree": where})
-    if tag in UNSUPPORTED:
+    if tag in UNSUPPORTED and not leaf_only:
         problems.append(SourceError(*where, f"BehaviorTree.CPP's {tag} has no autonomy equivalent: {UNSUPPORTED[tag]}"))
-        return None
+        return refused
     params: dict[str, Located] = {}
     keys: dict[str, tuple[int, int]] = {}
 
@@ -250,47 +287,58 @@ def _node(element: Element, problems: list[SourceError]) -> Located | None:
         params[key] = value
         keys[key] = (value.line, value.column)
 
-    children = [_node(child, problems) for child in element.children]
-    if any(child is None for child in children):
-        return None
-    kids: list[Located] = children  # type: ignore[assignment]
+    kids = [_node(child, problems, main_id) for child in element.children]
     ours = tag
-    ports = {k: v for k, v in element.attributes.items() if k not in BOOKKEEPING and k != "ID"}
+    # An empty attribute is a port left empty (Groot2 writes one for every port it shows): not given.
+    ports = {k: v for k, v in element.attributes.items() if k not in BOOKKEEPING and k != "ID" and v.strip()}
     name = ports.pop("name", None)
     if name is not None and name not in (tag, element.tag):  # BehaviorTree.CPP names an unnamed node by its ID
         put("name", element.text("name"))
-    if tag in COMPOSITES:
+    if tag in COMPOSITES and not leaf_only:
         ours, fixed = COMPOSITES[tag]
         for key, value in fixed.items():
             put(key, Located(value, *where))
         if tag == "Parallel":
             counts = _parallel(element, ports, problems)
             if counts is None:
-                return None
+                return refused
             put("policy", Located(counts, *where))
         elif tag == "While":
             if len(kids) != 2:
-                problems.append(
-                    SourceError(*where, f"While takes two children, the condition and the node; got {len(kids)}")
-                )
-                return None
+                said = f"While takes two children, the condition and the node; got {len(kids)}"
+                problems.append(SourceError(*where, said))
+                return refused
             put("condition", kids[0])
             put("do", kids[1])
             kids = []
+        elif ports:
+            key = next(iter(ports))
+            problems.append(SourceError(*element.at(key), f"unknown port '{key}' for {tag}: it takes none"))
+            return refused
+        if not kids and tag != "While":
+            problems.append(SourceError(*where, f"<{tag}> needs at least one child"))
+            return refused
         if kids:
             put("children", Located(kids, *where))
-    elif tag in DECORATORS:
+    elif tag in DECORATORS and not leaf_only:
         ours = DECORATORS[tag]
         if not _decorator_ports(element, ports, put, problems):
-            return None
+            return refused
         if len(kids) != 1:
             problems.append(SourceError(*where, f"{tag} takes exactly one child, got {len(kids)}"))
-            return None
+            return refused
         put("do", kids[0])
     else:
         if kids:
-            problems.append(SourceError(*where, f"<{tag}> is a leaf here: its children are not read"))
-            return None
+            hint = suggest(tag, KNOWN_TAGS)
+            what = f"not a control or decorator node autonomy knows{hint}" if hint else "a leaf here"
+            problems.append(SourceError(*where, f"<{tag}> has children, but it is {what}"))
+            return refused
+        if tag[:1].isupper() and tag not in KNOWN_TAGS and not leaf_only:
+            hint = suggest(tag, KNOWN_TAGS)
+            if hint:
+                problems.append(SourceError(*where, f"unknown node '{tag}'{hint}"))
+                return refused
         for key in ports:
             put(key, element.text(key))
     return Located({ours: Located(params, *where, keys=keys)}, *where, keys={ours: where})
@@ -345,19 +393,35 @@ def _decorator_ports(element: Element, ports: dict[str, str], put, problems: lis
             known = f"it takes {port}" if port else "it takes no ports"
             problems.append(SourceError(*element.at(key), f"unknown port '{key}' for {element.tag}: {known}"))
             return False
+    if element.tag == "RunOnce" and ports.get("then_skip", "").strip().lower() != "false":
+        problems.append(
+            SourceError(
+                *element.at("then_skip"),
+                "RunOnce needs then_skip=\"false\": autonomy's once gives the child's result again afterwards, "
+                "where BehaviorTree.CPP's default (true) skips the node",
+            )
+        )
+        return False
     if not port or port not in ports:
         if element.tag in ("RetryUntilSuccessful", "Timeout"):
             problems.append(SourceError(element.line, element.column, f"{element.tag} needs {port}"))
             return False
         return True
-    if element.tag == "RunOnce":  # autonomy's once returns the child's result afterwards either way
-        return True
+    if element.tag == "RunOnce":
+        return True  # then_skip="false" is checked below
     value = _whole(element, port, problems)
     if value is None:
         return False
     where = element.at(port)
     if element.tag == "Repeat" and value == -1:
         return True  # forever
+    if element.tag == "RetryUntilSuccessful" and value == -1:
+        said = "num_attempts -1 (forever) is not autonomy's: its retry takes 1 to 1000 attempts"
+        problems.append(SourceError(*where, f"RetryUntilSuccessful {said}"))
+        return False
+    if element.tag == "Timeout" and value <= 0:
+        problems.append(SourceError(*where, f"Timeout msec must be above 0, got {value}"))
+        return False
     if element.tag == "Timeout":
         put(ours, Located(value // 1000 if value % 1000 == 0 else value / 1000, *where))
     else:
@@ -434,7 +498,7 @@ def parse_xml(text: str) -> tuple[Located | None, list[SourceError]]:
     doc["mission"] = main.text("ID")
     keys["mission"] = main.at("ID")
     for attribute, key in SETTINGS.items():
-        if attribute in main.attributes:
+        if main.attributes.get(attribute, "").strip():  # an empty setting is one not given
             doc[key] = _setting(key, main.text(attribute))
             keys[key] = main.at(attribute)
     subtrees: dict[str, Located] = {}
@@ -446,10 +510,10 @@ def parse_xml(text: str) -> tuple[Located | None, list[SourceError]]:
                     tree.line, tree.column, f"tree '{tree_id}' needs exactly one root node, got {len(tree.children)}"
                 )
             )
+            if tree is main:
+                doc["tree"] = Located(REFUSED, tree.line, tree.column)
             continue
-        node = _node(tree.children[0], problems)
-        if node is None:
-            continue
+        node = _node(tree.children[0], problems, main_id)
         if tree is main:
             doc["tree"] = node
             keys["tree"] = (node.line, node.column)
@@ -459,6 +523,6 @@ def parse_xml(text: str) -> tuple[Located | None, list[SourceError]]:
     if subtrees:
         doc["subtrees"] = Located(subtrees, main.line, main.column, keys=sub_keys)
         keys["subtrees"] = (main.line, main.column)
-    if problems:
-        return None, problems
-    return Located(doc, *where, keys=keys), []
+    # With problems, the document still goes to the validator, refused parts left out, so that
+    # every problem of the file is reported at once.
+    return Located(doc, *where, keys=keys), problems

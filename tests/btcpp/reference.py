@@ -98,3 +98,52 @@ def tree_shape(xml: str, with_ports: bool = True) -> list[tuple]:
     for child in trees[""]:
         walk(child, 0)
     return sorted(out)
+
+
+def wait_for_records(logger, path: Path, at_least: int, within_s: float = 10.0) -> None:
+    """Waits until BehaviorTree.CPP's FileLogger, which writes from a thread of its own, has written.
+
+    The logger must stay alive meanwhile: destroyed, it drops what it had not written yet.
+    """
+    import time
+
+    deadline = time.monotonic() + within_s
+    while len(_records_so_far(path)) < at_least or not _header_whole(path):
+        assert time.monotonic() < deadline, f"{path}: FileLogger wrote fewer than {at_least} records"
+        logger.flush()
+        time.sleep(0.02)
+
+
+def settled(logger, path: Path, quiet_s: float = 0.2, within_s: float = 10.0) -> None:
+    """Waits until BehaviorTree.CPP's FileLogger has written all it will: no new record for ``quiet_s``.
+
+    The logger must stay alive meanwhile: destroyed, it drops what it had not written yet.
+    """
+    import time
+
+    deadline = time.monotonic() + within_s
+    count = -1
+    while True:
+        logger.flush()
+        now = len(_records_so_far(path))
+        if now == count and _header_whole(path):
+            return
+        assert time.monotonic() < deadline, f"{path}: FileLogger still writing after {within_s} s"
+        count = now
+        time.sleep(quiet_s)
+
+
+def _records_so_far(path: Path) -> list:
+    """The records written so far; none while the header is still being written."""
+    try:
+        return read_btlog(path)[3]
+    except (struct.error, UnicodeDecodeError):
+        return []
+
+
+def _header_whole(path: Path) -> bool:
+    try:
+        read_btlog(path)
+    except (struct.error, UnicodeDecodeError):
+        return False
+    return True

@@ -33,7 +33,7 @@ def reference_tree(spec, script=None):
 
 def logged_xml(tree, path: Path) -> str:
     logger = bt.FileLogger(tree, str(path))
-    logger.flush()
+    reference.wait_for_records(logger, path, 0)  # the header: it is written from a thread too
     del logger
     return reference.read_btlog(path)[1]
 
@@ -166,7 +166,7 @@ def test_our_btlog_and_behaviortree_cpps_are_the_same_apart_from_timestamps(tmp_
     tree = reference_tree(spec, script)
     logger = bt.FileLogger(tree, str(tmp_path / "theirs.btlog"))
     assert tree.tick_while_running(1).name == "SUCCESS"
-    logger.flush()
+    reference.settled(logger, tmp_path / "theirs.btlog")
     del logger
     magic, their_xml, their_start, theirs = reference.read_btlog(tmp_path / "theirs.btlog")
     assert len(theirs) > 50
@@ -193,7 +193,7 @@ def test_our_reader_reads_behaviortree_cpps_btlog_and_ours_alike(tmp_path):
     tree = reference_tree(spec, script)
     logger = bt.FileLogger(tree, str(tmp_path / "theirs.btlog"))
     tree.tick_while_running(1)
-    logger.flush()
+    reference.settled(logger, tmp_path / "theirs.btlog")
     del logger
     theirs = read_btlog(tmp_path / "theirs.btlog")
     # Ours, from a run of the same mission.
@@ -216,6 +216,22 @@ def test_our_reader_reads_behaviortree_cpps_btlog_and_ours_alike(tmp_path):
         assert {ids[i]: s.status for i, s in back.nodes.items()} == {k: v.status for k, v in sent.nodes.items()}
 
 
+def free_port_pair() -> int:
+    """A port that is free, with the next one free too (the reference binds both)."""
+    import socket
+
+    for _ in range(50):
+        with socket.socket() as first, socket.socket() as second:
+            first.bind(("0.0.0.0", 0))
+            port = first.getsockname()[1]
+            try:
+                second.bind(("0.0.0.0", port + 1))
+            except OSError:
+                continue
+            return port
+    raise AssertionError("no two free ports in a row")
+
+
 def _ask(port: int, kind: bytes, *more: bytes, request_id: int = 7) -> list[bytes]:
     context = zmq.Context()
     socket = context.socket(zmq.REQ)
@@ -233,7 +249,7 @@ def _ask(port: int, kind: bytes, *more: bytes, request_id: int = 7) -> list[byte
 def test_our_groot2_publisher_answers_as_behaviortree_cpps_does(tmp_path):
     spec = load_mission("missions/square.yaml")
     tree = reference_tree(spec)
-    their_port = 31667
+    their_port = free_port_pair()
     publisher = bt.Groot2Publisher(tree, their_port)
     ours = GrootPublisher(instance(spec), port=0).start()
     try:

@@ -74,7 +74,7 @@ def test_behaviortree_cpp_structure_maps_to_ours():
       <Repeat num_cycles="-1"><Timeout msec="2500"><move speed="1"/></Timeout></Repeat>
       <RetryUntilSuccessful num_attempts="3"><Inverter><collided/></Inverter></RetryUntilSuccessful>
       <Parallel success_count="1" failure_count="1">
-        <ForceSuccess><stop/></ForceSuccess><RunOnce><beep/></RunOnce>
+        <ForceSuccess><stop/></ForceSuccess><RunOnce then_skip="false"><beep/></RunOnce>
       </Parallel>
       <Action ID="turn" left="90"/>
       <Condition ID="collided" name="hit"/>
@@ -100,9 +100,27 @@ def test_behaviortree_cpp_structure_maps_to_ours():
         ('<Timeout msec="soon"><stop/></Timeout>', "3:14: Timeout msec must be a whole number, got 'soon'"),
         ("<Inverter><stop/><stop/></Inverter>", "3:5: Inverter takes exactly one child, got 2"),
         ('<stop _skipIf="x"/>', "3:11: BehaviorTree.CPP's _skipIf"),
-        ("<stop><stop/></stop>", "3:5: <stop> is a leaf here"),
-        ('<SubTree ID="m" goal="{g}"/>', "3:21: SubTree port 'goal': autonomy has no blackboard to remap"),
+        ("<stop><stop/></stop>", "3:5: <stop> has children, but it is a leaf here"),
+        ('<SubTree ID="x" goal="{g}"/>', '3:21: goal="{g}" reads a blackboard entry'),
+        ('<SubTree ID="x" goal="g"/>', "3:21: SubTree port 'goal': autonomy has no blackboard to remap"),
         ("<Action/>", '3:5: <Action> needs ID="..."'),
+        ("<RunOnce><stop/></RunOnce>", '3:5: RunOnce needs then_skip="false": autonomy\'s once gives'),
+        ('<RunOnce then_skip="true"><stop/></RunOnce>', "3:14: RunOnce needs then_skip"),
+        ('<log message="{msg}"/>', '3:10: message="{msg}" reads a blackboard entry; autonomy has no blackboard'),
+        (
+            '<RetryUntilSuccessful num_attempts="-1"><stop/></RetryUntilSuccessful>',
+            "3:27: RetryUntilSuccessful num_attempts -1",
+        ),
+        (
+            "<Sequnce><stop/></Sequnce>",
+            "3:5: <Sequnce> has children, but it is not a control or decorator node autonomy knows "
+            "(did you mean 'Sequence'?)",
+        ),
+        ("<Fallbak/>", "3:5: unknown node 'Fallbak' (did you mean 'Fallback'?)"),
+        ("<LoopInt><stop/></LoopInt>", "3:5: BehaviorTree.CPP's LoopInt has no autonomy equivalent"),
+        ("<Sequence/>", "3:5: <Sequence> needs at least one child"),
+        ('<SubTree ID="m"/>', "3:14: SubTree 'm' is the main tree: it would hold itself"),
+        ('<Timeout msec="0"><stop/></Timeout>', "3:14: Timeout msec must be above 0, got 0"),
     ],
 )
 def test_what_behaviortree_cpp_has_and_autonomy_does_not_is_said_where_it_stands(body, expected):
@@ -180,3 +198,54 @@ def test_the_palette_declares_every_leaf_with_its_ports_and_our_while():
             for param in node_type.params:
                 assert f'<input_port name="{param.name}"' in text
     assert '<Control ID="While">' in text and "Sequence" not in text
+
+
+def test_every_problem_of_a_drawn_tree_comes_at_once():
+    xml = one(
+        '    <Sequence>\n      <Delay delay_msec="5"><stop/></Delay>\n      <move speed="9"/>\n'
+        '      <stop _skipIf="x"/>\n      <mvoe/>\n    </Sequence>'
+    )
+    found = problems(xml)
+    assert len(found) == 4, found
+    assert [p.split(": ")[0] for p in found] == ["tree.xml:4:7", "tree.xml:5:13", "tree.xml:6:13", "tree.xml:7:7"]
+
+
+def test_ports_groot2_leaves_empty_count_as_not_given():
+    xml = one('    <move speed="2" distance_mm="300" seconds="" until_obstacle_mm=" "/>')
+    move = validate_text(xml, "tree.xml").tree
+    assert (move.args["distance_mm"], move.args["seconds"], move.args["until_obstacle_mm"]) == (300, None, None)
+    turn = validate_text(one('    <turn left="90" right=""/>').replace('ID="m"', 'ID="m" _description=""'), "t.xml")
+    assert turn.tree.args["left"] == 90 and turn.description == ""
+
+
+def test_a_plugin_leaf_named_like_a_behaviortree_cpp_node_is_exported_in_the_explicit_form():
+    from autonomy.behaviours import Param, RobotAction
+    from autonomy.mission.registry import leaf_type
+
+    class Timeout(RobotAction):
+        node_type = "Timeout"
+        params = (Param("msec", "int", "how long"),)
+
+    registry = BUILTINS.copy()
+    registry.add(leaf_type(Timeout, "plugin"))
+    spec = validate_text("mission: m\ntree:\n  Timeout: {msec: 5}\n", "m.yaml", registry=registry)
+    xml = export_xml(spec)
+    assert '<Action ID="Timeout" msec="5"/>' in xml
+    back = validate_text(xml, "m.xml", registry=registry)
+    assert shape(back.tree) == shape(spec.tree)
+
+
+def test_a_sub_millisecond_timeout_runs_logged_to_the_nearest_millisecond():
+    from autonomy.mission.btcpp import instance
+
+    spec = validate_text("mission: m\ntree:\n  timeout: {seconds: 0.0015, do: stop}\n", "m.yaml")
+    assert 'msec="2"' in instance(spec).xml
+
+
+def test_columns_count_characters_on_a_long_line_of_several_byte_ones():
+    body = '<Sequence name="' + "é" * 900 + '">' + "<stop/>" * 2500 + '<turn lft="90"/></Sequence>'
+    text = "\ufeff" + one(body).replace("\n", "")  # one line, a byte-order mark first
+    found = problems(text)
+    column = text.index('lft="90"')  # characters before it, the mark not counted, from 1
+    said = [p for p in found if "unknown parameter 'lft'" in p]
+    assert len(said) == 1 and said[0].startswith(f"tree.xml:1:{column}: "), found

@@ -137,3 +137,15 @@ def test_a_taken_groot2_port_is_one_line_and_another_interface_a_warning():
     )
     assert result.returncode == 0, result.stderr
     assert "warning: Groot2 is served on 0.0.0.0: anyone who can reach this machine can watch the run" in result.stderr
+
+
+def test_a_btlog_is_not_plotted_as_if_it_had_telemetry_and_one_file_is_not_two_recordings(tmp_path):
+    log = tmp_path / "run.btlog"
+    assert autonomy("run", "missions/square.yaml", "--fast", "--quiet", "--btlog", str(log)).returncode == 0
+    assert_one_line_error(autonomy("plot", str(log), "-o", str(tmp_path / "p.png")), 2, "node statuses only")
+    page = autonomy("plot", str(log), "-o", str(tmp_path / "p.html"))
+    assert page.returncode == 0 and (tmp_path / "p.html").read_text().count("<svg") >= 1
+    same = autonomy("run", "missions/square.yaml", "--fast", "--trace", str(log), "--btlog", str(log))
+    assert_one_line_error(same, 2, "--trace and --btlog need files of their own")
+    assert_one_line_error(autonomy("replay", "/dev/zero"), 2, "not a recording (a folder, a device or a pipe)")
+    assert_one_line_error(autonomy("run", "missions/square.yaml", "--groot", "--groot-port", "65535"), 2, "0..65534")

@@ -106,7 +106,7 @@ def test_a_saved_page_works_offline_from_one_file(tmp_path, page):
 def test_a_behaviortree_cpp_log_replays_in_the_page_with_its_tree_and_no_made_up_telemetry(tmp_path, page, serve):
     from autonomy.btlog import read_btlog
     from autonomy.mission import load_mission
-    from tests.btcpp.reference import bt, factory, for_reference, leaf_names
+    from tests.btcpp.reference import bt, factory, for_reference, leaf_names, wait_for_records
 
     spec = load_mission(ROOT / "missions" / "square.yaml")
     from autonomy.mission.btcpp import export_xml
@@ -118,7 +118,7 @@ def test_a_behaviortree_cpp_log_replays_in_the_page_with_its_tree_and_no_made_up
     logger = bt.FileLogger(tree, str(log))
     for _ in range(3):
         tree.tick_once()
-    logger.flush()
+    wait_for_records(logger, log, 3)  # the repeat, the sequence and the move start
     del logger
     trace = read_btlog(log)
     served = serve("replay", str(log), "--view")
@@ -126,11 +126,13 @@ def test_a_behaviortree_cpp_log_replays_in_the_page_with_its_tree_and_no_made_up
     page.wait_for_selector("#controls:not([hidden])")
     assert page.eval_on_selector_all("#tree .node", "els => els.length") == len(trace.header.nodes) == 7
     assert "a BehaviorTree.CPP log: node statuses only, no telemetry" in page.text_content("#where")
-    last = len(trace.ticks) - 1
-    page.locator("#slider").fill(str(last))
     state = TreeState(trace.header)
-    for tick in trace.ticks:
+    index = 0
+    for index, tick in enumerate(trace.ticks):  # noqa: B007 - the first tick at which something runs
         state.apply(tick)
+        if "RUNNING" in [s.status for s in state.nodes.values()]:
+            break
+    page.locator("#slider").fill(str(index))
     seen = page.eval_on_selector_all(
         "#tree .node", "els => els.map(e => [+e.dataset.node, getComputedStyle(e.querySelector('rect')).fill])"
     )
