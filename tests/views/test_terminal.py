@@ -97,6 +97,22 @@ def test_replay_plays_a_trace_in_the_terminal_view(tmp_path, tmux):
     screen = session.wait_for("Mission 'square' succeeded after 10.2 s")  # the screen is given back
 
 
+def test_a_btlog_replays_in_the_terminal_view_with_no_made_up_telemetry(tmp_path, tmux):
+    log = tmp_path / "run.btlog"
+    subprocess.run(
+        [sys.executable, "-m", "autonomy", "run", "missions/square.yaml", "--fast", "--quiet", "--btlog", str(log)],
+        cwd=ROOT,
+        check=True,
+        capture_output=True,
+    )
+    session = tmux(command("replay", str(log), "--speed", "4"))
+    screen = session.wait_for("not recorded")  # where the telemetry would be
+    text = "\n".join(screen)
+    assert "replay x4" in text and "Repeat num_cycles=4" in text and "move distance_mm=300 speed=2" in text
+    assert "front" not in text and "battery" not in text
+    session.wait_for("root SUCCESS", seconds=20)
+
+
 def test_replay_without_a_terminal_prints_the_lines(tmp_path):
     trace = tmp_path / "run.jsonl"
     subprocess.run(
