@@ -41,10 +41,16 @@ def _fail(message: str, code: int) -> int:
     return code
 
 
+#: Most problems printed for one file: past that, the first ones are what to fix.
+MAX_PROBLEMS_SHOWN = 100
+
+
 def _problems(problems: Sequence[object]) -> int:
-    """Prints a file's problems, one ``FILE:LINE:COL: ...`` a line; exit 2."""
-    for problem in problems:
+    """Prints a file's problems, one ``FILE:LINE:COL: ...`` a line (at most 100, then a count); exit 2."""
+    for problem in problems[:MAX_PROBLEMS_SHOWN]:
         print(problem, file=sys.stderr)
+    if len(problems) > MAX_PROBLEMS_SHOWN:
+        print(f"... and {len(problems) - MAX_PROBLEMS_SHOWN:,} more problems, not shown", file=sys.stderr)
     return EXIT_USAGE
 
 

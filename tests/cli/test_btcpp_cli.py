@@ -149,3 +149,16 @@ def test_a_btlog_is_not_plotted_as_if_it_had_telemetry_and_one_file_is_not_two_r
     assert_one_line_error(same, 2, "--trace and --btlog need files of their own")
     assert_one_line_error(autonomy("replay", "/dev/zero"), 2, "not a recording (a folder, a device or a pipe)")
     assert_one_line_error(autonomy("run", "missions/square.yaml", "--groot", "--groot-port", "65535"), 2, "0..65534")
+
+
+def test_a_file_with_thousands_of_problems_shows_the_first_hundred_and_a_count(tmp_path):
+    xml = tmp_path / "many.xml"
+    xml.write_text(
+        '<root BTCPP_format="4"><BehaviorTree ID="m"><Sequence>'
+        + '<move sped="1"/>' * 300
+        + "</Sequence></BehaviorTree></root>"
+    )
+    result = autonomy("check", str(xml))
+    lines = result.stderr.splitlines()
+    assert result.returncode == 2 and len(lines) == 101
+    assert lines[-1] == "... and 500 more problems, not shown"  # two a move: the typo, and speed missing
