@@ -249,3 +249,41 @@ def test_columns_count_characters_on_a_long_line_of_several_byte_ones():
     column = text.index('lft="90"')  # characters before it, the mark not counted, from 1
     said = [p for p in found if "unknown parameter 'lft'" in p]
     assert len(said) == 1 and said[0].startswith(f"tree.xml:1:{column}: "), found
+
+
+@pytest.mark.parametrize(
+    ("kind", "text", "value"),
+    [
+        ("bool", "true", True),
+        ("bool", "FALSE", False),
+        ("bool", "1", True),
+        ("bool", " 0 ", False),
+        ("bool", "yes", "yes"),
+        ("int", "+3", 3),
+        ("int", "3.0", "3.0"),
+        ("number", "-2", -2),
+        ("number", "1.5e3", 1500.0),
+        ("number", ".5", 0.5),
+        ("number", "INF", float("inf")),
+        ("number", "1" * 41 + ".0", "1" * 41 + ".0"),  # longer than any number a mission holds: left as text
+        ("number", "1" * 38 + ".0", float("1" * 38)),
+        ("tones", "1;5;9", [1, 5, 9]),
+        ("tones", "1;5;x", "1;5;x"),
+        ("string", "0", "0"),
+    ],
+)
+def test_an_attribute_is_read_as_its_parameters_kind_or_left_as_text_for_the_check_to_name(kind, text, value):
+    from autonomy.mission.validate import _from_attribute
+
+    got = _from_attribute(kind, text)
+    assert got == value and type(got) is type(value)
+
+
+def test_a_subtree_given_something_else_than_a_name_says_so_where_it_stands():
+    found = problems(one("    <SubTree/>"))
+    assert found == ['tree.xml:3:5: <SubTree> needs ID="...", the node type']
+    with pytest.raises(MissionInvalid) as caught:
+        validate_text("mission: m\ntree:\n  subtree: [a, b]\n", "m.yaml")
+    (problem,) = caught.value.problems
+    assert (problem.line, problem.column, problem.path) == (3, 12, "tree.subtree")
+    assert problem.message == "subtree takes the name of a subtree, e.g. subtree: corner; got a list"
