@@ -207,14 +207,18 @@ class Turn(RobotAction):
         side = "left" if args.get("left") is not None else "right"
         return f"turn {side} {args.get(side)} deg"
 
+    # Set by initialise(), which py_trees calls before the first update() of every turn.
+    _turned_deg: float
+    _last_heading: int
+    _deadline_s: float
+    _failed: bool
+
     def __init__(self, name: str, **args: Any) -> None:
         super().__init__(name, **args)
-        left = args.get("left")
-        self.angle_deg = int(left) if left is not None else -int(args.get("right") or 0)
-        self._turned_deg = 0.0
-        self._last_heading = 0
-        self._deadline_s = 0.0
-        self._failed = False
+        left, right = args.get("left"), args.get("right")
+        if (left is None) == (right is None):
+            raise ValueError("turn takes one of left= or right=, in degrees")
+        self.angle_deg = int(left) if left is not None else -int(right)
         self._wrong_way = WrongWay(self.WRONG_WAY_STEP_DEG, self.WRONG_WAY_TOTAL_DEG)
 
     def initialise(self) -> None:
@@ -327,9 +331,7 @@ class Wait(RobotAction):
         ),
     )
 
-    def __init__(self, name: str, **args: Any) -> None:
-        super().__init__(name, **args)
-        self._end_s = 0.0
+    _end_s: float  # set by initialise(), before the first update()
 
     def initialise(self) -> None:
         """Notes when the wait ends."""

@@ -123,3 +123,14 @@ def test_leaf_classes_are_plain_behaviours_without_io_before_setup():
         assert node.robot is None  # __init__ configures only
     assert Servo("s", id=0, angle=1, by=None).args["angle"] == 1
     assert Log.node_type == "log"
+
+
+def test_a_turn_built_in_code_needs_one_side():
+    import pytest as _pytest
+
+    from autonomy.behaviours.actions import Turn as TurnNode
+
+    for args in ({}, {"left": 90, "right": 90}):
+        with _pytest.raises(ValueError, match="turn takes one of left= or right=, in degrees"):
+            TurnNode("t", **args)
+    assert TurnNode("t", right=45).angle_deg == -45 and TurnNode("t", left=0).angle_deg == 0

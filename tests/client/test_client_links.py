@@ -238,3 +238,11 @@ def test_an_unknown_scheme_or_an_empty_error_still_says_something():
 def test_closing_twice_reports_the_stop_both_times():
     client = Client.open("emu://?time=virtual")
     assert client.close() is True and client.close() is True and client.closed
+
+
+def test_a_client_over_tcp_keeps_the_clock_and_name_it_was_opened_with():
+    clock = VirtualClock(5.0)
+    with TcpServer(Emulator("box"), port=0) as server:
+        client = Client.open(server.url, clock=clock)
+        assert client.clock is clock and client.name == server.url
+        client.close()
