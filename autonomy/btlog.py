@@ -51,9 +51,11 @@ CODES = {INVALID: 0, RUNNING: 1, SUCCESS: 2, FAILURE: 3}
 STATUSES = {0: INVALID, 1: RUNNING, 2: SUCCESS, 3: FAILURE, 4: INVALID}
 #: Changes this close together are one tick when a file is read back.
 SAME_TICK_US = 1000
-#: Largest file read back: 2.2 million status changes (each costs some 700 bytes once read).
-MAX_BYTES = 20_000_000
+#: Largest file read back: 555,000 status changes, hours of a run (each costs up to 0.5 kB once read).
+MAX_BYTES = 5_000_000
 _RECORD = struct.Struct("<6sHB")
+#: One state object per status, shared by every tick read back.
+_STATES = {status: NodeState(status) for status in (INVALID, RUNNING, SUCCESS, FAILURE)}
 
 
 class BtlogError(AutonomyError):
@@ -255,7 +257,7 @@ def read_btlog(path: str | Path) -> Trace:
         last_us = at_us
         status = STATUSES[code]
         if status != INVALID or uid - 1 not in group:
-            group[uid - 1] = NodeState(status)
+            group[uid - 1] = _STATES[status]
     close(group_us)
     end_s = ticks[-1].time_s if ticks else 0.0
     root_state = next((t.nodes[0].status for t in reversed(ticks) if 0 in t.nodes), INVALID)
