@@ -89,6 +89,8 @@ class BtlogWriter:
         self.uids: dict[int, list[int]] = {}
         for uid, record_id in enumerate(tree.record_ids, start=1):
             self.uids.setdefault(record_id, []).append(uid)
+        #: The status code last written for each record node (a change of feedback alone is not written).
+        self._written: dict[int, int] = {}
         self.failure = ""
 
     def __call__(self, record: Record) -> None:
@@ -104,12 +106,16 @@ class BtlogWriter:
                 )
                 self.stream.flush()
             elif isinstance(record, TickRecord) and record.nodes:
-                changes = sorted(
-                    (uid, CODES.get(state.status, 0))
-                    for node_id, state in record.nodes.items()
-                    for uid in self.uids.get(node_id, ())
-                )
-                self.write_changes(round(record.time_s * 1_000_000), changes)
+                written, changed = self._written, []
+                for node_id, state in record.nodes.items():
+                    code = CODES.get(state.status, 0)
+                    if written.get(node_id, 0) != code:
+                        written[node_id] = code
+                        changed.append(node_id)
+                if changed:
+                    uids = self.uids
+                    changes = sorted((uid, written[node_id]) for node_id in changed for uid in uids.get(node_id, ()))
+                    self.write_changes(round(record.time_s * 1_000_000), changes)
                 now = self.clock.now()
                 if now - self._flushed_s >= self.FLUSH_S:
                     self.stream.flush()
@@ -173,7 +179,7 @@ def _nodes(root: Element, where: str) -> list[NodeInfo]:
 def read_btlog(path: str | Path) -> Trace:
     """Reads a FileLogger2 file as a trace: its tree, and one tick per burst of changes.
 
-    Changes less than :data:`SAME_TICK_US` apart are one tick; within a tick, a node that
+    Changes less than :data:`SAME_TICK_US` after the first of a tick are that tick; within it, a node that
     goes back to IDLE keeps the status it had (as Groot2 shows it, faded).
 
     Raises:
@@ -226,7 +232,7 @@ def read_btlog(path: str | Path) -> Trace:
     body = memoryview(data)[xml_end + 8 :]
     whole = len(body) - len(body) % _RECORD.size
     group: dict[int, NodeState] = {}
-    group_us = last_us = -1
+    group_us = -1
     zero = Packet(
         mode=0,
         auto_mode=False,
@@ -250,11 +256,10 @@ def read_btlog(path: str | Path) -> Trace:
         at_us = int.from_bytes(stamp, "little")
         if uid < 1 or uid > len(nodes) or code not in STATUSES:
             raise BtlogError(f"{path}: record {offset // _RECORD.size + 1} names uid {uid}, status {code}")
-        if last_us >= 0 and at_us - last_us > SAME_TICK_US:
+        if group and at_us - group_us >= SAME_TICK_US:
             close(group_us)
         if not group:
             group_us = at_us
-        last_us = at_us
         status = STATUSES[code]
         if status != INVALID or uid - 1 not in group:
             group[uid - 1] = _STATES[status]
@@ -263,4 +268,4 @@ def read_btlog(path: str | Path) -> Trace:
     root_state = next((t.nodes[0].status for t in reversed(ticks) if 0 in t.nodes), INVALID)
     outcome = {SUCCESS: "succeeded", FAILURE: "failed"}.get(root_state, "recorded")
     end = RunEnd(outcome, "", False, end_s, paragraph=f"{path.name}: {len(ticks)} ticks recorded, root {root_state}")
-    return Trace(header, ticks, end, cut_off_line=len(body) % _RECORD.size and len(ticks) + 1)
+    return Trace(header, ticks, end)

@@ -458,7 +458,8 @@ def _start_groot(args: argparse.Namespace, tree: Any) -> tuple[Any, str]:
             f"warning: Groot2 is served on {host}: anyone who can reach this machine can watch the run",
             file=sys.stderr,
         )
-    print(f"groot2: attach to {host} port {groot.port}", file=sys.stderr, flush=True)
+    shown = "this machine's address" if host in ("0.0.0.0", "::", "") else host
+    print(f"groot2: attach to {shown} port {groot.port}", file=sys.stderr, flush=True)
     return groot, ""
 
 
@@ -933,7 +934,7 @@ def build_parser() -> argparse.ArgumentParser:
     replay.set_defaults(func=cmd_replay)
 
     plot = sub.add_parser("plot", help="draw a recorded run: map, telemetry, timeline")
-    plot.add_argument("trace", metavar="TRACE", help="a trace file written by run --trace")
+    plot.add_argument("trace", metavar="TRACE", help="a trace written by run --trace (a .btlog: -o FILE.html only)")
     plot.add_argument("-o", "--output", required=True, metavar="FILE", help="FILE.png, FILE.svg or FILE.html")
     plot.set_defaults(func=cmd_plot)
 

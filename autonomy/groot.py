@@ -14,6 +14,8 @@ id of the tree added, then the answer:
        of each name to nil (autonomy has no blackboard)
 ``D``  the breakpoints set: none (``[]``)
 ``A``, ``X``  remove or disable every breakpoint: the header alone
+``r``  start or stop recording transitions (Groot2 PRO; a second frame says which): the header alone
+``t``  the transitions recorded: none (an empty frame)
 =====  =========================================================================
 
 Anything else gets ``[b"error", reason]``. The publisher also binds the next port (1668) for
@@ -163,8 +165,12 @@ class GrootPublisher:
             return [head, _msgpack_nils([n for n in names if n in self.blackboards])]
         if kind == b"D":
             return [head, b"[]"]
-        if kind in (b"A", b"X"):
+        if kind == b"r":  # recording on or off (the second frame): nothing is kept either way
+            return [head] if len(frames) == 2 else [b"error", b"must be 2 parts message"]
+        if kind in (b"A", b"X"):  # no breakpoints to remove or disable
             return [head]
+        if kind == b"t":  # the transitions recorded: none
+            return [head, b""]
         return [b"error", b"Request not recognized"]
 
     def _serve(self) -> None:

@@ -28,7 +28,7 @@ import yaml
 from autonomy.behaviours import Param
 from autonomy.mission.registry import NodeType, Registry
 from autonomy.mission.validate import MissionSpec, NodeSpec
-from autonomy.mission.xml_read import EXPLICIT, KNOWN_TAGS
+from autonomy.mission.xml_read import BLACKBOARD, EXPLICIT, KNOWN_TAGS
 
 INDENT = "    "
 #: Our structure types and the BehaviorTree.CPP node each is (``While`` is ours, declared in the model).
@@ -116,7 +116,8 @@ def bt_node(spec: NodeSpec, exact: bool = True) -> BtNode:
             millisecond); else round it, for a description of the tree that is not run.
 
     Raises:
-        ExportError: ``exact``, and a timeout that is not a whole number of milliseconds.
+        ExportError: ``exact``, and a timeout that is not a whole number of milliseconds, or a
+            text BehaviorTree.CPP would take for a blackboard entry (``{name}``).
     """
     node_type, args = spec.type, spec.args
     kids = [bt_node(child, exact) for child in spec.children]
@@ -147,10 +148,17 @@ def bt_node(spec: NodeSpec, exact: bool = True) -> BtNode:
         elif name == "once":
             ports["then_skip"] = "false"
         return BtNode(_DECORATOR_TAGS[name], spec.name, ports, kids, spec=spec)
+    ports = _ports(node_type, args)
+    for key, value in ports.items():
+        if exact and BLACKBOARD.match(value):
+            raise ExportError(
+                f"{spec.path}.{key}: '{value}' would be read by BehaviorTree.CPP as a blackboard entry, "
+                "not as text: write it without the braces"
+            )
     if name in KNOWN_TAGS or name in EXPLICIT:  # a plugin's leaf named like BehaviorTree.CPP's own nodes
         tag = "Action" if node_type.category == "action" else "Condition"
-        return BtNode(tag, spec.name, {"ID": name, **_ports(node_type, args)}, kids, spec=spec)
-    return BtNode(name, spec.name, _ports(node_type, args), kids, spec=spec)
+        return BtNode(tag, spec.name, {"ID": name, **ports}, kids, spec=spec)
+    return BtNode(name, spec.name, ports, kids, spec=spec)
 
 
 def _attributes(pairs: list[tuple[str, str]]) -> str:

@@ -93,7 +93,7 @@ UNSUPPORTED = {
 }
 #: Every BehaviorTree.CPP node name this reader knows, for did-you-mean.
 KNOWN_TAGS = [*COMPOSITES, *DECORATORS, *UNSUPPORTED, "SubTree"]
-_BLACKBOARD = re.compile(r"^\s*\{.*\}\s*$", re.DOTALL)
+BLACKBOARD = re.compile(r"^\s*\{.+\}\s*$", re.DOTALL)
 #: Elements that name their node type in ``ID=`` rather than in their tag.
 EXPLICIT = ("Action", "Condition", "Control", "Decorator")
 #: Attributes BehaviorTree.CPP writes for itself, which say nothing about the mission.
@@ -238,16 +238,24 @@ def read_elements(text: str) -> Element:
 def _node(element: Element, problems: list[SourceError], main_id: str = "") -> Located:
     """One node element as the YAML reader would have read the node.
 
-    A node that cannot be read is reported and stands as a refused value, so that the rest of
-    the file is still read and checked: every problem comes at once.
+    A node that cannot be read is reported, and stands as a plain sequence of its children (or,
+    without children, as a refused value), so that the rest of the file, the nodes under it
+    included, is still read and checked: every problem comes at once.
     """
     tag, where = element.tag, (element.line, element.column)
-    refused = Located(REFUSED, *where)
+    kids = [_node(child, problems, main_id) for child in element.children]
+
+    def refuse() -> Located:
+        if not kids:
+            return Located(REFUSED, *where)
+        children = Located({"children": Located(kids, *where)}, *where, keys={"children": where})
+        return Located({"sequence": children}, *where, keys={"sequence": where})
+
     leaf_only = tag in ("Action", "Condition")  # <Action ID="Timeout"/> is a leaf called Timeout
     if tag in EXPLICIT or tag == "SubTree":
         if not element.attributes.get("ID", "").strip():
             problems.append(SourceError(*where, f'<{tag}> needs ID="...", the node type'))
-            return refused
+            return refuse()
         if tag != "SubTree":
             tag = element.attributes["ID"]
     before = len(problems)
@@ -257,7 +265,7 @@ def _node(element: Element, problems: list[SourceError], main_id: str = "") -> L
             problems.append(
                 SourceError(*element.at(name), f"BehaviorTree.CPP's {name} ({said}) is not something autonomy runs")
             )
-        elif _BLACKBOARD.match(value) and name != "ID":
+        elif BLACKBOARD.match(value) and name != "ID":
             problems.append(
                 SourceError(
                     *element.at(name),
@@ -265,21 +273,21 @@ def _node(element: Element, problems: list[SourceError], main_id: str = "") -> L
                 )
             )
     if len(problems) > before:
-        return refused
+        return refuse()
     if tag == "SubTree":
         for name in element.attributes:
             if name not in ("ID", "name", *BOOKKEEPING):
                 said = f"SubTree port '{name}': autonomy has no blackboard to remap"
                 problems.append(SourceError(*element.at(name), said))
-                return refused
+                return refuse()
         if element.attributes["ID"] == main_id:
             said = f"SubTree '{main_id}' is the main tree: it would hold itself"
             problems.append(SourceError(*element.at("ID"), said))
-            return refused
+            return refuse()
         return Located({"subtree": element.text("ID")}, *where, keys={"subtree": where})
     if tag in UNSUPPORTED and not leaf_only:
         problems.append(SourceError(*where, f"BehaviorTree.CPP's {tag} has no autonomy equivalent: {UNSUPPORTED[tag]}"))
-        return refused
+        return refuse()
     params: dict[str, Located] = {}
     keys: dict[str, tuple[int, int]] = {}
 
@@ -287,7 +295,6 @@ def _node(element: Element, problems: list[SourceError], main_id: str = "") -> L
         params[key] = value
         keys[key] = (value.line, value.column)
 
-    kids = [_node(child, problems, main_id) for child in element.children]
     ours = tag
     # An empty attribute is a port left empty (Groot2 writes one for every port it shows): not given.
     ports = {k: v for k, v in element.attributes.items() if k not in BOOKKEEPING and k != "ID" and v.strip()}
@@ -301,44 +308,44 @@ def _node(element: Element, problems: list[SourceError], main_id: str = "") -> L
         if tag == "Parallel":
             counts = _parallel(element, ports, problems)
             if counts is None:
-                return refused
+                return refuse()
             put("policy", Located(counts, *where))
         elif tag == "While":
             if len(kids) != 2:
                 said = f"While takes two children, the condition and the node; got {len(kids)}"
                 problems.append(SourceError(*where, said))
-                return refused
+                return refuse()
             put("condition", kids[0])
             put("do", kids[1])
             kids = []
         elif ports:
             key = next(iter(ports))
             problems.append(SourceError(*element.at(key), f"unknown port '{key}' for {tag}: it takes none"))
-            return refused
+            return refuse()
         if not kids and tag != "While":
             problems.append(SourceError(*where, f"<{tag}> needs at least one child"))
-            return refused
+            return refuse()
         if kids:
             put("children", Located(kids, *where))
     elif tag in DECORATORS and not leaf_only:
         ours = DECORATORS[tag]
         if not _decorator_ports(element, ports, put, problems):
-            return refused
+            return refuse()
         if len(kids) != 1:
             problems.append(SourceError(*where, f"{tag} takes exactly one child, got {len(kids)}"))
-            return refused
+            return refuse()
         put("do", kids[0])
     else:
         if kids:
             hint = suggest(tag, KNOWN_TAGS)
             what = f"not a control or decorator node autonomy knows{hint}" if hint else "a leaf here"
             problems.append(SourceError(*where, f"<{tag}> has children, but it is {what}"))
-            return refused
+            return refuse()
         if tag[:1].isupper() and tag not in KNOWN_TAGS and not leaf_only:
             hint = suggest(tag, KNOWN_TAGS)
             if hint:
                 problems.append(SourceError(*where, f"unknown node '{tag}'{hint}"))
-                return refused
+                return refuse()
         for key in ports:
             put(key, element.text(key))
     return Located({ours: Located(params, *where, keys=keys)}, *where, keys={ours: where})
@@ -393,7 +400,7 @@ def _decorator_ports(element: Element, ports: dict[str, str], put, problems: lis
             known = f"it takes {port}" if port else "it takes no ports"
             problems.append(SourceError(*element.at(key), f"unknown port '{key}' for {element.tag}: {known}"))
             return False
-    if element.tag == "RunOnce" and ports.get("then_skip", "").strip().lower() != "false":
+    if element.tag == "RunOnce" and ports.get("then_skip", "").strip().lower() not in ("false", "0"):
         problems.append(
             SourceError(
                 *element.at("then_skip"),
@@ -403,8 +410,9 @@ def _decorator_ports(element: Element, ports: dict[str, str], put, problems: lis
         )
         return False
     if not port or port not in ports:
-        if element.tag in ("RetryUntilSuccessful", "Timeout"):
-            problems.append(SourceError(element.line, element.column, f"{element.tag} needs {port}"))
+        if element.tag in ("RetryUntilSuccessful", "Timeout", "Repeat"):  # as BehaviorTree.CPP: no default
+            forever = " (-1: forever)" if element.tag == "Repeat" else ""
+            problems.append(SourceError(element.line, element.column, f"{element.tag} needs {port}{forever}"))
             return False
         return True
     if element.tag == "RunOnce":
@@ -481,11 +489,10 @@ def parse_xml(text: str) -> tuple[Located | None, list[SourceError]]:
             seen[tree.attributes["ID"]] = tree
     main_id = root.attributes.get("main_tree_to_execute")
     if main_id is None:
-        if len(trees) > 1:
+        if len(trees) > 1:  # reported; the first is checked as the mission, for the problems in it
             problems.append(
                 SourceError(*where, 'several trees: say which is the mission with main_tree_to_execute="ID" on <root>')
             )
-            return None, problems
         main_id = trees[0].attributes.get("ID", "")
     elif main_id not in seen:
         problems.append(SourceError(*root.at("main_tree_to_execute"), f'no <BehaviorTree ID="{main_id}"> in this file'))

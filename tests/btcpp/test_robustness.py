@@ -110,7 +110,8 @@ def test_a_btlog_is_flushed_as_the_run_goes_so_a_killed_run_keeps_its_log(tmp_pa
     packet = Status(0, True, False, False, 0, 0, 200, 0)
     for tick in range(1, 4):
         clock.sleep(0.06)
-        writer(TickRecord(tick, tick * 0.05, packet, 200, True, 0.0, Pose(0, 0, 0), nodes={0: NodeState("RUNNING")}))
+        status = NodeState("RUNNING" if tick % 2 else "SUCCESS")
+        writer(TickRecord(tick, tick * 0.05, packet, 200, True, 0.0, Pose(0, 0, 0), nodes={0: status}))
     # Not closed: what is on disk is what a kill -9 would leave.
     assert read_btlog(path).ticks[-1].tick >= 2
     stream.close()
@@ -124,3 +125,27 @@ def test_a_replay_cuts_long_quiet_spells_short():
     clock = VirtualClock()
     replay(Trace(RunHeader("m", [], 0.0), ticks, None), lambda record: None, clock)
     assert clock.now() == pytest.approx(0.5 + MAX_QUIET_S + 1.0)
+
+
+def test_a_btlog_holds_status_changes_only_not_changes_of_feedback(tmp_path):
+    spec = load_mission("missions/square.yaml")
+    path = tmp_path / "run.btlog"
+    with open(path, "wb") as stream:
+        writer = BtlogWriter(stream, instance(spec), clock=VirtualClock())
+        writer(RunHeader(spec.name, [], 20.0))
+        packet = Status(0, True, False, False, 0, 0, 200, 0)
+        for tick, feedback in enumerate(["10 mm", "20 mm", "30 mm"], start=1):
+            node = NodeState("RUNNING", feedback)
+            writer(TickRecord(tick, tick * 0.05, packet, 200, True, 0.0, Pose(0, 0, 0), nodes={2: node}))
+        writer(TickRecord(4, 0.2, packet, 200, True, 0.0, Pose(0, 0, 0), nodes={2: NodeState("SUCCESS")}))
+    records = [(t.time_s, dict(t.nodes)) for t in read_btlog(path).ticks]
+    assert records == [(0.05, {2: NodeState("RUNNING")}), (0.2, {2: NodeState("SUCCESS")})]
+
+
+def test_changes_read_back_are_one_tick_only_within_a_millisecond_of_the_ticks_first(tmp_path):
+    records = b"".join(
+        (700 * i).to_bytes(6, "little") + struct.pack("<HB", 1 + i % 2, 1) for i in range(6)
+    )  # a change every 0.7 ms: chained, they would all be one tick
+    path = tmp_path / "x.btlog"
+    path.write_bytes(btlog_bytes(struct.pack("<q", 1), records))
+    assert [t.time_s for t in read_btlog(path).ticks] == [0.0, 0.0014, 0.0028]

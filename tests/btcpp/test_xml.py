@@ -287,3 +287,54 @@ def test_a_subtree_given_something_else_than_a_name_says_so_where_it_stands():
     (problem,) = caught.value.problems
     assert (problem.line, problem.column, problem.path) == (3, 12, "tree.subtree")
     assert problem.message == "subtree takes the name of a subtree, e.g. subtree: corner; got a list"
+
+
+def test_the_nodes_under_a_refused_node_and_beside_a_missing_main_tree_are_checked_too():
+    found = problems(
+        one(
+            "    <Sequence>\n      <Sequnce><mvoe/></Sequnce>\n"
+            '      <Delay delay_msec="1"><move speed="true"/></Delay>\n'
+            '      <RunOnce><move speed="9" distance_m="1"/></RunOnce>\n    </Sequence>'
+        )
+    )
+    said = "\n".join(found)
+    for expected in (
+        "4:7: <Sequnce> has children",
+        "4:16: tree.sequence.children[0].sequence.children[0].mvoe: unknown node 'mvoe'",
+        "5:7: BehaviorTree.CPP's Delay",
+        "move speed must be a whole number, got 'true' (text)",
+        "6:7: RunOnce needs then_skip",
+        "unknown parameter 'distance_m' for move (did you mean 'distance_mm'?)",
+    ):
+        assert expected in said, found
+    two = (
+        '<root><BehaviorTree ID="a"><move speed="2" distance_m="1"/></BehaviorTree>'
+        '<BehaviorTree ID="b"><stop/></BehaviorTree></root>'
+    )
+    found = problems(two)
+    assert any("several trees" in p for p in found) and any("distance_m" in p for p in found), found
+
+
+@pytest.mark.parametrize(
+    ("body", "said"),
+    [
+        ('<Repeat num_cycles=""><stop/></Repeat>', "3:5: Repeat needs num_cycles (-1: forever)"),
+        ("<Repeat><stop/></Repeat>", "3:5: Repeat needs num_cycles (-1: forever)"),
+    ],
+)
+def test_a_repeat_says_how_often_as_behaviortree_cpp_requires(body, said):
+    assert any(said in p for p in problems(one("    " + body)))
+
+
+def test_then_skip_zero_is_false_and_braces_around_nothing_are_text():
+    spec = validate_text(
+        one('    <Sequence><RunOnce then_skip="0"><stop/></RunOnce><log message="{}"/></Sequence>'), "t.xml"
+    )
+    once, log = spec.tree.children
+    assert once.type.name == "once" and log.args["message"] == "{}"
+
+
+def test_export_refuses_text_that_behaviortree_cpp_would_read_as_a_blackboard_entry():
+    spec = validate_text('mission: y\ntree:\n  log: {message: "{hello}"}\n', "y.yaml")
+    with pytest.raises(ExportError, match=r"'\{hello\}' would be read by BehaviorTree.CPP as a blackboard entry"):
+        export_xml(spec)
