@@ -34,7 +34,7 @@ class WrongWay:
 
     def __init__(self, step_limit: float, total_limit: float) -> None:
         self.step_limit, self.total_limit = step_limit, total_limit
-        self.reset(0.0)
+        self.reset(0.0)  # pragma: no mutate - every motion resets it at its start
 
     def reset(self, now_s: float) -> None:
         """Starts anew, for a motion starting at ``now_s``."""
@@ -109,14 +109,16 @@ class Move(RobotAction):
             parts.append(f"until < {args['until_obstacle_mm']} mm")
         return " ".join(parts)
 
+    # Set by initialise(), which py_trees calls before the first update() of every move.
+    _start_odometer_mm: int
+    _last_odometer_mm: int
+    _start_s: float
+    _collision_armed: bool
+    _failed: bool
+
     def __init__(self, name: str, **args: Any) -> None:
         super().__init__(name, **args)
-        self._start_odometer_mm = 0
-        self._start_s = 0.0
-        self._collision_armed = True
-        self._failed = False
         self._wrong_way = WrongWay(self.WRONG_WAY_STEP_MM, self.WRONG_WAY_TOTAL_MM)
-        self._last_odometer_mm = 0
 
     def initialise(self) -> None:
         """Notes where it starts and sends ``F``."""

@@ -134,3 +134,36 @@ def test_a_turn_built_in_code_needs_one_side():
         with _pytest.raises(ValueError, match="turn takes one of left= or right=, in degrees"):
             TurnNode("t", **args)
     assert TurnNode("t", right=45).angle_deg == -45 and TurnNode("t", left=0).angle_deg == 0
+
+
+def test_the_wrong_way_is_two_backward_windows_not_slowing_or_the_total():
+    from autonomy.behaviours.actions import WrongWay
+
+    def feed(steps, step_limit=1.0, total_limit=20.0):
+        watch = WrongWay(step_limit, total_limit)
+        watch.reset(10.0)
+        out = []
+        for tick, step in enumerate(steps, start=1):
+            out.append(watch.update(step, 10.0 + 0.05 * tick))  # one window a tick, at 20 Hz
+        return out
+
+    assert feed([-2, -2]) == [0.0, 4.0]  # two windows backward, not slowing: counts, with the travel so far
+    assert feed([-2, -2, -2]) == [0.0, 4.0, 6.0]
+    assert feed([-1, -1, -1]) == [0.0, 0.0, 0.0]  # exactly the step limit a window: not more than it
+    assert feed([-2, 0.5, -2]) == [0.0, 0.0, 0.0]  # going forward between: starts again
+    assert feed([-6, -2, -2]) == [0.0, 0.0, 0.0]  # slowing down by more than the limit: rolling back
+    assert feed([5, -2, -2]) == [0.0, 0.0, 4.0]  # forward travel does not pay for backward travel
+    assert feed([-19.5, 19.5, -0.5], total_limit=20.0) == [0.0, 0.0, 0.0]
+    assert feed([-12, 11, -8.5], total_limit=20.0) == [0.0, 0.0, 0.0]
+    assert feed([-10, -10], step_limit=15.0, total_limit=20.0) == [0.0, 20.0]  # the total, exactly, counts
+    assert feed([-10, -9.5], step_limit=15.0, total_limit=20.0) == [0.0, 0.0]
+
+
+def test_progress_within_one_window_is_summed_before_it_is_judged():
+    from autonomy.behaviours.actions import WrongWay
+
+    watch = WrongWay(1.0, 50.0)
+    watch.reset(0.0)
+    # At 200 Hz: twenty ticks of -0.5 are two windows of -5 each (a window closes once 50 ms have passed).
+    seen = [watch.update(-0.5, 0.005 * tick) for tick in range(1, 21)]
+    assert seen[:19] == [0.0] * 19 and seen[19] == 10.0
