@@ -268,3 +268,18 @@ def test_bytes_that_are_not_text_point_at_the_baud_rate(noise):
     client = client_for(ScriptedPort(responder=lambda frame: noise))
     with pytest.raises(ReplyTimeout, match="none formed a reply: is the robot set to 115200 baud"):
         client.wait_ready(0.5)
+
+
+@pytest.mark.parametrize(
+    ("said", "last"),
+    [
+        (b"BOOT OK V1\n", "BOOT OK V1"),  # spaces are text
+        (b"one\ntwo\n", "two"),  # the last line
+        (b"a long banner of text\n", "banner of text"),  # the last 16 bytes heard
+    ],
+)
+def test_a_robot_that_speaks_text_is_quoted_at_its_last_line(said, last):
+    client = client_for(ScriptedPort(responder=lambda frame: said))
+    with pytest.raises(ReplyTimeout) as caught:
+        client.wait_ready(0.5)
+    assert f"lines of text but none the reply asked for (the last: {last!r})" in str(caught.value)
