@@ -275,3 +275,21 @@ def test_an_exercise_or_a_world_file_checked_as_a_mission_says_what_it_is(path, 
     with pytest.raises(MissionInvalid) as caught:
         load_mission(file)
     assert len(caught.value.problems) == 1 and str(caught.value).startswith(f"{file}:{said}")
+
+
+def test_a_number_of_any_parameter_is_at_most_a_billion_and_one_of_any_kind_says_which_kind():
+    from autonomy.behaviours import Param, RobotAction
+    from autonomy.mission.registry import BUILTINS, leaf_type
+
+    class Far(RobotAction):
+        node_type = "far"
+        params = (Param("mm", "number", "as far as you like"),)
+
+    registry = BUILTINS.copy()
+    registry.add(leaf_type(Far, "plugin"))
+    spec = validate_text("mission: m\ntree:\n  far: {mm: 1000000000}\n", "m.yaml", registry=registry)
+    assert spec.tree.args["mm"] == 1_000_000_000
+    with pytest.raises(MissionInvalid, match="must be a finite number of at most 1,000,000,000, got 1000000001"):
+        validate_text("mission: m\ntree:\n  far: {mm: 1000000001}\n", "m.yaml", registry=registry)
+    with pytest.raises(MissionInvalid, match=r"wait seconds must be a number, got 'soon' \(text\)"):
+        validate_text("mission: m\ntree:\n  wait: {seconds: soon}\n", "m.yaml")
