@@ -1,5 +1,7 @@
 """Replies: ASCII parameters, the binary status packet, and the incremental decoder."""
 
+import re
+
 import pytest
 
 from autonomy.errors import FramingError
@@ -190,3 +192,82 @@ def test_a_value_in_the_same_read_as_noise_is_kept(noise):
 )
 def test_heading_deltas_wrap_at_360(earlier, later, turned):
     assert heading_delta_deg(earlier, later) == turned
+
+
+def _packet(**changes) -> bytes:
+    from autonomy.protocol import Status
+
+    fields = dict(
+        mode=1,
+        auto_mode=True,
+        collided=False,
+        moving=True,
+        tilt_deg=1,
+        heading_deg=90,
+        front_distance_mm=200,
+        odometer_mm=455,
+    )
+    fields.update(changes)
+    return Status(**fields).encode()
+
+
+def test_packets_and_refusals_arriving_together_each_come_out_whole():
+    from autonomy.errors import FramingError
+    from autonomy.protocol import Ack, ReplyDecoder, ReplyKind, decode_status
+
+    first, second = _packet(odometer_mm=100), _packet(odometer_mm=200)
+    decoder = ReplyDecoder(ReplyKind.STATUS)
+    decoder.feed(b"zz" + first + b"NO\n" + second)  # one read: noise, a packet, a refusal, a packet
+    with pytest.raises(FramingError) as caught:
+        decoder.next_reply()
+    assert caught.value.data == b"zz"
+    assert decoder.next_reply() == decode_status(first)
+    assert decoder.next_reply() == Ack(False)
+    assert decoder.next_reply() == decode_status(second)
+    assert decoder.next_reply() is None
+
+
+@pytest.mark.parametrize(
+    ("field", "value", "said"),
+    [
+        ("mode", 16, "mode must be in 0..15, got 16"),
+        ("tilt_deg", 128, "tilt must be in -127..127, got 128"),
+        ("tilt_deg", -128, "tilt must be in -127..127, got -128"),
+        ("heading_deg", 360, "heading must be in 0..359, got 360"),
+        ("front_distance_mm", 256, "front distance must be in 0..255, got 256"),
+        ("odometer_mm", 65536, "odometer must be in 0..65535, got 65536"),
+    ],
+)
+def test_a_status_out_of_what_the_packet_can_carry_names_the_field(field, value, said):
+    from autonomy.errors import InvalidCommand
+
+    with pytest.raises(InvalidCommand, match=re.escape(said)):
+        _packet(**{field: value})
+    _packet(**{field: value - 1 if value > 0 else value + 1})  # the edge itself is carried
+
+
+@pytest.mark.parametrize("damage", ["length", "start", "end", "bit 7"])
+def test_a_damaged_packet_travels_with_its_framing_error(damage):
+    from autonomy.errors import FramingError
+    from autonomy.protocol import decode_status
+
+    packet = bytearray(_packet())
+    if damage == "length":
+        packet = packet[:8]
+    elif damage == "start":
+        packet[0] = ord("c")
+    elif damage == "end":
+        packet[8] = ord("x")
+    else:
+        packet[1] |= 0x80
+    with pytest.raises(FramingError, match="bit 7" if damage == "bit 7" else "not a status packet") as caught:
+        decode_status(bytes(packet))
+    assert caught.value.data == bytes(packet)
+
+
+def test_an_odometer_step_of_half_its_range_counts_as_backward():
+    from autonomy.protocol import odometer_delta_mm
+
+    assert odometer_delta_mm(0, 32767) == 32767
+    assert odometer_delta_mm(0, 32768) == -32768
+    assert odometer_delta_mm(65535, 0) == 1
