@@ -142,3 +142,26 @@ def test_a_plugin_may_import_the_files_beside_it_and_a_package_its_own_modules(t
     assert import_plugin("pkgplug", tmp_path).VALUE == "inner"
     assert str(tmp_path) not in sys.path  # the folder is on the path only while a plugin loads
     sys.modules.pop("shared_helpers_for_test", None)
+
+
+def test_plugins_of_the_wrong_shape_are_each_said_where_they_stand(tmp_path):
+    assert problems("mission: m\nplugins: 5\ntree: stop\n", tmp_path) == [
+        "m.yaml:2:10: plugins: plugins is a list of Python module names, e.g. [my_behaviours]"
+    ]
+    assert problems("mission: m\nplugins: [5]\ntree: stop\n", tmp_path) == [
+        "m.yaml:2:11: plugins[0]: a plugin is a module name, got 5"
+    ]
+    (tmp_path / "empty.py").write_text("X = 1\n")
+    assert problems("mission: m\nplugins: [empty]\ntree: stop\n", tmp_path) == [
+        "m.yaml:2:11: plugins[0]: plugin 'empty' declares no behaviours "
+        "(RobotAction/RobotCondition subclasses with a node_type)"
+    ]
+
+
+def test_a_plugin_that_is_not_there_does_not_stop_the_next_one_from_loading(tmp_path):
+    write_plugin(tmp_path, "good", "good_cond")
+    (tmp_path / "broken.py").write_text("raise ValueError('not today')\n")
+    found = problems("mission: m\nplugins: [nothere, broken, good]\ntree: good_cond\n", tmp_path)
+    assert len(found) == 2, found  # the tree's good_cond is known: the third plugin was loaded
+    assert found[0].startswith("m.yaml:2:11: plugins[0]: cannot import plugin 'nothere': no plugin 'nothere': ")
+    assert found[1] == "m.yaml:2:20: plugins[1]: cannot import plugin 'broken': ValueError: not today"
