@@ -42,7 +42,7 @@ from autonomy.record import (
     RunHeader,
     TickRecord,
 )
-from autonomy.trace import Trace
+from autonomy.trace import FlushTimer, Trace
 
 MAGIC = b"BTCPP4-FileLogger2"
 VERSION = 1
@@ -78,14 +78,10 @@ class BtlogWriter:
         tree: The mission's tree as BehaviorTree.CPP numbers it.
     """
 
-    #: Real seconds between flushes: a run killed at any moment loses at most this much of its log.
-    FLUSH_S = 0.1
-
     def __init__(self, stream: BinaryIO, tree: Instance, clock: Clock | None = None) -> None:
         self.stream = stream
         self.tree = tree
-        self.clock = clock or RealClock()
-        self._flushed_s = self.clock.now()
+        self._flush = FlushTimer(clock or RealClock())
         self.uids: dict[int, list[int]] = {}
         for uid, record_id in enumerate(tree.record_ids, start=1):
             self.uids.setdefault(record_id, []).append(uid)
@@ -116,10 +112,8 @@ class BtlogWriter:
                     uids = self.uids
                     changes = sorted((uid, written[node_id]) for node_id in changed for uid in uids.get(node_id, ()))
                     self.write_changes(round(record.time_s * 1_000_000), changes)
-                now = self.clock.now()
-                if now - self._flushed_s >= self.FLUSH_S:
+                if self._flush.due():
                     self.stream.flush()
-                    self._flushed_s = now
             elif isinstance(record, RunEnd):
                 self.stream.flush()
         except (OSError, ValueError) as err:

@@ -444,6 +444,12 @@ def cmd_run(args: argparse.Namespace) -> int:
     return EXIT_FAILED if code == EXIT_OK and lost else code
 
 
+def _warn_if_public(host: str, what: str) -> None:
+    """Warns when ``what`` is served on an interface other machines can reach."""
+    if host not in ("127.0.0.1", "localhost", "::1"):
+        print(f"warning: {what} served on {host}: anyone who can reach this machine can watch the run", file=sys.stderr)
+
+
 def _start_groot(args: argparse.Namespace, tree: Any) -> tuple[Any, str]:
     """Starts the Groot2 publisher; returns it, or None and why not."""
     from autonomy.groot import GrootPublisher
@@ -453,11 +459,7 @@ def _start_groot(args: argparse.Namespace, tree: Any) -> tuple[Any, str]:
         groot = GrootPublisher(tree, host, args.groot_port).start()
     except OSError as err:
         return None, f"cannot publish to Groot2 on {host}:{args.groot_port}: {err.strerror or err}"
-    if host not in ("127.0.0.1", "localhost", "::1"):
-        print(
-            f"warning: Groot2 is served on {host}: anyone who can reach this machine can watch the run",
-            file=sys.stderr,
-        )
+    _warn_if_public(host, "Groot2 is")
     shown = "this machine's address" if host in ("0.0.0.0", "::", "") else host
     print(f"groot2: attach to {shown} port {groot.port}", file=sys.stderr, flush=True)
     return groot, ""
@@ -473,11 +475,7 @@ def _start_view(args: argparse.Namespace, mode: str = "live") -> tuple[Any, str]
         server.start()
     except OSError as err:
         return None, f"cannot serve the view on {host}:{args.view_port}: {err.strerror or err}"
-    if host not in ("127.0.0.1", "localhost", "::1"):
-        print(
-            f"warning: the view is served on {host}: anyone who can reach this machine can watch the run",
-            file=sys.stderr,
-        )
+    _warn_if_public(host, "the view is")
     print(f"view: {server.url}", file=sys.stderr, flush=True)
     return server, ""
 

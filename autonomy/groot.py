@@ -24,7 +24,6 @@ Groot2's subscriber, as the reference does, and publishes nothing on it.
 
 from __future__ import annotations
 
-import re
 import struct
 import threading
 import uuid
@@ -33,7 +32,7 @@ import zmq
 
 from autonomy.btlog import CODES
 from autonomy.mission.btcpp import Instance
-from autonomy.record import INVALID, Record, RunHeader, TickRecord
+from autonomy.record import INVALID, Record, TickRecord
 
 PROTOCOL = 2
 DEFAULT_PORT = 1667
@@ -97,11 +96,7 @@ class GrootPublisher:
             raise OSError(err.errno, f"ports {port} and {port + 1}: {err.strerror}") from None
         self.host, self.port = host, port
         #: Blackboard names Groot2 may ask for: the main tree's and each use of a subtree's.
-        self.blackboards = set(re.findall(r'<BehaviorTree ID="[^"]*" _fullpath="([^"]*)"', tree.xml))
-        self.blackboards.discard("")
-        self.blackboards.add(
-            re.search(r'<BehaviorTree ID="([^"]*)"', tree.xml).group(1) if "<BehaviorTree" in tree.xml else ""
-        )
+        self.blackboards = set(tree.blackboards)
         self._stopped = False
         self._thread = threading.Thread(target=self._serve, name="groot2", daemon=True)
         #: Requests answered, for the curious.
@@ -136,8 +131,6 @@ class GrootPublisher:
                     codes[node_id] = previous + 10 if 0 < previous < 10 else previous
                 else:
                     codes[node_id] = CODES.get(state.status, 0)
-        elif isinstance(record, RunHeader):
-            pass
 
     def status_bytes(self) -> bytes:
         """The ``S`` answer: uid and status of every node, in uid order."""

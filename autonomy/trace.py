@@ -26,11 +26,36 @@ class TraceError(AutonomyError):
     """A trace file that cannot be read; the message names the file and line."""
 
 
+class FlushTimer:
+    """Says when a file written as a run goes is due a flush.
+
+    At most :data:`FLUSH_S` of real time after the last, so that a run killed at any moment
+    loses at most that much of it.
+
+    Args:
+        clock: Real time.
+    """
+
+    FLUSH_S = 0.1
+
+    def __init__(self, clock: Clock) -> None:
+        self.clock = clock
+        self._flushed_s = clock.now()
+
+    def due(self, anyway: bool = False) -> bool:
+        """Whether to flush now (always when ``anyway``); a True answer starts the wait anew."""
+        now = self.clock.now()
+        if anyway or now - self._flushed_s >= self.FLUSH_S:
+            self._flushed_s = now
+            return True
+        return False
+
+
 class TraceWriter:
     """A listener that writes each record as one line of a trace file.
 
-    The file is flushed at the header, at the end, and whenever :data:`FLUSH_S` of real
-    time has passed since the last flush, so a run killed at any moment loses at most that
+    The file is flushed at the header, at the end, and whenever :data:`FlushTimer.FLUSH_S` of
+    real time has passed since the last flush, so a run killed at any moment loses at most that
     much of its trace (and never a line in the middle: a reader stops at the last whole one).
 
     Args:
@@ -38,12 +63,9 @@ class TraceWriter:
         clock: Real time, for the flushes.
     """
 
-    FLUSH_S = 0.1
-
     def __init__(self, stream: TextIO, clock: Clock | None = None) -> None:
         self.stream = stream
-        self.clock = clock or RealClock()
-        self._flushed_s = self.clock.now()
+        self._flush = FlushTimer(clock or RealClock())
         #: Why the trace stopped being written (a full disk), or empty. The run goes on.
         self.failure = ""
 
@@ -53,10 +75,8 @@ class TraceWriter:
             return
         try:
             self.stream.write(to_line(record) + "\n")
-            now = self.clock.now()
-            if not isinstance(record, TickRecord) or now - self._flushed_s >= self.FLUSH_S:
+            if self._flush.due(anyway=not isinstance(record, TickRecord)):
                 self.stream.flush()
-                self._flushed_s = now
         except (OSError, ValueError) as err:  # a full disk, a file that takes no writes, a closed stream
             self.failure = getattr(err, "strerror", None) or str(err)
 

@@ -272,11 +272,14 @@ class Instance:
         record_ids: For uid 1, 2, ...: the id of the record node whose status it shows (a
             ``SubTree`` node shows its subtree's root).
         tags: For uid 1, 2, ...: the node's tag.
+        blackboards: The names of the tree's blackboards, as Groot2 asks for them: the main
+            tree's ID and each use of a subtree's ``_fullpath``.
     """
 
     xml: str
     record_ids: list[int]
     tags: list[str]
+    blackboards: list[str] = field(default_factory=list)
 
 
 def instance(mission: MissionSpec) -> Instance:
@@ -288,6 +291,7 @@ def instance(mission: MissionSpec) -> Instance:
     record_ids: list[int] = []
     tags: list[str] = []
     blocks: list[list[str]] = []
+    blackboards = [mission.name]
     next_record = [0]
 
     def tree_block(root: BtNode, tree_id: str, fullpath: str) -> None:
@@ -305,6 +309,7 @@ def instance(mission: MissionSpec) -> Instance:
             record_ids.append(-1)  # filled in once the subtree's root is numbered
             inner = f"{node.subtree}::{uid}"
             path = f"{fullpath}/{inner}" if fullpath else inner
+            blackboards.append(path)
             block.append(f'{pad}<SubTree ID={quoteattr(node.subtree)} _fullpath={quoteattr(path)} _uid="{uid}"/>')
             target = mission.subtrees[node.subtree]
             tree_block(bt_node(target, exact=False), node.subtree, path)
@@ -330,7 +335,7 @@ def instance(mission: MissionSpec) -> Instance:
         lines += block
     lines += [INDENT + line for line in model_lines(_types_used(mission))]
     lines.append("</root>")
-    return Instance("\n".join(lines) + "\n", record_ids, tags)
+    return Instance("\n".join(lines) + "\n", record_ids, tags, blackboards)
 
 
 # --------------------------------------------------------------------------- to YAML
@@ -390,13 +395,3 @@ def to_yaml(mission: MissionSpec) -> str:
         doc["subtrees"] = {name: _yaml_node(spec) for name, spec in mission.subtrees.items()}
     doc["tree"] = _yaml_node(mission.tree)
     return yaml.dump(doc, Dumper=_Dumper, sort_keys=False, default_flow_style=None, width=100, allow_unicode=True)
-
-
-def shape(spec: NodeSpec) -> Any:
-    """A node as plain data (type, name, arguments, children), to compare two missions' trees."""
-    return (
-        spec.type.name,
-        spec.name,
-        sorted((k, tuple(v) if isinstance(v, list) else v) for k, v in spec.args.items()),
-        [shape(child) for child in spec.children],
-    )

@@ -416,7 +416,7 @@ def _decorator_ports(element: Element, ports: dict[str, str], put, problems: lis
             return False
         return True
     if element.tag == "RunOnce":
-        return True  # then_skip="false" is checked below
+        return True  # its then_skip was checked above
     value = _whole(element, port, problems)
     if value is None:
         return False

@@ -7,10 +7,16 @@ from pathlib import Path
 import pytest
 
 from autonomy.mission import MissionInvalid, load_mission, validate_text
-from autonomy.mission.btcpp import ExportError, export_xml, palette_xml, shape, to_yaml
+from autonomy.mission.btcpp import ExportError, export_xml, palette_xml, to_yaml
 from autonomy.mission.registry import BUILTINS
 
 MISSIONS = sorted(Path("missions").glob("*.yaml"))
+
+
+def shape(spec):
+    """A node as plain data (type, name, arguments, children), to compare two missions' trees."""
+    args = sorted((k, tuple(v) if isinstance(v, list) else v) for k, v in spec.args.items())
+    return (spec.type.name, spec.name, args, [shape(child) for child in spec.children])
 
 
 def tree_of(spec):
