@@ -118,9 +118,13 @@ def read_trace(path: str | Path) -> Trace:
     path = Path(path)
     try:
         text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as err:
-        reason = err.strerror if isinstance(err, OSError) and err.strerror else str(err)
-        raise TraceError(f"{path}: cannot read the trace: {reason}") from err
+    except UnicodeDecodeError:
+        raise TraceError(
+            f"{path}: not a recording: a trace is JSON lines of text (run --trace), "
+            "a .btlog starts with BTCPP4-FileLogger2 (run --btlog)"
+        ) from None
+    except OSError as err:
+        raise TraceError(f"{path}: cannot read the trace: {err.strerror or err}") from err
     lines = text.split("\n")
     complete = text.endswith("\n")
     if complete:

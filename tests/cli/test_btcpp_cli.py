@@ -162,3 +162,9 @@ def test_a_file_with_thousands_of_problems_shows_the_first_hundred_and_a_count(t
     lines = result.stderr.splitlines()
     assert result.returncode == 2 and len(lines) == 101
     assert lines[-1] == "... and 500 more problems, not shown"  # two a move: the typo, and speed missing
+
+
+def test_a_file_that_is_neither_a_trace_nor_a_btlog_says_what_each_would_be(tmp_path):
+    noise = tmp_path / "noise.btlog"
+    noise.write_bytes(bytes(range(256)) * 40)
+    assert_one_line_error(autonomy("replay", str(noise)), 2, "not a recording", "BTCPP4-FileLogger2")
