@@ -126,6 +126,7 @@ def test_a_behaviortree_cpp_log_replays_in_the_page_with_its_tree_and_no_made_up
     page.wait_for_selector("#controls:not([hidden])")
     assert page.eval_on_selector_all("#tree .node", "els => els.length") == len(trace.header.nodes) == 7
     assert "a BehaviorTree.CPP log: node statuses only, no telemetry" in page.text_content("#where")
+    assert not page.is_visible("#map-panel") and not page.is_visible("#plots-panel")  # nothing made up
     state = TreeState(trace.header)
     index = 0
     for index, tick in enumerate(trace.ticks):  # noqa: B007 - the first tick at which something runs

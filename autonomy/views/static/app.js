@@ -70,6 +70,10 @@ function load(payload) {
       ? `a BehaviorTree.CPP log: node statuses only, no telemetry · ${h.date}`
       : `${world} · ${h.port} · ${h.clock} time · ${h.date}`;
   }
+  // A recording without telemetry has no path or plots to show: none are made up.
+  const noTelemetry = Boolean(h && h.telemetry === false);
+  $("map-panel").hidden = noTelemetry;
+  $("plots-panel").hidden = noTelemetry;
   for (const t of payload.ticks || []) addTick(t);
   if (payload.end) addEnd(payload.end);
   $("controls").hidden = view.mode !== "replay";
