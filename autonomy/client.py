@@ -223,7 +223,7 @@ class Client:
             ReplyTimeout: the robot did not answer in time.
         """
         port = open_port(url, baud, clock)
-        client = cls(port, clock=clock, timeout_s=timeout_s, retries=retries, name=url)
+        client = cls(port, clock=clock, timeout_s=timeout_s, retries=retries)  # named by the port: its URL
         try:
             client.wait_ready(ready_timeout_s)
         except BaseException:
@@ -267,7 +267,7 @@ class Client:
                 baud = getattr(self.port, "baudrate", DEFAULT_BAUD)
                 heard = bytes(self._heard[-16:])
                 if received and heard.endswith(b"\n") and all(32 <= byte < 127 or byte == 10 for byte in heard):
-                    last = heard.decode("ascii", "replace").strip().splitlines()[-1]
+                    last = heard.decode("ascii").strip().splitlines()[-1]  # printable ASCII, checked above
                     hint = (
                         f"{received} bytes came back, lines of text but none the reply asked for "
                         f"(the last: {last!r}): does this robot speak this protocol?"
@@ -361,7 +361,7 @@ class Client:
             frame = command.encode()
             tries = 1 + ((self.retries if retries is None else retries) if command.retryable else 0)
             self.stats.requests += 1
-            failure: AutonomyError = ReplyTimeout(f"no reply to {_text(frame)} from {self.name}")
+            failure: AutonomyError  # set by every attempt that does not return (there is at least one)
             attempt = garbled = 0
             while tries > 0:
                 if attempt:
@@ -587,6 +587,6 @@ _R = TypeVar("_R", Ack, Parameter, Health, Status)
 
 def _expect(reply: Reply, kind: type[_R]) -> _R:
     """Returns ``reply`` when it is of ``kind``; a reply of another kind is a framing error."""
-    if not isinstance(reply, kind):
-        raise FramingError(f"expected a {kind.__name__.lower()} reply, got {reply!r}")
+    if not isinstance(reply, kind):  # pragma: no mutate - each decoder gives its own kind or NO, which raised
+        raise FramingError(f"expected a {kind.__name__.lower()} reply, got {reply!r}")  # pragma: no mutate
     return reply

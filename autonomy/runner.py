@@ -481,7 +481,7 @@ class Runner:
 
         The root's own tick is always on the stack, so some node is always named.
         """
-        node = self.root
+        node = self.root  # pragma: no mutate - the root's tick is on the stack, so this is always replaced
         tb: TracebackType | None = err.__traceback__
         while tb is not None:
             candidate = tb.tb_frame.f_locals.get("self")
@@ -492,9 +492,9 @@ class Runner:
         own = [f for f in frames if not f.filename.startswith(_LIBRARY_DIRS)] or list(frames)
         lines = tuple(f"{_short_path(f.filename)}:{f.lineno} in {f.name}: {(f.line or '').strip()}" for f in own[-3:])
         error = f"{type(err).__name__}: {err}"
-        full = "".join(traceback.format_exception(type(err), err, err.__traceback__))
+        full = "".join(traceback.format_exception(err))
         node_id = self._ids[id(node)]
-        info = (self.header.nodes if self.header is not None else describe_tree(self.root))[node_id]
+        info = describe_tree(self.root)[node_id]  # as the header has it (once, and only when a node raised)
         where = info.where
         message = f"node '{node.name}' ({info.type}{', ' + where if where else ''}) raised {error}"
         if lines:

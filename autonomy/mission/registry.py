@@ -277,13 +277,17 @@ BUILTINS = Registry(
 
 
 def leaf_classes_in(module: Any) -> list[type[RobotBehaviour]]:
-    """The leaf classes a plugin module declares (subclasses with a ``node_type`` of their own)."""
+    """The leaf classes a plugin module declares (subclasses with a ``node_type`` of their own).
+
+    A package's classes may live in its own modules; classes it imports from elsewhere (the
+    built-in ones, another plugin's) are not its.
+    """
     found = []
     for value in vars(module).values():
         if (
             isinstance(value, type)
             and issubclass(value, RobotBehaviour)
-            and value.__module__ == module.__name__
+            and (value.__module__ == module.__name__ or value.__module__.startswith(f"{module.__name__}."))
             and "node_type" in vars(value)
             and value.node_type
         ):

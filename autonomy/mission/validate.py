@@ -106,7 +106,7 @@ def _type_name(value: Any) -> str:
 
 
 class _Validator:
-    def __init__(self, source: str, registry: Registry, check_world: bool = True) -> None:
+    def __init__(self, source: str, registry: Registry, check_world: bool) -> None:
         self.source = source
         self.registry = registry
         self.check_world = check_world
@@ -137,9 +137,9 @@ class _Validator:
         for key in doc:
             if key not in TOP_LEVEL:
                 self.problem(root.keys[key], key, f"unknown key '{key}'{_suggest(key, list(TOP_LEVEL))}")
-        name = self.text(doc, "mission", root, required=True)
-        description = self.text(doc, "description", root) or ""
-        world = self.text(doc, "world", root)
+        name = self.text(doc, "mission", required_at=root)
+        description = self.text(doc, "description") or ""
+        world = self.text(doc, "world")
         if world is not None and self.check_world:
             world = self.world(world, doc["world"], base_dir)
         tick_hz = DEFAULT_TICK_HZ
@@ -162,10 +162,16 @@ class _Validator:
                 self.problem(block, "subtrees", "subtrees is a mapping of names to trees")
             else:
                 for sub_name, sub in block.value.items():
+                    where = block.keys[sub_name]
+                    if not sub_name.strip():  # the reader has made sure keys are text
+                        self.problem(where, "subtrees", "a subtree needs a name that is not blank")
+                        continue
+                    if self.plain_text(sub_name, where, "subtrees") is None:
+                        continue
+                    known.append(sub_name)
                     spec = self.node(sub, f"subtrees.{sub_name}", owner=sub_name)
                     if spec is not None:
                         subtrees[sub_name] = spec
-                known = list(block.value)
         tree = None
         if "tree" not in doc:
             self.problem(root, "", "missing 'tree:', the root node of the mission")
@@ -179,10 +185,11 @@ class _Validator:
             return None
         return MissionSpec(name, description, tick_hz, world, tree, subtrees, self.registry, self.source, plugins)
 
-    def text(self, doc: dict[str, Located], key: str, root: Located, required: bool = False) -> str | None:
+    def text(self, doc: dict[str, Located], key: str, required_at: Located | None = None) -> str | None:
+        """The text under ``key``; a problem at ``required_at`` (the document) when it must be there and is not."""
         if key not in doc:
-            if required:
-                self.problem(root, "", f"missing '{key}:'")
+            if required_at is not None:
+                self.problem(required_at, "", f"missing '{key}:'")
             return None
         value = doc[key].value
         if not isinstance(value, str) or not value.strip():
@@ -190,7 +197,7 @@ class _Validator:
             return None
         return self.plain_text(value, doc[key], key)
 
-    def plain_text(self, value: str, where: Located, path: str) -> str | None:
+    def plain_text(self, value: str, where: Located | tuple[int, int], path: str) -> str | None:
         """``value``, or None and a problem when it holds a control character (it would reach terminals).
 
         Text is at most :data:`MAX_TEXT_CHARS` long: it is shown in one line of a terminal.
@@ -212,7 +219,7 @@ class _Validator:
         if name in SHIPPED:
             return name
         path = Path(name)
-        if not path.is_absolute() and exists(base_dir / path):
+        if exists(base_dir / path):  # an absolute path stays itself
             path = base_dir / path
         if not is_file(path):
             if exists(path):
@@ -334,7 +341,7 @@ class _Validator:
     def bare(self, where: Located, path: str) -> NodeSpec | None:
         type_name = where.value
         node_type = self.registry.get(type_name)
-        node_path = f"{path}.{type_name}" if path else type_name
+        node_path = f"{path}.{type_name}"
         if node_type is None:
             self.problem(where, path, f"unknown node '{type_name}'{_suggest(type_name, self.registry.names())}")
             return None
@@ -368,51 +375,41 @@ class _Validator:
         key_where: tuple[int, int],
         owner: str,
         short_form: bool = False,
-    ) -> NodeSpec | None:
-        ok = True
+    ) -> NodeSpec:
+        """The node's spec, its problems reported; a spec with problems is never used (the mission is refused)."""
         args: dict[str, Any] = {}
         name = None
         known = [p.name for p in node_type.params] + ["name"]
         for key, located in given.items():
-            where = key_at.get(key, (located.line, located.column))
             param = node_type.param(key)
             if key == "name":
                 if not isinstance(located.value, str) or not located.value.strip():
                     self.problem(located, f"{path}.name", f"name must be text, got {_type_name(located.value)}")
-                    ok = False
-                elif self.plain_text(located.value, located, f"{path}.name") is None:
-                    ok = False
                 else:
-                    name = located.value
+                    name = self.plain_text(located.value, located, f"{path}.name")
             elif param is None:
                 self.problem(
-                    where,
+                    key_at[key],
                     f"{path}.{key}",
                     f"unknown parameter '{key}' for {node_type.name}{_suggest(key, known)}; "
                     f"it takes {', '.join(known)}",
                 )
-                ok = False
             elif param.kind not in ("node", "nodes"):
-                value = self.value(param, located, f"{path}.{key}", node_type)
-                ok = ok and value is not _INVALID
-                args[key] = value
+                args[key] = self.value(param, located, f"{path}.{key}", node_type)
         children: list[NodeSpec] = []
         for param in node_type.params:  # children in declared order: a while's condition before its do
             if param.kind not in ("node", "nodes") or param.name not in given:
                 continue
             located = given[param.name]
             child_path = path if short_form else f"{path}.{param.name}"
-            if param.kind == "node":
-                child = self.node(located, child_path, owner) if self.single(located, child_path, param.name) else None
-                kids = [child] if child is not None else None
-            else:
-                kids = self.children(node_type, located, child_path, owner)
-            ok = ok and kids is not None
-            children.extend(kids or [])
+            if param.kind == "nodes":
+                children += self.children(node_type, located, child_path, owner)
+            elif self.single(located, child_path, param.name):
+                child = self.node(located, child_path, owner)
+                children += [child] if child is not None else []
         for param in node_type.params:
             if param.required and param.name not in given:
                 self.problem(key_where, path, f"{node_type.name} needs '{param.name}' ({param.doc})")
-                ok = False
             elif param.kind not in ("node", "nodes"):
                 args.setdefault(param.name, param.default)
         for group in node_type.exactly_one_of:
@@ -420,8 +417,7 @@ class _Validator:
             if len(present) != 1:
                 said = "only one of" if present else "one of"
                 self.problem(key_where, path, f"{node_type.name} takes {said} {', '.join(group)}")
-                ok = False
-        return NodeSpec(node_type, args, children, name, path, *key_where) if ok else None
+        return NodeSpec(node_type, args, children, name, path, *key_where)
 
     def single(self, located: Located, path: str, key: str) -> bool:
         if isinstance(located.value, list):
@@ -431,15 +427,15 @@ class _Validator:
             return False
         return True
 
-    def children(self, node_type: NodeType, located: Located, path: str, owner: str) -> list[NodeSpec] | None:
+    def children(self, node_type: NodeType, located: Located, path: str, owner: str) -> list[NodeSpec]:
+        """The children that are nodes; the problems of the others are reported."""
         if not isinstance(located.value, list):
             self.problem(located, path, f"{node_type.name} takes a list of children, got {_type_name(located.value)}")
-            return None
+            return []
         if not located.value:
             self.problem(located, path, f"{node_type.name} needs at least one child")
-            return None
         kids = [self.node(item, f"{path}[{i}]", owner) for i, item in enumerate(located.value)]
-        return None if any(k is None for k in kids) else kids  # type: ignore[misc]
+        return [kid for kid in kids if kid is not None]
 
     def value(self, param: Param, located: Located, path: str, node_type: NodeType) -> Any:
         value = located.plain
@@ -456,7 +452,8 @@ class _Validator:
             if not isinstance(value, str):
                 self.problem(located, path, f"{what} must be text, got {_type_name(value)}")
                 return _INVALID
-            return _INVALID if self.plain_text(value, located, path) is None else value
+            self.plain_text(value, located, path)
+            return value
         if kind == "choice":
             if value not in param.choices:
                 self.problem(
@@ -530,7 +527,7 @@ class _Validator:
                 below = spec.children
             if not ready:
                 todo.append((spec, True))
-                todo.extend((child, False) for child in below if id(child) not in measured)
+                todo.extend((child, False) for child in below)  # one measured already is skipped when popped
                 continue
             sizes = [measured[id(child)] for child in below]
             if spec.type.category == "reference":

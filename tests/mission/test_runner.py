@@ -296,3 +296,30 @@ def test_link_errors_counted_are_this_runs_only():
     assert (summary.framing_errors, summary.implausible) == (0, 0)
     client.stats.framing_errors += 2
     assert Runner(tree_of("  beep\n"), client, mission="t").run().framing_errors == 0
+
+
+def test_a_crash_inside_a_built_in_node_still_shows_the_frames_where_it_happened():
+    """Every frame is the package's own: they are shown all the same, ending where it raised."""
+    from autonomy.behaviours.actions import Beep
+
+    recorder = Recorder()
+    client = Client.open("emu://?time=virtual")
+    summary = Runner(Beep("beep", tones=None, volume=3), client, mission="t", listeners=[recorder]).run()
+    [event] = [e for e in recorder.end.events if e.kind == "exception"]
+    assert summary.outcome == CRASHED and len(event.frames) == 3
+    assert "actions.py:" in event.frames[-1] and "tuple(self.args" in event.frames[-1]
+    assert event.message.startswith("node 'beep' (beep) raised TypeError: ")
+    assert event.message.endswith(" at " + event.frames[-1].split(": ", 1)[0])
+
+
+def test_a_crashed_behaviour_error_reads_as_its_event():
+    from autonomy.record import Event
+    from autonomy.runner import BehaviourCrashed
+
+    event = Event("exception", "node 'x' (x) raised ValueError: no", 0, "", (), "")
+    assert str(BehaviourCrashed(event)) == "node 'x' (x) raised ValueError: no"
+
+
+def test_a_decorator_that_fails_over_a_child_that_succeeded_is_the_one_named():
+    summary, _ = run("  sequence: [beep, {invert: {do: stop}}]\n")
+    assert summary.outcome == FAILED and summary.reason == "'invert' failed (success -> failure)"

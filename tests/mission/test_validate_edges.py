@@ -1,0 +1,201 @@
+"""The edges of the mission checks: limits met exactly, shapes written oddly, files that move."""
+
+from __future__ import annotations
+
+import pytest
+
+from autonomy.emulator.world import WorldError
+from autonomy.mission import MissionInvalid, validate_file, validate_text
+from autonomy.mission import validate as validate_module
+from autonomy.mission.validate import MAX_TEXT_CHARS, MAX_TREE_DEPTH, MAX_TREE_NODES, _from_attribute
+from tests.mission.test_hostile import subtree_chain
+
+
+def problems(text: str, base_dir=None) -> list[str]:
+    with pytest.raises(MissionInvalid) as caught:
+        validate_text(text, "m.yaml", base_dir)
+    return [str(p) for p in caught.value.problems]
+
+
+def count_nodes(spec, subtrees) -> int:
+    if spec.type.category == "reference":
+        return count_nodes(subtrees[spec.args["subtree"]], subtrees)
+    return 1 + sum(count_nodes(child, subtrees) for child in spec.children)
+
+
+# ---------------------------------------------------------------- size limits, met exactly
+
+
+def test_a_tree_exactly_as_deep_as_allowed_is_accepted_and_one_more_level_is_not():
+    spec = validate_text(subtree_chain(MAX_TREE_DEPTH - 1, wrap=True), "m.yaml")  # 49 sequences and a stop
+    assert spec.subtrees["s0"].children[0].args == {"subtree": "s1"}
+    found = problems(subtree_chain(MAX_TREE_DEPTH, wrap=True))
+    assert len(found) == 1 and f"the tree is {MAX_TREE_DEPTH + 1} nodes deep" in found[0]
+
+
+def sized_tree(extra: str) -> str:
+    """A tree of 1 + 3 x 999 nodes (a subtree used three times) and ``extra`` children after them."""
+    stops = ", ".join(["stop"] * 998)
+    return (
+        f"mission: big\nsubtrees:\n  s: {{sequence: [{stops}]}}\n"
+        f"tree: {{sequence: [{{subtree: s}}, {{subtree: s}}, {{subtree: s}}, {extra}]}}\n"
+    )
+
+
+def test_a_tree_of_exactly_the_most_nodes_allowed_is_accepted_and_one_more_node_is_not():
+    spec = validate_text(sized_tree("stop, stop"), "m.yaml")
+    assert count_nodes(spec.tree, spec.subtrees) == MAX_TREE_NODES
+    assert problems(sized_tree("stop, stop, stop")) == [
+        f"m.yaml:4:8: tree: the tree has more than {MAX_TREE_NODES:,} nodes with its subtrees expanded "
+        "(each use of a subtree is a copy)"
+    ]
+
+
+def test_a_subtree_the_reader_refused_adds_nothing_to_the_depth_or_the_size():
+    """The refused subtree's own problem is the only one: it neither deepens nor enlarges the tree."""
+    refused = "st\x07op"  # a control character in the file itself: the reader refuses the value
+    deep = subtree_chain(MAX_TREE_DEPTH, wrap=True).replace(f"s{MAX_TREE_DEPTH}: stop", f"s{MAX_TREE_DEPTH}: {refused}")
+    found = problems(deep)
+    assert len(found) == 1 and "control character BEL" in found[0], found
+    large = sized_tree("stop, stop, {subtree: bad}").replace("subtrees:\n", f"subtrees:\n  bad: {refused}\n")
+    found = problems(large)
+    assert len(found) == 1 and "control character BEL" in found[0], found
+
+
+def test_the_depth_problem_follows_the_deepest_branch_whichever_child_it_is():
+    chain = subtree_chain(60, wrap=True)
+    many = ", ".join(["stop"] * 100)
+    for tree in (
+        f"{{sequence: [stop, {{subtree: s0}}, {{sequence: [{many}]}}]}}",
+        f"{{sequence: [{{sequence: [{many}]}}, {{subtree: s0}}, stop]}}",
+    ):
+        found = problems(chain.replace("tree: {subtree: s0}", f"tree: {tree}"))
+        # level 1 is the tree's sequence, so level 51 is the sequence of s49, on line 3 + 49
+        assert len(found) == 1 and found[0].startswith(f"m.yaml:{3 + 49}:"), found
+        assert f"this node is level {MAX_TREE_DEPTH + 1} from the root" in found[0]
+
+
+# ---------------------------------------------------------------- settings and text
+
+
+@pytest.mark.parametrize("value", ["1", "200", "1.0", "200.0"])
+def test_tick_hz_accepts_both_ends_of_its_range(value):
+    assert validate_text(f"mission: t\ntick_hz: {value}\ntree: stop\n", "m.yaml").tick_hz == float(value)
+
+
+def test_text_exactly_as_long_as_allowed_is_accepted_and_one_character_more_is_not():
+    spec = validate_text(f"mission: t\ndescription: {'d' * MAX_TEXT_CHARS}\ntree: stop\n", "m.yaml")
+    assert len(spec.description) == MAX_TEXT_CHARS
+    assert problems(f"mission: t\ndescription: {'d' * (MAX_TEXT_CHARS + 1)}\ntree: stop\n") == [
+        f"m.yaml:2:14: description: is {MAX_TEXT_CHARS + 1:,} characters long; at most {MAX_TEXT_CHARS:,}"
+    ]
+
+
+def test_xml_is_recognised_by_its_first_character_after_a_bom_and_blank_lines():
+    for text in ("\ufeff<root/>", "\n \t<root/>", "\r\n<root/>\n"):
+        assert [p.split(": ", 1)[1] for p in problems(text)] == ['no <BehaviorTree ID="..."> in this file']
+
+
+# ---------------------------------------------------------------- nodes written oddly
+
+
+def test_a_subtree_used_where_none_are_defined_says_so():
+    assert problems("mission: t\ntree: {subtree: corner}\n") == [
+        "m.yaml:2:17: tree.subtree: unknown subtree 'corner'; this mission defines no subtrees"
+    ]
+
+
+@pytest.mark.parametrize(("body", "shown"), [("[a]", "a list"), ("3", "the number 3"), ("{a: 1}", "a mapping")])
+def test_a_subtree_reference_is_a_name(body, shown):
+    found = problems(f"mission: t\ntree: {{subtree: {body}}}\n")
+    assert len(found) == 1 and found[0].startswith("m.yaml:2:17: tree.subtree: subtree takes the name of a subtree")
+    assert found[0].endswith(f"got {shown}") or shown.split()[-1] in found[0], found
+
+
+@pytest.mark.parametrize("name", ['""', '" "', '"a\\x07"'])
+def test_a_subtree_needs_a_plain_name(name):
+    found = problems(f"mission: t\nsubtrees:\n  {name}: {{sequence: [stop]}}\ntree: stop\n")
+    assert len(found) == 1 and found[0].startswith("m.yaml:3:3: subtrees: "), found
+
+
+def test_a_subtree_with_a_blank_name_is_not_taken_for_the_tree():
+    """The tree's references are its own, apart from any subtree's: a blank name used to make a cycle."""
+    found = problems('mission: t\nsubtrees:\n  "": {sequence: [stop]}\ntree: {subtree: ""}\n')
+    assert found == [
+        "m.yaml:3:3: subtrees: a subtree needs a name that is not blank",
+        "m.yaml:4:17: tree.subtree: unknown subtree ''; this mission defines no subtrees",
+    ]
+
+
+def test_a_node_with_two_keys_names_them_without_a_hint_when_neither_is_a_type():
+    assert problems("mission: t\ntree: {colour: red, size: 3}\n") == [
+        "m.yaml:2:7: tree: a node has exactly one key, its type; found colour, size"
+    ]
+
+
+def test_a_node_without_parameters_may_be_written_with_an_empty_body_but_not_with_a_value():
+    assert validate_text("mission: t\ntree:\n  stop:\n", "m.yaml").tree.type.name == "stop"
+    found = problems("mission: t\ntree:\n  stop: 3\n")
+    assert len(found) == 1 and found[0].startswith("m.yaml:3:9: tree.stop: stop takes its parameters as a mapping")
+
+
+def test_an_attribute_number_of_at_most_40_characters_is_read_as_a_number():
+    assert _from_attribute("number", "1." + "0" * 38) == 1.0  # 40 characters
+    assert _from_attribute("number", "1." + "0" * 39) == "1." + "0" * 39  # 41: left as text, refused as such
+
+
+# ---------------------------------------------------------------- plugins and worlds
+
+
+def test_every_plugin_entry_is_checked_after_one_that_is_not_a_name(tmp_path):
+    found = problems("mission: t\nplugins: [3, nowhere]\ntree: stop\n", tmp_path)
+    assert [f.split(": ", 2)[1] for f in found] == ["plugins[0]", "plugins[1]"]
+    assert "no plugin 'nowhere'" in found[1]
+
+
+def test_a_plugin_that_exits_without_a_code_is_named_without_a_dangling_colon(tmp_path):
+    (tmp_path / "quiet_exit.py").write_text("import sys\nsys.exit()\n")
+    assert problems("mission: t\nplugins: [quiet_exit]\ntree: stop\n", tmp_path) == [
+        "m.yaml:2:11: plugins[0]: cannot import plugin 'quiet_exit': SystemExit"
+    ]
+
+
+def test_a_plugin_package_imports_its_own_modules(tmp_path):
+    package = tmp_path / "pkg_beh"
+    package.mkdir()
+    (package / "parts.py").write_text(
+        "from autonomy.behaviours.base import RobotCondition\n\n"
+        "class Always(RobotCondition):\n    node_type = 'always_pkg'\n\n"
+        "    def check(self, status):\n        return True\n"
+    )
+    (package / "__init__.py").write_text("from .parts import Always\n")
+    spec = validate_text("mission: t\nplugins: [pkg_beh]\ntree: always_pkg\n", "m.yaml", tmp_path)
+    assert spec.tree.type.name == "always_pkg"
+
+
+def test_a_world_file_that_goes_between_the_check_and_the_load_is_a_problem_at_the_world_line(tmp_path, monkeypatch):
+    (tmp_path / "room.yaml").write_text("arena_mm: [2000, 2000]\n")
+
+    def vanished(path):
+        raise WorldError(f"no world named '{path}'")
+
+    monkeypatch.setattr(validate_module, "load_world", vanished)
+    assert problems("mission: t\nworld: room.yaml\ntree: stop\n", tmp_path) == [
+        f"m.yaml:2:8: world: no world named '{tmp_path / 'room.yaml'}'"
+    ]
+
+
+def test_a_world_given_by_its_absolute_path_is_used_as_it_is(tmp_path):
+    world = tmp_path / "elsewhere" / "room.yaml"
+    world.parent.mkdir()
+    world.write_text("arena_mm: [2000, 2000]\n")
+    spec = validate_text(f"mission: t\nworld: {world}\ntree: stop\n", "m.yaml", tmp_path / "missions")
+    assert spec.world == str(world)
+
+
+def test_a_mission_file_is_checked_with_its_world_unless_told_not_to(tmp_path):
+    mission = tmp_path / "m.yaml"
+    mission.write_text("mission: t\nworld: nowhere.yaml\ntree: stop\n")
+    with pytest.raises(MissionInvalid, match="no world named 'nowhere.yaml'"):
+        validate_file(mission)
+    assert validate_file(mission, check_world=False).world == "nowhere.yaml"
