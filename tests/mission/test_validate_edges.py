@@ -199,3 +199,50 @@ def test_a_mission_file_is_checked_with_its_world_unless_told_not_to(tmp_path):
     with pytest.raises(MissionInvalid, match="no world named 'nowhere.yaml'"):
         validate_file(mission)
     assert validate_file(mission, check_world=False).world == "nowhere.yaml"
+
+
+def test_a_subtree_that_only_leads_to_a_loop_is_not_said_to_include_itself():
+    text = (
+        "mission: t\nsubtrees:\n"
+        "  outer: {sequence: [{subtree: loop}, {subtree: leaf}]}\n"
+        "  loop: {sequence: [{subtree: loop}]}\n"
+        "  leaf: stop\n"
+        "tree: {subtree: outer}\n"
+    )
+    assert problems(text) == [
+        "m.yaml:3:32: subtrees.outer.sequence[0].subtree: subtree 'loop' includes itself "
+        "(directly or through other subtrees)"
+    ]
+
+
+def test_every_node_knows_its_path_in_the_file():
+    spec = validate_text(
+        "mission: t\nsubtrees:\n  s: stop\ntree:\n  sequence:\n    - beep\n    - {subtree: s}\n"
+        "    - {timeout: {seconds: 1, do: {wait: {seconds: 2}}}}\n",
+        "m.yaml",
+    )
+    paths = []
+    todo = [spec.tree]
+    while todo:
+        node = todo.pop(0)
+        paths.append(node.path)
+        todo += node.children
+    assert paths == [
+        "tree.sequence",
+        "tree.sequence[0].beep",
+        "tree.sequence[1].subtree",
+        "tree.sequence[2].timeout",
+        "tree.sequence[2].timeout.do.wait",
+    ]
+    assert spec.subtrees["s"].path == "subtrees.s.stop"
+
+
+def test_a_plugin_file_is_a_module_not_a_package(tmp_path):
+    """A relative import needs a package: a plugin that is one file cannot make one."""
+    (tmp_path / "helpers.py").write_text("VALUE = 1\n")
+    (tmp_path / "relative.py").write_text("from . import helpers\n")
+    found = problems("mission: t\nplugins: [relative]\ntree: stop\n", tmp_path)
+    assert found == [
+        "m.yaml:2:11: plugins[0]: cannot import plugin 'relative': "
+        "ImportError: attempted relative import with no known parent package"
+    ]
