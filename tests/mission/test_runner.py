@@ -323,3 +323,71 @@ def test_a_crashed_behaviour_error_reads_as_its_event():
 def test_a_decorator_that_fails_over_a_child_that_succeeded_is_the_one_named():
     summary, _ = run("  sequence: [beep, {invert: {do: stop}}]\n")
     assert summary.outcome == FAILED and summary.reason == "'invert' failed (success -> failure)"
+
+
+def test_the_end_record_says_what_the_summary_says():
+    recorder = Recorder()
+    client = Client.open("emu://?time=virtual&world=empty")
+    summary = Runner(tree_of("  move: {speed: 2, distance_mm: 100}\n"), client, mission="t", listeners=[recorder]).run()
+    end = recorder.end
+    assert (end.outcome, end.reason, end.stopped, end.time_s) == (
+        summary.outcome,
+        summary.reason,
+        summary.stopped,
+        summary.time_s,
+    )
+    assert end.paragraph == summary.paragraph and "It was stopped at the end." in end.paragraph
+    robot = client.port.emulator.robot
+    assert end.truth is not None and (end.truth.x_mm, end.truth.y_mm) == pytest.approx((robot.x_mm, robot.y_mm), abs=1)
+    assert recorder.events("stop") == ["the robot acknowledged the stop"]
+
+
+def test_a_stop_the_robot_never_acknowledged_is_logged_as_such():
+    from tests.mission.test_blind_spots import Meddling
+
+    recorder = Recorder()
+    client = Client(Meddling(refuse_stop=True), retries=0, stop_tries=2)
+    summary = Runner(tree_of("  wait: {seconds: 0.2}\n"), client, mission="t", listeners=[recorder]).run()
+    assert not summary.stopped and recorder.events("stop") == ["the robot did not acknowledge the stop"]
+
+
+class SetupFails(RobotAction):
+    node_type = ""
+
+    def setup(self, **kwargs) -> None:
+        raise RuntimeError("no servo here")
+
+    def update(self) -> Status:
+        return Status.SUCCESS
+
+
+def test_a_run_whose_setup_fails_still_records_how_it_began_and_ended():
+    recorder = Recorder()
+    client = Client.open("emu://?time=virtual")
+    summary = Runner(SetupFails("fussy"), client, mission="t", tick_hz=10, listeners=[recorder]).run()
+    assert summary.outcome == CRASHED and summary.reason == "RuntimeError: no servo here"
+    header, end = recorder.header, recorder.end
+    assert (header.mission, header.tick_hz, [n.name for n in header.nodes]) == ("t", 10, ["fussy"])
+    assert recorder.records == [header, end] and end.reason == summary.reason and end.stopped
+
+
+class HaltFails(RobotAction):
+    node_type = ""
+
+    def update(self) -> Status:
+        return Status.RUNNING
+
+    def terminate(self, new_status: Status) -> None:
+        if new_status == Status.INVALID:
+            raise RuntimeError("stuck")
+
+
+def test_halting_leaves_every_node_invalid_and_a_node_that_raises_is_logged_not_obeyed():
+    client = Client.open("emu://?time=virtual")
+    root = tree_of("  move: {speed: 1}\n")
+    runner = Runner(root, client, mission="t", max_seconds=0.5)
+    assert runner.run().outcome == TIME_LIMIT and root.status == Status.INVALID
+    recorder = Recorder()
+    summary = Runner(HaltFails("sticky"), client, mission="t", max_seconds=0.5, listeners=[recorder]).run()
+    assert summary.outcome == TIME_LIMIT and summary.stopped
+    assert recorder.events("warning") == ["halting the tree raised RuntimeError: stuck"]
