@@ -489,7 +489,9 @@ class Runner:
                 node = candidate
             tb = tb.tb_next
         frames = traceback.extract_tb(err.__traceback__)
-        own = [f for f in frames if not f.filename.startswith(_LIBRARY_DIRS)] or list(frames)
+        # A crash in the package's own code has no frames of its own: all are shown then. (Under mutation
+        # testing the mutation tool's frames are on every stack, so the fallback cannot be told apart.)
+        own = [f for f in frames if not f.filename.startswith(_LIBRARY_DIRS)] or list(frames)  # pragma: no mutate
         lines = tuple(f"{_short_path(f.filename)}:{f.lineno} in {f.name}: {(f.line or '').strip()}" for f in own[-3:])
         error = f"{type(err).__name__}: {err}"
         full = "".join(traceback.format_exception(err))
