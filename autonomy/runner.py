@@ -58,6 +58,8 @@ LINK_LOST = "lost the link"
 CRASHED = "stopped by an error"
 
 _COMMAND_NAMES = {"F": "move", "T": "turn", "S": "beep", "M": "servo move", "D": "servo step", "X": "stop"}
+#: Where dead reckoning starts when the start pose is not known (a real robot).
+_ORIGIN = Pose(0.0, 0.0, 0.0)
 _LIBRARY_DIRS = tuple(os.path.dirname(m.__file__ or "") + os.sep for m in (autonomy, py_trees))
 
 
@@ -142,8 +144,7 @@ def _reply_text(outcome: Reply | AutonomyError) -> str:
         return f"error: {outcome}"
     if isinstance(outcome, Packet):
         return "status"
-    encode = getattr(outcome, "encode", None)
-    return encode().decode("ascii", "replace").strip() if encode else str(outcome)
+    return outcome.encode().decode("ascii").strip()  # OK, NO or a value: ASCII by the decoder's checks
 
 
 class Runner:
@@ -185,23 +186,25 @@ class Runner:
         self.end: RunEnd | None = None
         self._events: list[Event] = []
         self._wire: list[Exchange] = []
-        self._blackboard = py_trees.blackboard.Client(name=f"runner:{mission}")
+        self._blackboard = py_trees.blackboard.Client()
         for key in (STATUS_KEY, BATTERY_KEY, HEALTHY_KEY):
             self._blackboard.register_key(key=key, access=Access.WRITE)
         self._nodes = list(preorder(root))
         self._ids = {id(node): index for index, node in enumerate(self._nodes)}
         self._statuses: list[Status] = [Status.INVALID] * len(self._nodes)
         self._feedbacks: list[str] = [""] * len(self._nodes)
-        self._emulator = getattr(getattr(client, "port", None), "emulator", None)
+        self._emulator = getattr(client.port, "emulator", None)
         self._last: Packet | None = None
-        self._last_time_s = 0.0
-        self._pose = Pose(0.0, 0.0, 0.0)
-        self._start_s = 0.0
-        self._framing_before = 0
-        self._implausible_before = 0
-        self._rebased = 0
+        self._last_time_s: float  # set with _last
+        self._pose = _ORIGIN
+        self._start_s = self.clock.now()  # again once set up: a run whose setup fails lasted no time
+        # Set up first thing: the client's counts when the run starts; polled each tick: battery and health.
+        self._framing_before: int
+        self._implausible_before: int
+        self._rebased: int
         self._last_slow_s = -float("inf")
-        self._battery, self._healthy = 0, True
+        self._battery: int
+        self._healthy: bool
         self._stop_reason = ""
         self.context = RobotContext(client, self.clock, log=self._log)
 
@@ -215,7 +218,7 @@ class Runner:
         self._events.append(Event(kind, message))
 
     def _on_exchange(self, frame: bytes, outcome: Reply | AutonomyError, attempt: int) -> None:
-        sent, reply = frame[:-1].decode("ascii", "replace"), _reply_text(outcome)
+        sent, reply = frame[:-1].decode("ascii"), _reply_text(outcome)  # a frame we encoded: ASCII
         self._wire.append(Exchange(sent, reply, attempt))
         if attempt:
             self.summary.retries += 1

@@ -1,0 +1,188 @@
+"""What each tick record says about the robot, checked against the packets and the clock behind it."""
+
+from __future__ import annotations
+
+import itertools
+import math
+import signal
+
+import pytest
+from py_trees.common import Status
+
+from autonomy.behaviours import BATTERY_KEY, HEALTHY_KEY, STATUS_KEY, RobotAction
+from autonomy.client import Client
+from autonomy.clock import VirtualClock
+from autonomy.emulator import Emulator
+from autonomy.emulator.servers import TcpServer
+from autonomy.runner import CRASHED, TIME_LIMIT, Runner
+from tests.behaviours.test_actions import move
+from tests.harness import Recorder, Rig, tree_of
+
+
+def recorded(tree: str, url: str = "emu://?time=virtual&world=empty", **kwargs) -> tuple[Recorder, Runner]:
+    recorder = Recorder()
+    client = Client.open(url, clock=kwargs.pop("clock", None))
+    runner = Runner(tree_of(tree), client, mission="t", listeners=[recorder], **kwargs)
+    runner.run()
+    return recorder, runner
+
+
+def test_speed_is_the_odometer_step_over_the_time_step_and_nothing_on_the_first_tick():
+    recorder, _ = recorded("  move: {speed: 3, seconds: 1}\n", clock=VirtualClock(1000.0))
+    ticks = recorder.ticks
+    assert ticks[0].time_s == 0.0 and ticks[0].speed_mm_s == 0.0
+    for before, after in itertools.pairwise(ticks):
+        step_mm = after.status.odometer_mm - before.status.odometer_mm
+        assert after.speed_mm_s == pytest.approx(step_mm / (after.time_s - before.time_s))
+    assert max(t.speed_mm_s for t in ticks) > 100
+
+
+def test_the_dead_reckoned_heading_is_the_reported_heading_every_tick():
+    recorder, _ = recorded("  sequence: [{turn: {left: 200}}, {move: {speed: 2, distance_mm: 100}}]\n")
+    assert all(t.dead_reckoning.heading_deg == float(t.status.heading_deg) for t in recorder.ticks)
+
+
+def test_a_run_on_a_robot_of_unknown_start_reckons_from_the_origin():
+    server = TcpServer(Emulator("empty"), port=0).start()
+    try:
+        recorder, _ = recorded("  wait: {seconds: 0.1}\n", server.url)
+    finally:
+        server.stop()
+    first = recorder.ticks[0]
+    assert (first.dead_reckoning.x_mm, first.dead_reckoning.y_mm) == (0.0, 0.0) and first.truth is None
+
+
+def test_a_collision_is_counted_once_and_logged_with_what_the_robot_read():
+    recorder, runner = recorded("  move: {speed: 2}\n", "emu://?time=virtual&world=box")
+    assert runner.summary.collisions == 1
+    [said] = recorder.events("collision")
+    status = next(t.status for t in recorder.ticks if t.status.collided)
+    assert said == f"collision (front sensor {status.front_distance_mm} mm, heading {status.heading_deg} deg)"
+
+
+def test_a_robot_already_against_a_wall_when_the_run_starts_counts_that_collision_once():
+    first = Rig(move(speed=2), "world=box")
+    first.tick_until_done()
+    assert first.client.status().collided  # the flag is held while it touches the wall
+    recorder = Recorder()
+    runner = Runner(tree_of("  wait: {seconds: 0.2}\n"), first.client, mission="t", listeners=[recorder])
+    summary = runner.run()
+    assert summary.collisions == 1 and recorder.events("collision") == []
+
+
+def test_a_jump_in_the_readings_is_logged_and_not_counted():
+    rig = Rig(move(speed=1, seconds=0.5), "world=empty")
+    recorder = Recorder()
+    rig.runner.listeners.append(recorder)
+    rig.tick()
+    rig.robot.odometer_mm += 20000
+    rig.tick_until_done()
+    assert recorder.events("warning") == [
+        "two status packets in a row disagreed with the one believed before: counting from them"
+    ]
+    jump = next(t for t in recorder.ticks if t.status.odometer_mm > 20000)
+    assert jump.dead_reckoning.heading_deg == float(jump.status.heading_deg)
+
+
+class ReadsBoard(RobotAction):
+    """A behaviour written against the blackboard, as py_trees users do."""
+
+    node_type = ""
+
+    def update(self) -> Status:
+        board = self.blackboard
+        self.seen = (board.get(STATUS_KEY), board.get(BATTERY_KEY), board.get(HEALTHY_KEY))
+        return Status.RUNNING
+
+
+def test_the_blackboard_and_the_context_hold_what_was_polled_before_the_tick():
+    node = ReadsBoard("board")
+    rig = Rig(node, "world=empty&battery=77")
+    recorder = Recorder()
+    rig.runner.listeners.append(recorder)
+    rig.tick(2)
+    tick = recorder.ticks[-1]
+    assert node.seen == (tick.status, tick.battery, tick.healthy) == rig.runner.context.polled
+    assert tick.battery == 77 and tick.healthy is True
+
+
+def test_battery_and_health_are_asked_once_a_second_on_the_second():
+    recorder, _ = recorded("  wait: {seconds: 10}\n", tick_hz=1.0, max_seconds=3.0)
+    sent = [exchange.sent for tick in recorder.ticks for exchange in tick.wire]
+    assert sent.count("GB000") == sent.count("GR000") == len(recorder.ticks) == 4
+
+
+def test_the_wire_shows_each_reply_as_text_and_a_lost_one_as_its_error():
+    recorder, _ = recorded("  turn: {left: 160}\n", "emu://?time=virtual&world=empty&seed=1&faults=drop=0.01")
+    replies = {exchange.reply for tick in recorder.ticks for exchange in tick.wire}
+    assert {"status", "OK", "B230"} <= replies, replies  # a packet, an acknowledgement, the battery
+    assert any(reply.startswith("error: no reply to ") for reply in replies), replies
+
+
+class Interrupts(RobotAction):
+    node_type = ""
+
+    def update(self) -> Status:
+        raise KeyboardInterrupt
+
+
+def test_a_keyboard_interrupt_raised_by_a_behaviour_while_ctrl_c_is_handled_elsewhere_is_a_crash():
+    """With a SIGINT handler of the program's own, a real Ctrl-C never reaches a behaviour as this."""
+    previous = signal.signal(signal.SIGINT, lambda number, frame: None)
+    try:
+        recorder = Recorder()
+        client = Client.open("emu://?time=virtual")
+        summary = Runner(Interrupts("sneaky"), client, mission="t", listeners=[recorder]).run()
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    assert summary.outcome == CRASHED and summary.reason.startswith("node 'sneaky' ")
+    assert "raised KeyboardInterrupt" in summary.reason and summary.stopped
+
+
+def test_a_run_whose_setup_fails_lasted_no_time():
+    class Fails(RobotAction):
+        node_type = ""
+
+        def setup(self, **kwargs) -> None:
+            raise RuntimeError("no")
+
+        def update(self) -> Status:
+            return Status.SUCCESS
+
+    client = Client.open("emu://?time=virtual", clock=VirtualClock(50.0))
+    summary = Runner(Fails("f"), client, mission="t", max_seconds=1.0).run()
+    assert summary.outcome == CRASHED and summary.time_s == 0.0 and summary.outcome != TIME_LIMIT
+
+
+def test_dead_reckoning_takes_each_step_along_the_heading_halfway_through_it():
+    """A robot that turns as it drives (an arc): each step goes out at the mean of its two headings."""
+    from tests.client.fakes import ScriptedPort
+    from tests.client.test_client_faults import packet
+
+    readings = [(90, 1000), (98, 1020), (106, 1040), (114, 1060), (122, 1075)]
+    packets = [packet(odometer_mm=odometer, heading_deg=heading, moving=True) for heading, odometer in readings]
+    packets.insert(0, packets[0])  # the first packet is asked twice: two must agree before one is believed
+
+    def robot(frame: bytes) -> bytes:
+        port.clock.sleep(0.05)  # a tick apart: the steps are plausible for a real robot
+        if frame.startswith(b"Gb"):
+            return packets.pop(0)
+        return b"B200\n" if frame.startswith(b"GB") else b"OK\n"
+
+    port = ScriptedPort(responder=robot)
+    recorder = Recorder()
+    runner = Runner(tree_of("  wait: {seconds: 60}\n"), Client(port, name="arc"), mission="t", listeners=[recorder])
+    runner.setup()
+    for _ in readings:
+        runner.tick()
+    x_mm = y_mm = 0.0
+    for (before, odometer_before), (after, odometer_after) in itertools.pairwise(readings):
+        middle = math.radians(before + (after - before) / 2)
+        x_mm += (odometer_after - odometer_before) * math.cos(middle)
+        y_mm += (odometer_after - odometer_before) * math.sin(middle)
+    end = recorder.ticks[-1].dead_reckoning
+    assert (end.x_mm, end.y_mm, end.heading_deg) == (
+        pytest.approx(x_mm, abs=1e-9),
+        pytest.approx(y_mm, abs=1e-9),
+        122.0,
+    )
