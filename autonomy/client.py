@@ -87,6 +87,8 @@ READY_RETRY_S = 0.05
 #: again for before they use up its retries: at 1% corrupted bytes, 9% of status packets are
 #: garbled, and a run of 20 Hz polls would otherwise lose the link about once an hour.
 GARBLED_LIMIT = 8
+#: How much of what the port said last is kept, to quote a server's notice or a board's banner.
+HEARD_BYTES = 120
 #: After a lost reply to ``T``: how many status polls look for the turn, and the wait between them.
 SETTLE_POLLS = 3
 SETTLE_WAIT_S = 0.05
@@ -455,7 +457,7 @@ class Client:
     def _drain_heard(self) -> None:
         """Reads what came unasked (a server's notice, a board's boot banner) into :meth:`heard_text`."""
         try:
-            for _ in range(256):
+            for _ in range(256):  # byte by byte: a notice still arriving is read whole
                 if not getattr(self.port, "in_waiting", 0):
                     return
                 data = self.port.read(1)
@@ -465,7 +467,7 @@ class Client:
         except PORT_ERRORS:
             return  # the request that follows fails, and says so
         finally:
-            del self._heard[:-120]
+            del self._heard[:-HEARD_BYTES]
 
     def heard_text(self) -> str:
         """The last bytes received, when they read as a line of text (a server saying why it closed)."""
@@ -509,7 +511,7 @@ class Client:
             received += len(data)
             self.stats.bytes_received += len(data)
             self._heard += data
-            del self._heard[:-120]
+            del self._heard[:-HEARD_BYTES]
             decoder.feed(data)
 
     def _io(self, operation: Callable[..., Any], *args: Any) -> Any:
@@ -579,7 +581,7 @@ class Client:
 
 def _text(frame: bytes) -> str:
     """A frame as it reads, without its newline: ``T+090``."""
-    return frame[:-1].decode("ascii", "replace")
+    return frame[:-1].decode("ascii")  # a frame we encoded: ASCII
 
 
 _R = TypeVar("_R", Ack, Parameter, Health, Status)

@@ -9,9 +9,11 @@ from types import SimpleNamespace
 import pytest
 
 from autonomy import client as client_module
-from autonomy.client import DEFAULT_TIMEOUT_S, Client, open_port
+from autonomy.client import DEFAULT_RETRIES, DEFAULT_TIMEOUT_S, GARBLED_LIMIT, Client, open_port
 from autonomy.clock import VirtualClock
-from autonomy.errors import LinkError, ReplyTimeout
+from autonomy.errors import CommandRefused, LinkError, ReplyTimeout
+from tests.client.fakes import ScriptedPort, frames_of
+from tests.client.test_client_faults import TimedPort, packet
 
 
 def test_a_silent_pseudo_terminal_is_reported_within_the_ready_time_out():
@@ -73,3 +75,79 @@ def test_waiting_again_for_a_robot_that_went_quiet_says_nothing_came_back_this_t
     client.port = Quiet(client.port)
     with pytest.raises(ReplyTimeout, match=r"within 1 s; nothing came back"):
         client.wait_ready(1.0)
+
+
+# ---------------------------------------------------------------- one request, byte by byte
+
+
+class Counting(ScriptedPort):
+    """Notes how many bytes each read asks for."""
+
+    def __init__(self, replies) -> None:
+        super().__init__(replies)
+        self.asked: list[int] = []
+
+    def read(self, size: int = 1) -> bytes:
+        self.asked.append(size)
+        return super().read(size)
+
+
+def test_a_no_to_a_value_request_is_asked_again_as_garbled_before_it_uses_up_the_retries():
+    port = ScriptedPort([b"NO\n"] * 40)
+    client = Client(port, name="r")
+    with pytest.raises(ReplyTimeout, match=r"the robot answered NO to GD000, a request that is always valid"):
+        client.front_distance_mm()
+    assert frames_of(port) == [b"GD000"] * (GARBLED_LIMIT + 1 + DEFAULT_RETRIES)
+    assert client.stats.refusals == GARBLED_LIMIT + 1 + DEFAULT_RETRIES
+
+
+def test_a_value_after_a_no_to_its_request_is_taken():
+    port = ScriptedPort([b"NO\n", b"NO\n", b"D042\n"])
+    assert Client(port, name="r").front_distance_mm() == 42 and len(port.writes) == 3
+
+
+def test_a_refused_command_carries_its_frame():
+    with pytest.raises(CommandRefused) as caught:
+        Client(ScriptedPort([b"NO\n"] * 4), name="r").move(3)
+    assert caught.value.frame == b"F+300\n"
+
+
+def test_an_implausible_packet_reaches_the_listeners_with_its_bytes_and_attempt():
+    bad = packet(odometer_mm=455 - 256)
+    port = TimedPort([packet(), packet(), bad, packet(460, 92, 1)])
+    client = Client(port, name="r")
+    seen = []
+    client.listeners.append(lambda frame, outcome, attempt: seen.append((attempt, outcome)))
+    client.status()
+    client.status()
+    [(attempt, refused)] = [(a, o) for a, o in seen if "implausible" in str(o)]
+    assert attempt == 0 and refused.data == bad
+
+
+def test_replies_are_read_a_frame_at_a_time_not_byte_by_byte():
+    port = Counting([packet(), packet(), b"D042\n"])
+    client = Client(port, name="r")
+    client.status()  # the first packet is asked for twice
+    assert port.asked == [3, 6, 3, 6]  # a NO is the shortest reply; then the rest of the packet
+    assert client.front_distance_mm() == 42 and port.asked[4:] == [3, 2]
+
+
+def test_a_reply_cut_short_says_how_many_bytes_came():
+    port = ScriptedPort([packet()[:4]])
+    client = Client(port, name="r", retries=0)
+    with pytest.raises(ReplyTimeout) as caught:
+        client.status()
+    assert caught.value.received == 4 and client.stats.bytes_sent == 6 and client.stats.bytes_received == 4
+
+
+def test_a_silent_robot_costs_one_time_out_per_attempt_and_no_more():
+    port = ScriptedPort([None])
+    client = Client(port, name="r", retries=0, timeout_s=0.25)
+    with pytest.raises(ReplyTimeout):
+        client.status()
+    assert port.clock.now() == 0.25
+
+
+def test_a_client_names_its_link_by_the_port_or_calls_it_the_robot():
+    assert Client(ScriptedPort(), clock=None).name == "robot"
+    assert Client(ScriptedPort()).firmware_version == ""
