@@ -575,5 +575,5 @@ class ReplyDecoder:
             if buf[:3] == NO:
                 self._take(3)
                 return Ack(False)
-        starts = [i for i in (buf.find(b"b"), buf.find(b"N", 1)) if i > 0]  # a "b" is never at 0 here
+        starts = [i for i in (buf.find(b"b"), buf.find(b"N", 1)) if i != -1]  # neither can be at 0 here
         raise self._junk(min(starts) if starts else len(buf))
