@@ -246,3 +246,21 @@ def test_a_plugin_file_is_a_module_not_a_package(tmp_path):
         "m.yaml:2:11: plugins[0]: cannot import plugin 'relative': "
         "ImportError: attempted relative import with no known parent package"
     ]
+
+
+@pytest.mark.parametrize(("value", "shown"), [("3", "3"), ('""', "'' (text)"), ("[a]", "a list")])
+def test_a_node_name_must_be_text(value, shown):
+    found = problems(f"mission: t\ntree:\n  beep: {{name: {value}}}\n")
+    assert found == [f"m.yaml:3:16: tree.beep.name: name must be text, got {shown}"]
+
+
+def test_a_subtree_name_refused_does_not_hide_the_subtrees_after_it():
+    found = problems('mission: t\nsubtrees:\n  "": stop\n  "a\\x07": stop\n  b: stop\ntree: {subtree: b}\n')
+    assert [f.split(": ", 2)[1] for f in found] == ["subtrees", "subtrees"], found
+
+
+def test_a_subtree_that_includes_itself_through_a_decorator_is_found():
+    found = problems("mission: t\nsubtrees:\n  s: {repeat: {times: 2, do: {subtree: s}}}\ntree: {subtree: s}\n")
+    assert found == [
+        "m.yaml:3:40: subtrees.s.repeat.do.subtree: subtree 's' includes itself (directly or through other subtrees)"
+    ]
