@@ -186,3 +186,29 @@ def test_dead_reckoning_takes_each_step_along_the_heading_halfway_through_it():
         pytest.approx(y_mm, abs=1e-9),
         122.0,
     )
+
+
+def test_the_header_says_on_what_link_clock_and_faults_the_run_went():
+    import autonomy
+    from tests.client.fakes import ScriptedPort
+
+    faulty, _ = recorded("  wait: {seconds: 0.1}\n", "emu://?time=virtual&world=empty&faults=drop=0.01")
+    header = faulty.header
+    assert (header.faults, header.baud, header.clock) == ("drop=0.01", 57600, "virtual")
+    assert header.autonomy_version == autonomy.__version__ and header.world["name"] == "empty"
+    clean, _ = recorded("  wait: {seconds: 0.05}\n", "emu://?world=empty")  # in real time
+    assert (clean.header.faults, clean.header.clock) == ("none", "real")
+    recorder = Recorder()
+    port = ScriptedPort(responder=lambda frame: b"OK\n" if not frame.startswith(b"G") else None)
+    runner = Runner(tree_of("  wait: {seconds: 1}\n"), Client(port, name="bare"), mission="t", listeners=[recorder])
+    runner.setup()
+    bare = recorder.header
+    assert (bare.faults, bare.baud, bare.world, bare.seed, bare.port) == ("", 0, None, None, "bare")
+
+
+def test_the_true_pose_is_the_emulators_heading_included():
+    recorder, runner = recorded("  turn: {left: 90}\n")
+    truth = recorder.ticks[-1].truth
+    robot = runner.client.port.emulator.robot
+    assert (truth.x_mm, truth.y_mm, truth.heading_deg) == pytest.approx((robot.x_mm, robot.y_mm, robot.heading_deg))
+    assert 87 <= truth.heading_deg <= 93
