@@ -661,9 +661,7 @@ def import_plugin(module_name: str, base_dir: Path) -> Any:
     unique = f"autonomy_plugin_{hashlib.sha256(str(file).encode()).hexdigest()[:12]}_{module_name}"
     if unique in sys.modules:
         return sys.modules[unique]
-    spec = importlib.util.spec_from_file_location(
-        unique, file, submodule_search_locations=[str(file.parent)] if file == package else None
-    )
+    spec = importlib.util.spec_from_file_location(unique, file)  # a package's __init__.py makes a package
     if spec is None or spec.loader is None:  # pragma: no mutate - never for a .py file; for the type checker
         raise PluginNotFound(f"cannot load {file} as Python")  # pragma: no mutate
     module = importlib.util.module_from_spec(spec)

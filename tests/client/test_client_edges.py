@@ -137,7 +137,11 @@ def test_a_reply_cut_short_says_how_many_bytes_came():
     client = Client(port, name="r", retries=0)
     with pytest.raises(ReplyTimeout) as caught:
         client.status()
-    assert caught.value.received == 4 and client.stats.bytes_sent == 6 and client.stats.bytes_received == 4
+    assert caught.value.received == 4 and client.stats.bytes_received == 4
+    assert port.clock.now() == 0.25  # the last byte came at the time-out: no read after it
+    port.replies.append(b"OK\n")
+    client.stop()
+    assert client.stats.bytes_sent == 12  # two frames of six bytes
 
 
 def test_a_silent_robot_costs_one_time_out_per_attempt_and_no_more():

@@ -212,3 +212,11 @@ def test_the_true_pose_is_the_emulators_heading_included():
     robot = runner.client.port.emulator.robot
     assert (truth.x_mm, truth.y_mm, truth.heading_deg) == pytest.approx((robot.x_mm, robot.y_mm, robot.heading_deg))
     assert 87 <= truth.heading_deg <= 93
+
+
+def test_every_refused_command_is_counted():
+    _, runner = recorded(
+        "  selector: [{move: {speed: 1, seconds: 1}}, {move: {speed: 2, seconds: 1}}, beep]\n",
+        "emu://?time=virtual&world=empty&mode=manual",
+    )
+    assert runner.summary.refused == 2 and runner.summary.commands["S"] == 1

@@ -129,7 +129,13 @@ def test_two_ascii_replies_in_one_read_come_out_one_by_one():
 
 def test_a_line_without_a_newline_is_cut_after_sixteen_bytes_keeping_a_tail_that_may_start_a_frame():
     assert replies_and_junk(ReplyKind.PARAMETER, b"x" * 12 + b"D042", "D") == ([], [])  # 16 bytes: still waiting
-    assert replies_and_junk(ReplyKind.PARAMETER, b"x" * 13 + b"D042\n", "D") == ([Parameter("D", 42)], [b"x" * 13])
+    decoder = ReplyDecoder(ReplyKind.PARAMETER, "D")
+    decoder.feed(b"x" * 13 + b"D042")  # 17 bytes and no newline
+    with pytest.raises(FramingError) as caught:
+        decoder.next_reply()
+    assert caught.value.data == b"x" * 13 and decoder.buffered == 4
+    decoder.feed(b"\n")
+    assert decoder.next_reply() == Parameter("D", 42)
 
 
 def test_a_health_form_is_a_reply_to_a_health_request_only():
