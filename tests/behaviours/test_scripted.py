@@ -159,8 +159,8 @@ def test_a_turn_of_nothing_has_no_wrong_way():
     assert script.tick(0.30, packet(heading_deg=98, moving=False)) == Status.SUCCESS
 
 
-def test_a_corrected_heading_is_not_a_turn_either_way():
-    """A jump of 60 degrees back is a correction, not a wrong turn; nor does it count as progress."""
+def test_a_corrected_heading_is_not_a_turn_the_wrong_way():
+    """A jump of 60 degrees back is a correction: the turn goes on (it is counted in what is left to turn)."""
     script = Script(Turn("turn", left=90))
     assert script.tick(0.0, packet(heading_deg=0)) == Status.RUNNING
     assert script.tick(0.05, packet(heading_deg=300), rebased=True) == Status.RUNNING

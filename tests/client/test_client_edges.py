@@ -10,7 +10,7 @@ import pytest
 
 from autonomy import client as client_module
 from autonomy.client import DEFAULT_RETRIES, DEFAULT_TIMEOUT_S, GARBLED_LIMIT, Client, open_port
-from autonomy.clock import VirtualClock
+from autonomy.clock import RealClock, VirtualClock
 from autonomy.errors import CommandRefused, LinkError, ReplyTimeout
 from tests.client.fakes import ScriptedPort, frames_of
 from tests.client.test_client_faults import TimedPort, packet
@@ -19,9 +19,12 @@ from tests.client.test_client_faults import TimedPort, packet
 def test_a_silent_pseudo_terminal_is_reported_within_the_ready_time_out():
     """pyserial on a real pty whose other end never answers: the port's read time-out ends each try."""
     controller, device = os.openpty()
+    clock = RealClock()
+    started_s = clock.now()
     try:
         with pytest.raises(ReplyTimeout, match=r"within 0\.3 s; nothing came back: is the robot on"):
             Client.open(os.ttyname(device), ready_timeout_s=0.3, timeout_s=0.05)
+        assert clock.now() - started_s < 5.0  # the time-out, give or take a loaded machine; never a hang
     finally:
         os.close(controller)
         os.close(device)
@@ -32,9 +35,11 @@ def test_ports_are_opened_with_the_read_time_out_that_bounds_every_wait():
 
 
 def test_an_emulator_port_keeps_its_own_clock_unless_given_one():
-    assert isinstance(Client.open("emu://?time=virtual").clock, VirtualClock)
+    own = Client.open("emu://?time=virtual")
+    assert isinstance(own.clock, VirtualClock) and own.clock is own.port.clock is own.port.emulator.clock
     mine = VirtualClock(100.0)
-    assert Client.open("emu://?time=virtual", clock=mine).clock is mine
+    given = Client.open("emu://?time=virtual", clock=mine)
+    assert given.clock is mine and given.port.clock is mine and given.port.emulator.clock is mine
 
 
 @pytest.mark.parametrize(
@@ -153,5 +158,7 @@ def test_a_silent_robot_costs_one_time_out_per_attempt_and_no_more():
 
 
 def test_a_client_names_its_link_by_the_port_or_calls_it_the_robot():
-    assert Client(ScriptedPort(), clock=None).name == "robot"
-    assert Client(ScriptedPort()).firmware_version == ""
+    port = ScriptedPort()
+    assert Client(port).name == "robot" and Client(port).firmware_version == ""
+    port.port = "/dev/ttyUSB7"
+    assert Client(port).name == "/dev/ttyUSB7" and Client(port, name="arm").name == "arm"

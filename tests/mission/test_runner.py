@@ -306,8 +306,8 @@ def test_a_crash_inside_a_built_in_node_still_shows_the_frames_where_it_happened
     client = Client.open("emu://?time=virtual")
     summary = Runner(Beep("beep", tones=None, volume=3), client, mission="t", listeners=[recorder]).run()
     [event] = [e for e in recorder.end.events if e.kind == "exception"]
-    assert summary.outcome == CRASHED and 1 <= len(event.frames) <= 3
-    assert "tuple(self.args" in event.traceback.splitlines()[-3]  # where it raised, in actions.py
+    assert summary.outcome == CRASHED and 1 <= len(event.frames) <= 3  # mutation testing adds frames of its own
+    assert "tuple(self.args" in event.traceback  # where it raised, in actions.py
     assert event.message.startswith("node 'beep' (beep) raised TypeError: ")
     assert event.message.endswith(" at " + event.frames[-1].split(": ", 1)[0])
 
@@ -384,9 +384,10 @@ class HaltFails(RobotAction):
 
 def test_halting_leaves_every_node_invalid_and_a_node_that_raises_is_logged_not_obeyed():
     client = Client.open("emu://?time=virtual")
-    root = tree_of("  move: {speed: 1}\n")
+    root = tree_of("  sequence: [beep, {parallel: {children: [{move: {speed: 1}}, {wait: {seconds: 9}}]}}]\n")
     runner = Runner(root, client, mission="t", max_seconds=0.5)
-    assert runner.run().outcome == TIME_LIMIT and root.status == Status.INVALID
+    assert runner.run().outcome == TIME_LIMIT
+    assert [node.status for node in root.iterate()] == [Status.INVALID] * len(list(root.iterate()))
     recorder = Recorder()
     summary = Runner(HaltFails("sticky"), client, mission="t", max_seconds=0.5, listeners=[recorder]).run()
     assert summary.outcome == TIME_LIMIT and summary.stopped
