@@ -499,7 +499,8 @@ class Runner:
         error = f"{type(err).__name__}: {err}"
         full = "".join(traceback.format_exception(err))
         node_id = self._ids[id(node)]
-        info = describe_tree(self.root)[node_id]  # as the header has it (once, and only when a node raised)
+        nodes = self.header.nodes if self.header is not None else describe_tree(self.root)  # ticked before set up
+        info = nodes[node_id]
         where = info.where
         message = f"node '{node.name}' ({info.type}{', ' + where if where else ''}) raised {error}"
         if lines:

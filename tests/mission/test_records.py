@@ -142,17 +142,10 @@ def test_a_keyboard_interrupt_raised_by_a_behaviour_while_ctrl_c_is_handled_else
 
 
 def test_a_run_whose_setup_fails_lasted_no_time():
-    class Fails(RobotAction):
-        node_type = ""
-
-        def setup(self, **kwargs) -> None:
-            raise RuntimeError("no")
-
-        def update(self) -> Status:
-            return Status.SUCCESS
+    from tests.mission.test_runner import SetupFails
 
     client = Client.open("emu://?time=virtual", clock=VirtualClock(50.0))
-    summary = Runner(Fails("f"), client, mission="t", max_seconds=1.0).run()
+    summary = Runner(SetupFails("f"), client, mission="t", max_seconds=1.0).run()
     assert summary.outcome == CRASHED and summary.time_s == 0.0
 
 

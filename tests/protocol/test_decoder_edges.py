@@ -31,16 +31,8 @@ def test_the_decoder_asks_for_exactly_the_bytes_the_shortest_possible_reply_stil
             assert decoder.bytes_needed() == min(left), (frame, taken)
 
 
-@pytest.mark.parametrize(
-    ("kind", "wire", "junk", "replies"),
-    [
-        (ReplyKind.STATUS, b"NxNO\nNO\n", [b"Nx"], [Ack(False), Ack(False)]),
-        (ReplyKind.STATUS, b"xNO\n", [b"x"], [Ack(False)]),
-        (ReplyKind.STATUS, b"xxb" + STATUS, [b"xx"], None),
-    ],
-)
-def test_after_bytes_that_are_no_reply_the_next_one_in_the_same_read_is_kept(kind, wire, junk, replies):
-    decoder = ReplyDecoder(kind)
+def replies_and_junk(kind: ReplyKind, wire: bytes, parameter: str = "") -> tuple[list, list[bytes]]:
+    decoder = ReplyDecoder(kind, parameter)
     decoder.feed(wire)
     found, dropped = [], []
     while True:
@@ -50,8 +42,20 @@ def test_after_bytes_that_are_no_reply_the_next_one_in_the_same_read_is_kept(kin
             dropped.append(err.data)
             continue
         if reply is None:
-            break
+            return found, dropped
         found.append(reply)
+
+
+@pytest.mark.parametrize(
+    ("kind", "wire", "junk", "replies"),
+    [
+        (ReplyKind.STATUS, b"NxNO\nNO\n", [b"Nx"], [Ack(False), Ack(False)]),
+        (ReplyKind.STATUS, b"xNO\n", [b"x"], [Ack(False)]),
+        (ReplyKind.STATUS, b"xxb" + STATUS, [b"xx"], None),
+    ],
+)
+def test_after_bytes_that_are_no_reply_the_next_one_in_the_same_read_is_kept(kind, wire, junk, replies):
+    found, dropped = replies_and_junk(kind, wire)
     assert dropped == junk
     if replies is None:  # the status packet
         assert [type(r).__name__ for r in found] == ["Status"] and found[0].raw == b"b" + STATUS
@@ -106,21 +110,6 @@ def test_value_replies_at_the_ends_of_their_ranges_are_made(parameter, value):
 def test_a_request_for_an_unknown_parameter_says_why(parameter, said):
     with pytest.raises(InvalidCommand, match=said):
         Get(parameter)
-
-
-def replies_and_junk(kind: ReplyKind, wire: bytes, parameter: str = "") -> tuple[list, list[bytes]]:
-    decoder = ReplyDecoder(kind, parameter)
-    decoder.feed(wire)
-    found, dropped = [], []
-    while True:
-        try:
-            reply = decoder.next_reply()
-        except FramingError as err:
-            dropped.append(err.data)
-            continue
-        if reply is None:
-            return found, dropped
-        found.append(reply)
 
 
 def test_two_ascii_replies_in_one_read_come_out_one_by_one():
