@@ -42,6 +42,7 @@ from autonomy.errors import (
 )
 from autonomy.guard import StatusGuard, Verdict
 from autonomy.protocol import (
+    PARAMETERS,
     Ack,
     Beep,
     Command,
@@ -254,7 +255,7 @@ class Client:
         while True:
             tried_s = self.clock.now()
             try:
-                reply = self.request(Get("F"), retries=0)
+                reply = self.request(_GET["F"], retries=0)
             except LinkLost as err:
                 said = self.heard_text()
                 if said:
@@ -548,10 +549,10 @@ class Client:
 
     def status(self) -> Status:
         """Returns the binary status packet (``Gb000``)."""
-        return _expect(self.request(Get("b")), Status)
+        return _expect(self.request(_GET["b"]), Status)
 
     def _parameter(self, letter: str) -> int | str:
-        return _expect(self.request(Get(letter)), Parameter).value
+        return _expect(self.request(_GET[letter]), Parameter).value
 
     def front_distance_mm(self) -> int:
         """Returns the front distance sensor, 0..255 mm (``GD``)."""
@@ -576,7 +577,11 @@ class Client:
     def healthy(self) -> bool:
         """Returns True when the platform reports itself healthy (``GR``); an unhealthy answer is asked twice."""
         # A robot answers NO to a request that reached it garbled, too: a NO is believed once it is said twice.
-        return _expect(self.request(Get("R")), Health).ok or _expect(self.request(Get("R")), Health).ok
+        return _expect(self.request(_GET["R"]), Health).ok or _expect(self.request(_GET["R"]), Health).ok
+
+
+#: The requests for each parameter, made once (commands are immutable).
+_GET = {letter: Get(letter) for letter in PARAMETERS}
 
 
 def _text(frame: bytes) -> str:

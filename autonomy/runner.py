@@ -371,9 +371,9 @@ class Runner:
         if now - self._last_slow_s >= SLOW_POLL_S:
             self._battery, self._healthy = self.client.battery(), self.client.healthy()
             self._last_slow_s = now
+            self._blackboard.set(BATTERY_KEY, self._battery)  # these two change only when polled
+            self._blackboard.set(HEALTHY_KEY, self._healthy)
         self._blackboard.set(STATUS_KEY, status)
-        self._blackboard.set(BATTERY_KEY, self._battery)
-        self._blackboard.set(HEALTHY_KEY, self._healthy)
         self.context.polled = (status, self._battery, self._healthy)
         time_s = now - self._start_s
         speed_mm_s = self._observe(status, time_s)

@@ -24,7 +24,7 @@ the status packet the runner polled before this tick (the same snapshot for ever
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
@@ -186,6 +186,34 @@ class RobotBehaviour(py_trees.behaviour.Behaviour):
         self.blackboard = self.attach_blackboard_client(name=name)
         for key in ROBOT_KEYS:
             self.blackboard.register_key(key=key, access=Access.READ)
+
+    def tick(self) -> Iterator[py_trees.behaviour.Behaviour]:
+        """py_trees' own leaf tick, step for step, without its debug-log lines.
+
+        As :meth:`py_trees.behaviour.Behaviour.tick`: :meth:`initialise` unless RUNNING, then
+        :meth:`update`; a result other than RUNNING stops the node; a result that is not a
+        status is logged and taken as INVALID. py_trees formats its debug lines (and lists
+        every status) whether or not they are logged, which cost a tenth of a run.
+
+        Yields:
+            The node itself, once ticked.
+        """
+        if self.status is not Status.RUNNING:
+            self.initialise()
+        new_status = self.update()
+        if type(new_status) is not Status:
+            self.logger.error(f"A behaviour returned an invalid status, setting to INVALID [{new_status}][{self.name}]")
+            new_status = Status.INVALID
+        if new_status is not Status.RUNNING:
+            self.stop(new_status)
+        self.status = new_status
+        yield self
+
+    def stop(self, new_status: Status) -> None:
+        """py_trees' own :meth:`py_trees.behaviour.Behaviour.stop`, without its debug-log line."""
+        self.terminate(new_status)
+        self.status = new_status
+        self.iterator = self.tick()
 
     def setup(self, **kwargs: Any) -> None:
         """Takes the run's :class:`RobotContext` (keyword ``robot``)."""

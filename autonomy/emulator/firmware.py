@@ -32,6 +32,8 @@ from autonomy.protocol import (
 
 #: Commands that move something: refused in manual mode, fallen, or on a flat battery.
 MOTION = (Move, Turn, ServoTo, ServoBy)
+#: Valid frames kept parsed (there are a few thousand possible; a run uses a handful).
+PARSED_LIMIT = 4096
 
 
 class Firmware:
@@ -44,6 +46,7 @@ class Firmware:
     def __init__(self, robot: Robot) -> None:
         self.robot = robot
         self._line = bytearray()
+        self._parsed: dict[bytes, Command] = {}
 
     def frames(self, data: bytes) -> list[bytes]:
         """Splits received bytes into frames; a frame ends at each ``\\n``.
@@ -67,10 +70,14 @@ class Firmware:
             The parsed command (None when the frame was refused as invalid) and the
             reply bytes.
         """
-        try:
-            command = parse_command(frame)
-        except ProtocolError:
-            return None, NO
+        command = self._parsed.get(frame)
+        if command is None:
+            try:
+                command = parse_command(frame)
+            except ProtocolError:
+                return None, NO
+            if len(self._parsed) < PARSED_LIMIT:  # a run sends the same few frames again and again
+                self._parsed[frame] = command
         return command, self.answer(command)
 
     def answer(self, command: Command) -> bytes:

@@ -246,30 +246,43 @@ class Robot:
             self._step(step)
 
     def _step(self, dt: float) -> None:
+        # Runs ten times per tick of a 20 Hz mission: attributes are read once, and the tilt is worked out here.
         p = self.params
         self.time_s += dt
-        previous_speed = self.speed_mm_s
-        if self.turn_remaining_deg:
-            turn = math.copysign(min(abs(self.turn_remaining_deg), p.turn_rate_deg_s * dt), self.turn_remaining_deg)
+        speed = previous_speed = self.speed_mm_s
+        turning = self.turn_remaining_deg
+        if turning:
+            turn = math.copysign(min(abs(turning), p.turn_rate_deg_s * dt), turning)
             self.heading_deg += turn
-            self.turn_remaining_deg -= turn
-            if abs(self.turn_remaining_deg) < 1e-9:
-                self.turn_remaining_deg = 0.0
-        delta_v = self.target_speed_mm_s - self.speed_mm_s
+            turning -= turn
+            if abs(turning) < 1e-9:
+                turning = 0.0
+            self.turn_remaining_deg = turning
+        delta_v = self.target_speed_mm_s - speed
         if delta_v:
             max_dv = p.acceleration_mm_s2 * dt
-            self.speed_mm_s += max(-max_dv, min(max_dv, delta_v))
-        impacts = len(self.impacts)
-        if self.speed_mm_s:
-            self._drive(self.speed_mm_s * dt)
-        # An impact is not braking: the body pitches forward (the kick), it does not lean back.
-        self._accel_mm_s2 = 0.0 if len(self.impacts) > impacts else (self.speed_mm_s - previous_speed) / dt
-        self._update_tilt(dt)
+            speed += max(-max_dv, min(max_dv, delta_v))
+            self.speed_mm_s = speed
+        if speed:
+            impacts = len(self.impacts)
+            self._drive(speed * dt)
+            speed = self.speed_mm_s
+            # An impact is not braking: the body pitches forward (the kick), it does not lean back.
+            accel = 0.0 if len(self.impacts) > impacts else (speed - previous_speed) / dt
+        else:
+            accel = (speed - previous_speed) / dt
+        self._accel_mm_s2 = accel
+        if not self.fallen:
+            # A balancing robot leans into its acceleration: atan(a / g).
+            target = math.degrees(math.atan2(accel, GRAVITY_MM_S2)) if accel else 0.0
+            tilt = self.tilt_deg
+            if target != tilt:
+                self.tilt_deg = tilt + (target - tilt) * min(1.0, dt / p.tilt_time_constant_s)
         if self.servo_deg != self.servo_target_deg:
             for i in range(3):
                 gap = self.servo_target_deg[i] - self.servo_deg[i]
                 self.servo_deg[i] += max(-p.servo_speed_deg_s * dt, min(p.servo_speed_deg_s * dt, gap))
-        drain = p.battery_idle_drain_per_s + (p.battery_motion_drain_per_s if self.moving else 0.0)
+        drain = p.battery_idle_drain_per_s + (p.battery_motion_drain_per_s if speed or turning else 0.0)
         self.battery = max(0.0, self.battery - drain * dt)
 
     def _drive(self, distance_mm: float) -> None:
@@ -311,11 +324,3 @@ class Robot:
         self.tilt_deg += speed * p.impact_tilt_deg_per_mm_s  # the body pitches on, the wheels stop
         self.speed_mm_s = 0.0
         self.target_speed_mm_s = 0.0
-
-    def _update_tilt(self, dt: float) -> None:
-        if self.fallen:
-            return
-        # A balancing robot leans into its acceleration: atan(a / g).
-        target = math.degrees(math.atan2(self._accel_mm_s2, GRAVITY_MM_S2)) if self._accel_mm_s2 else 0.0
-        if target != self.tilt_deg:
-            self.tilt_deg += (target - self.tilt_deg) * min(1.0, dt / self.params.tilt_time_constant_s)
