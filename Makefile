@@ -51,6 +51,8 @@ bench: $(STAMP)
 	$(BIN)/python benchmarks/views.py
 	$(BIN)/python benchmarks/hostile.py
 	$(BIN)/python benchmarks/groot.py
+	$(BIN)/python benchmarks/grading.py
+	$(BIN)/python benchmarks/work.py
 
 ## docs: make the node reference in docs/missions.md anew from the registry
 docs: $(STAMP)

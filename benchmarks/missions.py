@@ -37,7 +37,7 @@ def mission_text() -> str:
     return (
         f"mission: two hundred\ntick_hz: {TICK_HZ}\ntree:\n  selector:\n    children:\n"
         + branch * BRANCHES
-        + "      - wait: {seconds: 1000000}\n"
+        + "      - wait: {seconds: 3600}\n"
     )
 
 
@@ -87,7 +87,7 @@ def raw_ticks_per_s(ticks: int) -> float:
         )
         for _ in range(BRANCHES)
     ]
-    root = py_trees.composites.Selector("selector", memory=False, children=[*children, RawWait("wait", client, 1e6)])
+    root = py_trees.composites.Selector("selector", memory=False, children=[*children, RawWait("wait", client, 3600)])
     writer = py_trees.blackboard.Client(name="raw")
     for key in ("/raw/status", "/raw/battery", "/raw/healthy"):
         writer.register_key(key=key, access=Access.WRITE)

@@ -145,3 +145,28 @@ def test_fault_spec_parses_and_prints():
 def test_fault_spec_errors_say_what_is_wrong(text, message):
     with pytest.raises(FaultSpecError, match=message):
         FaultSpec.parse(text)
+
+
+def test_a_frame_sent_again_is_answered_again_and_a_bad_one_stays_refused(emu):
+    # the firmware keeps parsed frames: the same frame must still act each time, a bad one never becomes good
+    for _ in range(3):
+        assert exchange(emu, b"S1625\n") == b"OK\n"
+        assert exchange(emu, b"T+999\n") == b"OK\n"
+        assert exchange(emu, b"F+900\n") == b"NO\n"
+    assert len(emu.robot.beeps) == 3
+    assert [e.executed for e in emu.log] == [True, True, False] * 3
+
+
+def test_frames_past_the_kept_ones_are_still_parsed(emu, monkeypatch):
+    monkeypatch.setattr("autonomy.emulator.firmware.PARSED_LIMIT", 2)
+    replies = [exchange(emu, f"M0+{angle:02d}\n".encode()) for angle in range(10)]
+    assert replies == [b"OK\n"] * 10
+    assert len(emu.firmware._parsed) == 2
+    assert emu.robot.servo_target_deg[0] == 9.0
+
+
+def test_a_whole_frame_after_a_partial_one_joins_it(emu):
+    # the one-frame shortcut must not skip bytes left from an earlier write
+    assert exchange(emu, b"GD0") == b""
+    assert exchange(emu, b"S1625\n") == b"NO\n"  # "GD0S1625\n" is one line, too long
+    assert exchange(emu, b"S1625\n") == b"OK\n"
