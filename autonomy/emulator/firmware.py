@@ -54,8 +54,9 @@ class Firmware:
         Bytes after the last ``\\n`` wait for the next call. A run longer than a frame
         keeps only its first bytes: it will be answered ``NO`` either way.
         """
+        data = bytes(data)  # a bytearray or memoryview too (no copy for bytes)
         if not self._line and len(data) == FRAME_LENGTH and data.find(NEWLINE) == FRAME_LENGTH - 1:
-            return [bytes(data)]  # one whole frame, as a client writes it: the usual case
+            return [data]  # one whole frame, as a client writes it: the usual case
         frames = []
         for byte in data:
             if len(self._line) <= FRAME_LENGTH:
@@ -72,6 +73,7 @@ class Firmware:
             The parsed command (None when the frame was refused as invalid) and the
             reply bytes.
         """
+        frame = bytes(frame)  # a bytearray cannot be a key
         command = self._parsed.get(frame)
         if command is None:
             try:

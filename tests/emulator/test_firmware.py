@@ -170,3 +170,9 @@ def test_a_whole_frame_after_a_partial_one_joins_it(emu):
     assert exchange(emu, b"GD0") == b""
     assert exchange(emu, b"S1625\n") == b"NO\n"  # "GD0S1625\n" is one line, too long
     assert exchange(emu, b"S1625\n") == b"OK\n"
+
+
+def test_frames_may_come_as_any_bytes_like_object(emu):
+    assert exchange(emu, memoryview(b"X0000\n")) == b"OK\n"
+    assert exchange(emu, bytearray(b"F+100\n")) == b"OK\n"
+    assert emu.firmware.execute(bytearray(b"X0000\n")) == (Stop(), b"OK\n")
