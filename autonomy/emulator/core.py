@@ -174,8 +174,6 @@ class Emulator:
         with self._lock:
             self.advance()
             now = self.now_s()
-            if not self._outbox or self._outbox[0][0] > now:
-                return b""
             out = bytearray()
             while self._outbox and self._outbox[0][0] <= now and (limit is None or len(out) < limit):
                 due, chunk = self._outbox.popleft()

@@ -54,9 +54,6 @@ class Firmware:
         Bytes after the last ``\\n`` wait for the next call. A run longer than a frame
         keeps only its first bytes: it will be answered ``NO`` either way.
         """
-        data = bytes(data)  # a bytearray or memoryview too (no copy for bytes)
-        if not self._line and len(data) == FRAME_LENGTH and data.find(NEWLINE) == FRAME_LENGTH - 1:
-            return [data]  # one whole frame, as a client writes it: the usual case
         frames = []
         for byte in data:
             if len(self._line) <= FRAME_LENGTH:

@@ -120,8 +120,6 @@ class Robot:
         self._free_at: tuple[float, float, float] = (self.x_mm, self.y_mm, -math.inf)
         # The last sensor reading's pose and its gap: a robot that has not moved sees the same.
         self._seen: tuple[float, float, float, float, float] = (math.nan, math.nan, math.nan, math.nan, 0.0)
-        # The heading the wheels last drove along, and its unit vector.
-        self._direction: tuple[float, float, float] = (math.nan, 0.0, 0.0)
 
     # ------------------------------------------------------------------ readings
 
@@ -289,11 +287,8 @@ class Robot:
 
     def _drive(self, distance_mm: float) -> None:
         """Moves along the heading, stopping at the first contact."""
-        heading, dx, dy = self._direction
-        if heading != self.heading_deg:  # worked out again only after a turn
-            rad = math.radians(self.heading_deg)
-            dx, dy = math.cos(rad), math.sin(rad)
-            self._direction = (self.heading_deg, dx, dy)
+        rad = math.radians(self.heading_deg)
+        dx, dy = math.cos(rad), math.sin(rad)
         radius = self.params.body_radius_mm
         x, y = self.x_mm + dx * distance_mm, self.y_mm + dy * distance_mm
         free_x, free_y, free_mm = self._free_at

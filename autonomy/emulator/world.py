@@ -78,23 +78,16 @@ class Box:
 
     def ray_distance(self, ox: float, oy: float, dx: float, dy: float) -> float:
         """Distance along the unit ray (dx, dy) from (ox, oy) to this box, inf on a miss."""
-        # The slab method, one axis after the other (written out: the sensor calls it for every ray).
         t_near, t_far = 0.0, math.inf
-        if abs(dx) < 1e-12:
-            if ox < self.x_min_mm or ox > self.x_max_mm:
-                return math.inf
-        else:
-            t1, t2 = (self.x_min_mm - ox) / dx, (self.x_max_mm - ox) / dx
-            if t1 > t2:
-                t1, t2 = t2, t1
-            t_near, t_far = max(t_near, t1), min(t_far, t2)
-            if t_near > t_far:
-                return math.inf
-        if abs(dy) < 1e-12:
-            if oy < self.y_min_mm or oy > self.y_max_mm:
-                return math.inf
-        else:
-            t1, t2 = (self.y_min_mm - oy) / dy, (self.y_max_mm - oy) / dy
+        for origin, direction, low, high in (
+            (ox, dx, self.x_min_mm, self.x_max_mm),
+            (oy, dy, self.y_min_mm, self.y_max_mm),
+        ):
+            if abs(direction) < 1e-12:
+                if origin < low or origin > high:
+                    return math.inf
+                continue
+            t1, t2 = (low - origin) / direction, (high - origin) / direction
             if t1 > t2:
                 t1, t2 = t2, t1
             t_near, t_far = max(t_near, t1), min(t_far, t2)
@@ -259,42 +252,17 @@ class World:
             reach_mm: Nothing this far or further matters (a sensor's range): such a distance
                 comes back as infinity, and obstacles that far from (x, y) are not looked at.
         """
-        near: tuple[Obstacle, ...] | list[Obstacle] = self.obstacles
+        near = None
         if math.isfinite(reach_mm):
-            # One pass finds both whether anything is within reach and the obstacles that are.
-            nearest = min(x, y, self.width_mm - x, self.height_mm - y)
-            near = []
-            for obstacle in self.obstacles:
-                gap = obstacle.gap(x, y)
-                if gap < reach_mm:
-                    near.append(obstacle)
-                    nearest = min(nearest, gap)
-            if nearest >= reach_mm:  # nothing within reach in any direction
-                return math.inf
+            near = tuple(o for o in self.obstacles if o.gap(x, y) < reach_mm)
+            if not near and min(x, y, self.width_mm - x, self.height_mm - y) >= reach_mm:
+                return math.inf  # nothing within reach in any direction
         if rays <= 1 or cone_deg <= 0:
-            headings = [heading_deg]
+            found = self.ray_distance(x, y, heading_deg, near)
         else:
             step = cone_deg / (rays - 1)
             first = heading_deg - cone_deg / 2
-            headings = [first + k * step for k in range(rays)]
-        if not (0 <= x <= self.width_mm and 0 <= y <= self.height_mm):
-            return 0.0 if reach_mm > 0 else math.inf
-        found = math.inf
-        for ray_heading in headings:  # each ray as ray_distance casts it, written out: this runs every tick
-            rad = math.radians(ray_heading)
-            dx, dy = math.cos(rad), math.sin(rad)
-            best = math.inf
-            if dx > 1e-12:
-                best = (self.width_mm - x) / dx
-            elif dx < -1e-12:
-                best = -x / dx
-            if dy > 1e-12:
-                best = min(best, (self.height_mm - y) / dy)
-            elif dy < -1e-12:
-                best = min(best, -y / dy)
-            for obstacle in near:
-                best = min(best, obstacle.ray_distance(x, y, dx, dy))
-            found = min(found, best)
+            found = min(self.ray_distance(x, y, first + k * step, near) for k in range(rays))
         return found if found < reach_mm else math.inf
 
     def clearance(self, x: float, y: float) -> float:
