@@ -201,6 +201,10 @@ class Client:
         self.guard = StatusGuard()
         self._heard = bytearray()
         self._waiting_ready = False  # while True, stale input is read into _heard, not discarded
+        # An in-process emulator's port can answer a frame at once (a port class's own method, never a mock's).
+        self._answer_now: Callable[[bytes], bytes | None] | None = (
+            port.answer_now if callable(getattr(type(port), "answer_now", None)) else None
+        )
         port.timeout = timeout_s
 
     # ------------------------------------------------------------------ lifecycle
@@ -481,24 +485,37 @@ class Client:
             listener(frame, outcome, attempt)
 
     def _exchange(self, command: Command, frame: bytes) -> Reply:
-        """One attempt: discard stale input, send, read until a reply or the time-out."""
+        """One attempt: discard stale input, send, read until a reply or the time-out.
+
+        An in-process emulator answers a frame at once when the wire would change nothing
+        (``answer_now``); the reply is then read from what it returned, the same way.
+        """
         self.stats.attempts += 1
-        if self._waiting_ready:
-            self._drain_heard()
-        else:
-            self._io(self.port.reset_input_buffer)
-        self._io(self.port.write, frame)
+        data = None if self._answer_now is None or self._waiting_ready else self._io(self._answer_now, frame)
+        if data is None:
+            if self._waiting_ready:
+                self._drain_heard()
+            else:
+                self._io(self.port.reset_input_buffer)
+            self._io(self.port.write, frame)
         self.stats.bytes_sent += len(frame)
         decoder = ReplyDecoder.for_command(command)
         deadline = self.clock.now() + self.timeout_s
         received = 0
         while True:
+            if data:
+                received += len(data)
+                self.stats.bytes_received += len(data)
+                self._heard += data
+                del self._heard[:-HEARD_BYTES]
+                decoder.feed(data)
             try:
                 reply = decoder.next_reply()
             except FramingError:
                 self.stats.framing_errors += 1
                 if command.retryable:
                     raise
+                data = None
                 continue  # T and D cannot be asked again: keep looking for their reply
             if reply is not None:
                 return reply
@@ -509,11 +526,6 @@ class Client:
                     f"no reply to {_text(frame)} from {self.name} within {self.timeout_s:g} s",
                     received,
                 )
-            received += len(data)
-            self.stats.bytes_received += len(data)
-            self._heard += data
-            del self._heard[:-HEARD_BYTES]
-            decoder.feed(data)
 
     def _io(self, operation: Callable[..., Any], *args: Any) -> Any:
         try:

@@ -21,7 +21,7 @@ from autonomy.emulator.faults import FaultSpec
 from autonomy.emulator.firmware import Firmware
 from autonomy.emulator.robot import Robot, RobotParams
 from autonomy.emulator.world import Pose, World, load_world
-from autonomy.protocol import NO, Command
+from autonomy.protocol import FRAME_LENGTH, NEWLINE, NO, Command
 
 DEFAULT_EMULATOR_BAUD = 57600
 #: Received frames kept in :attr:`Emulator.log`; older ones are dropped.
@@ -182,6 +182,40 @@ class Emulator:
                 if room < len(chunk):
                     self._outbox.appendleft((due, chunk[room:]))
             return bytes(out)
+
+    def answer_now(self, frame: bytes, baud: int | None = None) -> bytes | None:
+        """Answers one whole frame at once, when going over the wire would change nothing.
+
+        That is when no fault is injected and pacing is off, the frame is sent at the robot's
+        own rate, the robot has booted, and no byte is under way either way nor any partial
+        frame waiting. The frame is then received and carried out, and its reply taken,
+        exactly as :meth:`receive` and :meth:`read_ready` would: same clock, same log, same
+        reply, with no bytes queued in between.
+
+        Args:
+            frame: One command frame, ending with its newline.
+            baud: The rate the other end sends at; None means the robot's own rate.
+
+        Returns:
+            The reply bytes, or None when the wire could make a difference: send the frame
+            with :meth:`receive` then.
+        """
+        with self._lock:
+            self.advance()  # delivers what is due first, as receive does
+            faults = self.faults
+            if (
+                faults.drop or faults.corrupt or faults.delay or faults.garbage or faults.no or faults.pace
+                or (baud is not None and baud != self.baud)
+                or self._inbox or self._outbox or not self.firmware.idle
+                or len(frame) != FRAME_LENGTH or frame.find(NEWLINE) != FRAME_LENGTH - 1
+            ):  # fmt: skip
+                return None
+            now = self.now_s()
+            if now < self.boot_s:
+                return None
+            command, reply = self.firmware.execute(frame)
+            self.log.append(Exchange(now, bytes(frame), command, reply, command is not None and reply != NO))
+            return reply
 
     def discard_ready(self) -> int:
         """Drops every reply byte that has arrived; returns how many."""

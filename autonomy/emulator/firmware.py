@@ -63,6 +63,11 @@ class Firmware:
                 self._line.clear()
         return frames
 
+    @property
+    def idle(self) -> bool:
+        """True when no partial frame waits for the rest of its bytes."""
+        return not self._line
+
     def execute(self, frame: bytes) -> tuple[Command | None, bytes]:
         """Carries out one frame.
 

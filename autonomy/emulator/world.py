@@ -8,6 +8,7 @@ name. A world file is checked like a mission: every problem at once, as ``FILE:L
 
 from __future__ import annotations
 
+import functools
 import math
 import random
 from dataclasses import dataclass, field
@@ -78,22 +79,28 @@ class Box:
 
     def ray_distance(self, ox: float, oy: float, dx: float, dy: float) -> float:
         """Distance along the unit ray (dx, dy) from (ox, oy) to this box, inf on a miss."""
-        t_near, t_far = 0.0, math.inf
-        for origin, direction, low, high in (
-            (ox, dx, self.x_min_mm, self.x_max_mm),
-            (oy, dy, self.y_min_mm, self.y_max_mm),
-        ):
-            if abs(direction) < 1e-12:
-                if origin < low or origin > high:
-                    return math.inf
-                continue
-            t1, t2 = (low - origin) / direction, (high - origin) / direction
+        # The slab test, written out for each axis (the sensor calls it for every ray): the ray is
+        # inside the box where it is between both pairs of sides at once.
+        if abs(dx) < 1e-12:
+            if ox < self.x_min_mm or ox > self.x_max_mm:
+                return math.inf
+            t_near, t_far = 0.0, math.inf
+        else:
+            t1, t2 = (self.x_min_mm - ox) / dx, (self.x_max_mm - ox) / dx
             if t1 > t2:
                 t1, t2 = t2, t1
-            t_near, t_far = max(t_near, t1), min(t_far, t2)
+            t_near, t_far = max(0.0, t1), min(math.inf, t2)
             if t_near > t_far:
                 return math.inf
-        return t_near
+        if abs(dy) < 1e-12:
+            if oy < self.y_min_mm or oy > self.y_max_mm:
+                return math.inf
+            return t_near
+        t1, t2 = (self.y_min_mm - oy) / dy, (self.y_max_mm - oy) / dy
+        if t1 > t2:
+            t1, t2 = t2, t1
+        t_near, t_far = max(t_near, t1), min(t_far, t2)
+        return math.inf if t_near > t_far else t_near
 
     def gap(self, x: float, y: float) -> float:
         """Distance from the point (x, y) to the box (0 inside)."""
@@ -196,6 +203,19 @@ class Jitter:
         return bool(self.x_mm or self.y_mm or self.heading_deg)
 
 
+@functools.lru_cache(maxsize=64)
+def _cone_directions(heading_deg: float, cone_deg: float, rays: int) -> tuple[tuple[float, float], ...]:
+    """Unit vectors of ``rays`` rays spread evenly over a cone about ``heading_deg`` (as ``ray_distance`` makes them).
+
+    A robot driving straight asks for the same cone tick after tick.
+    """
+    step = cone_deg / (rays - 1)
+    first = heading_deg - cone_deg / 2
+    return tuple(
+        (math.cos(math.radians(first + k * step)), math.sin(math.radians(first + k * step))) for k in range(rays)
+    )
+
+
 @dataclass(frozen=True)
 class World:
     """An arena of ``width_mm`` x ``height_mm`` with walls all round, obstacles, zones and a start."""
@@ -252,18 +272,54 @@ class World:
             reach_mm: Nothing this far or further matters (a sensor's range): such a distance
                 comes back as infinity, and obstacles that far from (x, y) are not looked at.
         """
-        near = None
-        if math.isfinite(reach_mm):
-            near = tuple(o for o in self.obstacles if o.gap(x, y) < reach_mm)
-            if not near and min(x, y, self.width_mm - x, self.height_mm - y) >= reach_mm:
-                return math.inf  # nothing within reach in any direction
         if rays <= 1 or cone_deg <= 0:
+            near = self._near(x, y, reach_mm)
             found = self.ray_distance(x, y, heading_deg, near)
-        else:
-            step = cone_deg / (rays - 1)
-            first = heading_deg - cone_deg / 2
-            found = min(self.ray_distance(x, y, first + k * step, near) for k in range(rays))
+            return found if found < reach_mm else math.inf
+        if not (0 <= x <= self.width_mm and 0 <= y <= self.height_mm):
+            return 0.0 if reach_mm > 0 else math.inf
+        obstacles = self.obstacles
+        left = right = below = above = True  # the walls that may be within reach
+        if math.isfinite(reach_mm):
+            obstacles = self._near(x, y, reach_mm)
+            # A wall further than the reach along its normal is further along every ray: it cannot count.
+            left, right = x < reach_mm, self.width_mm - x < reach_mm
+            below, above = y < reach_mm, self.height_mm - y < reach_mm
+            if not (obstacles or left or right or below or above):
+                return math.inf  # nothing within reach in any direction
+        found = math.inf
+        for dx, dy in _cone_directions(heading_deg, cone_deg, rays):
+            # each distance is worked out as ray_distance works it out, so the nearest is the same number
+            if dx > 1e-12:
+                if right:
+                    found = min(found, (self.width_mm - x) / dx)
+            elif dx < -1e-12 and left:
+                found = min(found, -x / dx)
+            if dy > 1e-12:
+                if above:
+                    found = min(found, (self.height_mm - y) / dy)
+            elif dy < -1e-12 and below:
+                found = min(found, -y / dy)
+            for obstacle in obstacles:
+                found = min(found, obstacle.ray_distance(x, y, dx, dy))
         return found if found < reach_mm else math.inf
+
+    def _near(self, x: float, y: float, reach_mm: float) -> tuple[Obstacle, ...] | None:
+        """The obstacles closer than ``reach_mm`` to (x, y); None (all of them) when the reach is infinite."""
+        if not math.isfinite(reach_mm):
+            return None
+        margin_mm = reach_mm + 1.0  # outside its bounds grown by more than the reach, a shape is out of reach
+        return tuple(
+            obstacle
+            for x_min, y_min, x_max, y_max, obstacle in self._obstacle_bounds
+            if x_min - margin_mm < x < x_max + margin_mm
+            and y_min - margin_mm < y < y_max + margin_mm
+            and obstacle.gap(x, y) < reach_mm
+        )
+
+    @functools.cached_property
+    def _obstacle_bounds(self) -> tuple[tuple[float, float, float, float, Obstacle], ...]:
+        return tuple((*obstacle.bounds(), obstacle) for obstacle in self.obstacles)
 
     def clearance(self, x: float, y: float) -> float:
         """Distance from (x, y) to the nearest wall or obstacle (0 or less: touching one)."""

@@ -105,6 +105,15 @@ class Serial(SerialBase):
         self._emu.receive(data, self._baudrate)
         return len(data)
 
+    def answer_now(self, frame: bytes) -> bytes | None:
+        """Sends one whole frame and returns its reply at once, when the wire would change nothing.
+
+        Only the in-process emulator can do this (see :meth:`Emulator.answer_now`); None means
+        the frame was not sent: write it and read the reply as usual.
+        """
+        self._check_open()
+        return self._emu.answer_now(frame, self._baudrate)
+
     def reset_input_buffer(self) -> None:
         """Discards reply bytes that have arrived."""
         self._check_open()

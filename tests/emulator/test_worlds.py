@@ -3,10 +3,12 @@
 import math
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from autonomy.client import Client
 from autonomy.emulator import Box, Circle, Jitter, WorldError, WorldInvalid, load_world, world_from_dict
-from autonomy.emulator.world import SHIPPED
+from autonomy.emulator.world import SENSOR_CONE_DEG, SENSOR_RAYS, SHIPPED
 
 
 @pytest.mark.parametrize("name", SHIPPED)
@@ -163,3 +165,68 @@ def test_unknown_world_name_lists_the_shipped_ones():
         load_world("mars")
     with pytest.raises(WorldError, match="did you mean 'box'"):
         load_world("boxx")
+
+
+def _slab_reference(box, ox, oy, dx, dy):
+    """The slab test as it is usually written, both axes in one loop (the oracle for Box.ray_distance)."""
+    t_near, t_far = 0.0, math.inf
+    for origin, direction, low, high in ((ox, dx, box.x_min_mm, box.x_max_mm), (oy, dy, box.y_min_mm, box.y_max_mm)):
+        if abs(direction) < 1e-12:
+            if origin < low or origin > high:
+                return math.inf
+            continue
+        t1, t2 = (low - origin) / direction, (high - origin) / direction
+        if t1 > t2:
+            t1, t2 = t2, t1
+        t_near, t_far = max(t_near, t1), min(t_far, t2)
+        if t_near > t_far:
+            return math.inf
+    return t_near
+
+
+_coordinate = st.floats(-500, 3500, allow_nan=False)
+_origin = st.one_of(_coordinate, st.just(math.nan))
+_axis_aligned = st.sampled_from([0.0, 90.0, 180.0, 270.0])
+
+
+@settings(max_examples=400, deadline=None)
+@given(_origin, _origin, st.one_of(st.floats(0, 360), _axis_aligned))
+def test_the_box_slab_test_gives_the_same_number_as_the_loop_form(x, y, heading):
+    box = Box(1200, 1200, 1800, 1500)
+    dx, dy = math.cos(math.radians(heading)), math.sin(math.radians(heading))
+    if heading in (90.0, 270.0):
+        dx = 0.0  # exactly parallel to the box's sides
+    assert box.ray_distance(x, y, dx, dy) == _slab_reference(box, x, y, dx, dy)
+
+
+@settings(max_examples=400, deadline=None)
+@given(
+    st.sampled_from(["obstacles", "corridor", "box"]),
+    _coordinate,
+    _coordinate,
+    st.floats(-720, 720),
+    st.sampled_from([math.inf, 256.0, 40.0, 1.0, 0.0]),
+)
+def test_the_cone_is_the_nearest_of_its_rays_cast_one_by_one(name, x, y, heading, reach_mm):
+    # The cone looks only at what is within reach, and at each wall only when it is: the same
+    # number as casting every ray at everything, or infinity when that is out of reach.
+    world = load_world(name)
+    step = SENSOR_CONE_DEG / (SENSOR_RAYS - 1)
+    nearest = min(world.ray_distance(x, y, heading - SENSOR_CONE_DEG / 2 + k * step) for k in range(SENSOR_RAYS))
+    expected = nearest if nearest < reach_mm else math.inf
+    assert world.cone_distance(x, y, heading, reach_mm=reach_mm) == expected
+    single = world.ray_distance(x, y, heading)
+    assert world.cone_distance(x, y, heading, rays=1, reach_mm=reach_mm) == (single if single < reach_mm else math.inf)
+
+
+@pytest.mark.parametrize("index", range(len(load_world("obstacles").obstacles)))
+@pytest.mark.parametrize("side_deg", [0, 90, 180, 270])
+def test_an_obstacle_just_within_reach_is_seen_from_every_side(index, side_deg):
+    world = load_world("obstacles")
+    obstacle = world.obstacles[index]
+    x_min, y_min, x_max, y_max = obstacle.bounds()
+    cx, cy = (x_min + x_max) / 2, (y_min + y_max) / 2
+    half = (x_max - x_min) / 2 if side_deg in (0, 180) else (y_max - y_min) / 2
+    away_x, away_y = -math.cos(math.radians(side_deg)), -math.sin(math.radians(side_deg))
+    x, y = cx + away_x * (half + 255.5), cy + away_y * (half + 255.5)  # 255.5 mm out, looking at its middle
+    assert world.cone_distance(x, y, side_deg, reach_mm=256.0) == pytest.approx(255.5)
