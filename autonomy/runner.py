@@ -28,6 +28,7 @@ from py_trees.common import Access, Status
 
 import autonomy
 from autonomy.behaviours import BATTERY_KEY, HEALTHY_KEY, STATUS_KEY, RobotContext
+from autonomy.behaviours.engine import tick_tree
 from autonomy.behaviours.tree import describe_tree, preorder
 from autonomy.client import Client
 from autonomy.clock import wall_date
@@ -378,7 +379,7 @@ class Runner:
         time_s = now - self._start_s
         speed_mm_s = self._observe(status, time_s)
         try:
-            self.root.tick_once()
+            tick_tree(self.root)
         except LinkError:
             raise
         except (Exception, SystemExit) as err:  # a plugin's sys.exit() ends the run as an error, not the program
@@ -486,10 +487,12 @@ class Runner:
         """
         node = self.root  # pragma: no mutate - the root's tick is on the stack, so this is always replaced
         tb: TracebackType | None = err.__traceback__
-        while tb is not None:
-            candidate = tb.tb_frame.f_locals.get("self")
-            if candidate is not None and id(candidate) in self._ids:
-                node = candidate
+        while tb is not None:  # a node's own methods have it as self, the tick engine's steps as node
+            local = tb.tb_frame.f_locals
+            for candidate in (local.get("self"), local.get("node")):
+                if candidate is not None and id(candidate) in self._ids:
+                    node = candidate
+                    break
             tb = tb.tb_next
         frames = traceback.extract_tb(err.__traceback__)
         # A crash in the package's own code has no frames of its own: all are shown then. (Under mutation

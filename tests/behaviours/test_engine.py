@@ -1,0 +1,197 @@
+"""The tick engine ticks and halts any tree exactly as py_trees' own generators do.
+
+Random trees of every composite and decorator a mission can hold, over scripted leaves
+(ours and py_trees' own), are built twice. One copy is ticked with ``tick_once`` and halted
+with ``stop``, the other with the engine; every call py_trees makes on a node (initialise,
+update, terminate, in order) and every node's status, feedback and current child must agree
+after every tick.
+"""
+
+from __future__ import annotations
+
+import itertools
+from pathlib import Path
+from typing import Any
+
+import py_trees
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from py_trees.common import OneShotPolicy, ParallelPolicy, Status
+
+from autonomy.behaviours import ClockTimeout, RobotBehaviour, RobotContext, engine
+from autonomy.clock import VirtualClock
+
+MISSIONS = Path(__file__).resolve().parents[2] / "missions"
+STATUSES = [Status.RUNNING, Status.SUCCESS, Status.FAILURE]
+
+
+def logged(base: type) -> type:
+    """``base`` with initialise and terminate noted in the tree's shared log."""
+
+    class Logged(base):  # type: ignore[misc,valid-type]
+        log: list[str]
+
+        def initialise(self) -> None:
+            self.log.append(f"{self.name} initialise from {self.status.name}")
+            super().initialise()
+
+        def terminate(self, new_status: Status) -> None:
+            self.log.append(f"{self.name} terminate {self.status.name}->{new_status.name}")
+            super().terminate(new_status)
+
+    return Logged
+
+
+def scripted(base: type) -> type:
+    class Scripted(logged(base)):  # type: ignore[misc]
+        script: list[Status]
+
+        def update(self) -> Status:
+            status = self.script[self.updates % len(self.script)]
+            self.updates += 1
+            self.log.append(f"{self.name} update -> {status.name}")
+            self.feedback_message = f"update {self.updates}"
+            return status
+
+    return Scripted
+
+
+OurLeaf, TheirLeaf = scripted(RobotBehaviour), scripted(py_trees.behaviour.Behaviour)
+COMPOSITES = {
+    "sequence": logged(py_trees.composites.Sequence),
+    "selector": logged(py_trees.composites.Selector),
+    "parallel": logged(py_trees.composites.Parallel),
+}
+DECORATORS = {
+    "repeat": logged(py_trees.decorators.Repeat),
+    "retry": logged(py_trees.decorators.Retry),
+    "inverter": logged(py_trees.decorators.Inverter),
+    "failure_is_success": logged(py_trees.decorators.FailureIsSuccess),
+    "success_is_failure": logged(py_trees.decorators.SuccessIsFailure),
+    "one_shot": logged(py_trees.decorators.OneShot),
+    "timeout": logged(ClockTimeout),
+}
+
+leaves = st.tuples(st.just("leaf"), st.booleans(), st.lists(st.sampled_from(STATUSES), min_size=1, max_size=5))
+trees = st.recursive(
+    leaves,
+    lambda children: st.one_of(
+        st.tuples(st.sampled_from(sorted(COMPOSITES)), st.integers(0, 3), st.lists(children, max_size=4)),
+        st.tuples(st.sampled_from(sorted(DECORATORS)), st.integers(0, 3), children),
+    ),
+    max_leaves=12,
+)
+
+
+def build(spec: Any, log: list[str], clock: VirtualClock, names: itertools.count) -> py_trees.behaviour.Behaviour:
+    """One tree from ``spec``; the same spec builds the same tree (names included)."""
+    kind, option, rest = spec
+    name = f"{kind}{next(names)}"
+    if kind == "leaf":
+        node = (OurLeaf if option else TheirLeaf)(name)
+        node.script, node.updates = rest, 0
+    elif kind in COMPOSITES:
+        children = [build(child, log, clock, names) for child in rest]
+        if kind == "parallel":
+            policy = [
+                ParallelPolicy.SuccessOnOne(),
+                ParallelPolicy.SuccessOnAll(synchronise=False),
+                ParallelPolicy.SuccessOnAll(synchronise=True),
+                ParallelPolicy.SuccessOnSelected(children[:1], synchronise=True),
+            ][option if children else option % 3]
+            node = COMPOSITES[kind](name, policy=policy, children=children)
+        else:
+            node = COMPOSITES[kind](name, memory=bool(option % 2), children=children)
+    else:
+        child = build(rest, log, clock, names)
+        arguments = {
+            "repeat": {"num_success": option + 1 if option < 3 else -1},
+            "retry": {"num_failures": option + 1},
+            "one_shot": {"policy": [OneShotPolicy.ON_COMPLETION, OneShotPolicy.ON_SUCCESSFUL_COMPLETION][option % 2]},
+            "timeout": {"seconds": 0.1 * option},
+        }.get(kind, {})
+        node = DECORATORS[kind](name=name, child=child, **arguments)
+    node.log = log
+    return node
+
+
+def state(root: py_trees.behaviour.Behaviour, iterators: dict[str, object]) -> list[tuple[object, ...]]:
+    """Each node's status, feedback, current child, and whether a stop gave it a new iterator since last looked."""
+    seen = []
+    for node in root.iterate():
+        current = getattr(getattr(node, "current_child", None), "name", None)
+        renewed = node.iterator is not iterators.get(node.name)
+        iterators[node.name] = node.iterator
+        seen.append((node.name, node.status, node.feedback_message, current, renewed))
+    return seen
+
+
+def twins(spec: Any) -> tuple[tuple[Any, list[str], VirtualClock], ...]:
+    made = []
+    for _ in range(2):
+        log: list[str] = []
+        clock = VirtualClock()
+        root = build(spec, log, clock, itertools.count())
+        context = RobotContext(client=None, clock=clock)  # type: ignore[arg-type]
+        for node in root.iterate():
+            if isinstance(node, (ClockTimeout, RobotBehaviour)):
+                node.setup(robot=context)
+        made.append((root, log, clock))
+    return tuple(made)
+
+
+@settings(max_examples=1000, deadline=None)
+@given(trees, st.integers(1, 12), st.integers(0, 11), st.integers(0, 30), st.sampled_from([Status.INVALID, *STATUSES]))
+def test_the_engine_ticks_and_stops_any_tree_as_py_trees_does(spec, ticks, halt_at, which, halt_status):
+    (theirs, their_log, their_clock), (ours, our_log, our_clock) = twins(spec)
+    their_iterators: dict[str, object] = {}
+    our_iterators: dict[str, object] = {}
+    for number in range(ticks):
+        theirs.tick_once()
+        assert engine.tick_tree(ours) is ours.status
+        assert our_log == their_log
+        assert state(ours, our_iterators) == state(theirs, their_iterators)
+        if number == halt_at:  # a node stopped in the middle (the root halted at a run's end, mostly)
+            their_nodes, our_nodes = list(theirs.iterate()), list(ours.iterate())
+            index = which % len(their_nodes) if which % 3 else 0
+            their_nodes[index].stop(halt_status)
+            engine.stop(our_nodes[index], halt_status)
+            assert our_log == their_log
+            assert state(ours, our_iterators) == state(theirs, their_iterators)
+        their_clock.sleep(0.05)
+        our_clock.sleep(0.05)
+
+
+def test_every_node_of_a_shipped_mission_is_ticked_and_stopped_by_the_engine_itself():
+    from autonomy.mission import build_tree, load_mission
+
+    for path in sorted(MISSIONS.glob("*.yaml")):
+        for node in build_tree(load_mission(path)).iterate():
+            assert engine._tick_for(type(node)) is not engine._by_generator, (path.name, node.name)
+            assert engine._stop_for(type(node)) is not engine._by_method, (path.name, node.name)
+
+
+def test_a_node_that_ticks_its_own_way_is_run_through_its_generator():
+    class Custom(py_trees.behaviour.Behaviour):
+        ticks = 0
+
+        def update(self) -> Status:
+            return Status.FAILURE  # never called: its tick decides
+
+        def tick(self):
+            Custom.ticks += 1
+            self.status = Status.SUCCESS
+            yield self
+
+    root = py_trees.composites.Sequence("s", memory=True, children=[Custom("custom")])
+    assert engine.tick_tree(root) is Status.SUCCESS
+    assert Custom.ticks == 1
+
+
+@pytest.mark.parametrize("kind", ["sequence", "selector", "parallel"])
+def test_a_composite_without_children_ends_as_py_trees_says(kind):
+    (theirs, _, _), (ours, _, _) = twins((kind, 0, []))
+    theirs.tick_once()
+    engine.tick_tree(ours)
+    assert state(ours, {}) == state(theirs, {}) and ours.status is not Status.RUNNING
