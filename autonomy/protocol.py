@@ -342,6 +342,19 @@ class Status:
     raw: bytes = field(default=b"", compare=False, repr=False)
 
     def __post_init__(self) -> None:
+        if (  # every packet is checked: plain ints in range pass at once, anything else is looked at in turn
+            type(self.mode) is int
+            and 0 <= self.mode <= 15
+            and type(self.tilt_deg) is int
+            and -127 <= self.tilt_deg <= 127
+            and type(self.heading_deg) is int
+            and 0 <= self.heading_deg <= 359
+            and type(self.front_distance_mm) is int
+            and 0 <= self.front_distance_mm <= 255
+            and type(self.odometer_mm) is int
+            and 0 <= self.odometer_mm <= 65535
+        ):
+            return
         _check_int("mode", self.mode, 0, 15)
         _check_int("tilt", self.tilt_deg, -127, 127)
         _check_int("heading", self.heading_deg, 0, 359)

@@ -278,3 +278,32 @@ def test_physics_does_not_depend_on_how_often_it_is_asked():
         return client.port.emulator.robot.pose
 
     assert final_pose(0.01) == final_pose(0.37)
+
+
+commands = st.one_of(
+    st.tuples(st.just("move"), st.integers(1, 4), st.booleans()),
+    st.tuples(st.just("turn"), st.integers(-180, 180)),
+    st.tuples(st.just("stop")),
+    st.tuples(st.just("servo_to"), st.integers(0, 2), st.integers(-99, 99)),
+    st.tuples(st.just("knock_over")),
+    st.tuples(st.just("stand_up")),
+)
+
+
+@settings(max_examples=150, deadline=None)
+@given(
+    st.sampled_from(["obstacles", "box", "corridor"]),
+    st.lists(st.tuples(commands, st.floats(0.0, 3.0)), min_size=1, max_size=12),
+)
+def test_a_steady_straight_drive_is_stepped_to_the_same_numbers_as_step_by_step(name, script):
+    # The cruise takes the steps of a straight drive in one loop; without it every step is _step's.
+    world = load_world(name)
+    cruising, stepping = Robot(world), Robot(world)
+    stepping._cruise = lambda dt, until_s: 0  # type: ignore[method-assign]
+    for (command, *arguments), seconds in script:
+        for robot in (cruising, stepping):
+            getattr(robot, command)(*arguments)
+            robot.advance_to(robot.time_s + seconds)
+        state = {key: value for key, value in vars(cruising).items() if key not in ("_rng", "_cruise")}
+        assert state == {key: value for key, value in vars(stepping).items() if key not in ("_rng", "_cruise")}
+    assert cruising.impacts == stepping.impacts
