@@ -361,6 +361,43 @@ class Status:
         _check_int("front distance", self.front_distance_mm, 0, 255)
         _check_int("odometer", self.odometer_mm, 0, 65535)
 
+    @classmethod
+    def unchecked(
+        cls,
+        mode: int,
+        auto_mode: bool,
+        collided: bool,
+        moving: bool,
+        tilt_deg: int,
+        heading_deg: int,
+        front_distance_mm: int,
+        odometer_mm: int,
+        raw: bytes = b"",
+    ) -> Status:
+        """A packet from values already known to be plain ints in range, not checked again.
+
+        For decoded bytes and clamped readings, which cannot be out of range: a status is
+        made twice a tick, and the dataclass's own ``__init__`` sets each field through the
+        frozen class's guard. The packet is the same as ``Status(...)`` would make.
+        """
+        packet = object.__new__(cls)
+        object.__setattr__(
+            packet,
+            "__dict__",
+            {
+                "mode": mode,
+                "auto_mode": auto_mode,
+                "collided": collided,
+                "moving": moving,
+                "tilt_deg": tilt_deg,
+                "heading_deg": heading_deg,
+                "front_distance_mm": front_distance_mm,
+                "odometer_mm": odometer_mm,
+                "raw": raw,
+            },
+        )
+        return packet
+
     def encode(self) -> bytes:
         """Returns the 9-byte packet."""
         flags = (
@@ -409,16 +446,16 @@ def decode_status(packet: bytes) -> Status:
     flags = packet[1]
     tilt = packet[2] - 256 if packet[2] > 127 else packet[2]
     heading = int.from_bytes(packet[3:5], "big", signed=True) % 360
-    return Status(
-        mode=flags & 0x0F,
-        auto_mode=bool(flags & 0x10),
-        collided=bool(flags & 0x20),
-        moving=bool(flags & 0x40),
-        tilt_deg=max(-127, tilt),
-        heading_deg=heading,
-        front_distance_mm=packet[5],
-        odometer_mm=int.from_bytes(packet[6:8], "big"),
-        raw=bytes(packet),
+    return Status.unchecked(  # each field is in its range by the way it is decoded
+        flags & 0x0F,
+        bool(flags & 0x10),
+        bool(flags & 0x20),
+        bool(flags & 0x40),
+        max(-127, tilt),
+        heading,
+        packet[5],
+        int.from_bytes(packet[6:8], "big"),
+        bytes(packet),
     )
 
 

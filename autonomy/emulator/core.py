@@ -12,9 +12,9 @@ import math
 import random
 import threading
 from collections import deque
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 from autonomy.clock import Clock, RealClock, VirtualClock
 from autonomy.emulator.faults import FaultSpec
@@ -28,8 +28,7 @@ DEFAULT_EMULATOR_BAUD = 57600
 LOG_LIMIT = 100_000
 
 
-@dataclass(frozen=True)
-class Exchange:
+class Exchange(NamedTuple):
     """One frame the emulator received and what it answered.
 
     Attributes:
@@ -39,6 +38,8 @@ class Exchange:
         reply: The reply bytes sent (before any injected faults).
         executed: False when the command was not carried out (invalid, refused, or an
             injected ``NO``).
+
+    A named tuple: one is made for every frame, and a tuple is the cheapest to make.
     """
 
     time_s: float

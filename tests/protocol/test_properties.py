@@ -1,5 +1,8 @@
 """Property tests: round trips, and decoders fed arbitrary bytes."""
 
+import dataclasses
+
+import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
@@ -60,7 +63,13 @@ def test_every_command_is_six_bytes_and_parses_back(command):
 
 @given(statuses)
 def test_status_round_trip(status):
-    assert decode_status(status.encode()) == status
+    decoded = decode_status(status.encode())
+    assert decoded == status and hash(decoded) == hash(status) and repr(decoded) == repr(status)
+    assert decoded.raw == status.encode()
+    fields = {name: getattr(decoded, name) for name in decoded.__dataclass_fields__}
+    assert Status(**fields) == decoded and Status(**fields).raw == decoded.raw  # what the checked path makes
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        decoded.heading_deg = 0  # type: ignore[misc]
 
 
 @given(parameters)
