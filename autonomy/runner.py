@@ -24,6 +24,7 @@ from dataclasses import asdict, dataclass, field
 from types import TracebackType
 
 import py_trees
+from py_trees.blackboard import Blackboard
 from py_trees.common import Access, Status
 
 import autonomy
@@ -374,7 +375,10 @@ class Runner:
             self._last_slow_s = now
             self._blackboard.set(BATTERY_KEY, self._battery)  # these two change only when polled
             self._blackboard.set(HEALTHY_KEY, self._healthy)
-        self._blackboard.set(STATUS_KEY, status)
+        if Blackboard.activity_stream is None:  # what set() comes down to when nobody records activity
+            Blackboard.storage[STATUS_KEY] = status
+        else:
+            self._blackboard.set(STATUS_KEY, status)
         self.context.polled = (status, self._battery, self._healthy)
         time_s = now - self._start_s
         speed_mm_s = self._observe(status, time_s)

@@ -6,6 +6,7 @@ import itertools
 import math
 import signal
 
+import py_trees
 import pytest
 from py_trees.common import Status
 
@@ -105,6 +106,22 @@ def test_the_blackboard_and_the_context_hold_what_was_polled_before_the_tick():
     tick = recorder.ticks[-1]
     assert node.seen == (tick.status, tick.battery, tick.healthy) == rig.runner.context.polled
     assert tick.battery == 77 and tick.healthy is True
+
+
+def test_with_py_trees_activity_stream_on_the_runner_s_writes_are_recorded_there():
+    node = ReadsBoard("board")
+    rig = Rig(node, "world=empty")
+    py_trees.blackboard.Blackboard.enable_activity_stream()
+    try:
+        rig.tick(2)
+        writes = [
+            item.key
+            for item in py_trees.blackboard.Blackboard.activity_stream.data
+            if item.activity_type in ("WRITE", "INITIALISED")
+        ]
+    finally:
+        py_trees.blackboard.Blackboard.disable_activity_stream()
+    assert writes.count(STATUS_KEY) == 2 and node.seen[0] == rig.runner.context.polled[0]
 
 
 def test_battery_and_health_are_asked_once_a_second_on_the_second():
