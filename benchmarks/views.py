@@ -57,22 +57,54 @@ def long_wander():
     return validate_text(text, str(MISSION), MISSION.parent)
 
 
-def ticks_per_second(listeners_for) -> tuple[float, float]:
-    """Runs the long wander; returns its ticks per wall-clock second and this process's CPU us per tick."""
+class Timed:
+    """Wraps a listener and adds up the time spent in it (the runner's thread waits for it)."""
+
+    def __init__(self, listener) -> None:
+        self.listener, self.spent_s = listener, 0.0
+
+    def __call__(self, record) -> None:
+        started = time.perf_counter()
+        self.listener(record)
+        self.spent_s += time.perf_counter() - started
+
+
+SHARES: dict[str, list[float]] = {}
+
+
+def ticks_per_second(listeners_for, name: str = "", server=None) -> tuple[float, float]:
+    """Runs the long wander; returns its ticks per wall-clock second and this process's CPU us per tick.
+
+    Beside them it notes, under ``name``, the view's own share: the time spent in its listener,
+    and for the browser view the CPU time of the server's thread, against the rest of the run.
+    Both are taken in the same run, so the machine's moods, which move each round's ticks per
+    second by several percent, fall on both sides of the ratio alike.
+    """
     spec = long_wander()
     client = Client.open("emu://?time=virtual&world=obstacles")
     listeners, cleanup = listeners_for()
-    runner = Runner(build_tree(spec), client, mission=spec.name, listeners=listeners)
+    timed = [Timed(listener) for listener in listeners]
+    runner = Runner(build_tree(spec), client, mission=spec.name, listeners=timed)
+    server_clock = time.pthread_getcpuclockid(server._thread.ident) if server is not None else None
+    server_started = time.clock_gettime(server_clock) if server_clock is not None else 0.0
     started, cpu_started = time.perf_counter(), time.process_time()
     summary = runner.run()
     elapsed, cpu = time.perf_counter() - started, time.process_time() - cpu_started
+    server_s = time.clock_gettime(server_clock) - server_started if server_clock is not None else 0.0
     cleanup()
     client.close()
+    if name:
+        spent_s = sum(t.spent_s for t in timed) + server_s
+        SHARES.setdefault(name, []).append(spent_s / (elapsed - spent_s))
     return summary.ticks / elapsed, cpu / summary.ticks * 1e6
 
 
 def nothing():
     return [], lambda: None
+
+
+def empty_listener():
+    return [lambda record: None], lambda: None
 
 
 def trace_writer():
@@ -120,7 +152,7 @@ class Browser:
         assert self.viewer.stdout.readline().strip() == "ready"
 
     def watched(self) -> tuple[float, float]:
-        rate = ticks_per_second(lambda: ([self.server.hub], lambda: None))
+        rate = ticks_per_second(lambda: ([self.server.hub], lambda: None), "watched", self.server)
         self.viewer.stdin.write("check\n")
         self.viewer.stdin.flush()
         shown = int(self.viewer.stdout.readline())
@@ -147,10 +179,10 @@ def main() -> None:
     rates: dict[str, list[tuple[float, float]]] = {name: [] for name in names}
     browser = Browser()
     setups = {
-        "plain": lambda: ticks_per_second(nothing),
+        "plain": lambda: ticks_per_second(empty_listener, "plain"),  # what the timing itself costs
         "noise": lambda: ticks_per_second(nothing),  # a second plain run: the machine's noise
-        "traced": lambda: ticks_per_second(trace_writer),
-        "drawn": lambda: ticks_per_second(terminal_view),
+        "traced": lambda: ticks_per_second(trace_writer, "traced"),
+        "drawn": lambda: ticks_per_second(terminal_view, "drawn"),
         "watched": browser.watched,
     }
     ticks_per_second(nothing)  # warm up
@@ -200,6 +232,11 @@ def main() -> None:
     print(f"with the trace writer:                     {traced:7,.0f} {cost(traced, 'traced')}")
     print(f"with the terminal view drawing (80x24):    {drawn:7,.0f} {cost(drawn, 'drawn')}")
     print(f"with the browser view and Chromium on it:  {watched:7,.0f} {cost(watched, 'watched')}")
+    timing = statistics.median(SHARES["plain"])
+    for name, what in (("traced", "the trace writer"), ("drawn", "the terminal view"), ("watched", "the browser view")):
+        share = statistics.median(SHARES[name]) - timing
+        low, high = (min(SHARES[name]) - timing) * 100, (max(SHARES[name]) - timing) * 100
+        print(f"{what}'s own time against the rest of its run: {share * 100:.1f}% (rounds: {low:.1f}% to {high:.1f}%)")
     print(
         f"replay page, show any of {count} ticks: median {statistics.median(times_ms):.1f} ms, "
         f"max {max(times_ms):.1f} ms (target < 100 ms)"

@@ -7,7 +7,12 @@ process under it, and the count of a process that only imports is taken off.
 
 Measures, for the wander mission (1 minute, 1,201 ticks, in-process emulator, virtual time):
   - instructions a tick alone (what grading runs; 3 seeds' worth is a student's run);
-  - what the trace writer adds (target: at most 10%).
+  - what the trace writer adds (target: at most 10%);
+  - what the terminal view adds, drawing (rich, 80x24, into memory) as it does on a terminal
+    (target: at most 5%);
+  - what the browser view adds to the run: its server running, every record handed to it
+    (target: at most 5%). Its page's work (a headless Chromium, another process) is not in
+    this count: ``benchmarks/views.py`` measures the run with a real page on the clock.
 
 Usage: python benchmarks/work.py   (needs valgrind: apt-get install valgrind)
 """
@@ -29,15 +34,36 @@ from autonomy.runner import Runner
 from autonomy.trace import TraceWriter
 spec = load_mission({mission!r})
 """
+LISTENERS = {
+    "alone": "listeners = []",
+    "trace": """
+stream = open(os.path.join(tempfile.mkdtemp(), "run.jsonl"), "w", encoding="utf-8")
+listeners = [TraceWriter(stream)]
+""",
+    "terminal": """
+import io
+from rich.console import Console
+from autonomy.views.terminal import LiveView
+console = Console(file=io.StringIO(), width=80, height=24, force_terminal=True, color_system="truecolor")
+view = LiveView(console)
+view.__enter__()
+listeners = [view]
+""",
+    "browser": """
+from autonomy.views.web import ViewServer
+server = ViewServer("127.0.0.1", 0)
+server.start()
+listeners = [server.hub]
+""",
+}
 RUN = """
-listeners = []
-if {traced}:
-    stream = open(os.path.join(tempfile.mkdtemp(), "run.jsonl"), "w", encoding="utf-8")
-    listeners.append(TraceWriter(stream))
 client = Client.open("emu://?time=virtual&world=obstacles")
 summary = Runner(build_tree(spec), client, mission=spec.name, listeners=listeners).run()
-print("ticks", summary.ticks, file=sys.stderr)
+os.write(2, f"ticks {summary.ticks}\\n".encode())  # the terminal view holds sys.stderr while it draws
 """
+EXIT = "\nos._exit(0)\n"
+#: What each set-up costs before the run starts (imports, a server started): counted apart.
+TARGETS = {"trace": 10.0, "terminal": 5.0, "browser": 5.0}
 
 
 def instructions(code: str) -> tuple[int, int]:
@@ -68,13 +94,21 @@ def main() -> None:
         print("benchmarks/work.py: skipped, it needs valgrind (apt-get install valgrind)")
         return
     setup = SETUP.format(mission=str(ROOT / "missions" / "wander.yaml"))
-    base, _ = instructions(setup)
-    plain, ticks = instructions(setup + RUN.format(traced=False))
-    traced, _ = instructions(setup + RUN.format(traced=True))
-    per_tick = (plain - base) / ticks
-    added = (traced - plain) / ticks
-    print(f"wander, 1 minute ({ticks:,} ticks), alone: {per_tick / 1e3:,.0f} thousand instructions a tick")
-    print(f"with the trace writer: +{added / 1e3:,.1f} thousand a tick, +{added / per_tick * 100:.1f}% (target <= 10%)")
+    per_tick: dict[str, float] = {}
+    for name, listeners in LISTENERS.items():
+        # Both end at once, without the interpreter's clean-up (a last collection over every object
+        # kept): that is paid once at exit, not by the ticks.
+        before, _ = instructions(setup + listeners + EXIT)
+        total, ticks = instructions(setup + listeners + RUN + EXIT)
+        per_tick[name] = (total - before) / ticks
+    alone = per_tick["alone"]
+    print(f"wander, 1 minute ({ticks:,} ticks), alone: {alone / 1e3:,.0f} thousand instructions a tick")
+    for name, target in TARGETS.items():
+        added = per_tick[name] - alone
+        print(
+            f"with the {name} {'writer' if name == 'trace' else 'view'}: +{added / 1e3:,.1f} thousand a tick, "
+            f"+{added / alone * 100:.1f}% (target <= {target:g}%)"
+        )
 
 
 if __name__ == "__main__":

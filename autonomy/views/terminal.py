@@ -32,7 +32,7 @@ from autonomy.views.treetext import (
 
 MAX_REFRESH_HZ = 10.0
 #: In a run in virtual time, drawing takes at most one part in this many of the time.
-DRAW_SHARE = 80.0
+DRAW_SHARE = 160.0
 #: Records less than this far apart come from a run in virtual time.
 BURST_S = 0.005
 LOG_LINES = 4
@@ -75,14 +75,15 @@ class LiveView:
 
     def __call__(self, record: Record) -> None:
         """Takes one record; redraws when the last redraw is old enough (or the run ended)."""
-        if isinstance(record, RunHeader):
+        if isinstance(record, TickRecord):  # nearly every record: looked for first
+            if self.state is not None:
+                self.state.apply(record)
+                self.last = record
+        elif isinstance(record, RunHeader):
             self.header, self.state = record, TreeState(record)
-        elif isinstance(record, TickRecord) and self.state is not None:
-            self.state.apply(record)
-            self.last = record
         elif isinstance(record, RunEnd):
             self.end = record
-        for event in getattr(record, "events", []):
+        for event in getattr(record, "events", ()):
             self.log.append(printable(f"{event.kind}: {event.message}"))
         now = self.clock.now()
         burst, self._record_s = now - self._record_s < BURST_S, now
