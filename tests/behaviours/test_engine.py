@@ -120,7 +120,8 @@ def state(root: py_trees.behaviour.Behaviour, iterators: dict[str, object]) -> l
     """Each node's status, feedback, current child, and whether a stop gave it a new iterator since last looked."""
     seen = []
     for node in root.iterate():
-        current = getattr(getattr(node, "current_child", None), "name", None)
+        child = getattr(node, "current_child", None)
+        current = child if child is None else child.name  # anything but a node or None fails here
         renewed = node.iterator is not iterators.get(node.name)
         iterators[node.name] = node.iterator
         seen.append((node.name, node.status, node.feedback_message, current, renewed))
@@ -172,7 +173,7 @@ def test_every_node_of_a_shipped_mission_is_ticked_and_stopped_by_the_engine_its
             assert engine._stop_for(type(node)) is not engine._by_method, (path.name, node.name)
 
 
-def test_a_node_that_ticks_its_own_way_is_run_through_its_generator():
+def test_a_node_that_ticks_and_stops_its_own_way_is_run_through_its_own_methods():
     class Custom(py_trees.behaviour.Behaviour):
         ticks = 0
 
@@ -184,9 +185,16 @@ def test_a_node_that_ticks_its_own_way_is_run_through_its_generator():
             self.status = Status.SUCCESS
             yield self
 
+        def stop(self, new_status: Status = Status.INVALID) -> None:
+            Custom.stops.append(new_status)
+            super().stop(new_status)
+
+    Custom.stops = []
     root = py_trees.composites.Sequence("s", memory=True, children=[Custom("custom")])
     assert engine.tick_tree(root) is Status.SUCCESS
     assert Custom.ticks == 1
+    engine.tick_tree(root)  # a sequence starting again resets its children through their own stop
+    assert Custom.stops == [Status.INVALID] and Custom.ticks == 2
 
 
 @pytest.mark.parametrize("kind", ["sequence", "selector", "parallel"])
