@@ -28,7 +28,7 @@ from py_trees.blackboard import Blackboard
 from py_trees.common import Access, Status
 
 import autonomy
-from autonomy.behaviours import BATTERY_KEY, HEALTHY_KEY, STATUS_KEY, RobotContext
+from autonomy.behaviours import BATTERY_KEY, HEALTHY_KEY, STATUS_KEY, RobotContext, engine
 from autonomy.behaviours.engine import tick_tree
 from autonomy.behaviours.tree import describe_tree, preorder
 from autonomy.client import Client
@@ -492,11 +492,12 @@ class Runner:
         node = self.root  # pragma: no mutate - the root's tick is on the stack, so this is always replaced
         tb: TracebackType | None = err.__traceback__
         while tb is not None:  # a node's own methods have it as self, the tick engine's steps as node
-            local = tb.tb_frame.f_locals
-            for candidate in (local.get("self"), local.get("node")):
-                if candidate is not None and id(candidate) in self._ids:
-                    node = candidate
-                    break
+            frame = tb.tb_frame
+            candidate = frame.f_locals.get("self")
+            if candidate is None and frame.f_code.co_filename == engine.__file__:
+                candidate = frame.f_locals.get("node")  # only the engine's: elsewhere a "node" may be any node
+            if candidate is not None and id(candidate) in self._ids:
+                node = candidate
             tb = tb.tb_next
         frames = traceback.extract_tb(err.__traceback__)
         # A crash in the package's own code has no frames of its own: all are shown then. (Under mutation

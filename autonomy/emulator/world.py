@@ -272,23 +272,25 @@ class World:
             reach_mm: Nothing this far or further matters (a sensor's range): such a distance
                 comes back as infinity, and obstacles that far from (x, y) are not looked at.
         """
-        if rays <= 1 or cone_deg <= 0:
+        near = None
+        if math.isfinite(reach_mm):
             near = self._near(x, y, reach_mm)
+            if not near and min(x, y, self.width_mm - x, self.height_mm - y) >= reach_mm:
+                return math.inf  # nothing within reach in any direction
+        if rays <= 1 or cone_deg <= 0:
             found = self.ray_distance(x, y, heading_deg, near)
             return found if found < reach_mm else math.inf
+        directions = _cone_directions(heading_deg, cone_deg, rays)  # raises for a heading that is not finite
         if not (0 <= x <= self.width_mm and 0 <= y <= self.height_mm):
-            return 0.0 if reach_mm > 0 else math.inf
-        obstacles = self.obstacles
+            return 0.0 if reach_mm > 0 else math.inf  # as every ray says from outside the arena
+        obstacles = self.obstacles if near is None else near
         left = right = below = above = True  # the walls that may be within reach
-        if math.isfinite(reach_mm):
-            obstacles = self._near(x, y, reach_mm)
+        if near is not None:
             # A wall further than the reach along its normal is further along every ray: it cannot count.
             left, right = x < reach_mm, self.width_mm - x < reach_mm
             below, above = y < reach_mm, self.height_mm - y < reach_mm
-            if not (obstacles or left or right or below or above):
-                return math.inf  # nothing within reach in any direction
         found = math.inf
-        for dx, dy in _cone_directions(heading_deg, cone_deg, rays):
+        for dx, dy in directions:
             # each distance is worked out as ray_distance works it out, so the nearest is the same number
             if dx > 1e-12:
                 if right:
@@ -308,6 +310,8 @@ class World:
         """The obstacles closer than ``reach_mm`` to (x, y); None (all of them) when the reach is infinite."""
         if not math.isfinite(reach_mm):
             return None
+        if math.isnan(x) or math.isnan(y):  # no bounds say anything of a NaN: each shape's own gap decides
+            return tuple(obstacle for obstacle in self.obstacles if obstacle.gap(x, y) < reach_mm)
         margin_mm = reach_mm + 1.0  # outside its bounds grown by more than the reach, a shape is out of reach
         return tuple(
             obstacle

@@ -12,6 +12,7 @@ from __future__ import annotations
 import itertools
 from pathlib import Path
 from typing import Any
+from unittest import mock
 
 import py_trees
 import pytest
@@ -203,3 +204,70 @@ def test_a_composite_without_children_ends_as_py_trees_says(kind):
     theirs.tick_once()
     engine.tick_tree(ours)
     assert state(ours, {}) == state(theirs, {}) and ours.status is not Status.RUNNING
+
+
+class Grows(py_trees.behaviour.Behaviour):
+    """A leaf that gives its parent one more child during its first tick (py_trees allows it)."""
+
+    def __init__(self, name: str, added: Status, result: Status) -> None:
+        super().__init__(name)
+        self.added, self.result = added, result
+
+    def update(self) -> Status:
+        if not any(child.name == "added" for child in self.parent.children):
+            self.parent.add_child(py_trees.behaviours.StatusQueue("added", [self.added], self.added))
+        return self.result
+
+
+@pytest.mark.parametrize(
+    ("make", "result", "added"),
+    [
+        (lambda: py_trees.composites.Sequence("root", memory=False), Status.SUCCESS, Status.FAILURE),
+        (lambda: py_trees.composites.Selector("root", memory=False), Status.FAILURE, Status.RUNNING),
+    ],
+)
+def test_a_child_added_during_a_tick_is_ticked_in_that_tick_as_py_trees_does(make, result, added):
+    seen = []
+    for ticking in (lambda root: root.tick_once(), engine.tick_tree):
+        root = make()
+        root.add_child(Grows("grows", added, result))
+        ticking(root)
+        seen.append((root.status, [(child.name, child.status) for child in root.children]))
+    assert seen[0] == seen[1] and seen[0][1][-1] == ("added", added)
+
+
+def test_a_spy_on_a_class_s_tick_or_stop_sees_the_calls_py_trees_makes():
+    class Leaf(RobotBehaviour):
+        def update(self) -> Status:
+            return Status.SUCCESS
+
+    class Inner(py_trees.composites.Sequence):
+        pass
+
+    sequence_tick = py_trees.composites.Sequence.tick
+    counts = []
+    for ticking in (lambda root: root.tick_once(), engine.tick_tree):
+        inner = Inner("inner", memory=False, children=[py_trees.behaviours.Success("x")])
+        root = py_trees.composites.Sequence("root", memory=False, children=[Leaf("leaf"), inner])
+        with mock.patch.object(Leaf, "stop", autospec=True, side_effect=RobotBehaviour.stop) as stops:
+            with mock.patch.object(Inner, "tick", autospec=True, side_effect=sequence_tick) as ticks:
+                ticking(root)
+                ticking(root)
+        counts.append((stops.call_count, ticks.call_count))
+    assert counts[0] == counts[1] and counts[0][0] > 0 and counts[0][1] > 0
+
+
+def test_a_class_whose_tick_is_replaced_after_it_was_seen_ticks_the_new_way():
+    def fails(self):
+        self.status = Status.FAILURE
+        yield self
+
+    class Leaf(RobotBehaviour):
+        def update(self) -> Status:
+            return Status.SUCCESS
+
+    root = py_trees.composites.Sequence("root", memory=False, children=[Leaf("leaf")])
+    assert engine.tick_tree(root) is Status.SUCCESS
+    with mock.patch.object(Leaf, "tick", fails):
+        assert engine.tick_tree(root) is Status.FAILURE
+    assert engine.tick_tree(root) is Status.SUCCESS

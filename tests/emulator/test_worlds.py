@@ -230,3 +230,38 @@ def test_an_obstacle_just_within_reach_is_seen_from_every_side(index, side_deg):
     away_x, away_y = -math.cos(math.radians(side_deg)), -math.sin(math.radians(side_deg))
     x, y = cx + away_x * (half + 255.5), cy + away_y * (half + 255.5)  # 255.5 mm out, looking at its middle
     assert world.cone_distance(x, y, side_deg, reach_mm=256.0) == pytest.approx(255.5)
+
+
+def _cone_reference(world, x, y, heading, cone_deg, rays, reach_mm):
+    """The cone in its plain form: the obstacles within reach by their gaps, then every ray."""
+    near = None
+    if math.isfinite(reach_mm):
+        near = tuple(o for o in world.obstacles if o.gap(x, y) < reach_mm)
+        if not near and min(x, y, world.width_mm - x, world.height_mm - y) >= reach_mm:
+            return math.inf
+    if rays <= 1 or cone_deg <= 0:
+        found = world.ray_distance(x, y, heading, near)
+    else:
+        step = cone_deg / (rays - 1)
+        found = min(world.ray_distance(x, y, heading - cone_deg / 2 + k * step, near) for k in range(rays))
+    return found if found < reach_mm else math.inf
+
+
+_odd = st.sampled_from([math.nan, math.inf, -math.inf, -0.0])
+
+
+@settings(max_examples=400, deadline=None)
+@given(
+    st.sampled_from(["obstacles", "corridor", "slalom"]),
+    st.one_of(_coordinate, _odd),
+    st.one_of(_coordinate, _odd),
+    st.one_of(st.floats(-720, 720), st.just(1e17)),
+    st.sampled_from([0.0, 25.0, 360.0]),
+    st.sampled_from([1, 2, 7]),
+    st.sampled_from([math.inf, math.nan, 256.0, 10.0, 0.0, -1.0]),
+)
+def test_the_cone_gives_the_plain_form_s_number_for_any_input(name, x, y, heading, cone_deg, rays, reach_mm):
+    world = load_world(name)
+    expected = _cone_reference(world, x, y, heading, cone_deg, rays, reach_mm)
+    got = world.cone_distance(x, y, heading, cone_deg, rays, reach_mm)
+    assert got == expected or (math.isnan(got) and math.isnan(expected))

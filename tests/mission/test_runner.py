@@ -255,6 +255,20 @@ def test_a_crash_in_a_helper_object_is_still_put_on_the_node_that_called_it(tmp_
     assert "raised KeyError: 'missing'" in summary.reason
 
 
+def test_a_crash_in_a_generator_over_other_nodes_is_put_on_the_node_whose_code_raised(tmp_path):
+    # the generator's frame has no self, and a local called node that is another node of the tree
+    (tmp_path / "limits.py").write_text(
+        "from autonomy.behaviours import RobotCondition\n\n\n"
+        "class Limit(RobotCondition):\n    node_type = 'limit'\n\n"
+        "    def check(self):\n"
+        "        return 0 < min(node.args['mm'] for node in self.parent.children)\n"
+    )
+    mission = tmp_path / "m.yaml"
+    mission.write_text("mission: m\nplugins: [limits]\ntree: {sequence: [beep, limit]}\n")
+    summary = Runner.for_mission(load_mission(mission), Client.open("emu://?time=virtual")).run()
+    assert summary.outcome == CRASHED and summary.reason.startswith("node 'limit' (limit, "), summary.reason
+
+
 def test_the_failing_node_named_is_the_leaf_that_failed_not_a_sibling_it_stopped():
     summary, _ = run("  sequence: [{move: {speed: 2}}, beep, stop]\n", "world=box")
     assert summary.outcome == FAILED and summary.reason.startswith("'move' failed (collided after")
