@@ -248,6 +248,9 @@ class TickRecord:
     nodes: dict[int, NodeState] = field(default_factory=dict)
     wire: list[Exchange] = field(default_factory=list)
     events: list[Event] = field(default_factory=list)
+    #: The line :func:`to_line` made, kept for the next listener (a field, so that keeping it
+    #: does not turn the record's attributes into a dictionary of their own).
+    _line: str | None = field(default=None, init=False, repr=False, compare=False)
 
     def to_line(self) -> str:
         """:meth:`to_json` as one line of JSON, written out directly: a trace writes one per tick.
@@ -386,13 +389,18 @@ def to_line(record: Record) -> str:
     The line is made once per record and kept on it, so the trace writer and the browser
     view share the work.
     """
-    line = record.__dict__.get("_line")
+    if type(record) is TickRecord:  # nearly every record: the short way first
+        line = record._line
+        if line is None:
+            line = record._line = record.to_line()
+        return line
+    line = getattr(record, "_line", None)
     if line is None:
         if isinstance(record, TickRecord):
             line = record.to_line()
         else:
             line = json.dumps(record.to_json(), separators=(",", ":"), allow_nan=False)
-        record.__dict__["_line"] = line
+        record._line = line  # type: ignore[union-attr]
     return line
 
 
@@ -405,17 +413,18 @@ _TICK_LINE = (
 )
 _TRUTH = ',"truth":[%.1f,%.1f,%.1f]'
 #: Exchanges as JSON, by exchange: a run sends the same few again and again.
-_EXCHANGES: dict[Exchange, str] = {}
+_EXCHANGES: dict[tuple[str, str, int], str] = {}
 _MOST_EXCHANGES = 4096
 
 
 def _exchange_json(exchange: Exchange) -> str:
-    line = _EXCHANGES.get(exchange)
+    e = exchange
+    key = (e.sent, e.reply, e.attempt)  # a tuple hashes in C; the dataclass's own hash is Python
+    line = _EXCHANGES.get(key)
     if line is None:
-        e = exchange
         line = f"[{_text(e.sent)},{_text(e.reply)},{e.attempt}]" if e.attempt else f"[{_text(e.sent)},{_text(e.reply)}]"
         if len(_EXCHANGES) < _MOST_EXCHANGES:
-            _EXCHANGES[exchange] = line
+            _EXCHANGES[key] = line
     return line
 
 

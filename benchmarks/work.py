@@ -22,6 +22,7 @@ Usage: python benchmarks/work.py   (needs valgrind: apt-get install valgrind)
 
 from __future__ import annotations
 
+import os
 import re
 import shutil
 import subprocess
@@ -73,6 +74,7 @@ def instructions(code: str) -> tuple[int, int]:
             code,
         ],
         cwd=ROOT,
+        env={**os.environ, "PYTHONHASHSEED": "0"},  # the same dictionaries and sets every time
         capture_output=True,
         text=True,
         check=True,

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import signal
 import subprocess
@@ -107,3 +108,14 @@ def test_records_round_trip_through_json():
     with pytest.raises(Exception, match="tick"):
         record_from_json({"type": "tick", "tick": 1})
     assert TickRecord.__dataclass_fields__.keys() >= {"dead_reckoning", "truth", "wire", "events", "nodes"}
+
+
+def test_a_line_is_made_once_a_record_and_a_changed_copy_makes_its_own(tmp_path):
+    _, recorder = run_and_record(tmp_path)
+    tick = recorder.ticks[3]
+    line = to_line(tick)
+    assert to_line(tick) is line  # kept: the trace and the browser view share it
+    assert tick == dataclasses.replace(tick)  # the kept line is not part of the record
+    merged = dataclasses.replace(tick, nodes={}, wire=[])  # as the browser view merges a burst
+    assert to_line(merged) != line and '"nodes":{}' in to_line(merged) and '"wire":[]' in to_line(merged)
+    assert json.loads(to_line(merged)) == json.loads(json.dumps(merged.to_json()))
