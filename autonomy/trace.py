@@ -50,10 +50,6 @@ class FlushTimer:
             return True
         return False
 
-    def restart(self) -> None:
-        """Starts the wait anew (after a flush made for another reason)."""
-        self._flushed_s = self.clock.now()
-
 
 class TraceWriter:
     """A listener that writes each record as one line of a trace file.
@@ -79,8 +75,7 @@ class TraceWriter:
             return
         try:
             self.stream.write(to_line(record) + "\n")
-            if type(record) is not TickRecord or self._flush.due():  # the header and the end at once
-                self._flush.restart()
+            if self._flush.due(anyway=type(record) is not TickRecord):  # the header and the end at once
                 self.stream.flush()
         except (OSError, ValueError) as err:  # a full disk, a file that takes no writes, a closed stream
             self.failure = getattr(err, "strerror", None) or str(err)

@@ -203,9 +203,8 @@ class Emulator:
         """
         with self._lock:
             self.advance()  # delivers what is due first, as receive does
-            faults = self.faults
             if (
-                faults.drop or faults.corrupt or faults.delay or faults.garbage or faults.no or faults.pace
+                self.faults.active
                 or (baud is not None and baud != self.baud)
                 or self._inbox or self._outbox or not self.firmware.idle
                 or len(frame) != FRAME_LENGTH or frame.find(NEWLINE) != FRAME_LENGTH - 1
@@ -214,25 +213,26 @@ class Emulator:
             now = self.now_s()
             if now < self.boot_s:
                 return None
-            command, reply = self.firmware.execute(frame)
-            self.log.append(Exchange(now, bytes(frame), command, reply, command is not None and reply != NO))
-            return reply
+            return self._carry_out(bytes(frame), now)
 
     def discard_ready(self) -> int:
         """Drops every reply byte that has arrived; returns how many."""
         with self._lock:
             return len(self.read_ready())
 
+    def _carry_out(self, frame: bytes, due: float) -> bytes:
+        """Has the firmware carry out ``frame`` received at ``due``, logs it; returns the reply."""
+        command, reply = self.firmware.execute(frame)
+        self.log.append(Exchange(due, frame, command, reply, command is not None and reply != NO))
+        return reply
+
     def _answer(self, frame: bytes, due: float) -> None:
-        command, reply = None, NO
-        executed = False
         faults = self.faults
         if faults.no and self._rng.random() < faults.no:
             reply = NO
+            self.log.append(Exchange(due, frame, None, NO, False))
         else:
-            command, reply = self.firmware.execute(frame)
-            executed = command is not None and reply != NO
-        self.log.append(Exchange(due, frame, command, reply, executed))
+            reply = self._carry_out(frame, due)
         when = due
         if faults.delay and self._rng.random() < faults.delay:
             when += faults.delay_s

@@ -69,6 +69,11 @@ class FaultSpec:
             values[name] = value
         return cls(**values)  # type: ignore[arg-type]
 
+    @property
+    def active(self) -> bool:
+        """True when anything is injected or paced: the wire can change what a frame meets."""
+        return bool(self.drop or self.corrupt or self.delay or self.garbage or self.no or self.pace)
+
     def __str__(self) -> str:
         parts = [f"{name}={getattr(self, name):g}" for name in PROBABILITIES if getattr(self, name)]
         if self.delay:
