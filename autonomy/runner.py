@@ -370,6 +370,7 @@ class Runner:
         """
         now = self.clock.now()
         status = self.client.status()
+        polled_s = self.clock.now()
         if now - self._last_slow_s >= SLOW_POLL_S:
             self._battery, self._healthy = self.client.battery(), self.client.healthy()
             self._last_slow_s = now
@@ -381,7 +382,8 @@ class Runner:
             self._blackboard.set(STATUS_KEY, status)
         self.context.polled = (status, self._battery, self._healthy)
         time_s = now - self._start_s
-        speed_mm_s = self._observe(status, time_s)
+        # The packet is as of when it came, which retries over a lossy link make later than the tick's start.
+        speed_mm_s = self._observe(status, polled_s - self._start_s)
         try:
             tick_tree(self.root)
         except LinkError:

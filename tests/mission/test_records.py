@@ -38,6 +38,17 @@ def test_speed_is_the_odometer_step_over_the_time_step_and_nothing_on_the_first_
     assert max(t.speed_mm_s for t in ticks) > 100
 
 
+def test_over_a_lossy_link_the_speed_is_taken_between_the_packets_not_the_ticks():
+    # A poll that needs retries brings a packet a quarter second or more after its tick began.
+    recorder, _ = recorded(
+        "  move: {speed: 2, seconds: 8}\n", "emu://?time=virtual&world=empty&faults=drop=0.02&seed=4"
+    )
+    retried = [t for t in recorder.ticks if any(e.attempt for e in t.wire)]
+    assert retried and all(abs(t.speed_mm_s) <= 300 for t in recorder.ticks), max(
+        abs(t.speed_mm_s) for t in recorder.ticks
+    )
+
+
 def test_the_dead_reckoned_heading_is_the_reported_heading_every_tick():
     recorder, _ = recorded("  sequence: [{turn: {right: 200}}, {move: {speed: 2, distance_mm: 100}}]\n")
     assert max(t.status.heading_deg for t in recorder.ticks) > 300  # it went past 0 to the right
