@@ -270,7 +270,9 @@ class TickRecord:
                 for k, v in self.nodes.items()
             ]
         )
-        wire = ",".join([_exchange_json(e) for e in self.wire])
+        exchanges = self.wire  # nearly always the status poll alone
+        wire = _exchange_json(exchanges[0]) if len(exchanges) == 1 else ",".join([_exchange_json(e) for e in exchanges])
+        tenths = _TENTHS
         line = _TICK_LINE % (  # one %-format: several times faster than as many f-string fields
             self.tick,
             self.time_s,
@@ -285,15 +287,15 @@ class TickRecord:
             f",{_RAW}{s.raw.hex()}{_QUOTE}" if s.raw else "",
             int(self.battery),
             _JSON_BOOL[self.healthy],
-            self.speed_mm_s,
+            tenths.get(self.speed_mm_s) or _tenths(self.speed_mm_s),
             dr.x_mm,
             dr.y_mm,
-            dr.heading_deg,
+            tenths.get(dr.heading_deg) or _tenths(dr.heading_deg),
             nodes,
             wire,
         )
         if truth is not None:
-            line += _TRUTH % (truth.x_mm, truth.y_mm, truth.heading_deg)
+            line += _TRUTH % (truth.x_mm, truth.y_mm, tenths.get(truth.heading_deg) or _tenths(truth.heading_deg))
         if self.events:
             line += ',"events":' + json.dumps([e.to_json() for e in self.events], separators=(",", ":"))
         return line + "}"
@@ -409,9 +411,22 @@ _text = encode_basestring
 _TICK_LINE = (
     '{"type":"tick","tick":%d,"time_s":%.4f,"status":{"mode":%d,"auto_mode":%s,"collided":%s,"moving":%s,'
     '"tilt_deg":%d,"heading_deg":%d,"front_distance_mm":%d,"odometer_mm":%d%s},"battery":%d,"healthy":%s,'
-    '"speed_mm_s":%.1f,"dead_reckoning":[%.1f,%.1f,%.1f],"nodes":{%s},"wire":[%s]'
+    '"speed_mm_s":%s,"dead_reckoning":[%.1f,%.1f,%s],"nodes":{%s},"wire":[%s]'
 )
-_TRUTH = ',"truth":[%.1f,%.1f,%.1f]'
+_TRUTH = ',"truth":[%.1f,%.1f,%s]'
+#: Headings and speeds written to a tenth, by value: a run holds the same few for many ticks,
+#: and formatting a float takes several times as long as looking it up.
+_TENTHS: dict[float, str] = {}
+_MOST_TENTHS = 4096
+
+
+def _tenths(value: float) -> str:
+    text = f"{value:.1f}"
+    if value and len(_TENTHS) < _MOST_TENTHS:  # 0.0 and -0.0 are one key, but two texts
+        _TENTHS[value] = text
+    return text
+
+
 #: Exchanges as JSON, by exchange: a run sends the same few again and again.
 _EXCHANGES: dict[tuple[str, str, int], str] = {}
 _MOST_EXCHANGES = 4096

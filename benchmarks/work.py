@@ -13,6 +13,11 @@ Measures, for the wander mission (1 minute, 1,201 ticks, in-process emulator, vi
     (target: at most 5%). Its page's work (a headless Chromium, another process) is not in
     this count: ``benchmarks/views.py`` measures the run with a real page on the clock.
 
+The trace writer flushes its file every 0.1 s of real time. Under valgrind a run takes some fifty
+times as long, so it would flush some fifty times as often a tick as it does outside; the trace's
+count therefore stretches that 0.1 s by the slowdown measured on the run alone (its time under
+valgrind over its time outside), so that it flushes as often a tick as a real run.
+
 The terminal view is left to ``benchmarks/views.py``: it draws by the clock (at most 1/160 of
 a run going flat out), and under valgrind every tick takes fifty times as long, so it would
 take the run for one in real time and draw ten times a second.
@@ -52,17 +57,41 @@ listeners = [server.hub]
 """,
 }
 RUN = """
+import time
 client = Client.open("emu://?time=virtual&world=obstacles")
+started = time.perf_counter()
 summary = Runner(build_tree(spec), client, mission=spec.name, listeners=listeners).run()
-print("ticks", summary.ticks, file=sys.stderr)
+print("ticks", summary.ticks, "seconds", time.perf_counter() - started, file=sys.stderr)
 """
+#: The trace's flushes as often a tick under valgrind as outside it (see above).
+STRETCH = "\nfrom autonomy.trace import FlushTimer\nFlushTimer.FLUSH_S *= {slowdown!r}\n"
 EXIT = "\nos._exit(0)\n"
 #: The most each may add to a tick, in percent.
 TARGETS = {"trace": 10.0, "browser": 5.0}
 
 
-def instructions(code: str) -> tuple[int, int]:
-    """Runs ``code`` in a fresh Python under cachegrind; returns (instructions, ticks it reported)."""
+def run_seconds(stderr: str) -> float:
+    """The run's own seconds, as the code printed them."""
+    found = re.search(r"^ticks \d+ seconds ([\d.e-]+)$", stderr, re.MULTILINE)
+    assert found, stderr
+    return float(found.group(1))
+
+
+def native_seconds(code: str) -> float:
+    """Runs ``code`` in a fresh Python outside valgrind; returns the run's own seconds (best of 3)."""
+    times = []
+    for _ in range(3):
+        result = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, check=True)
+        times.append(run_seconds(result.stderr))
+    return min(times)
+
+
+def instructions(code: str) -> tuple[int, int, float]:
+    """Runs ``code`` in a fresh Python under cachegrind.
+
+    Returns:
+        Its instructions, the ticks it reported (0: none), and the run's own seconds (0.0: none).
+    """
     result = subprocess.run(
         [
             "valgrind",
@@ -80,9 +109,10 @@ def instructions(code: str) -> tuple[int, int]:
         check=True,
     )
     count = re.search(r"I\s+refs:\s+([\d,]+)", result.stderr)
-    ticks = re.search(r"^ticks (\d+)$", result.stderr, re.MULTILINE)
+    ticks = re.search(r"^ticks (\d+) ", result.stderr, re.MULTILINE)
     assert count, result.stderr
-    return int(count.group(1).replace(",", "")), int(ticks.group(1)) if ticks else 0
+    seconds = run_seconds(result.stderr) if ticks else 0.0
+    return int(count.group(1).replace(",", "")), int(ticks.group(1)) if ticks else 0, seconds
 
 
 def main() -> None:
@@ -91,14 +121,22 @@ def main() -> None:
         return
     setup = SETUP.format(mission=str(ROOT / "missions" / "wander.yaml"))
     per_tick: dict[str, float] = {}
+    slowdown = 1.0
     for name, listeners in LISTENERS.items():
+        if name == "trace":
+            listeners += STRETCH.format(slowdown=slowdown)
         # Both end at once, without the interpreter's clean-up (a last collection over every object
         # kept): that is paid once at exit, not by the ticks.
-        before, _ = instructions(setup + listeners + EXIT)
-        total, ticks = instructions(setup + listeners + RUN + EXIT)
+        before, _, _ = instructions(setup + listeners + EXIT)
+        total, ticks, seconds = instructions(setup + listeners + RUN + EXIT)
         per_tick[name] = (total - before) / ticks
+        if name == "alone":
+            slowdown = seconds / native_seconds(setup + listeners + RUN + EXIT)
     alone = per_tick["alone"]
-    print(f"wander, 1 minute ({ticks:,} ticks), alone: {alone / 1e3:,.0f} thousand instructions a tick")
+    print(
+        f"wander, 1 minute ({ticks:,} ticks), alone: {alone / 1e3:,.0f} thousand instructions a tick "
+        f"(valgrind ran it {slowdown:.0f} times slower)"
+    )
     for name, target in TARGETS.items():
         added = per_tick[name] - alone
         print(

@@ -406,3 +406,25 @@ def test_halting_leaves_every_node_invalid_and_a_node_that_raises_is_logged_not_
     summary = Runner(HaltFails("sticky"), client, mission="t", max_seconds=0.5, listeners=[recorder]).run()
     assert summary.outcome == TIME_LIMIT and summary.stopped
     assert recorder.events("warning") == ["halting the tree raised RuntimeError: stuck"]
+
+
+@pytest.mark.parametrize("error", [None, RuntimeError("boom"), SystemExit(3)])
+def test_what_existed_before_a_run_is_left_out_of_collections_during_it_and_let_back_after(error):
+    import gc
+
+    frozen_during = []
+
+    class Looks(RobotAction):
+        node_type = ""
+
+        def update(self) -> Status:
+            frozen_during.append(gc.get_freeze_count())
+            if error is not None:
+                raise error
+            return Status.SUCCESS
+
+    before = gc.get_freeze_count()
+    summary = Runner(Looks("looks"), Client.open("emu://?time=virtual"), mission="t").run()
+    assert frozen_during and frozen_during[0] > before  # the modules and the tree, at least
+    assert gc.get_freeze_count() == before and summary.stopped
+    assert summary.outcome == (SUCCEEDED if error is None else CRASHED)

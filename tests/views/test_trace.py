@@ -3,17 +3,22 @@
 from __future__ import annotations
 
 import dataclasses
+import io
 import json
+import math
 import signal
 import subprocess
 import sys
 import time
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from autonomy.client import Client
 from autonomy.mission import build_tree, load_mission
-from autonomy.record import RECORD_VERSION, RunEnd, RunHeader, TickRecord, record_from_json, to_line
+from autonomy.protocol import Status as Packet
+from autonomy.record import RECORD_VERSION, Pose, RunEnd, RunHeader, TickRecord, record_from_json, to_line
 from autonomy.runner import Runner
 from autonomy.trace import TraceError, TraceWriter, read_trace, replay
 from tests.harness import Recorder
@@ -119,3 +124,49 @@ def test_a_line_is_made_once_a_record_and_a_changed_copy_makes_its_own(tmp_path)
     merged = dataclasses.replace(tick, nodes={}, wire=[])  # as the browser view merges a burst
     assert to_line(merged) != line and '"nodes":{}' in to_line(merged) and '"wire":[]' in to_line(merged)
     assert json.loads(to_line(merged)) == json.loads(json.dumps(merged.to_json()))
+
+
+class _FailingStream(io.StringIO):
+    def write(self, text: str) -> int:
+        raise OSError(28, "No space left on device")
+
+
+def test_a_writer_that_cannot_write_says_why_and_the_run_goes_on(tmp_path):
+    spec = load_mission(ROOT / "missions/square.yaml")
+    writer = TraceWriter(_FailingStream())
+    client = Client.open("emu://?time=virtual")
+    summary = Runner(build_tree(spec), client, mission=spec.name, max_seconds=2, listeners=[writer]).run()
+    assert writer.failure == "No space left on device" and summary.ticks > 30 and summary.stopped
+
+
+@given(
+    speed=st.sampled_from([0.0, -0.0, 220.0, -220.0, 0.05, 0.15, 0.25, 1e-9, -1e-9]),
+    heading=st.floats(-720, 720, allow_nan=False) | st.sampled_from([0.0, -0.0, 0.05, -0.05]),
+    other=st.sampled_from([0.0, -0.0, 1.5, -1.5]),
+)
+@settings(max_examples=300, deadline=None)
+def test_headings_and_speeds_kept_as_text_keep_their_value_and_sign(speed, heading, other):
+    # The texts of headings and speeds are kept by value: 0.0 and -0.0 are one dictionary key,
+    # and must still be written apart, in either order.
+    packet = Packet(1, True, False, False, 0, 0, 255, 0)
+    for first, second in ((speed, other), (other, speed), (heading, -heading)):
+        for value in (first, second):
+            tick = TickRecord(1, 0.05, packet, 200, True, value, Pose(1.0, 2.0, value), truth=Pose(0.0, 0.0, value))
+            written = json.loads(tick.to_line())
+            expected = json.loads(json.dumps(tick.to_json()))
+            assert written == expected
+            for got, want in ((written["speed_mm_s"], value), (written["dead_reckoning"][2], value)):
+                assert got == round(want, 1) and math.copysign(1, got) == math.copysign(1, round(want, 1))
+            assert math.copysign(1, written["truth"][2]) == math.copysign(1, round(value, 1))
+
+
+def test_a_record_with_a_number_json_cannot_hold_ends_the_trace_after_the_lines_before_it(tmp_path):
+    _, recorder = run_and_record(tmp_path)
+    header, ticks = recorder.records[0], recorder.ticks
+    bad = dataclasses.replace(ticks[3], speed_mm_s=math.nan)
+    stream = io.StringIO()
+    writer = TraceWriter(stream)
+    for record in [header, *ticks[:3], bad, ticks[4], recorder.records[-1]]:
+        writer(record)
+    assert stream.getvalue().splitlines() == [to_line(r) for r in [header, *ticks[:3]]]
+    assert writer.failure == f"tick {bad.tick} holds a number that is not finite"
