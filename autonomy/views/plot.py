@@ -8,6 +8,7 @@ The timeline has one row per node: a bar while it was RUNNING, coloured by how i
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Any
 
@@ -19,12 +20,13 @@ from autonomy.trace import Trace
 from autonomy.views.lines import printable
 
 OUTCOME_COLOURS = {SUCCESS: "#2f9e44", FAILURE: "#e03131", INVALID: "#adb5bd", RUNNING: "#f59f00"}
+#: Each plot: its label, its value in a tick, and the value at which it wraps round to 0 (or None).
 TELEMETRY = (
-    ("front distance (mm)", lambda t: t.status.front_distance_mm),
-    ("heading (deg)", lambda t: t.status.heading_deg),
-    ("tilt (deg)", lambda t: t.status.tilt_deg),
-    ("speed (mm/s)", lambda t: t.speed_mm_s),
-    ("battery (/255)", lambda t: t.battery),
+    ("front distance (mm)", lambda t: t.status.front_distance_mm, None),
+    ("heading (deg)", lambda t: t.status.heading_deg, 360),
+    ("tilt (deg)", lambda t: t.status.tilt_deg, None),
+    ("speed (mm/s)", lambda t: t.speed_mm_s, None),
+    ("battery (/255)", lambda t: t.battery, None),
 )
 MAX_TIMELINE_ROWS = 60
 
@@ -52,6 +54,25 @@ def timeline(trace: Trace) -> list[tuple[int, list[tuple[float, float, str]], li
     return [(n.id, spans[n.id], marks[n.id]) for n in header.nodes]
 
 
+def broken_at_wraps(times: list[float], values: list[float], wrap: float | None) -> tuple[list[float], list[float]]:
+    """The series with a gap wherever it wraps round (a heading from 359 to 0 degrees).
+
+    Between two samples more than half of ``wrap`` apart, a NaN is put in, where matplotlib
+    lifts the pen: the line stops at one edge and starts again at the other, instead of
+    crossing the whole plot as if the robot had spun round.
+    """
+    if wrap is None or not values:
+        return times, values
+    xs, ys = [times[0]], [values[0]]
+    for index in range(1, len(values)):
+        if abs(values[index] - values[index - 1]) > wrap / 2:
+            xs.append((times[index - 1] + times[index]) / 2)
+            ys.append(math.nan)
+        xs.append(times[index])
+        ys.append(values[index])
+    return xs, ys
+
+
 def plot_run(trace: Trace, path: str | Path) -> None:
     """Draws the run into ``path`` (.png or .svg)."""
     header, ticks = trace.header, trace.ticks
@@ -64,8 +85,9 @@ def plot_run(trace: Trace, path: str | Path) -> None:
     _map(left.add_subplot(), trace)
     axes = right.subplots(len(TELEMETRY), 1, sharex=True)
     times = [t.time_s for t in ticks]
-    for ax, (label, get) in zip(axes, TELEMETRY, strict=True):
-        ax.plot(times, [get(t) for t in ticks], color="#1c7ed6", linewidth=1.2)
+    for ax, (label, get, wrap) in zip(axes, TELEMETRY, strict=True):
+        series = broken_at_wraps(times, [get(t) for t in ticks], wrap)
+        ax.plot(*series, color="#1c7ed6", linewidth=1.2, gid=f"series-{label.split(' (')[0].replace(' ', '-')}")
         ax.set_ylabel(label, fontsize=8)
         ax.tick_params(labelsize=7)
         ax.grid(alpha=0.3)

@@ -101,6 +101,30 @@ def test_a_saved_page_works_offline_from_one_file(tmp_path, page):
     page.locator("#slider").fill("203")
     assert page.text_content("#state") == "succeeded" and fill(page, 0) == GREEN
     assert "Mission 'square' succeeded" in page.text_content("#summary")
+    # The last turn takes the heading from 355 to 0 degrees: the plot lifts its pen there, and
+    # no stroke crosses it, while every other plot is one stroke.
+    trace = read_trace(path)
+    wraps = [
+        i
+        for i in range(1, len(trace.ticks))
+        if trace.ticks[i - 1].status.heading_deg - trace.ticks[i].status.heading_deg > 180
+    ]
+    assert wraps == [203]
+    strokes = page.eval_on_selector_all(
+        "#plots .series", "els => els.map(e => e.getAttribute('d').split('M').length - 1)"
+    )
+    assert strokes == [1, 2, 1, 1, 1]
+    page.locator("#slider").fill("202")
+    assert (
+        page.eval_on_selector("#plots svg[data-name=heading] .series", "e => e.getAttribute('d').split('M').length - 1")
+        == 1
+    )
+    tallest = page.eval_on_selector(
+        "#plots svg[data-name=heading] .series",
+        "e => Math.max(...e.getAttribute('d').match(/[ML][^ML]+/g).map((s, n, all) => n && s[0] === 'L'"
+        " ? Math.abs(+s.split(',')[1] - +all[n - 1].split(',')[1]) : 0))",
+    )
+    assert 0 < tallest < 22  # the turns draw slopes, none from one edge to the other (44 px tall)
 
 
 def test_a_behaviortree_cpp_log_replays_in_the_page_with_its_tree_and_no_made_up_telemetry(tmp_path, page, serve):

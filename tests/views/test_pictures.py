@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import itertools
+import math
 import subprocess
 import sys
 import xml.etree.ElementTree as ET
 
 from autonomy.trace import read_trace
-from autonomy.views.plot import timeline
+from autonomy.views.plot import broken_at_wraps, timeline
 from tests.views.conftest import ROOT
 
 SVG = "{http://www.w3.org/2000/svg}"
@@ -75,3 +77,29 @@ def test_world_show_draws_the_arena_obstacles_and_start(tmp_path):
     assert "world lab: 1000 x 500 mm" in autonomy("world", "show", str(world_file)).stdout
     missing = autonomy("world", "show", "nowhere")
     assert missing.returncode == 2 and missing.stderr.startswith("autonomy: error: no world named 'nowhere'")
+
+
+def test_the_heading_plot_lifts_its_pen_where_the_heading_wraps_round(tmp_path):
+    trace, svg = tmp_path / "run.jsonl", tmp_path / "run.svg"
+    assert autonomy("run", "missions/square.yaml", "--fast", "--quiet", "--trace", str(trace)).returncode == 0
+    headings = [t.status.heading_deg for t in read_trace(trace).ticks]
+    assert any(a - b > 180 for a, b in itertools.pairwise(headings))  # the last turn goes from 355 to 0
+    assert autonomy("plot", str(trace), "-o", str(svg)).returncode == 0
+    groups = {g.get("id"): g for g in ET.parse(svg).iter(f"{SVG}g") if (g.get("id") or "").startswith("series-")}
+    strokes = {name: next(g.iter(f"{SVG}path")).get("d").count("M") for name, g in groups.items()}
+    assert strokes == {
+        "series-front-distance": 1,
+        "series-heading": 2,
+        "series-tilt": 1,
+        "series-speed": 1,
+        "series-battery": 1,
+    }
+
+
+def test_a_series_is_broken_only_where_it_jumps_more_than_half_its_wrap():
+    times = [0.0, 1.0, 2.0, 3.0, 4.0, 5.0]
+    xs, ys = broken_at_wraps(times, [350, 359, 2, 10, 190, 181], 360)
+    assert xs == [0.0, 1.0, 1.5, 2.0, 3.0, 4.0, 5.0]
+    assert ys[:2] == [350, 359] and math.isnan(ys[2]) and ys[3:] == [2, 10, 190, 181]  # 10 -> 190 is a turn
+    assert broken_at_wraps(times, [0, 300, 0, 300, 0, 300], None) == (times, [0, 300, 0, 300, 0, 300])
+    assert broken_at_wraps([], [], 360) == ([], [])

@@ -3,12 +3,13 @@
 "use strict";
 
 const SVG_NS = "http://www.w3.org/2000/svg";
+// Each plot: its name, unit, value in a tick, and the value at which it wraps round to 0 (or 0).
 const PLOTS = [
-  ["front distance", "mm", (t) => t.status.front_distance_mm],
-  ["heading", "deg", (t) => t.status.heading_deg],
-  ["tilt", "deg", (t) => t.status.tilt_deg],
-  ["speed", "mm/s", (t) => t.speed_mm_s],
-  ["battery", "/255", (t) => t.battery],
+  ["front distance", "mm", (t) => t.status.front_distance_mm, 0],
+  ["heading", "deg", (t) => t.status.heading_deg, 360],
+  ["tilt", "deg", (t) => t.status.tilt_deg, 0],
+  ["speed", "mm/s", (t) => t.speed_mm_s, 0],
+  ["battery", "/255", (t) => t.battery, 0],
 ];
 const CHECKPOINT_EVERY = 100;
 const RENDER_EVERY_MS = 50;
@@ -195,7 +196,7 @@ function setupPlots() {
     svgEl("text", { x: 4, y: 11, "font-size": 10 }, svg).textContent = `${name} (${unit})`;
     svgEl("text", { x: 416, y: 11, "font-size": 10, "text-anchor": "end", class: "value" }, svg);
     svgEl("text", { x: 210, y: 11, "font-size": 8, fill: "#868e96", "text-anchor": "middle", class: "range" }, svg);
-    svgEl("polyline", { fill: "none", stroke: "#1c7ed6", "stroke-width": 1.5, class: "series" }, svg);
+    svgEl("path", { fill: "none", stroke: "#1c7ed6", "stroke-width": 1.5, class: "series" }, svg);
   }
 }
 
@@ -203,15 +204,17 @@ function renderPlots(i) {
   const times = view.times;
   const tMax = Math.max(1, times.length ? times[times.length - 1] : 1);
   const shown = sampled(Math.min(i, times.length - 1), MAX_PLOT_POINTS);
-  PLOTS.forEach(([name, unit], p) => {
+  PLOTS.forEach(([name, unit, , wrap], p) => {
     const svg = $("plots").children[p];
     const values = view.values[p], lo = view.lo[p], hi = view.hi[p];
-    const pts = shown.map((k) => {
+    // The pen is lifted where the value wraps round (a heading from 359 to 0): no line across the plot.
+    const steps = shown.map((k, n) => {
       const x = 4 + (times[k] / tMax) * 412;
       const y = 60 - ((values[k] - lo) / (hi - lo || 1)) * 44;
-      return `${x.toFixed(1)},${y.toFixed(1)}`;
+      const lift = n === 0 || (wrap && Math.abs(values[k] - values[shown[n - 1]]) > wrap / 2);
+      return `${lift ? "M" : "L"}${x.toFixed(1)},${y.toFixed(1)}`;
     });
-    svg.querySelector(".series").setAttribute("points", pts.join(" "));
+    svg.querySelector(".series").setAttribute("d", steps.join(" "));
     svg.querySelector(".value").textContent = i >= 0 ? `${Math.round(values[i] * 10) / 10} ${unit}` : "";
     svg.querySelector(".range").textContent = `${lo} .. ${hi} ${unit}, 0 .. ${tMax.toFixed(1)} s`;
   });
