@@ -52,7 +52,9 @@ class Verdict(enum.Enum):
 
 def status_jump(earlier: Status, earlier_s: float, later: Status, later_s: float) -> str:
     """Says how ``later`` cannot follow ``earlier`` in the time between them (empty: it can)."""
-    elapsed_s = max(0.0, later_s - earlier_s)
+    elapsed_s = later_s - earlier_s
+    if not elapsed_s > 0.0:  # max(0.0, elapsed_s): called on every poll, where a call to max() costs
+        elapsed_s = 0.0
     moved_mm = abs(odometer_delta_mm(earlier.odometer_mm, later.odometer_mm))
     if moved_mm > PLAUSIBLE_SPEED_MM_S * elapsed_s + PLAUSIBLE_SLACK_MM:
         return f"odometer {earlier.odometer_mm} -> {later.odometer_mm} mm in {elapsed_s:.2f} s"
@@ -70,7 +72,9 @@ def status_surprise(before: Status, before_s: float, last: Status, last_s: float
     The allowance is what a hard acceleration does over the time since, plus a little for
     whole-unit readings.
     """
-    span_s, elapsed_s = last_s - before_s, max(0.0, now_s - last_s)
+    span_s, elapsed_s = last_s - before_s, now_s - last_s
+    if not elapsed_s > 0.0:  # max(0.0, elapsed_s)
+        elapsed_s = 0.0
     if span_s < MIN_SPEED_SPAN_S:
         return False
     reach_s2 = elapsed_s * (elapsed_s + span_s)

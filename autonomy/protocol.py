@@ -451,7 +451,7 @@ def decode_status(packet: bytes) -> Status:
         bool(flags & 0x10),
         bool(flags & 0x20),
         bool(flags & 0x40),
-        max(-127, tilt),
+        tilt if tilt > -127 else -127,  # -128 is read as -127
         heading,
         packet[5],
         int.from_bytes(packet[6:8], "big"),

@@ -471,7 +471,9 @@ class Runner:
                 self.summary.reason = f"the mission was still running after {self.max_seconds:g} s"
                 return TIME_LIMIT
             next_tick_s += period_s
-            wake_s = next_tick_s if self.max_seconds is None else min(next_tick_s, self._start_s + self.max_seconds)
+            wake_s = next_tick_s
+            if self.max_seconds is not None and (end_s := self._start_s + self.max_seconds) < wake_s:
+                wake_s = end_s
             delay_s = wake_s - self.clock.now()
             if delay_s > 0:
                 self.clock.sleep(delay_s)

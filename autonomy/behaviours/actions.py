@@ -46,7 +46,8 @@ class WrongWay:
 
     def update(self, step: float, now_s: float) -> float:
         """Takes one tick's progress (positive: the asked way); returns the wrong-way travel once it counts, else 0."""
-        self._total = min(0.0, self._total + step)
+        total = self._total + step
+        self._total = total if total < 0.0 else 0.0  # min(0.0, total)
         self._window += step
         if now_s - self._window_start_s >= self.WINDOW_S - 1e-9:
             window, self._window, self._window_start_s = self._window, 0.0, now_s
@@ -342,7 +343,7 @@ class Wait(RobotAction):
     def update(self) -> Status:
         """RUNNING until the time is up."""
         left = self._end_s - self.clock.now()
-        self.feedback_message = f"{max(0.0, left):.1f} s left"
+        self.feedback_message = f"{left if left > 0.0 else 0.0:.1f} s left"  # max(0.0, left)
         return Status.SUCCESS if left <= 1e-9 else Status.RUNNING
 
 

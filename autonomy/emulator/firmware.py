@@ -131,7 +131,7 @@ class Firmware:
             auto_mode=robot.auto_mode,
             collided=robot.collided,
             moving=robot.moving,
-            tilt_deg=max(-127, min(127, round(robot.tilt_deg))),
+            tilt_deg=-127 if (tilt := round(robot.tilt_deg)) < -127 else 127 if tilt > 127 else tilt,
             heading_deg=encode_heading(robot.heading_deg),
             front_distance_mm=robot.front_distance_mm(),
             odometer_mm=round(robot.odometer_mm) % 65536,

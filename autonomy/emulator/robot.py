@@ -187,7 +187,8 @@ class Robot:
             gap += self._rng.gauss(0.0, p.sensor_noise_mm)
         if gap >= p.sensor_max_mm:
             return p.sensor_max_mm
-        return int(max(0.0, round(gap)))
+        reading = round(gap)
+        return reading if reading > 0 else 0
 
     def velocity_v(self) -> int:
         """Average wheel velocity in ``V`` units (20 = one revolution per second), -99..99."""
@@ -272,7 +273,9 @@ class Robot:
         rad = math.radians(self.heading_deg)
         dx, dy = math.cos(rad), math.sin(rad)
         free_x, free_y, free_mm = self._free_at
-        settle = min(1.0, dt / p.tilt_time_constant_s)
+        settle = dt / p.tilt_time_constant_s
+        if not settle < 1.0:  # min(1.0, settle): in the loops of the physics, a call costs more than the step
+            settle = 1.0
         drain = p.battery_idle_drain_per_s + p.battery_motion_drain_per_s
         time_s, x, y, odometer, tilt, battery = (
             self.time_s, self.x_mm, self.y_mm, self.odometer_mm, self.tilt_deg, self.battery
@@ -287,7 +290,9 @@ class Robot:
             odometer += distance_mm
             if tilt != 0.0:
                 tilt = tilt + (0.0 - tilt) * settle
-            battery = max(0.0, battery - drain * dt)
+            battery -= drain * dt
+            if not battery > 0.0:  # max(0.0, battery) without the call, NaN included
+                battery = 0.0
             steps += 1
         if steps:
             self.time_s, self.x_mm, self.y_mm, self.odometer_mm, self.tilt_deg, self.battery = (
@@ -303,7 +308,8 @@ class Robot:
         speed = previous_speed = self.speed_mm_s
         turning = self.turn_remaining_deg
         if turning:
-            turn = math.copysign(min(abs(turning), p.turn_rate_deg_s * dt), turning)
+            most, left = p.turn_rate_deg_s * dt, abs(turning)
+            turn = math.copysign(most if most < left else left, turning)  # min(left, most)
             self.heading_deg += turn
             turning -= turn
             if abs(turning) < 1e-9:
@@ -312,7 +318,8 @@ class Robot:
         delta_v = self.target_speed_mm_s - speed
         if delta_v:
             max_dv = p.acceleration_mm_s2 * dt
-            speed += max(-max_dv, min(max_dv, delta_v))
+            change = delta_v if delta_v < max_dv else max_dv  # max(-max_dv, min(max_dv, delta_v)), NaN included
+            speed += change if change > -max_dv else -max_dv
             self.speed_mm_s = speed
         if speed:
             impacts = len(self.impacts)
@@ -328,13 +335,15 @@ class Robot:
             target = math.degrees(math.atan2(accel, GRAVITY_MM_S2)) if accel else 0.0
             tilt = self.tilt_deg
             if target != tilt:
-                self.tilt_deg = tilt + (target - tilt) * min(1.0, dt / p.tilt_time_constant_s)
+                settle = dt / p.tilt_time_constant_s
+                self.tilt_deg = tilt + (target - tilt) * (settle if settle < 1.0 else 1.0)  # min(1.0, settle)
         if self.servo_deg != self.servo_target_deg:
             for i in range(3):
                 gap = self.servo_target_deg[i] - self.servo_deg[i]
                 self.servo_deg[i] += max(-p.servo_speed_deg_s * dt, min(p.servo_speed_deg_s * dt, gap))
         drain = p.battery_idle_drain_per_s + (p.battery_motion_drain_per_s if speed or turning else 0.0)
-        self.battery = max(0.0, self.battery - drain * dt)
+        battery = self.battery - drain * dt
+        self.battery = battery if battery > 0.0 else 0.0  # max(0.0, battery), NaN included, without the call
 
     def _drive(self, distance_mm: float) -> None:
         """Moves along the heading, stopping at the first contact."""

@@ -89,7 +89,8 @@ class Box:
             t1, t2 = (self.x_min_mm - ox) / dx, (self.x_max_mm - ox) / dx
             if t1 > t2:
                 t1, t2 = t2, t1
-            t_near, t_far = max(0.0, t1), min(math.inf, t2)
+            # max(0.0, t1) and min(inf, t2), NaN included, without the calls
+            t_near, t_far = t1 if t1 > 0.0 else 0.0, t2 if t2 < math.inf else math.inf
             if t_near > t_far:
                 return math.inf
         if abs(dy) < 1e-12:
@@ -99,13 +100,20 @@ class Box:
         t1, t2 = (self.y_min_mm - oy) / dy, (self.y_max_mm - oy) / dy
         if t1 > t2:
             t1, t2 = t2, t1
-        t_near, t_far = max(t_near, t1), min(t_far, t2)
+        if t1 > t_near:  # max(t_near, t1)
+            t_near = t1
+        if t2 < t_far:  # min(t_far, t2)
+            t_far = t2
         return math.inf if t_near > t_far else t_near
 
     def gap(self, x: float, y: float) -> float:
         """Distance from the point (x, y) to the box (0 inside)."""
-        cx = min(max(x, self.x_min_mm), self.x_max_mm)
-        cy = min(max(y, self.y_min_mm), self.y_max_mm)
+        # min(max(x, x_min), x_max), and the same for y, NaN included, without the calls
+        x_min, y_min, x_max, y_max = self.x_min_mm, self.y_min_mm, self.x_max_mm, self.y_max_mm
+        cx = x_min if x_min > x else x
+        cx = x_max if x_max < cx else cx
+        cy = y_min if y_min > y else y
+        cy = y_max if y_max < cy else cy
         return math.hypot(x - cx, y - cy)
 
     def bounds(self) -> tuple[float, float, float, float]:
@@ -140,7 +148,8 @@ class Circle:
 
     def gap(self, x: float, y: float) -> float:
         """Distance from the point (x, y) to the circle's edge (0 inside)."""
-        return max(0.0, math.hypot(x - self.x_mm, y - self.y_mm) - self.radius_mm)
+        gap = math.hypot(x - self.x_mm, y - self.y_mm) - self.radius_mm
+        return gap if gap > 0.0 else 0.0  # max(0.0, gap), NaN included
 
     def bounds(self) -> tuple[float, float, float, float]:
         """(x_min, y_min, x_max, y_max) of the circle, in mm."""
@@ -290,20 +299,23 @@ class World:
             left, right = x < reach_mm, self.width_mm - x < reach_mm
             below, above = y < reach_mm, self.height_mm - y < reach_mm
         found = math.inf
+        width, height = self.width_mm, self.height_mm
         for dx, dy in directions:
-            # each distance is worked out as ray_distance works it out, so the nearest is the same number
+            # each distance is worked out as ray_distance works it out, so the nearest is the same
+            # number; `if d < found: found = d` is min(found, d), NaN included, without the call
             if dx > 1e-12:
-                if right:
-                    found = min(found, (self.width_mm - x) / dx)
-            elif dx < -1e-12 and left:
-                found = min(found, -x / dx)
+                if right and (d := (width - x) / dx) < found:
+                    found = d
+            elif dx < -1e-12 and left and (d := -x / dx) < found:
+                found = d
             if dy > 1e-12:
-                if above:
-                    found = min(found, (self.height_mm - y) / dy)
-            elif dy < -1e-12 and below:
-                found = min(found, -y / dy)
+                if above and (d := (height - y) / dy) < found:
+                    found = d
+            elif dy < -1e-12 and below and (d := -y / dy) < found:
+                found = d
             for obstacle in obstacles:
-                found = min(found, obstacle.ray_distance(x, y, dx, dy))
+                if (d := obstacle.ray_distance(x, y, dx, dy)) < found:
+                    found = d
         return found if found < reach_mm else math.inf
 
     def _near(self, x: float, y: float, reach_mm: float) -> tuple[Obstacle, ...] | None:

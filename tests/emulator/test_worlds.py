@@ -199,6 +199,24 @@ def test_the_box_slab_test_gives_the_same_number_as_the_loop_form(x, y, heading)
     assert box.ray_distance(x, y, dx, dy) == _slab_reference(box, x, y, dx, dy)
 
 
+_any_float = st.one_of(_coordinate, st.sampled_from([math.nan, math.inf, -math.inf, 0.0, -0.0, 1200.0, 1500.0]))
+
+
+def _same(a: float, b: float) -> bool:
+    return (math.isnan(a) and math.isnan(b)) or (a == b and math.copysign(1, a) == math.copysign(1, b))
+
+
+@settings(max_examples=400, deadline=None)
+@given(_any_float, _any_float)
+def test_the_gaps_to_a_box_and_a_circle_are_what_min_and_max_make_of_them(x, y):
+    # Box.gap and Circle.gap are written without calls to min() and max() (the sensor and the
+    # physics call them often): the same number, NaN and infinity included.
+    box, circle = Box(1200, 1200, 1800, 1500), Circle(1500, 1500, 100)
+    cx, cy = min(max(x, 1200.0), 1800.0), min(max(y, 1200.0), 1500.0)
+    assert _same(box.gap(x, y), math.hypot(x - cx, y - cy))
+    assert _same(circle.gap(x, y), max(0.0, math.hypot(x - 1500, y - 1500) - 100))
+
+
 @settings(max_examples=400, deadline=None)
 @given(
     st.sampled_from(["obstacles", "corridor", "box"]),
