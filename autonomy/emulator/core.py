@@ -202,7 +202,11 @@ class Emulator:
             with :meth:`receive` then.
         """
         with self._lock:
-            self.advance()  # delivers what is due first, as receive does
+            now = self.now_s()
+            if self._inbox:
+                self.advance()  # delivers what is due first, as receive does
+            else:
+                self.robot.advance_to(now)  # what advance() comes down to with nothing on its way in
             if (
                 self.faults.active
                 or (baud is not None and baud != self.baud)
@@ -210,7 +214,6 @@ class Emulator:
                 or len(frame) != FRAME_LENGTH or frame.find(NEWLINE) != FRAME_LENGTH - 1
             ):  # fmt: skip
                 return None
-            now = self.now_s()
             if now < self.boot_s:
                 return None
             return self._carry_out(bytes(frame), now)

@@ -15,6 +15,7 @@ A spec is a comma-separated list, e.g. ``drop=0.01,corrupt=0.01,no=0.02,pace``:
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, fields
 
@@ -69,7 +70,7 @@ class FaultSpec:
             values[name] = value
         return cls(**values)  # type: ignore[arg-type]
 
-    @property
+    @functools.cached_property  # asked before every frame an in-process emulator answers
     def active(self) -> bool:
         """True when anything is injected or paced: the wire can change what a frame meets."""
         return bool(self.drop or self.corrupt or self.delay or self.garbage or self.no or self.pace)
