@@ -23,6 +23,7 @@ from collections import Counter
 from collections.abc import Iterable
 from dataclasses import asdict, dataclass, field
 from types import TracebackType
+from typing import cast
 
 import py_trees
 from py_trees.blackboard import Blackboard
@@ -377,7 +378,10 @@ class Runner:
         Raises:
             BehaviourCrashed: a behaviour raised (the event names the node).
             LinkError: the link failed.
+            RuntimeError: :meth:`setup` has not run (:meth:`run` calls both).
         """
+        if self.header is None:
+            raise RuntimeError("Runner.tick() before Runner.setup(): call setup() first (run() does both)")
         now = self.clock.now()
         status = self.client.status()
         polled_s = self.clock.now()
@@ -521,7 +525,7 @@ class Runner:
         error = f"{type(err).__name__}: {err}"
         full = "".join(traceback.format_exception(err))
         node_id = self._ids[id(node)]
-        nodes = self.header.nodes if self.header is not None else describe_tree(self.root)  # ticked before set up
+        nodes = cast(RunHeader, self.header).nodes  # tick() refuses to run before setup() made it
         info = nodes[node_id]
         where = info.where
         message = f"node '{node.name}' ({info.type}{', ' + where if where else ''}) raised {error}"

@@ -428,3 +428,80 @@ def test_what_existed_before_a_run_is_left_out_of_collections_during_it_and_let_
     assert frozen_during and frozen_during[0] > before  # the modules and the tree, at least
     assert gc.get_freeze_count() == before and summary.stopped
     assert summary.outcome == (SUCCEEDED if error is None else CRASHED)
+
+
+def test_a_tick_before_setup_is_refused_in_words():
+    runner = Runner(tree_of("  beep\n"), Client.open("emu://?time=virtual"), mission="t")
+    with pytest.raises(RuntimeError, match=r"call setup\(\) first"):
+        runner.tick()
+    runner.setup()
+    assert runner.tick() == Status.SUCCESS
+
+
+def test_two_polls_at_the_same_instant_read_as_standing_still():
+    # In virtual time an in-process emulator answers at once: two ticks without a sleep between
+    # them poll at the same instant, and the speed between them is 0, not a division by zero.
+    recorder = Recorder()
+    runner = Runner(tree_of("  move: {speed: 2}\n"), Client.open("emu://?time=virtual"), listeners=[recorder])
+    runner.setup()
+    runner.tick()
+    runner.client.clock.sleep(0.5)
+    runner.tick()
+    runner.tick()
+    assert recorder.ticks[1].speed_mm_s > 0 and recorder.ticks[2].speed_mm_s == 0.0
+
+
+def _plugin_mission(tmp_path, source: str, tree: str):
+    (tmp_path / "plug.py").write_text(source)
+    mission = tmp_path / "m.yaml"
+    mission.write_text(f"mission: m\nplugins: [plug]\ntree: {tree}\n")
+    return load_mission(mission)
+
+
+def test_a_crash_on_a_line_that_holds_a_colon_is_placed_by_its_file_and_line(tmp_path):
+    spec = _plugin_mission(
+        tmp_path,
+        "from autonomy.behaviours import RobotAction\n\n\nclass Look(RobotAction):\n    node_type = 'look'\n\n"
+        "    def update(self):\n        return {'a': 1}['b']\n",
+        "{sequence: [beep, look]}",
+    )
+    recorder = Recorder()
+    summary = Runner.for_mission(spec, Client.open("emu://?time=virtual"), listeners=[recorder]).run()
+    [event] = [e for e in recorder.end.events if e.kind == "exception"]
+    assert event.frames[-1].endswith("plug.py:8 in update: return {'a': 1}['b']")
+    assert summary.reason.endswith("raised KeyError: 'b' at " + event.frames[-1].split(": ", 1)[0])
+    assert summary.reason.endswith("plug.py:8 in update")
+    lines = event.traceback.splitlines()  # the whole traceback, as Python prints it
+    assert lines[0] == "Traceback (most recent call last):" and lines[-1] == "KeyError: 'b'"
+    assert all(line.startswith(("Traceback", "  ", "KeyError")) for line in lines)
+
+
+def test_a_crash_under_a_composite_with_its_own_tick_is_put_on_the_leaf_that_raised():
+    from py_trees.composites import Sequence
+
+    class Wrapped(Sequence):  # ticked through its own generator, not by the tick engine
+        def tick(self):
+            yield from super().tick()
+
+    class Divide(RobotAction):
+        node_type = ""
+
+        def update(self) -> Status:
+            return 1 / 0  # type: ignore[return-value]
+
+    root = Wrapped("wrapped", memory=False, children=[Divide("divide")])
+    summary = Runner(root, Client.open("emu://?time=virtual"), mission="t").run()
+    assert summary.outcome == CRASHED and summary.reason.startswith("node 'divide'"), summary.reason
+
+
+def test_a_crash_in_an_update_without_self_is_put_on_the_node_the_engine_was_settling():
+    from py_trees.behaviours import Success
+    from py_trees.composites import Sequence
+    from py_trees.decorators import Decorator
+
+    class Plain(Decorator):
+        update = staticmethod(lambda: 1 / 0)  # no frame of its own holds the node as self
+
+    root = Sequence("seq", memory=False, children=[Success("ok"), Plain("plain", child=Success("inner"))])
+    summary = Runner(root, Client.open("emu://?time=virtual"), mission="t").run()
+    assert summary.outcome == CRASHED and summary.reason.startswith("node 'plain'"), summary.reason

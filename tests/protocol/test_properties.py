@@ -1,12 +1,13 @@
 """Property tests: round trips, and decoders fed arbitrary bytes."""
 
 import dataclasses
+import re
 
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from autonomy.errors import FramingError
+from autonomy.errors import FramingError, InvalidCommand
 from autonomy.protocol import (
     Beep,
     Get,
@@ -70,6 +71,30 @@ def test_status_round_trip(status):
     assert Status(**fields) == decoded and Status(**fields).raw == decoded.raw  # what the checked path makes
     with pytest.raises(dataclasses.FrozenInstanceError):
         decoded.heading_deg = 0  # type: ignore[misc]
+
+
+_FIELDS = {
+    "mode": 1,
+    "auto_mode": True,
+    "collided": False,
+    "moving": True,
+    "tilt_deg": -3,
+    "heading_deg": 90,
+    "front_distance_mm": 120,
+    "odometer_mm": 65535,
+}
+
+
+@pytest.mark.parametrize("field", ["mode", "tilt_deg", "heading_deg", "front_distance_mm", "odometer_mm"])
+@pytest.mark.parametrize("value", [True, 1.0, "1"])
+def test_a_status_field_that_is_not_a_whole_number_is_refused_even_in_range(field, value):
+    with pytest.raises(InvalidCommand, match=re.escape(f"must be a whole number, got {value!r}")):
+        Status(**{**_FIELDS, field: value})
+
+
+def test_a_status_made_unchecked_is_the_checked_one_field_for_field():
+    checked, unchecked = Status(**_FIELDS), Status.unchecked(*_FIELDS.values())
+    assert unchecked == checked and unchecked.as_dict() == checked.as_dict() and unchecked.raw == b""
 
 
 @given(parameters)

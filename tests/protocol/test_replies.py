@@ -102,6 +102,7 @@ def test_heading_is_signed_16_bit_normalised_to_0_359(raw, heading):
 def test_tilt_is_twos_complement():
     assert decode_status(bytes([0x62, 0, 0x81, 0, 0, 0, 0, 0, 0x0A])).tilt_deg == -127
     assert decode_status(bytes([0x62, 0, 0x7F, 0, 0, 0, 0, 0, 0x0A])).tilt_deg == 127
+    assert decode_status(bytes([0x62, 0, 0x80, 0, 0, 0, 0, 0, 0x0A])).tilt_deg == -127  # -128: out of range
 
 
 @pytest.mark.parametrize(("earlier", "later", "delta"), [(100, 350, 250), (65500, 20, 56), (20, 65500, -56), (0, 0, 0)])
