@@ -143,6 +143,10 @@ class BehaviourCrashed(AutonomyError):
         self.event = event
 
 
+#: The most exchanges a runner keeps to hand out again (errors' texts may all differ).
+MOST_EXCHANGES_KEPT = 1024
+
+
 def _reply_text(outcome: Reply | AutonomyError) -> str:
     if isinstance(outcome, AutonomyError):
         return f"error: {outcome}"
@@ -190,6 +194,7 @@ class Runner:
         self.end: RunEnd | None = None
         self._events: list[Event] = []
         self._wire: list[Exchange] = []
+        self._exchanges: dict[tuple[bytes, str, int], Exchange] = {}
         self._blackboard = py_trees.blackboard.Client()
         for key in (STATUS_KEY, BATTERY_KEY, HEALTHY_KEY):
             self._blackboard.register_key(key=key, access=Access.WRITE)
@@ -222,8 +227,14 @@ class Runner:
         self._events.append(Event(kind, message))
 
     def _on_exchange(self, frame: bytes, outcome: Reply | AutonomyError, attempt: int) -> None:
-        sent, reply = frame[:-1].decode("ascii"), _reply_text(outcome)  # a frame we encoded: ASCII
-        self._wire.append(Exchange(sent, reply, attempt))
+        reply = "status" if type(outcome) is Packet else _reply_text(outcome)
+        exchange = self._exchanges.get((frame, reply, attempt))
+        if exchange is None:  # exchanges are values: a run repeats the same few, the status poll every tick
+            exchange = Exchange(frame[:-1].decode("ascii"), reply, attempt)  # a frame we encoded: ASCII
+            if len(self._exchanges) < MOST_EXCHANGES_KEPT:
+                self._exchanges[frame, reply, attempt] = exchange
+        self._wire.append(exchange)
+        sent = exchange.sent
         if attempt:
             self.summary.retries += 1
             return

@@ -84,3 +84,34 @@ def test_a_run_is_the_same_whether_frames_are_answered_at_once_or_sent_over_the_
     at_once, wired = run(True), run(False)
     assert at_once == wired
     assert len(at_once[1]) > 400  # 20 s of polls and commands
+
+
+@pytest.mark.parametrize(
+    "answer",
+    [
+        bytes([0x62, 0x51, 0x00, 0x00, 0x7D, 0xFF, 0x11, 0xBD, 0x0A]),  # a packet as the firmware makes it
+        bytes([0x62, 0xD1, 0x00, 0x00, 0x7D, 0xFF, 0x11, 0xBD, 0x0A]),  # the unused flag bit 7 set: garbled
+        bytes([0x62, 0x51, 0x00, 0x00, 0x7D, 0xFF, 0x11, 0xBD, 0x0A, 0x4E]),  # a byte more: the decoder's way
+        b"NO\n",
+    ],
+)
+def test_a_status_answered_at_once_is_read_as_the_decoder_reads_it(answer):
+    # The client reads a whole status packet answered at once without its reply decoder: the same
+    # packet, the same error for a garbled one, the same counts.
+    from autonomy.client import _GET
+    from autonomy.errors import FramingError
+
+    outcomes = []
+    for short_way in (True, False):
+        client = Client.open("emu://?time=virtual")
+        frame = _GET["b"].encode()
+        command = _GET["b"] if short_way else type(_GET["b"])("b")  # an equal request, not the one kept
+        client._answer_now = lambda frame, answer=answer: answer
+        try:
+            outcome = client._exchange(command, frame)
+        except FramingError as err:
+            outcome = f"FramingError: {err}"
+        stats = client.stats
+        outcomes.append((repr(outcome), stats.bytes_received, stats.framing_errors, bytes(client._heard)))
+        client.close()
+    assert outcomes[0] == outcomes[1]
