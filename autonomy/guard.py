@@ -132,7 +132,12 @@ class StatusGuard:
         why = status_jump(trusted, self._trusted_s, packet, now_s)
         if why:
             return self._hold(packet, now_s, why)
-        surprise = _flags(packet) != _flags(trusted) or (
+        surprise = (  # _flags(packet) != _flags(trusted), written out: asked of every packet
+            packet.mode != trusted.mode
+            or packet.auto_mode != trusted.auto_mode
+            or packet.collided != trusted.collided
+            or packet.moving != trusted.moving
+        ) or (
             self._before is not None
             and status_surprise(self._before, self._before_s, trusted, self._trusted_s, packet, now_s)
         )
