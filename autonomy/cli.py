@@ -325,7 +325,7 @@ def _print_crash(end: Any, debug: bool) -> None:
 
 def cmd_run(args: argparse.Namespace) -> int:
     """Runs a mission on the robot or the built-in emulator."""
-    from autonomy.runner import FAILED, INTERRUPTED, LINK_LOST, SUCCEEDED, Runner
+    from autonomy.runner import FAILED, INTERRUPTED, LINK_LOST, SUCCEEDED, Runner, settled_heap
     from autonomy.trace import TraceWriter
     from autonomy.views.lines import LinePrinter
 
@@ -403,11 +403,12 @@ def cmd_run(args: argparse.Namespace) -> int:
         try:
             runner = Runner.for_mission(spec, client, max_seconds=args.max_seconds, listeners=listeners)
             output.on_close.append(runner.request_stop)
-            if live is not None:
-                with live:
+            with settled_heap():  # this process's one run
+                if live is not None:
+                    with live:
+                        summary = runner.run()
+                else:
                     summary = runner.run()
-            else:
-                summary = runner.run()
         finally:
             interrupts.raised = True  # from here on Ctrl-C waits: the stop and the summary come first
             client.close()

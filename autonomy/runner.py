@@ -14,13 +14,14 @@ never reach back into it.
 
 from __future__ import annotations
 
+import contextlib
 import gc
 import math
 import os
 import signal
 import traceback
 from collections import Counter
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
 from dataclasses import asdict, dataclass, field
 from types import TracebackType
 from typing import cast
@@ -141,6 +142,25 @@ class BehaviourCrashed(AutonomyError):
     def __init__(self, event: Event) -> None:
         super().__init__(event.message)
         self.event = event
+
+
+@contextlib.contextmanager
+def settled_heap() -> Iterator[None]:
+    """For a process's one run (the command line's): what exists before it is left out of collections.
+
+    Python's garbage collector looks again and again at every object there is as a listener
+    keeps the run's records (the browser view keeps them all); the modules, the tree and a
+    view's server stay to the end, so what is garbage is collected first and the rest frozen
+    out of later collections (``gc.freeze``) until the block ends. The browser view then costs
+    a tick about half of what it did. Not for a process that runs one mission after another
+    (grading runs several a worker): what a run left as garbage would be frozen with the rest.
+    """
+    gc.collect()
+    gc.freeze()
+    try:
+        yield
+    finally:
+        gc.unfreeze()
 
 
 #: The most exchanges a runner keeps to hand out again (errors' texts may all differ).
@@ -289,16 +309,8 @@ class Runner:
 
         Never raises for the ways a run ends; the summary's ``outcome`` and ``reason``
         say what happened. The robot is stopped in every case.
-
-        For the run's length, what existed before it is left out of Python's garbage
-        collections (``gc.freeze``): the modules, the tree and a view's server are all still
-        there at the end. A listener that keeps every record (the browser view, the grader)
-        makes the collector look at everything again and again; with the server's modules left
-        out, the browser view costs a tick about a third of what it did. They are let back in
-        at the end.
         """
         summary = self.summary
-        gc.freeze()
         try:
             self.setup()
             summary.outcome = self._loop()
@@ -317,7 +329,6 @@ class Runner:
             summary.reason = f"{type(err).__name__}: {err}"
             self._events.append(Event("exception", summary.reason, traceback="".join(traceback.format_exc())))
         finally:
-            gc.unfreeze()
             summary.time_s = self.clock.now() - self._start_s
             self._halt()
             summary.stopped = self._final_stop()

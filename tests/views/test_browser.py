@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import subprocess
 import sys
 
@@ -164,3 +165,44 @@ def test_a_behaviortree_cpp_log_replays_in_the_page_with_its_tree_and_no_made_up
     assert dict(seen) == {n: FILL_OF[s.status] for n, s in state.nodes.items()}
     assert YELLOW in dict(seen).values()  # the move runs: BehaviorTree.CPP's statuses are shown as they were
     assert served.interrupt()[0] == 0
+
+
+def test_the_heading_plot_lifts_its_pen_wherever_the_heading_wrapped_between_two_drawn_points(tmp_path, page):
+    # 8,000 ticks turning 10 degrees a tick: the plot draws about 400 of them, each 20 ticks (200
+    # degrees) after the last, so the values of two drawn points alone cannot tell a wrap from a turn.
+    import dataclasses
+
+    from autonomy.record import to_line
+
+    recorded = read_trace(record_trace(tmp_path, "missions/square.yaml"))
+    first = recorded.ticks[0]
+    ticks = [
+        dataclasses.replace(
+            first,
+            tick=n + 1,
+            time_s=n * 0.05,
+            status=dataclasses.replace(first.status, heading_deg=n * 10 % 360),
+            nodes={},
+            wire=[],
+        )
+        for n in range(8000)
+    ]
+    trace = tmp_path / "turning.jsonl"
+    trace.write_text("".join(to_line(r) + "\n" for r in [recorded.header, *ticks, recorded.end]))
+    html = tmp_path / "turning.html"
+    result = subprocess.run(
+        [sys.executable, "-m", "autonomy", "plot", str(trace), "-o", str(html)],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+    )
+    assert result.returncode == 0, result.stderr
+    page.goto(html.as_uri())
+    page.wait_for_selector("#controls:not([hidden])")
+    page.locator("#slider").fill("7999")
+    d = page.eval_on_selector("#plots svg[data-name=heading] .series", "e => e.getAttribute('d')")
+    drawn = [int(k) for k in page.evaluate("sampled(7999, MAX_PLOT_POINTS)")]
+    headings = [t.status.heading_deg for t in ticks]
+    wrapped = [any(headings[i] < headings[i - 1] for i in range(a + 1, b + 1)) for a, b in itertools.pairwise(drawn)]
+    assert len(drawn) > 300 and 0 < sum(wrapped) < len(wrapped)
+    assert [step[0] for step in d.split()] == ["M"] + ["M" if w else "L" for w in wrapped]

@@ -23,7 +23,7 @@ const view = {
   playing: false, speed: 1, playTime: 0, lastFrame: 0, lastRender: 0, burst: false, dirty: false, frameAsked: false, timerSet: false, lastFullRender: 0,
   checkpoints: [], events: [], collisions: [], logKey: null,
   // per tick, filled as ticks arrive, so that drawing never walks every record
-  times: [], values: [], lo: [], hi: [], dr: [], truth: [], bounds: [0, 0, 0, 0],
+  times: [], values: [], wraps: [], lo: [], hi: [], dr: [], truth: [], bounds: [0, 0, 0, 0],
 };
 
 const $ = (id) => document.getElementById(id);
@@ -48,6 +48,7 @@ function load(payload) {
   view.collisions = [];
   view.times = [];
   view.values = PLOTS.map(() => []);
+  view.wraps = PLOTS.map(() => []);  // per tick: how many times the value wrapped round so far
   view.lo = PLOTS.map(() => 0);
   view.hi = PLOTS.map(() => 1);
   view.dr = [];
@@ -92,9 +93,11 @@ function addTick(t) {
   }
   if (i % CHECKPOINT_EVERY === 0) view.checkpoints.push(stateAt(i, true));
   view.times.push(t.time_s);
-  PLOTS.forEach(([, , get], p) => {
-    const v = get(t);
-    view.values[p].push(v);
+  PLOTS.forEach(([, , get, wrap], p) => {
+    const v = get(t), values = view.values[p], wraps = view.wraps[p];
+    const before = values.length ? values[values.length - 1] : v;
+    wraps.push((wraps.length ? wraps[wraps.length - 1] : 0) + (wrap && Math.abs(v - before) > wrap / 2 ? 1 : 0));
+    values.push(v);
     if (v < view.lo[p]) view.lo[p] = v;
     if (v > view.hi[p]) view.hi[p] = v;
   });
@@ -204,14 +207,15 @@ function renderPlots(i) {
   const times = view.times;
   const tMax = Math.max(1, times.length ? times[times.length - 1] : 1);
   const shown = sampled(Math.min(i, times.length - 1), MAX_PLOT_POINTS);
-  PLOTS.forEach(([name, unit, , wrap], p) => {
+  PLOTS.forEach(([name, unit], p) => {
     const svg = $("plots").children[p];
-    const values = view.values[p], lo = view.lo[p], hi = view.hi[p];
-    // The pen is lifted where the value wraps round (a heading from 359 to 0): no line across the plot.
+    const values = view.values[p], wraps = view.wraps[p], lo = view.lo[p], hi = view.hi[p];
+    // The pen is lifted where the value wrapped round since the point before (a heading from 359
+    // to 0), whatever ticks the sampling skipped: no line across the plot.
     const steps = shown.map((k, n) => {
       const x = 4 + (times[k] / tMax) * 412;
       const y = 60 - ((values[k] - lo) / (hi - lo || 1)) * 44;
-      const lift = n === 0 || (wrap && Math.abs(values[k] - values[shown[n - 1]]) > wrap / 2);
+      const lift = n === 0 || wraps[k] !== wraps[shown[n - 1]];
       return `${lift ? "M" : "L"}${x.toFixed(1)},${y.toFixed(1)}`;
     });
     svg.querySelector(".series").setAttribute("d", steps.join(" "));
