@@ -205,6 +205,7 @@ class Emulator:
             now = self.now_s()
             if self._inbox:
                 self.advance()  # delivers what is due first, as receive does
+                now = self.now_s()  # a real clock moved meanwhile: the frame comes after what was delivered
             else:
                 self.robot.advance_to(now)  # what advance() comes down to with nothing on its way in
             if (
