@@ -152,7 +152,7 @@ def settled_heap() -> Iterator[None]:
     keeps the run's records (the browser view keeps them all); the modules, the tree and a
     view's server stay to the end, so what is garbage is collected first and the rest frozen
     out of later collections (``gc.freeze``) until the block ends. The browser view then costs
-    a tick about half of what it did. Not for a process that runs one mission after another
+    a tick about a quarter of what it did. Not for a process that runs one mission after another
     (grading runs several a worker): what a run left as garbage would be frozen with the rest.
     """
     gc.collect()
