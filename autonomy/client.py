@@ -501,8 +501,8 @@ class Client:
                 self._io(self.port.reset_input_buffer)
             self._io(self.port.write, frame)
         self.stats.bytes_sent += len(frame)
-        if command is _STATUS_GET and data and len(data) == STATUS_LENGTH and data[0] == 0x62 and data[-1] == 0x0A:
-            # A whole status packet answered at once, as the decoder would find it (every poll in grading)
+        if command is _STATUS_GET and data and len(data) == STATUS_LENGTH:
+            # A whole status packet answered at once (every poll in grading): decode_status checks its frame
             self.stats.bytes_received += STATUS_LENGTH
             self._heard += data
             del self._heard[:-HEARD_BYTES]

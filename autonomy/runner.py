@@ -247,7 +247,7 @@ class Runner:
         self._events.append(Event(kind, message))
 
     def _on_exchange(self, frame: bytes, outcome: Reply | AutonomyError, attempt: int) -> None:
-        reply = "status" if type(outcome) is Packet else _reply_text(outcome)
+        reply = _reply_text(outcome)
         exchange = self._exchanges.get((frame, reply, attempt))
         if exchange is None:  # exchanges are values: a run repeats the same few, the status poll every tick
             exchange = Exchange(frame[:-1].decode("ascii"), reply, attempt)  # a frame we encoded: ASCII

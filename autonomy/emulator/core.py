@@ -111,13 +111,18 @@ class Emulator:
     def advance(self) -> None:
         """Catches up with the clock: delivers due input to the firmware, steps the physics."""
         with self._lock:
-            now = self.now_s()
-            while self._inbox and self._inbox[0][0] <= now:
-                due, data = self._inbox.popleft()
-                self.robot.advance_to(due)
-                for frame in self.firmware.frames(data):
-                    self._answer(frame, due)
-            self.robot.advance_to(now)
+            self._advance()
+
+    def _advance(self) -> float:
+        """:meth:`advance`, with the lock held; returns the time it caught up with."""
+        now = self.now_s()
+        while self._inbox and self._inbox[0][0] <= now:
+            due, data = self._inbox.popleft()
+            self.robot.advance_to(due)
+            for frame in self.firmware.frames(data):
+                self._answer(frame, due)
+        self.robot.advance_to(now)
+        return now
 
     # ------------------------------------------------------------------ wire
 
@@ -202,12 +207,7 @@ class Emulator:
             with :meth:`receive` then.
         """
         with self._lock:
-            now = self.now_s()
-            if self._inbox:
-                self.advance()  # delivers what is due first, as receive does
-                now = self.now_s()  # a real clock moved meanwhile: the frame comes after what was delivered
-            else:
-                self.robot.advance_to(now)  # what advance() comes down to with nothing on its way in
+            now = self._advance()  # delivers what is due first, as receive does
             if (
                 self.faults.active
                 or (baud is not None and baud != self.baud)
