@@ -245,6 +245,19 @@ class _Output:
             for callback in self.on_close:
                 callback("its output was closed")
 
+    def paragraph(self, text: str) -> None:
+        """Writes a paragraph; on a terminal, folded between words to its width (a pipe gets one line)."""
+        try:
+            terminal = sys.stdout.isatty()
+        except ValueError:  # closed
+            terminal = False
+        if terminal:
+            import shutil
+            import textwrap
+
+            text = textwrap.fill(text, width=max(40, shutil.get_terminal_size().columns - 1), break_on_hyphens=False)
+        self(text)
+
 
 def _silence_stdout() -> None:
     """Points standard output at /dev/null, so that the interpreter's last flush cannot fail."""
@@ -412,7 +425,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         finally:
             interrupts.raised = True  # from here on Ctrl-C waits: the stop and the summary come first
             client.close()
-        output(summary.paragraph)
+        output.paragraph(summary.paragraph)
         _print_crash(runner.end, args.debug)
         if server is not None and not output.closed and summary.outcome != INTERRUPTED:
             interrupts.raised = False  # the robot is stopped: Ctrl-C now just ends the view

@@ -256,3 +256,32 @@ def test_a_trace_that_cannot_be_written_is_said_once_and_the_run_goes_on():
     assert result.returncode == 1 and "Traceback" not in result.stderr
     assert "Mission 'square' succeeded" in result.stdout and "It was stopped at the end." in result.stdout
     assert result.stderr.strip() == "autonomy: the trace /dev/full is incomplete: No space left on device"
+
+
+def test_the_summary_is_folded_between_words_on_a_terminal_and_one_line_in_a_pipe():
+    import os
+    import pty
+
+    command = [sys.executable, "-m", "autonomy", "run", "missions/square.yaml", "--fast", "--quiet"]
+    piped = subprocess.run(command, cwd=ROOT, capture_output=True, text=True, timeout=60)
+    assert piped.returncode == 0 and piped.stdout.count("\n") == 1  # one line, for grep and scripts
+    words = piped.stdout.split()
+    leader, follower = pty.openpty()
+    process = subprocess.Popen(
+        command, cwd=ROOT, stdout=follower, stderr=subprocess.DEVNULL, env={**os.environ, "COLUMNS": "60"}
+    )
+    os.close(follower)
+    seen = b""
+    while True:
+        try:
+            chunk = os.read(leader, 4096)
+        except OSError:  # the other end closed
+            break
+        if not chunk:
+            break
+        seen += chunk
+    os.close(leader)
+    assert process.wait(timeout=60) == 0
+    lines = seen.decode().splitlines()
+    assert len(lines) > 3 and all(len(line) <= 59 for line in lines)
+    assert " ".join(lines).split() == words  # no word cut in two
