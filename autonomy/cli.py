@@ -432,6 +432,8 @@ def cmd_run(args: argparse.Namespace) -> int:
             _serve_until_interrupted(server, "the run is over")
     finally:
         if trace is not None:
+            if writer is not None:
+                writer.flush()  # the lines held back, when the run ended without its closing record
             try:
                 trace.close()
             except OSError as err:

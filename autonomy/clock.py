@@ -35,9 +35,9 @@ class RealClock:
 
     is_virtual = False
 
-    def now(self) -> float:
-        """Returns the monotonic clock in seconds."""
-        return time.monotonic()
+    #: Returns the monotonic clock in seconds: ``time.monotonic`` itself, with no call of ours
+    #: in between (a trace writer reads it every tick).
+    now = staticmethod(time.monotonic)
 
     def sleep(self, seconds: float) -> None:
         """Sleeps for real."""

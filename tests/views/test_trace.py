@@ -16,11 +16,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from autonomy.client import Client
+from autonomy.clock import VirtualClock
 from autonomy.mission import build_tree, load_mission
 from autonomy.protocol import Status as Packet
 from autonomy.record import RECORD_VERSION, Pose, RunEnd, RunHeader, TickRecord, record_from_json, to_line
 from autonomy.runner import Runner
-from autonomy.trace import TraceError, TraceWriter, read_trace, replay
+from autonomy.trace import FlushTimer, TraceError, TraceWriter, read_trace, replay
 from tests.harness import Recorder
 from tests.views.conftest import ROOT
 
@@ -137,6 +138,30 @@ def test_a_writer_that_cannot_write_says_why_and_the_run_goes_on(tmp_path):
     client = Client.open("emu://?time=virtual")
     summary = Runner(build_tree(spec), client, mission=spec.name, max_seconds=2, listeners=[writer]).run()
     assert writer.failure == "No space left on device" and summary.ticks > 30 and summary.stopped
+
+
+def test_tick_lines_go_out_together_at_each_flush_the_header_and_end_at_once(tmp_path):
+    _, recorder = run_and_record(tmp_path)
+    header, ticks, end = recorder.records[0], recorder.ticks, recorder.records[-1]
+    clock = VirtualClock()
+    stream = io.StringIO()
+    writer = TraceWriter(stream, clock)
+    writer(header)
+    assert stream.getvalue() == to_line(header) + "\n"  # at once: a reader knows the run from the start
+    for tick in ticks[:5]:
+        writer(tick)
+    assert stream.getvalue().count("\n") == 1  # held back: less than FLUSH_S has passed
+    clock.sleep(FlushTimer.FLUSH_S)
+    writer(ticks[5])  # the first record after the interval takes the held ones with it
+    assert stream.getvalue().splitlines() == [to_line(r) for r in [header, *ticks[:6]]]
+    writer(ticks[6])
+    writer.flush()  # as whoever ends a run some other way does
+    assert stream.getvalue().splitlines() == [to_line(r) for r in [header, *ticks[:7]]]
+    writer(ticks[7])
+    writer(end)
+    assert stream.getvalue().splitlines() == [to_line(r) for r in [header, *ticks[:8], end]]
+    writer.flush()  # nothing held: nothing more written
+    assert stream.getvalue().count("\n") == 10 and not writer.failure
 
 
 @given(
