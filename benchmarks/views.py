@@ -9,8 +9,10 @@ Measures, in one run (each run as `autonomy run` runs it, in a settled heap):
   - in that Chromium, the replay page of the same run: the time to show any tick (the
     slider's work), over 60 ticks spread across the run.
 
-One Chromium stays open on the page throughout, as it would in a class: while it is not
-watched the page sits on the previous run. Each round runs every set-up once, in a shuffled
+One Chromium stays open throughout, as it would in a class; for each watched run its tab
+opens the page of that run's server (one server a run, as `autonomy run --view` has) before
+the run starts, and the run starts once the page's event stream is open. In between, the tab
+sits on the previous run's page, finished. Each round runs every set-up once, in a shuffled
 order, and the plain run twice: the second plain run against the first is the machine's own
 noise, the floor under every other figure. Each figure is a median over the rounds: ticks
 per second; how many fewer ticks a second than the plain run of the same round (so that the
@@ -120,50 +122,60 @@ def terminal_view():
     return [view], lambda: view.__exit__(None, None, None)
 
 
-def browse(url: str) -> None:
-    """In a process of its own, as a person's browser is: keeps the page open; for each line read,
-    waits until the page shows a run that succeeded and says how many ticks it holds."""
+def browse() -> None:
+    """In a process of its own, as a person's browser is: one Chromium, one tab, for the whole
+    benchmark. Told ``open URL``, it opens the page of a run about to start and says when the
+    page is up; told ``check``, it waits until the page shows a run that succeeded and says how
+    many ticks it holds."""
     from playwright.sync_api import sync_playwright
 
     with sync_playwright() as playwright:
         browser = playwright.chromium.launch(executable_path=CHROMIUM, args=ARGS)
         page = browser.new_page()
-        page.goto(url)
-        page.wait_for_selector("#state")
-        print("ready", flush=True)
-        for _ in sys.stdin:
-            # waits on the page's own change, as a person does: polling from here would add work to the page
-            page.wait_for_selector("#state.succeeded", timeout=120_000)
-            print(page.evaluate("window.autonomyView.view.ticks.length"), flush=True)
+        for line in sys.stdin:
+            command, _, url = line.strip().partition(" ")
+            if command == "open":
+                page.goto(url)
+                page.wait_for_selector("#state")
+                print("ready", flush=True)
+            else:
+                # waits on the page's own change, as a person does: polling from here would add work to the page
+                page.wait_for_selector("#state.succeeded", timeout=120_000)
+                print(page.evaluate("window.autonomyView.view.ticks.length"), flush=True)
         browser.close()
 
 
 class Browser:
-    """A view server and a Chromium on its page, for the whole benchmark."""
+    """A Chromium with a tab open, for the whole benchmark; each watched run has a view server
+    of its own, as each `autonomy run --view` has, and the tab opens its page before the run."""
 
     def __init__(self) -> None:
-        self.server = ViewServer("127.0.0.1", 0)
-        self.server.start()
         self.viewer = subprocess.Popen(
-            [sys.executable, __file__, "--browse", self.server.url],
-            stdin=subprocess.PIPE,
-            stdout=subprocess.PIPE,
-            text=True,
+            [sys.executable, __file__, "--browse"], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True
         )
-        assert self.viewer.stdout.readline().strip() == "ready"
+
+    def _tell(self, line: str) -> str:
+        self.viewer.stdin.write(line + "\n")
+        self.viewer.stdin.flush()
+        return self.viewer.stdout.readline().strip()
 
     def watched(self) -> tuple[float, float]:
-        rate = ticks_per_second(lambda: ([self.server.hub], lambda: None), "watched", self.server)
-        self.viewer.stdin.write("check\n")
-        self.viewer.stdin.flush()
-        shown = int(self.viewer.stdout.readline())
+        server = ViewServer("127.0.0.1", 0)
+        server.start()
+        assert self._tell(f"open {server.url}") == "ready"
+        deadline = time.monotonic() + 10
+        while not server.hub._waiters:  # noqa: SLF001 - the page's event stream is open: it watches
+            assert time.monotonic() < deadline, "the page never opened its event stream"
+            time.sleep(0.01)
+        rate = ticks_per_second(lambda: ([server.hub], lambda: None), "watched", server)
+        shown = int(self._tell("check"))
         assert shown == LONG_S * 20 + 1, shown  # the page got every tick
+        server.stop()
         return rate
 
     def close(self) -> None:
         self.viewer.stdin.close()
         self.viewer.wait(timeout=30)
-        self.server.stop()
 
 
 def main() -> None:
@@ -171,10 +183,10 @@ def main() -> None:
 
     parser = argparse.ArgumentParser()
     parser.add_argument("--rounds", type=int, default=15)
-    parser.add_argument("--browse", metavar="URL", help=argparse.SUPPRESS)
+    parser.add_argument("--browse", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.browse:
-        browse(args.browse)
+        browse()
         return
     names = ("plain", "noise", "traced", "drawn", "watched")
     rates: dict[str, list[tuple[float, float]]] = {name: [] for name in names}
