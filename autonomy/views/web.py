@@ -16,6 +16,7 @@ from __future__ import annotations
 import asyncio
 import json
 import threading
+import uuid
 from dataclasses import replace
 from importlib import resources
 from typing import Any
@@ -29,17 +30,20 @@ from autonomy.views.mapsvg import world_svg
 from autonomy.views.treesvg import svg_tree
 
 STATIC_FILES = {"app.js": "text/javascript", "app.css": "text/css"}
+#: How often a page waiting for the next run comes back while no server answers, in ms.
+RETRY_MS = 1000
 
 
 def _static(name: str) -> str:
     return resources.files("autonomy.views").joinpath("static", name).read_text(encoding="utf-8")
 
 
-def _payload_head(header: RunHeader | None, mode: str) -> dict[str, Any]:
+def _payload_head(header: RunHeader | None, mode: str, run: str) -> dict[str, Any]:
     if header is None:
-        return {"mode": mode, "header": None, "tree_svg": "", "map_svg": None}
+        return {"mode": mode, "run": run, "header": None, "tree_svg": "", "map_svg": None}
     return {
         "mode": mode,
+        "run": run,
         "header": header.to_json(),
         "tree_svg": svg_tree(header.nodes, header.mission, legend=False),
         "map_svg": world_svg(header.world) if header.world else None,
@@ -70,6 +74,8 @@ class RecordHub:
         self.ticks: list[TickRecord] = []
         self.end: RunEnd | None = None
         self.generation = 0
+        #: Which hub this is: a page that watched a finished run knows the next one by its ``run``.
+        self.name = uuid.uuid4().hex[:12]
         self.closed = False
         self._lock = threading.Lock()
         self._loop: asyncio.AbstractEventLoop | None = None
@@ -116,11 +122,16 @@ class RecordHub:
         for event in self._waiters:
             event.set()
 
+    @property
+    def run(self) -> str:
+        """The run's name for the page: this hub's, and which of its runs (empty before any)."""
+        return f"{self.name}-{self.generation}" if self.header is not None else ""
+
     def payload(self) -> str:
         """The whole run so far, as the page's ``api/run`` answer."""
         with self._lock:
-            header, ticks, end = self.header, list(self.ticks), self.end
-        head = json.dumps(_payload_head(header, self.mode))
+            header, ticks, end, run = self.header, list(self.ticks), self.end, self.run
+        head = json.dumps(_payload_head(header, self.mode, run))
         lines = ",".join(to_line(tick) for tick in ticks)
         return head[:-1] + ',"ticks":[' + lines + '],"end":' + (to_line(end) if end else "null") + "}"
 
@@ -179,6 +190,7 @@ class ViewServer:
         app.router.add_get("/static/{name}", self._static)
         app.router.add_get("/api/run", self._run)
         app.router.add_get("/api/stream", self._stream)
+        app.router.add_get("/api/next", self._next)
         self._runner = web.AppRunner(app, handle_signals=False, access_log=None, shutdown_timeout=0.5)
         ready = threading.Event()
         failure: list[OSError] = []
@@ -276,6 +288,32 @@ class ViewServer:
                     sent += len(ticks)
                 if end is not None and sent >= len(hub.ticks):
                     await response.write(f"event: end\ndata: {to_line(end)}\n\n".encode())
+                    break
+                await event.wait()
+        except (ConnectionResetError, asyncio.CancelledError):
+            pass
+        finally:
+            hub._waiters.discard(event)  # noqa: SLF001
+        return response
+
+    async def _next(self, request: web.Request) -> web.StreamResponse:
+        """Server-sent events for a page on a finished live run.
+
+        Sends ``run`` once a run other than the page's has started, here or on the next server
+        on this port (the page's browser comes back every :data:`RETRY_MS` while there is none).
+        """
+        hub = self.hub
+        seen = request.query.get("run", "")
+        response = web.StreamResponse(headers={"Content-Type": "text/event-stream", "Cache-Control": "no-cache"})
+        await response.prepare(request)
+        await response.write(f"retry: {RETRY_MS}\n\n".encode())
+        event = asyncio.Event()
+        hub._waiters.add(event)  # noqa: SLF001
+        try:
+            while not hub.closed:
+                event.clear()
+                if hub.run not in ("", seen):
+                    await response.write(b"event: run\ndata: {}\n\n")
                     break
                 await event.wait()
         except (ConnectionResetError, asyncio.CancelledError):

@@ -50,9 +50,9 @@ def page(browser):
 class Served:
     """An `autonomy` process that serves a page; its URL is read from what it prints."""
 
-    def __init__(self, *args: str) -> None:
+    def __init__(self, *args: str, port: int = 0) -> None:
         self.process = subprocess.Popen(
-            [sys.executable, "-m", "autonomy", *args, "--view-port", "0"],
+            [sys.executable, "-m", "autonomy", *args, "--view-port", str(port)],
             stdout=subprocess.PIPE,
             stderr=subprocess.PIPE,
             text=True,
@@ -77,8 +77,8 @@ class Served:
 def serve() -> Iterator:
     started: list[Served] = []
 
-    def start(*args: str) -> Served:
-        served = Served(*args)
+    def start(*args: str, port: int = 0) -> Served:
+        served = Served(*args, port=port)
         started.append(served)
         return served
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import itertools
+import socket
 import subprocess
 import sys
 
@@ -43,10 +44,11 @@ def test_a_live_run_colours_the_tree_and_draws_the_path(tmp_path, page, serve):
     )
     served = serve("run", str(mission), "--quiet", "--view")
     page.goto(served.url)
-    page.wait_for_function("document.querySelector('#node-1').dataset.status === 'RUNNING'", timeout=10_000)
+    # the page may open before the run's header: until then it has no tree
+    page.wait_for_function("document.querySelector('#node-1')?.dataset.status === 'RUNNING'", timeout=10_000)
     assert fill(page, 1) == YELLOW and fill(page, 2) == GREY  # driving; the turn has not started
     early = path_points(page)
-    page.wait_for_function("document.querySelector('#node-2').dataset.status === 'RUNNING'", timeout=10_000)
+    page.wait_for_function("document.querySelector('#node-2')?.dataset.status === 'RUNNING'", timeout=10_000)
     assert fill(page, 1) == GREEN and fill(page, 2) == YELLOW
     assert path_points(page) > early > 0  # the path grew
     assert page.text_content("#node-2 .feedback").endswith("deg to go")
@@ -58,6 +60,30 @@ def test_a_live_run_colours_the_tree_and_draws_the_path(tmp_path, page, serve):
     assert page.eval_on_selector("#map .arena", "el => el.getAttribute('width')") == "2000"
     code, out, _ = served.interrupt()
     assert code == 0 and "succeeded" in out
+
+
+def test_a_page_left_on_a_finished_run_follows_the_next_run_on_the_same_port(tmp_path, page, serve):
+    # As on a class's projector: the page stays open while one `autonomy run --view` ends and the next starts.
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    for name, leaf in (("first", "beep: {}"), ("second", "turn: {left: 90}")):
+        (tmp_path / f"{name}.yaml").write_text(f"mission: {name}\nworld: box\ntree:\n  sequence:\n    - {leaf}\n")
+    first = serve("run", str(tmp_path / "first.yaml"), "--fast", "--quiet", "--view", port=port)
+    page.goto(first.url)
+    page.wait_for_function("document.querySelector('#state').textContent === 'succeeded'", timeout=10_000)
+    assert page.text_content("#mission") == "first"
+    code, _, _ = first.interrupt()  # the first server is gone: the page keeps coming back for a run
+    assert code == 0
+    page.wait_for_timeout(1500)
+    assert page.text_content("#mission") == "first"  # no server: the finished run stays on the page
+    second = serve("run", str(tmp_path / "second.yaml"), "--fast", "--quiet", "--view", port=port)
+    assert second.url == first.url
+    page.wait_for_function("document.querySelector('#mission').textContent === 'second'", timeout=10_000)
+    page.wait_for_function("document.querySelector('#state').textContent === 'succeeded'", timeout=10_000)
+    assert page.eval_on_selector("#node-1", "el => el.dataset.status") == "SUCCESS"
+    assert "turn left 90 deg" in page.text_content("#node-1")
+    second.interrupt()
 
 
 def test_a_replay_slider_shows_the_tree_at_any_tick(tmp_path, page, serve):

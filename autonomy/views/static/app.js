@@ -345,10 +345,18 @@ $("slider").addEventListener("input", (e) => { setPlaying(false); show(parseInt(
 
 // ------------------------------------------------------------------ live
 
+// A page on a finished live run waits for the next one: a later run on this server, or the
+// next `autonomy run --view` on the same port (the browser keeps coming back while there is none).
+function watchForNextRun(run) {
+  const source = new EventSource(`api/next?run=${encodeURIComponent(run)}`);
+  source.addEventListener("run", () => { source.close(); connect(); });
+}
+
 function connect() {
   fetch("api/run").then((r) => r.json()).then((payload) => {
     load(payload);
-    if (payload.mode !== "live" || payload.end) return;
+    if (payload.mode !== "live") return;
+    if (payload.end) { watchForNextRun(payload.run); return; }
     const source = new EventSource(`api/stream?from=${view.ticks.length}`);
     source.addEventListener("header", () => { source.close(); connect(); });
     let previewed = false;
@@ -369,6 +377,7 @@ function connect() {
       addEnd(JSON.parse(e.data));
       view.dirty = true;
       wakeUp();
+      watchForNextRun(payload.run);
     });
   });
 }
