@@ -286,10 +286,7 @@ class TickRecord:
         fields = (
             self.tick,
             self.time_s,
-            s.mode,
-            _JSON_BOOL[s.auto_mode],
-            _JSON_BOOL[s.collided],
-            _JSON_BOOL[s.moving],
+            _FLAGS.get((s.mode, s.auto_mode, s.collided, s.moving)) or _flags_json(s),
             s.tilt_deg,
             s.heading_deg,
             s.front_distance_mm,
@@ -425,7 +422,7 @@ def to_line(record: Record) -> str:
 #: A string as JSON, quotes included (the json module's own C encoder).
 _text = encode_basestring
 _TICK_LINE = (
-    '{"type":"tick","tick":%d,"time_s":%.4f,"status":{"mode":%d,"auto_mode":%s,"collided":%s,"moving":%s,'
+    '{"type":"tick","tick":%d,"time_s":%.4f,"status":{%s,'
     '"tilt_deg":%d,"heading_deg":%d,"front_distance_mm":%d,"odometer_mm":%d%s},"battery":%d,"healthy":%s,'
     '"speed_mm_s":%s,"dead_reckoning":[%.1f,%.1f,%s],"nodes":{%s},"wire":[%s]}'
 )
@@ -440,6 +437,20 @@ def _tenths(value: float) -> str:
     text = f"{value:.1f}"
     if value and len(_TENTHS) < _MOST_TENTHS:  # 0.0 and -0.0 are one key, but two texts
         _TENTHS[value] = text
+    return text
+
+
+#: A packet's mode and flags as JSON, by value: a run holds the same few (at most 128) for many
+#: ticks, and one field of the line costs less than four.
+_FLAGS: dict[tuple[int, bool, bool, bool], str] = {}
+
+
+def _flags_json(s: Packet) -> str:
+    text = (
+        f'"mode":{s.mode},"auto_mode":{_JSON_BOOL[s.auto_mode]},'
+        f'"collided":{_JSON_BOOL[s.collided]},"moving":{_JSON_BOOL[s.moving]}'
+    )
+    _FLAGS[s.mode, s.auto_mode, s.collided, s.moving] = text
     return text
 
 

@@ -185,6 +185,38 @@ def test_headings_and_speeds_kept_as_text_keep_their_value_and_sign(speed, headi
             assert math.copysign(1, written["truth"][2]) == math.copysign(1, round(value, 1))
 
 
+@given(
+    packets=st.lists(
+        st.builds(
+            Packet,
+            st.integers(0, 15),
+            st.booleans(),
+            st.booleans(),
+            st.booleans(),
+            st.just(0),
+            st.just(90),
+            st.just(255),
+            st.just(7),
+        ),
+        min_size=1,
+        max_size=6,
+    )
+)
+@settings(max_examples=200, deadline=None)
+def test_every_mode_and_flags_are_written_as_the_packet_holds_them(packets):
+    # mode and flags are written from text kept by value: each packet still gets its own
+    for packet in packets:
+        tick = TickRecord(1, 0.05, packet, 200, True, 0.0, Pose(1.0, 2.0, 90.0))
+        written = json.loads(tick.to_line())["status"]
+        assert written == json.loads(json.dumps(tick.to_json()))["status"]
+        assert (written["mode"], written["auto_mode"], written["collided"], written["moving"]) == (
+            packet.mode,
+            packet.auto_mode,
+            packet.collided,
+            packet.moving,
+        )
+
+
 def test_a_record_with_a_number_json_cannot_hold_ends_the_trace_after_the_lines_before_it(tmp_path):
     _, recorder = run_and_record(tmp_path)
     header, ticks = recorder.records[0], recorder.ticks
