@@ -255,7 +255,9 @@ class _Output:
             import shutil
             import textwrap
 
-            text = textwrap.fill(text, width=max(40, shutil.get_terminal_size().columns - 1), break_on_hyphens=False)
+            width = max(1, shutil.get_terminal_size().columns - 1)
+            # a word longer than the line (a long mission name) stays whole: the terminal wraps it
+            text = textwrap.fill(text, width=width, break_long_words=False, break_on_hyphens=False)
         self(text)
 
 

@@ -22,7 +22,7 @@ import json
 import math
 from collections.abc import Callable, Iterable
 from dataclasses import asdict, dataclass, field
-from json.encoder import encode_basestring
+from json.encoder import encode_basestring_ascii
 from typing import Any, Union
 
 from autonomy.protocol import Status as Packet
@@ -99,9 +99,9 @@ class Exchange:
     sent: str
     reply: str
     attempt: int = 0
-    #: Its JSON, made once: the runner hands out the same exchange values again and again (a
-    #: field, so that keeping it does not give each exchange a dictionary of its own).
-    _json: str | None = field(default=None, init=False, repr=False, compare=False)
+    #: Its JSON, kept on the value once made: the runner hands out the same exchange values again
+    #: and again. Not a field (no annotation): ``fields``, ``asdict`` and ``astuple`` leave it out.
+    _json = None
 
     def to_json(self) -> list[Any]:
         """``[sent, reply]``, with the attempt number third when it is a retry."""
@@ -419,8 +419,9 @@ def to_line(record: Record) -> str:
     return line
 
 
-#: A string as JSON, quotes included (the json module's own C encoder).
-_text = encode_basestring
+#: A string as JSON, quotes included, in ASCII as ``json.dumps`` writes the other lines: any text a
+#: behaviour gives (a lone surrogate too) makes a line that can be written (the json module's own C encoder).
+_text = encode_basestring_ascii
 _TICK_LINE = (
     '{"type":"tick","tick":%d,"time_s":%.4f,"status":{%s,'
     '"tilt_deg":%d,"heading_deg":%d,"front_distance_mm":%d,"odometer_mm":%d%s},"battery":%d,"healthy":%s,'

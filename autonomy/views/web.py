@@ -30,8 +30,6 @@ from autonomy.views.mapsvg import world_svg
 from autonomy.views.treesvg import svg_tree
 
 STATIC_FILES = {"app.js": "text/javascript", "app.css": "text/css"}
-#: How often a page waiting for the next run comes back while no server answers, in ms.
-RETRY_MS = 1000
 
 
 def _static(name: str) -> str:
@@ -277,7 +275,12 @@ class ViewServer:
         hub._waiters.add(event)  # noqa: SLF001
         generation = hub.generation
         try:
-            while not hub.closed:
+            if "run" in request.query and request.query["run"] != hub.run:
+                # the page watched another run: one this server had before, or the last server on
+                # this port, stopped in the middle of its run (its browser came back here)
+                await response.write(b"event: header\ndata: {}\n\n")
+                return response
+            while True:
                 event.clear()
                 if hub.generation != generation:
                     await response.write(b"event: header\ndata: {}\n\n")
@@ -288,6 +291,8 @@ class ViewServer:
                     sent += len(ticks)
                 if end is not None and sent >= len(hub.ticks):
                     await response.write(f"event: end\ndata: {to_line(end)}\n\n".encode())
+                    break
+                if hub.closed:  # stopping: what there was has been sent (a run ended by Ctrl-C too)
                     break
                 await event.wait()
         except (ConnectionResetError, asyncio.CancelledError):
@@ -300,13 +305,12 @@ class ViewServer:
         """Server-sent events for a page on a finished live run.
 
         Sends ``run`` once a run other than the page's has started, here or on the next server
-        on this port (the page's browser comes back every :data:`RETRY_MS` while there is none).
+        on this port (while there is none, the page comes back less and less often).
         """
         hub = self.hub
         seen = request.query.get("run", "")
         response = web.StreamResponse(headers={"Content-Type": "text/event-stream", "Cache-Control": "no-cache"})
         await response.prepare(request)
-        await response.write(f"retry: {RETRY_MS}\n\n".encode())
         event = asyncio.Event()
         hub._waiters.add(event)  # noqa: SLF001
         try:

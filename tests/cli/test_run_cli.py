@@ -258,17 +258,24 @@ def test_a_trace_that_cannot_be_written_is_said_once_and_the_run_goes_on():
     assert result.stderr.strip() == "autonomy: the trace /dev/full is incomplete: No space left on device"
 
 
-def test_the_summary_is_folded_between_words_on_a_terminal_and_one_line_in_a_pipe():
+@pytest.mark.parametrize(
+    "name, columns", [("", 60), ("a_mission_named_with_one_long_word_and_no_space_to_fold_it_at_all", 30)]
+)
+def test_the_summary_is_folded_between_words_on_a_terminal_and_one_line_in_a_pipe(tmp_path, name, columns):
     import os
     import pty
 
-    command = [sys.executable, "-m", "autonomy", "run", "missions/square.yaml", "--fast", "--quiet"]
+    mission = "missions/square.yaml"
+    if name:  # a word longer than the terminal is wide stays whole, on a line of its own
+        (tmp_path / "long.yaml").write_text(f"mission: {name}\ntree:\n  sequence:\n    - beep: {{}}\n")
+        mission = str(tmp_path / "long.yaml")
+    command = [sys.executable, "-m", "autonomy", "run", mission, "--fast", "--quiet"]
     piped = subprocess.run(command, cwd=ROOT, capture_output=True, text=True, timeout=60)
     assert piped.returncode == 0 and piped.stdout.count("\n") == 1  # one line, for grep and scripts
     words = piped.stdout.split()
     leader, follower = pty.openpty()
     process = subprocess.Popen(
-        command, cwd=ROOT, stdout=follower, stderr=subprocess.DEVNULL, env={**os.environ, "COLUMNS": "60"}
+        command, cwd=ROOT, stdout=follower, stderr=subprocess.DEVNULL, env={**os.environ, "COLUMNS": str(columns)}
     )
     os.close(follower)
     seen = b""
@@ -283,5 +290,5 @@ def test_the_summary_is_folded_between_words_on_a_terminal_and_one_line_in_a_pip
     os.close(leader)
     assert process.wait(timeout=60) == 0
     lines = seen.decode().splitlines()
-    assert len(lines) > 3 and all(len(line) <= 59 for line in lines)
+    assert len(lines) > 3 and all(len(line) < columns or " " not in line.strip() for line in lines)
     assert " ".join(lines).split() == words  # no word cut in two

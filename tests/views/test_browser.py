@@ -3,9 +3,12 @@
 from __future__ import annotations
 
 import itertools
+import signal
 import socket
 import subprocess
 import sys
+
+import pytest
 
 from autonomy.record import TreeState
 from autonomy.trace import read_trace
@@ -83,6 +86,34 @@ def test_a_page_left_on_a_finished_run_follows_the_next_run_on_the_same_port(tmp
     page.wait_for_function("document.querySelector('#state').textContent === 'succeeded'", timeout=10_000)
     assert page.eval_on_selector("#node-1", "el => el.dataset.status") == "SUCCESS"
     assert "turn left 90 deg" in page.text_content("#node-1")
+    second.interrupt()
+
+
+@pytest.mark.parametrize("stop", [signal.SIGINT, signal.SIGKILL], ids=["ctrl-c", "kill"])
+def test_a_page_on_a_run_stopped_midway_moves_to_the_next_run_without_mixing_them(tmp_path, page, serve, stop):
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    (tmp_path / "first.yaml").write_text("mission: first\nworld: box\ntree:\n  sequence:\n    - wait: {seconds: 30}\n")
+    (tmp_path / "second.yaml").write_text(
+        "mission: second\nworld: box\ntree:\n  sequence:\n    - wait: {seconds: 30}\n"
+    )
+    first = serve("run", str(tmp_path / "first.yaml"), "--quiet", "--view", port=port)  # in real time
+    page.goto(first.url)
+    page.wait_for_function("document.querySelector('#node-1')?.dataset.status === 'RUNNING'", timeout=10_000)
+    page.wait_for_function("window.autonomyView.view.ticks.length > 20", timeout=10_000)
+    first.process.send_signal(stop)
+    first.process.communicate(timeout=20)
+    if stop == signal.SIGINT:  # the run's end reaches the page before its server goes
+        page.wait_for_function("document.querySelector('#state').textContent === 'interrupted'", timeout=10_000)
+    else:  # nobody could tell the page: it still shows the run going
+        assert page.text_content("#state") == "running"
+    second = serve("run", str(tmp_path / "second.yaml"), "--quiet", "--view", port=port)  # in real time too
+    page.wait_for_function("document.querySelector('#mission').textContent === 'second'", timeout=15_000)
+    page.wait_for_function("window.autonomyView.view.ticks.length > 40", timeout=15_000)
+    ticks = page.evaluate("window.autonomyView.view.ticks.map(t => t.tick)")
+    assert ticks == list(range(1, len(ticks) + 1))  # the second run's ticks alone, from its first
+    assert page.text_content("#state") == "running"
     second.interrupt()
 
 

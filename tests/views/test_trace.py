@@ -19,7 +19,7 @@ from autonomy.client import Client
 from autonomy.clock import VirtualClock
 from autonomy.mission import build_tree, load_mission
 from autonomy.protocol import Status as Packet
-from autonomy.record import RECORD_VERSION, Pose, RunEnd, RunHeader, TickRecord, record_from_json, to_line
+from autonomy.record import RECORD_VERSION, NodeState, Pose, RunEnd, RunHeader, TickRecord, record_from_json, to_line
 from autonomy.runner import Runner
 from autonomy.trace import FlushTimer, TraceError, TraceWriter, read_trace, replay
 from tests.harness import Recorder
@@ -162,6 +162,35 @@ def test_tick_lines_go_out_together_at_each_flush_the_header_and_end_at_once(tmp
     assert stream.getvalue().splitlines() == [to_line(r) for r in [header, *ticks[:8], end]]
     writer.flush()  # nothing held: nothing more written
     assert stream.getvalue().count("\n") == 10 and not writer.failure
+
+
+def test_a_run_in_virtual_time_has_at_most_a_hundred_tick_lines_held_back(tmp_path):
+    _, recorder = run_and_record(tmp_path)
+    ticks = recorder.ticks
+    assert len(ticks) > 2 * TraceWriter.MOST_HELD
+    stream = io.StringIO()
+    writer = TraceWriter(stream, VirtualClock())  # the clock never moves: only the count flushes
+    writer(recorder.records[0])
+    for count, tick in enumerate(ticks[: 2 * TraceWriter.MOST_HELD + 5], start=1):
+        writer(tick)
+        written = stream.getvalue().count("\n") - 1
+        assert count - TraceWriter.MOST_HELD < written <= count  # a kill loses at most MOST_HELD lines
+    assert stream.getvalue().splitlines()[1:] == [to_line(t) for t in ticks[: 2 * TraceWriter.MOST_HELD]]
+
+
+def test_any_feedback_text_a_behaviour_gives_makes_a_line_that_can_be_written(tmp_path):
+    # a lone surrogate cannot be encoded as UTF-8: written as \\u escapes, as json.dumps writes the header
+    _, recorder = run_and_record(tmp_path)
+    odd = "name \udc80 here, caf\u00e9, \x00\x1b[31m, \u2603"
+    tick = dataclasses.replace(recorder.ticks[4], nodes={1: NodeState("RUNNING", odd)})
+    path = tmp_path / "odd.jsonl"
+    with open(path, "w", encoding="utf-8") as stream:
+        writer = TraceWriter(stream)
+        for record in [recorder.records[0], *recorder.ticks[:4], tick, recorder.records[-1]]:
+            writer(record)
+    assert not writer.failure and path.read_text(encoding="ascii").count("\n") == 7
+    back = read_trace(path)
+    assert back.ticks[4].nodes[1].feedback == odd and back.end is not None
 
 
 @given(

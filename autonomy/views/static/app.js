@@ -17,6 +17,8 @@ const BURST_RENDER_EVERY_MS = 1000;
 const BURST_FULL_RENDER_EVERY_MS = 3000;
 const MAX_PLOT_POINTS = 400;  // a plot is about 400 px wide
 const MAX_PATH_POINTS = 3000;
+const NEXT_RUN_FIRST_WAIT_MS = 1000;
+const NEXT_RUN_MOST_WAIT_MS = 10000;
 
 const view = {
   mode: "live", header: null, ticks: [], end: null, index: -1,
@@ -347,9 +349,16 @@ $("slider").addEventListener("input", (e) => { setPlaying(false); show(parseInt(
 
 // A page on a finished live run waits for the next one: a later run on this server, or the
 // next `autonomy run --view` on the same port (the browser keeps coming back while there is none).
-function watchForNextRun(run) {
+// While no server answers it comes back after 1 s, then less and less often, down to once in
+// NEXT_RUN_MOST_WAIT_MS.
+function watchForNextRun(run, waitMs = NEXT_RUN_FIRST_WAIT_MS) {
   const source = new EventSource(`api/next?run=${encodeURIComponent(run)}`);
+  source.addEventListener("open", () => { waitMs = NEXT_RUN_FIRST_WAIT_MS; });
   source.addEventListener("run", () => { source.close(); connect(); });
+  source.addEventListener("error", () => {
+    source.close();
+    setTimeout(() => watchForNextRun(run, Math.min(waitMs * 2, NEXT_RUN_MOST_WAIT_MS)), waitMs);
+  });
 }
 
 function connect() {
@@ -357,7 +366,9 @@ function connect() {
     load(payload);
     if (payload.mode !== "live") return;
     if (payload.end) { watchForNextRun(payload.run); return; }
-    const source = new EventSource(`api/stream?from=${view.ticks.length}`);
+    // the run it watches goes with it: a browser that comes back to the next server on this
+    // port (this one stopped in the middle of the run) is told to start again
+    const source = new EventSource(`api/stream?from=${view.ticks.length}&run=${encodeURIComponent(payload.run)}`);
     source.addEventListener("header", () => { source.close(); connect(); });
     let previewed = false;
     const take = (e) => {
