@@ -538,6 +538,10 @@ def cmd_replay(args: argparse.Namespace) -> int:
         return _fail(error, EXIT_USAGE)
     if trace.cut_off_line:
         print(f"note: {args.trace} was cut off at line {trace.cut_off_line}; playing what came before", file=sys.stderr)
+    elif trace.end is None:  # killed between two lines: whole, but without its closing record
+        print(f"note: {args.trace} has no closing record (the run was cut off); playing it all", file=sys.stderr)
+    if not trace.ticks:
+        print(f"note: {args.trace} holds no ticks: there is nothing to play", file=sys.stderr)
     signal.signal(signal.SIGTERM, _interrupt)
     if args.view:
         server, error = _start_view(args, "replay")

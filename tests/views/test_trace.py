@@ -104,6 +104,17 @@ def test_the_replay_command_refuses_a_bad_trace_in_one_line(tmp_path):
     assert result.stderr.startswith(f"autonomy: error: {path}:2: not JSON")
 
 
+def test_the_replay_command_says_when_a_trace_has_no_end_or_no_ticks(tmp_path):
+    path, _ = run_and_record(tmp_path)
+    lines = path.read_text().splitlines(keepends=True)
+    for kept, says in ((len(lines) - 1, "has no closing record"), (1, "holds no ticks")):
+        path.write_text("".join(lines[:kept]))  # killed between two lines: every line whole
+        result = subprocess.run(
+            [sys.executable, "-m", "autonomy", "replay", str(path), "--lines"], cwd=ROOT, capture_output=True, text=True
+        )
+        assert result.returncode == 0 and says in result.stderr and "Traceback" not in result.stderr
+
+
 def test_records_round_trip_through_json():
     header = RunHeader("m", [], 20.0, world={"name": "w"}, seed=3)
     again = record_from_json(json.loads(to_line(header)))
