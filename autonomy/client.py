@@ -503,9 +503,7 @@ class Client:
         self.stats.bytes_sent += len(frame)
         if command is _STATUS_GET and data and len(data) == STATUS_LENGTH:
             # A whole status packet answered at once (every poll in grading): decode_status checks its frame
-            self.stats.bytes_received += STATUS_LENGTH
-            self._heard += data
-            del self._heard[:-HEARD_BYTES]
+            self._received(data)
             try:
                 return decode_status(data)
             except FramingError:
@@ -517,9 +515,7 @@ class Client:
         while True:
             if data:
                 received += len(data)
-                self.stats.bytes_received += len(data)
-                self._heard += data
-                del self._heard[:-HEARD_BYTES]
+                self._received(data)
                 decoder.feed(data)
             try:
                 reply = decoder.next_reply()
@@ -538,6 +534,12 @@ class Client:
                     f"no reply to {_text(frame)} from {self.name} within {self.timeout_s:g} s",
                     received,
                 )
+
+    def _received(self, data: bytes) -> None:
+        """Counts bytes of a reply, and keeps the last of them for :meth:`heard_text`."""
+        self.stats.bytes_received += len(data)
+        self._heard += data
+        del self._heard[:-HEARD_BYTES]
 
     def _io(self, operation: Callable[..., Any], *args: Any) -> Any:
         try:

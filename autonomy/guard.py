@@ -89,8 +89,9 @@ def status_surprise(before: Status, before_s: float, last: Status, last_s: float
     )
 
 
-def _flags(packet: Status) -> tuple[int, bool, bool, bool]:
-    return packet.mode, packet.auto_mode, packet.collided, packet.moving
+def _same_flags(a: Status, b: Status) -> bool:
+    """Whether two packets hold the same mode and flags (field by field: asked of every packet)."""
+    return a.mode == b.mode and a.auto_mode == b.auto_mode and a.collided == b.collided and a.moving == b.moving
 
 
 class StatusGuard:
@@ -118,7 +119,7 @@ class StatusGuard:
         before (a change the next packet did not show), so that each can be counted.
         """
         held, held_refused, self._held = self._held, self._held_refused, None
-        if held is not None and _flags(held) == _flags(packet) and not status_jump(held, self._held_s, packet, now_s):
+        if held is not None and _same_flags(held, packet) and not status_jump(held, self._held_s, packet, now_s):
             if held_refused and self.trusted is not None:  # two agree: the believed state was the wrong one
                 self.rebased += 1
                 self._before = None
@@ -126,18 +127,13 @@ class StatusGuard:
         trusted = self.trusted
         if trusted is None:  # nothing believed yet: a packet that disagrees with the one held is refused
             why = status_jump(held, self._held_s, packet, now_s) if held is not None else ""
-            if held is not None and not why and _flags(held) != _flags(packet):
+            if held is not None and not why and not _same_flags(held, packet):
                 why = "flags that differ from the packet before"
             return self._hold(packet, now_s, why)
         why = status_jump(trusted, self._trusted_s, packet, now_s)
         if why:
             return self._hold(packet, now_s, why)
-        surprise = (  # _flags(packet) != _flags(trusted), written out: asked of every packet
-            packet.mode != trusted.mode
-            or packet.auto_mode != trusted.auto_mode
-            or packet.collided != trusted.collided
-            or packet.moving != trusted.moving
-        ) or (
+        surprise = not _same_flags(packet, trusted) or (
             self._before is not None
             and status_surprise(self._before, self._before_s, trusted, self._trusted_s, packet, now_s)
         )

@@ -265,19 +265,15 @@ class TickRecord:
         numbers = self.time_s + self.speed_mm_s + dr.x_mm + dr.y_mm + dr.heading_deg
         if truth is not None:
             numbers += truth.x_mm + truth.y_mm + truth.heading_deg
-        if numbers - numbers:  # NaN: a NaN or an infinity among them
+        if not math.isfinite(numbers):
             raise ValueError(f"tick {self.tick} holds a number that is not finite")
-        if len(self.nodes) == 1:  # most ticks change one node: no list to join
-            for k, v in self.nodes.items():
-                nodes = f'"{k}":["{v.status}",{_text(v.feedback)}]' if v.feedback else f'"{k}":["{v.status}"]'
-        else:
-            nodes = ",".join(
-                [
-                    f'"{k}":["{v.status}",{_text(v.feedback)}]' if v.feedback else f'"{k}":["{v.status}"]'
-                    for k, v in self.nodes.items()
-                ]
-            )
-        exchanges = self.wire  # nearly always the status poll alone
+        nodes = ",".join(
+            [
+                f'"{k}":["{v.status}",{_text(v.feedback)}]' if v.feedback else f'"{k}":["{v.status}"]'
+                for k, v in self.nodes.items()
+            ]
+        )
+        exchanges = self.wire  # nearly always the status poll alone: no list to join
         if len(exchanges) == 1:
             wire = exchanges[0]._json or _exchange_json(exchanges[0])
         else:

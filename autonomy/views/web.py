@@ -17,6 +17,7 @@ import asyncio
 import json
 import threading
 import uuid
+from collections.abc import Awaitable, Callable
 from dataclasses import replace
 from importlib import resources
 from typing import Any
@@ -269,37 +270,32 @@ class ViewServer:
             sent = max(0, int(request.query.get("from", "0")))
         except ValueError:
             raise web.HTTPBadRequest(text="from must be a tick count") from None
-        response = web.StreamResponse(headers={"Content-Type": "text/event-stream", "Cache-Control": "no-cache"})
-        await response.prepare(request)
-        event = asyncio.Event()
-        hub._waiters.add(event)  # noqa: SLF001
         generation = hub.generation
-        try:
+
+        async def send(response: web.StreamResponse, event: asyncio.Event) -> None:
+            nonlocal sent
             if "run" in request.query and request.query["run"] != hub.run:
                 # the page watched another run: one this server had before, or the last server on
                 # this port, stopped in the middle of its run (its browser came back here)
                 await response.write(b"event: header\ndata: {}\n\n")
-                return response
+                return
             while True:
                 event.clear()
                 if hub.generation != generation:
                     await response.write(b"event: header\ndata: {}\n\n")
-                    break
+                    return
                 ticks, end = hub.ticks[sent:], hub.end
                 if ticks:  # every tick since the last wake, in one event: the page parses once
                     await response.write(hub.event(ticks))
                     sent += len(ticks)
                 if end is not None and sent >= len(hub.ticks):
                     await response.write(f"event: end\ndata: {to_line(end)}\n\n".encode())
-                    break
+                    return
                 if hub.closed:  # stopping: what there was has been sent (a run ended by Ctrl-C too)
-                    break
+                    return
                 await event.wait()
-        except (ConnectionResetError, asyncio.CancelledError):
-            pass
-        finally:
-            hub._waiters.discard(event)  # noqa: SLF001
-        return response
+
+        return await self._events(request, send)
 
     async def _next(self, request: web.Request) -> web.StreamResponse:
         """Server-sent events for a page on a finished live run.
@@ -309,21 +305,31 @@ class ViewServer:
         """
         hub = self.hub
         seen = request.query.get("run", "")
-        response = web.StreamResponse(headers={"Content-Type": "text/event-stream", "Cache-Control": "no-cache"})
-        await response.prepare(request)
-        event = asyncio.Event()
-        hub._waiters.add(event)  # noqa: SLF001
-        try:
+
+        async def send(response: web.StreamResponse, event: asyncio.Event) -> None:
             while not hub.closed:
                 event.clear()
                 if hub.run not in ("", seen):
                     await response.write(b"event: run\ndata: {}\n\n")
-                    break
+                    return
                 await event.wait()
+
+        return await self._events(request, send)
+
+    async def _events(
+        self, request: web.Request, send: Callable[[web.StreamResponse, asyncio.Event], Awaitable[None]]
+    ) -> web.StreamResponse:
+        """A server-sent event stream: ``send`` writes its events, woken by the hub, until it returns."""
+        response = web.StreamResponse(headers={"Content-Type": "text/event-stream", "Cache-Control": "no-cache"})
+        await response.prepare(request)
+        event = asyncio.Event()
+        self.hub._waiters.add(event)  # noqa: SLF001
+        try:
+            await send(response, event)
         except (ConnectionResetError, asyncio.CancelledError):
             pass
         finally:
-            hub._waiters.discard(event)  # noqa: SLF001
+            self.hub._waiters.discard(event)  # noqa: SLF001
         return response
 
 
