@@ -21,6 +21,8 @@ from autonomy.errors import FramingError, InvalidCommand
 
 FRAME_LENGTH = 6
 STATUS_LENGTH = 9
+#: The status packet's first byte (``b``).
+STATUS_START = 0x62
 NEWLINE = 0x0A
 OK = b"OK\n"
 NO = b"NO\n"
@@ -400,21 +402,15 @@ class Status:
 
     def encode(self) -> bytes:
         """Returns the 9-byte packet."""
-        flags = (
-            self.mode | (0x10 if self.auto_mode else 0) | (0x20 if self.collided else 0) | (0x40 if self.moving else 0)
-        )
-        return bytes(
-            [
-                ord("b"),
-                flags,
-                self.tilt_deg & 0xFF,
-                self.heading_deg >> 8,
-                self.heading_deg & 0xFF,
-                self.front_distance_mm,
-                self.odometer_mm >> 8,
-                self.odometer_mm & 0xFF,
-                NEWLINE,
-            ]
+        return encode_status(
+            self.mode,
+            self.auto_mode,
+            self.collided,
+            self.moving,
+            self.tilt_deg,
+            self.heading_deg,
+            self.front_distance_mm,
+            self.odometer_mm,
         )
 
     def as_dict(self) -> dict[str, int | bool | str]:
@@ -432,6 +428,36 @@ class Status:
         }
 
 
+def encode_status(
+    mode: int,
+    auto_mode: bool,
+    collided: bool,
+    moving: bool,
+    tilt_deg: int,
+    heading_deg: int,
+    front_distance_mm: int,
+    odometer_mm: int,
+) -> bytes:
+    """The 9-byte status packet of these fields, each a plain int in its range (see :class:`Status`).
+
+    The emulator answers every poll with it, without a :class:`Status` in between.
+    """
+    flags = mode | (0x10 if auto_mode else 0) | (0x20 if collided else 0) | (0x40 if moving else 0)
+    return bytes(
+        (
+            STATUS_START,
+            flags,
+            tilt_deg & 0xFF,
+            heading_deg >> 8,
+            heading_deg & 0xFF,
+            front_distance_mm,
+            odometer_mm >> 8,
+            odometer_mm & 0xFF,
+            NEWLINE,
+        )
+    )
+
+
 def decode_status(packet: bytes) -> Status:
     """Decodes one 9-byte status packet.
 
@@ -439,7 +465,7 @@ def decode_status(packet: bytes) -> Status:
         FramingError: wrong length, byte 0 not ``b``, byte 8 not ``\\n``, or bit 7 of the
             flags set (it is unused and always 0: a packet with it set was damaged).
     """
-    if len(packet) != STATUS_LENGTH or packet[0] != ord("b") or packet[8] != NEWLINE:
+    if len(packet) != STATUS_LENGTH or packet[0] != STATUS_START or packet[8] != NEWLINE:
         raise FramingError(f"not a status packet: {packet!r}", bytes(packet))
     if packet[1] & 0x80:
         raise FramingError(f"a status packet with the unused flag bit 7 set: {packet!r}", bytes(packet))

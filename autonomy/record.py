@@ -75,6 +75,12 @@ class Pose:
     y_mm: float
     heading_deg: float
 
+    def __init__(self, x_mm: float, y_mm: float, heading_deg: float) -> None:
+        # Two a tick: the fields set in the instance's dictionary at once, where the frozen
+        # dataclass's own __init__ would set each one through object.__setattr__.
+        fields = self.__dict__
+        fields["x_mm"], fields["y_mm"], fields["heading_deg"] = x_mm, y_mm, heading_deg
+
     def to_json(self) -> list[float]:
         """``[x_mm, y_mm, heading_deg]``, rounded to 0.1."""
         return [round(self.x_mm, 1), round(self.y_mm, 1), round(self.heading_deg, 1)]
@@ -165,6 +171,10 @@ class NodeState:
 
     status: str
     feedback: str = ""
+
+    def __init__(self, status: str, feedback: str = "") -> None:
+        fields = self.__dict__  # as Pose's: made for each node that changed, each tick
+        fields["status"], fields["feedback"] = status, feedback
 
 
 @dataclass

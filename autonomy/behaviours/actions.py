@@ -10,7 +10,7 @@ from typing import Any
 
 from py_trees.common import Status
 
-from autonomy.behaviours.base import MAX_DISTANCE_MM, MAX_SECONDS, Param, RobotAction
+from autonomy.behaviours.base import MAX_DISTANCE_MM, MAX_SECONDS, Param, RobotAction, returns_status
 from autonomy.protocol import heading_delta_deg, odometer_delta_mm
 
 
@@ -139,6 +139,7 @@ class Move(RobotAction):
         """Distance covered since the move started (always positive)."""
         return abs(odometer_delta_mm(self._start_odometer_mm, self.robot_status.odometer_mm))
 
+    @returns_status
     def update(self) -> Status:
         """RUNNING until an ending condition holds; FAILURE on a new collision or a NO."""
         if self._failed:
@@ -235,6 +236,7 @@ class Turn(RobotAction):
         if not self._failed:
             self.started_motion()
 
+    @returns_status
     def update(self) -> Status:
         """RUNNING until within tolerance and stopped; FAILURE on collision, NO or time-out."""
         if self._failed:
@@ -273,6 +275,7 @@ class Stop(RobotAction):
     node_type = "stop"
     doc = "Stop every movement (X)."
 
+    @returns_status
     def update(self) -> Status:
         """Sends ``X``."""
         return Status.SUCCESS if self.send(self.client.stop) else Status.FAILURE
@@ -288,6 +291,7 @@ class Beep(RobotAction):
         Param("volume", "int", "0 silent .. 5 loudest", default=3, minimum=0, maximum=5),
     )
 
+    @returns_status
     def update(self) -> Status:
         """Sends ``S``."""
         ok = self.send(lambda: self.client.beep(tuple(self.args["tones"]), self.args["volume"]))
@@ -313,6 +317,7 @@ class Servo(RobotAction):
             return f"servo {args['id']} to {args['angle']} deg"
         return f"servo {args['id']} by {args.get('by')} deg"
 
+    @returns_status
     def update(self) -> Status:
         """Sends ``M`` or ``D``."""
         servo_id, angle, step = self.args["id"], self.args.get("angle"), self.args.get("by")
@@ -340,6 +345,7 @@ class Wait(RobotAction):
         """Notes when the wait ends."""
         self._end_s = self.clock.now() + self.args["seconds"]
 
+    @returns_status
     def update(self) -> Status:
         """RUNNING until the time is up."""
         left = self._end_s - self.clock.now()
@@ -354,6 +360,7 @@ class Log(RobotAction):
     doc = "Show a message in the run's output and trace, then succeed."
     params = (Param("message", "string", "what to show", required=True, example="'hello'"),)
 
+    @returns_status
     def update(self) -> Status:
         """Logs the message."""
         self.context.log(self.args["message"])

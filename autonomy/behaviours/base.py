@@ -26,7 +26,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
-from typing import Any, ClassVar
+from typing import Any, ClassVar, TypeVar
 
 import py_trees
 from py_trees.common import Access, Status
@@ -144,6 +144,19 @@ class RobotContext:
     rebased: bool = False
 
 
+_Update = TypeVar("_Update", bound=Callable[..., Status])
+
+
+def returns_status(update: _Update) -> _Update:
+    """Marks an ``update`` that returns a :class:`Status` on every path (the node types' own).
+
+    Every other ``update`` a subclass defines is wrapped to check what it returns; one marked
+    so is not, which spares every tick of the node a call.
+    """
+    update._checked = True  # type: ignore[attr-defined]
+    return update
+
+
 class RobotBehaviour(py_trees.behaviour.Behaviour):
     """Base of every leaf: declares its node type and parameters, reaches the robot.
 
@@ -251,7 +264,8 @@ class RobotBehaviour(py_trees.behaviour.Behaviour):
     @property
     def robot_status(self) -> Packet:
         """The status packet polled before this tick."""
-        return self._polled(0)
+        robot = self.robot  # read several times a tick: the context's value at once, when it has one
+        return robot.polled[0] if robot is not None and robot.polled is not None else self._polled(0)
 
     @property
     def battery(self) -> int:
@@ -330,6 +344,7 @@ class RobotCondition(RobotBehaviour):
         """The values the condition looked at, for the feedback message."""
         return ""
 
+    @returns_status
     def update(self) -> Status:
         """SUCCESS or FAILURE, at once."""
         holds = self.check()

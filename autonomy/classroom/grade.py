@@ -9,6 +9,7 @@ twice gives the same marks, byte for byte. Python plugins in a submission are re
 
 from __future__ import annotations
 
+import gc
 import multiprocessing
 import os
 import resource
@@ -260,6 +261,10 @@ def _worker(exercise: Exercise, student: str, path: Path, allow_plugins: bool, m
     """
     os.setpgid(0, 0)
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the grader ends its workers; a Ctrl-C is for the grader
+    # What the worker was forked with (modules, the exercise) lives as long as it does: left out of
+    # the garbage collector's passes, which the records of each seed would otherwise repeat over it
+    # (and each pass would copy the pages it touches from the grader).
+    gc.freeze()
     limit = memory_mb * 1024 * 1024
     try:
         resource.setrlimit(resource.RLIMIT_AS, (limit, limit))

@@ -277,7 +277,7 @@ class Emulator:
     def pose(self) -> Pose:
         """Where the robot truly is now (the emulator's own state, caught up with the clock)."""
         with self._lock:
-            self.advance()
+            self._advance()
             return self.robot.pose
 
     def commands(self) -> list[Command]:

@@ -27,6 +27,7 @@ from autonomy.protocol import (
     Stop,
     Turn,
     encode_heading,
+    encode_status,
     parse_command,
 )
 
@@ -109,8 +110,8 @@ class Firmware:
 
     def _get(self, parameter: str) -> bytes:
         robot = self.robot
-        if parameter == "b":
-            return self.status().encode()
+        if parameter == "b":  # every poll: the packet's bytes made at once
+            return encode_status(*self._status_fields())
         if parameter == "R":
             return Health(robot.healthy).encode()
         if parameter == "F":
@@ -125,14 +126,18 @@ class Firmware:
 
     def status(self) -> Status:
         """Returns the robot's state as a status packet."""
+        return Status(*self._status_fields())
+
+    def _status_fields(self) -> tuple[int, bool, bool, bool, int, int, int, int]:
+        """The status packet's fields, in :class:`Status`'s order, each a plain int in its range."""
         robot = self.robot
-        return Status(
-            mode=robot.mode,
-            auto_mode=robot.auto_mode,
-            collided=robot.collided,
-            moving=robot.moving,
-            tilt_deg=-127 if (tilt := round(robot.tilt_deg)) < -127 else 127 if tilt > 127 else tilt,
-            heading_deg=encode_heading(robot.heading_deg),
-            front_distance_mm=robot.front_distance_mm(),
-            odometer_mm=round(robot.odometer_mm) % 65536,
+        return (
+            robot.mode,
+            robot.auto_mode,
+            robot.collided,
+            robot.moving,
+            -127 if (tilt := round(robot.tilt_deg)) < -127 else 127 if tilt > 127 else tilt,
+            encode_heading(robot.heading_deg),
+            robot.front_distance_mm(),
+            round(robot.odometer_mm) % 65536,
         )

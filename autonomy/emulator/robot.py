@@ -19,6 +19,8 @@ MODE_MOVING = 1
 MODE_TURNING = 2
 MODE_FALLEN = 3
 GRAVITY_MM_S2 = 9810.0
+#: How far inside the clearance a cruise's steps go unchecked: far more than the rounding of their sums.
+CRUISE_MARGIN_MM = 0.001
 
 
 @dataclass(frozen=True)
@@ -280,17 +282,23 @@ class Robot:
         time_s, x, y, odometer, tilt, battery = (
             self.time_s, self.x_mm, self.y_mm, self.odometer_mm, self.tilt_deg, self.battery
         )  # fmt: skip
+        # Worked out once, the same numbers each step: the step along each axis, the charge, the end.
+        step_x, step_y, used, end_s = dx * distance_mm, dy * distance_mm, drain * dt, until_s + 1e-12
+        # A step cannot take the robot further from where the clearance was measured than the
+        # distance driven: the first steps that stay well inside it need not be checked one by one.
+        # (A NaN anywhere makes this NaN, and every step is checked.)
+        unchecked = (free_mm - math.hypot(x - free_x, y - free_y) - CRUISE_MARGIN_MM) / abs(distance_mm) - 1.0
         steps = 0
-        while time_s + dt <= until_s + 1e-12:
-            next_x, next_y = x + dx * distance_mm, y + dy * distance_mm
-            if not free_mm - math.hypot(next_x - free_x, next_y - free_y) > 0.0:
+        while time_s + dt <= end_s:
+            next_x, next_y = x + step_x, y + step_y
+            if not steps < unchecked and not free_mm - math.hypot(next_x - free_x, next_y - free_y) > 0.0:
                 break  # the clearance must be measured again: a step of its own
             time_s += dt
             x, y = next_x, next_y
             odometer += distance_mm
             if tilt != 0.0:
                 tilt = tilt + (0.0 - tilt) * settle
-            battery -= drain * dt
+            battery -= used
             if not battery > 0.0:  # max(0.0, battery) without the call, NaN included
                 battery = 0.0
             steps += 1

@@ -39,6 +39,9 @@ ROBOT_RADIUS_MM = 60.0
 SENSOR_CONE_DEG = 25.0
 #: How many rays sample that cone (one along the heading, the rest spread evenly).
 SENSOR_RAYS = 7
+#: The cells the sensor's search for nearby obstacles is sorted into: mm a side, and most a side.
+NEAR_CELL_MM = 100.0
+NEAR_CELLS = 64
 #: Largest arena side accepted, mm (100 m).
 MAX_ARENA_MM = 100_000.0
 #: Most obstacles and zones a world may have (every check looks at every pair).
@@ -66,6 +69,12 @@ class Pose:
     x_mm: float
     y_mm: float
     heading_deg: float
+
+    def __init__(self, x_mm: float, y_mm: float, heading_deg: float) -> None:
+        # Asked for every tick (the run's truth): the fields set in the instance's dictionary at
+        # once, where the frozen dataclass's own __init__ would set each through object.__setattr__.
+        fields = self.__dict__
+        fields["x_mm"], fields["y_mm"], fields["heading_deg"] = x_mm, y_mm, heading_deg
 
 
 @dataclass(frozen=True)
@@ -163,6 +172,16 @@ class Circle:
 
 Obstacle = Box | Circle
 Shape = Box | Circle
+#: An obstacle's bounds (x_min, y_min, x_max, y_max, in mm), and the obstacle.
+_Bounded = tuple[float, float, float, float, Obstacle]
+
+
+def _cell_span(low_mm: float, high_mm: float, cell_mm: float, count: int) -> tuple[int, int]:
+    """The first and last of ``count`` cells ``cell_mm`` wide from 0 that meet [low_mm, high_mm].
+
+    One more each way than the division says, so that no rounding of it can leave a cell out.
+    """
+    return max(0, math.floor(low_mm / cell_mm) - 1), min(count - 1, math.floor(high_mm / cell_mm) + 1)
 
 
 def _inside(inner: Shape, outer: Shape) -> bool:
@@ -213,15 +232,27 @@ class Jitter:
 
 
 @functools.lru_cache(maxsize=64)
-def _cone_directions(heading_deg: float, cone_deg: float, rays: int) -> tuple[tuple[float, float], ...]:
+def _cone_directions(
+    heading_deg: float, cone_deg: float, rays: int
+) -> tuple[tuple[tuple[float, float], ...], tuple[float, float, float, float]]:
     """Unit vectors of ``rays`` rays spread evenly over a cone about ``heading_deg`` (as ``ray_distance`` makes them).
 
-    A robot driving straight asks for the same cone tick after tick.
+    With them, for the walls, the largest component of any ray towards +x, -x, +y and -y (0.0 when
+    no ray heads that way): a wall is nearest along the ray that heads most straight at it, since
+    a distance over a larger component is never longer. A robot driving straight asks for the
+    same cone tick after tick.
     """
     step = cone_deg / (rays - 1)
     first = heading_deg - cone_deg / 2
-    return tuple(
+    directions = tuple(
         (math.cos(math.radians(first + k * step)), math.sin(math.radians(first + k * step))) for k in range(rays)
+    )
+    xs, ys = [dx for dx, _ in directions], [dy for _, dy in directions]
+    return directions, (
+        max([dx for dx in xs if dx > 1e-12], default=0.0),
+        min([dx for dx in xs if dx < -1e-12], default=0.0),
+        max([dy for dy in ys if dy > 1e-12], default=0.0),
+        min([dy for dy in ys if dy < -1e-12], default=0.0),
     )
 
 
@@ -289,7 +320,8 @@ class World:
         if rays <= 1 or cone_deg <= 0:
             found = self.ray_distance(x, y, heading_deg, near)
             return found if found < reach_mm else math.inf
-        directions = _cone_directions(heading_deg, cone_deg, rays)  # raises for a heading that is not finite
+        # raises for an infinite heading
+        directions, (east, west, north, south) = _cone_directions(heading_deg, cone_deg, rays)
         if not (0 <= x <= self.width_mm and 0 <= y <= self.height_mm):
             return 0.0 if reach_mm > 0 else math.inf  # as every ray says from outside the arena
         obstacles = self.obstacles if near is None else near
@@ -298,22 +330,21 @@ class World:
             # A wall further than the reach along its normal is further along every ray: it cannot count.
             left, right = x < reach_mm, self.width_mm - x < reach_mm
             below, above = y < reach_mm, self.height_mm - y < reach_mm
+        # Each distance is worked out as ray_distance works it out, so the nearest is the same number:
+        # a wall's along the ray heading most straight at it (the least of (width - x) / dx over the
+        # rays is over the largest dx), an obstacle's along every ray. `if d < found: found = d` is
+        # min(found, d), NaN included, without the call.
         found = math.inf
-        width, height = self.width_mm, self.height_mm
-        for dx, dy in directions:
-            # each distance is worked out as ray_distance works it out, so the nearest is the same
-            # number; `if d < found: found = d` is min(found, d), NaN included, without the call
-            if dx > 1e-12:
-                if right and (d := (width - x) / dx) < found:
-                    found = d
-            elif dx < -1e-12 and left and (d := -x / dx) < found:
-                found = d
-            if dy > 1e-12:
-                if above and (d := (height - y) / dy) < found:
-                    found = d
-            elif dy < -1e-12 and below and (d := -y / dy) < found:
-                found = d
-            for obstacle in obstacles:
+        if right and east and (d := (self.width_mm - x) / east) < found:
+            found = d
+        if left and west and (d := -x / west) < found:
+            found = d
+        if above and north and (d := (self.height_mm - y) / north) < found:
+            found = d
+        if below and south and (d := -y / south) < found:
+            found = d
+        for obstacle in obstacles:
+            for dx, dy in directions:
                 if (d := obstacle.ray_distance(x, y, dx, dy)) < found:
                     found = d
         return found if found < reach_mm else math.inf
@@ -325,17 +356,52 @@ class World:
         if math.isnan(x) or math.isnan(y):  # no bounds say anything of a NaN: each shape's own gap decides
             return tuple(obstacle for obstacle in self.obstacles if obstacle.gap(x, y) < reach_mm)
         margin_mm = reach_mm + 1.0  # outside its bounds grown by more than the reach, a shape is out of reach
+        candidates = self._obstacle_bounds
+        if 0.0 <= x < self.width_mm and 0.0 <= y < self.height_mm:
+            cell_mm, cells = self._near_cells.get(reach_mm) or self._index_cells(reach_mm)
+            candidates = cells[int(y // cell_mm)][int(x // cell_mm)]
+            if not candidates:  # nothing near anywhere in this cell (the sensor, most of the time)
+                return ()
         return tuple(
             obstacle
-            for x_min, y_min, x_max, y_max, obstacle in self._obstacle_bounds
+            for x_min, y_min, x_max, y_max, obstacle in candidates
             if x_min - margin_mm < x < x_max + margin_mm
             and y_min - margin_mm < y < y_max + margin_mm
             and obstacle.gap(x, y) < reach_mm
         )
 
     @functools.cached_property
-    def _obstacle_bounds(self) -> tuple[tuple[float, float, float, float, Obstacle], ...]:
+    def _obstacle_bounds(self) -> tuple[_Bounded, ...]:
         return tuple((*obstacle.bounds(), obstacle) for obstacle in self.obstacles)
+
+    @functools.cached_property
+    def _near_cells(self) -> dict[float, tuple[float, list[list[tuple[_Bounded, ...]]]]]:
+        """By reach: the cells' side, and for each cell (by row) the obstacles :meth:`_near` looks at."""
+        return {}
+
+    def _index_cells(self, reach_mm: float) -> tuple[float, list[list[tuple[_Bounded, ...]]]]:
+        """Sorts the obstacles into cells for ``reach_mm``: a cell keeps each one its points may be near.
+
+        A point passes :meth:`_near`'s bounds test only for a shape whose bounds, grown by the
+        margin, contain it; a cell keeps every shape whose grown bounds meet the cell (edges
+        included), so that the test looks at no fewer shapes than before, only at fewer far ones.
+        Cells are ``NEAR_CELL_MM`` a side, larger in a large arena (at most ``NEAR_CELLS`` a side).
+        """
+        margin_mm = reach_mm + 1.0
+        cell_mm = max(NEAR_CELL_MM, self.width_mm / NEAR_CELLS, self.height_mm / NEAR_CELLS)
+        columns, rows = int(self.width_mm // cell_mm) + 1, int(self.height_mm // cell_mm) + 1  # x // cell_mm < columns
+        lists: list[list[list[_Bounded]]] = [[[] for _ in range(columns)] for _ in range(rows)]
+        for item in self._obstacle_bounds:
+            x_min, y_min, x_max, y_max, _ = item
+            first_column, last_column = _cell_span(x_min - margin_mm, x_max + margin_mm, cell_mm, columns)
+            first_row, last_row = _cell_span(y_min - margin_mm, y_max + margin_mm, cell_mm, rows)
+            for row in range(first_row, last_row + 1):
+                for column in range(first_column, last_column + 1):
+                    lists[row][column].append(item)
+        cells = [[tuple(cell) for cell in row] for row in lists]
+        if len(self._near_cells) < 8:  # a run asks with one reach; a few are kept
+            self._near_cells[reach_mm] = cell_mm, cells
+        return cell_mm, cells
 
     def clearance(self, x: float, y: float) -> float:
         """Distance from (x, y) to the nearest wall or obstacle (0 or less: touching one)."""

@@ -8,7 +8,7 @@ from hypothesis import strategies as st
 
 from autonomy.client import Client
 from autonomy.emulator import Box, Circle, Jitter, WorldError, WorldInvalid, load_world, world_from_dict
-from autonomy.emulator.world import SENSOR_CONE_DEG, SENSOR_RAYS, SHIPPED
+from autonomy.emulator.world import SENSOR_CONE_DEG, SENSOR_RAYS, SHIPPED, Pose, World
 
 
 @pytest.mark.parametrize("name", SHIPPED)
@@ -283,3 +283,34 @@ def test_the_cone_gives_the_plain_form_s_number_for_any_input(name, x, y, headin
     expected = _cone_reference(world, x, y, heading, cone_deg, rays, reach_mm)
     got = world.cone_distance(x, y, heading, cone_deg, rays, reach_mm)
     assert got == expected or (math.isnan(got) and math.isnan(expected))
+
+
+_shape = st.one_of(
+    st.builds(
+        lambda x, y, w, h: Box(x, y, x + w, y + h),
+        st.floats(0, 9000),
+        st.floats(0, 9000),
+        st.floats(1, 2000),
+        st.floats(1, 2000),
+    ),
+    st.builds(Circle, st.floats(0, 10000), st.floats(0, 10000), st.floats(1, 800)),
+)
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    st.sampled_from([(3000.0, 3000.0), (10000.0, 700.0), (100000.0, 100000.0)]),
+    st.lists(_shape, max_size=12),
+    st.lists(st.tuples(st.floats(-50, 10050), st.floats(-50, 10050)), min_size=1, max_size=30),
+    st.sampled_from([256.0, 1.0, 0.0, 5000.0]),
+)
+def test_the_cells_keep_every_obstacle_within_reach(arena, shapes, points, reach_mm):
+    # The sensor finds what is near through cells of the arena; it must find what the gaps say,
+    # wherever the point is (on a cell's edge too), in small arenas and large.
+    width, height = arena
+    world = World("test", width, height, Pose(width / 2, height / 2, 0.0), tuple(shapes))
+    cell_mm = world._index_cells(reach_mm)[0]
+    edges = [(k * cell_mm, k * cell_mm) for k in range(4)] + [(width - 1e-9, height - 1e-9), (0.0, 0.0)]
+    for x, y in points + edges:
+        expected = tuple(o for o in world.obstacles if o.gap(x, y) < reach_mm)
+        assert world._near(x, y, reach_mm) == expected
