@@ -37,9 +37,6 @@ from autonomy.behaviours.base import RobotBehaviour
 
 RUNNING, SUCCESS, FAILURE, INVALID = Status.RUNNING, Status.SUCCESS, Status.FAILURE, Status.INVALID
 
-Step = Callable[[Behaviour], None]
-Stop = Callable[[Behaviour, Status], None]
-
 
 def tick_tree(root: Behaviour) -> Status:
     """Ticks ``root`` once, as ``root.tick_once()`` does; returns its status."""
@@ -49,20 +46,13 @@ def tick_tree(root: Behaviour) -> Status:
 
 def tick(node: Behaviour) -> None:
     """Ticks one node (and its subtree)."""
-    cls = node.__class__
-    method, step = _TICKS.get(cls, _UNSEEN)
-    if method is not cls.tick:  # first seen, or the class's tick was replaced since
-        method, step = _TICKS[cls] = cls.tick, _tick_for(cls)
-    step(node)
+    # by the class's tick method as it is now: a class whose tick was replaced is noticed at once
+    _KNOWN.get(node.__class__.tick, _by_generator)(node)
 
 
 def stop(node: Behaviour, new_status: Status) -> None:
     """Stops one node (and halts its subtree) as its ``stop`` method does."""
-    cls = node.__class__
-    method, step = _STOPS.get(cls, _UNSEEN)
-    if method is not cls.stop:
-        method, step = _STOPS[cls] = cls.stop, _stop_for(cls)
-    step(node, new_status)
+    _KNOWN.get(node.__class__.stop, _by_method)(node, new_status)
 
 
 # ---------------------------------------------------------------------------------- ticks
@@ -273,7 +263,8 @@ def _by_method(node: Behaviour, new_status: Status) -> None:
     node.stop(new_status)
 
 
-#: py_trees' tick and stop methods, and the steps here that do what each does.
+#: py_trees' tick and stop methods, and the steps here that do what each does. Any other tick is
+#: run as the generator it is (py_trees' own leaves keep their debug lines), any other stop called.
 _KNOWN: dict[Callable[..., object], Callable[..., None]] = {
     RobotBehaviour.tick: _leaf,
     Decorator.tick: _decorator,
@@ -288,20 +279,6 @@ _KNOWN: dict[Callable[..., object], Callable[..., None]] = {
     Parallel.stop: _stop_parallel,
     Decorator.stop: _stop_decorator,
 }
-#: By class: the tick (stop) method the step was chosen for, and the step.
-_TICKS: dict[type, tuple[object, Step]] = {}
-_STOPS: dict[type, tuple[object, Stop]] = {}
-_UNSEEN: tuple[object, None] = (object(), None)
-
-
-def _tick_for(cls: type) -> Step:
-    if cls.tick is Behaviour.tick:
-        return _by_generator  # py_trees' own leaves keep their debug lines
-    return _KNOWN.get(cls.tick, _by_generator)
-
-
-def _stop_for(cls: type) -> Stop:
-    return _KNOWN.get(cls.stop, _by_method)
 
 
 __all__ = ["stop", "tick", "tick_tree"]

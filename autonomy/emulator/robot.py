@@ -246,7 +246,7 @@ class Robot:
         """Steps the model in fixed steps up to ``time_s`` (never backward)."""
         step = self.params.step_s
         while self.time_s + step <= time_s + 1e-12:
-            if not self._cruise(step, time_s):
+            if not (self._cruise(step, time_s) if self.speed_mm_s else self._stand(step, time_s)):
                 self._step(step)
 
     def _cruise(self, dt: float, until_s: float) -> int:
@@ -305,6 +305,53 @@ class Robot:
         if steps:
             self.time_s, self.x_mm, self.y_mm, self.odometer_mm, self.tilt_deg, self.battery = (
                 time_s, x, y, odometer, tilt, battery
+            )  # fmt: skip
+            self._accel_mm_s2 = 0.0
+        return steps
+
+    def _stand(self, dt: float, until_s: float) -> int:
+        """Takes the steps of a robot whose wheels stand still, turning in place or not, as :meth:`_step` takes them.
+
+        While neither wheel speed nor its target is anything but zero, upright, with its servos at
+        rest, a step only turns it (if it is turning), lets the tilt settle and drains the battery:
+        worked out here with :meth:`_step`'s arithmetic in its order, so the state is the same
+        number for number. It stops before the first step that is anything else.
+
+        Returns:
+            How many steps it took.
+        """
+        if self.speed_mm_s or self.target_speed_mm_s or self.fallen or self.servo_deg != self.servo_target_deg:
+            return 0
+        p = self.params
+        most = p.turn_rate_deg_s * dt
+        settle = dt / p.tilt_time_constant_s
+        if not settle < 1.0:  # min(1.0, settle)
+            settle = 1.0
+        turning_used = (p.battery_idle_drain_per_s + p.battery_motion_drain_per_s) * dt
+        standing_used = (p.battery_idle_drain_per_s + 0.0) * dt
+        time_s, heading, turning, tilt, battery = (
+            self.time_s, self.heading_deg, self.turn_remaining_deg, self.tilt_deg, self.battery
+        )  # fmt: skip
+        end_s = until_s + 1e-12
+        steps = 0
+        while time_s + dt <= end_s:
+            time_s += dt
+            if turning:
+                left = abs(turning)
+                turn = math.copysign(most if most < left else left, turning)  # min(left, most)
+                heading += turn
+                turning -= turn
+                if abs(turning) < 1e-9:
+                    turning = 0.0
+            if tilt != 0.0:
+                tilt = tilt + (0.0 - tilt) * settle
+            battery -= turning_used if turning else standing_used
+            if not battery > 0.0:  # max(0.0, battery), NaN included
+                battery = 0.0
+            steps += 1
+        if steps:
+            self.time_s, self.heading_deg, self.turn_remaining_deg, self.tilt_deg, self.battery = (
+                time_s, heading, turning, tilt, battery
             )  # fmt: skip
             self._accel_mm_s2 = 0.0
         return steps

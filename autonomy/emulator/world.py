@@ -42,6 +42,9 @@ SENSOR_RAYS = 7
 #: The cells the sensor's search for nearby obstacles is sorted into: mm a side, and most a side.
 NEAR_CELL_MM = 100.0
 NEAR_CELLS = 64
+#: How far past a cone's edge a shape must lie for the cone's rays to be known to miss it, mm: far
+#: more than any rounding of a ray's distance, and less than anything a sensor reads.
+BEYOND_MM = 0.01
 #: Largest arena side accepted, mm (100 m).
 MAX_ARENA_MM = 100_000.0
 #: Most obstacles and zones a world may have (every check looks at every pair).
@@ -115,6 +118,12 @@ class Box:
             t_far = t2
         return math.inf if t_near > t_far else t_near
 
+    def beyond(self, x: float, y: float, nx: float, ny: float) -> bool:
+        """Whether the whole box lies further than ``BEYOND_MM`` past the line through (x, y) across (nx, ny)."""
+        nearest_x = self.x_min_mm if nx > 0.0 else self.x_max_mm  # the corner least far along (nx, ny)
+        nearest_y = self.y_min_mm if ny > 0.0 else self.y_max_mm
+        return (nearest_x - x) * nx + (nearest_y - y) * ny > BEYOND_MM
+
     def gap(self, x: float, y: float) -> float:
         """Distance from the point (x, y) to the box (0 inside)."""
         # min(max(x, x_min), x_max), and the same for y, NaN included, without the calls
@@ -154,6 +163,10 @@ class Circle:
             return math.inf
         t = -b - math.sqrt(disc)
         return t if t >= 0 else math.inf
+
+    def beyond(self, x: float, y: float, nx: float, ny: float) -> bool:
+        """Whether the whole disc lies further than ``BEYOND_MM`` past the line through (x, y) across (nx, ny)."""
+        return (self.x_mm - x) * nx + (self.y_mm - y) * ny - self.radius_mm > BEYOND_MM
 
     def gap(self, x: float, y: float) -> float:
         """Distance from the point (x, y) to the circle's edge (0 inside)."""
@@ -234,7 +247,7 @@ class Jitter:
 @functools.lru_cache(maxsize=64)
 def _cone_directions(
     heading_deg: float, cone_deg: float, rays: int
-) -> tuple[tuple[tuple[float, float], ...], tuple[float, float, float, float]]:
+) -> tuple[tuple[tuple[float, float], ...], tuple[float, float, float, float], tuple[tuple[float, float], ...]]:
     """Unit vectors of ``rays`` rays spread evenly over a cone about ``heading_deg`` (as ``ray_distance`` makes them).
 
     With them, for the walls, the largest component of any ray towards +x, -x, +y and -y (0.0 when
@@ -248,11 +261,18 @@ def _cone_directions(
         (math.cos(math.radians(first + k * step)), math.sin(math.radians(first + k * step))) for k in range(rays)
     )
     xs, ys = [dx for dx, _ in directions], [dy for _, dy in directions]
-    return directions, (
-        max([dx for dx in xs if dx > 1e-12], default=0.0),
-        min([dx for dx in xs if dx < -1e-12], default=0.0),
-        max([dy for dy in ys if dy > 1e-12], default=0.0),
-        min([dy for dy in ys if dy < -1e-12], default=0.0),
+    (first_x, first_y), (last_x, last_y) = directions[0], directions[-1]
+    return (
+        directions,
+        (
+            max([dx for dx in xs if dx > 1e-12], default=0.0),
+            min([dx for dx in xs if dx < -1e-12], default=0.0),
+            max([dy for dy in ys if dy > 1e-12], default=0.0),
+            min([dy for dy in ys if dy < -1e-12], default=0.0),
+        ),
+        # Across each edge ray, pointing out of the cone: no ray of a cone under a half-turn heads
+        # that way, so nothing wholly past either edge is on any of them. A full circle has no edges.
+        ((-last_y, last_x), (first_y, -first_x)) if cone_deg < 180.0 else (),
     )
 
 
@@ -321,7 +341,7 @@ class World:
             found = self.ray_distance(x, y, heading_deg, near)
             return found if found < reach_mm else math.inf
         # raises for an infinite heading
-        directions, (east, west, north, south) = _cone_directions(heading_deg, cone_deg, rays)
+        directions, (east, west, north, south), edges = _cone_directions(heading_deg, cone_deg, rays)
         if not (0 <= x <= self.width_mm and 0 <= y <= self.height_mm):
             return 0.0 if reach_mm > 0 else math.inf  # as every ray says from outside the arena
         obstacles = self.obstacles if near is None else near
@@ -344,6 +364,8 @@ class World:
         if below and south and (d := -y / south) < found:
             found = d
         for obstacle in obstacles:
+            if edges and (obstacle.beyond(x, y, *edges[0]) or obstacle.beyond(x, y, *edges[1])):
+                continue  # wholly outside the cone, past one of its edges (beside or behind the robot)
             for dx, dy in directions:
                 if (d := obstacle.ray_distance(x, y, dx, dy)) < found:
                     found = d

@@ -170,8 +170,8 @@ def test_every_node_of_a_shipped_mission_is_ticked_and_stopped_by_the_engine_its
 
     for path in sorted(MISSIONS.glob("*.yaml")):
         for node in build_tree(load_mission(path)).iterate():
-            assert engine._tick_for(type(node)) is not engine._by_generator, (path.name, node.name)
-            assert engine._stop_for(type(node)) is not engine._by_method, (path.name, node.name)
+            assert type(node).tick in engine._KNOWN, (path.name, node.name)  # not run as a generator
+            assert type(node).stop in engine._KNOWN, (path.name, node.name)  # nor stopped through its method
 
 
 def test_a_node_that_ticks_and_stops_its_own_way_is_run_through_its_own_methods():

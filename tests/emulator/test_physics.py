@@ -295,15 +295,18 @@ commands = st.one_of(
     st.sampled_from(["obstacles", "box", "corridor"]),
     st.lists(st.tuples(commands, st.floats(0.0, 3.0)), min_size=1, max_size=12),
 )
-def test_a_steady_straight_drive_is_stepped_to_the_same_numbers_as_step_by_step(name, script):
-    # The cruise takes the steps of a straight drive in one loop; without it every step is _step's.
+def test_steady_driving_turning_and_standing_are_stepped_to_the_same_numbers_as_step_by_step(name, script):
+    # The cruise takes the steps of a straight drive in one loop, and _stand those of a robot turning
+    # in place or standing; without them every step is _step's.
     world = load_world(name)
     cruising, stepping = Robot(world), Robot(world)
-    stepping._cruise = lambda dt, until_s: 0  # type: ignore[method-assign]
+    stepping._cruise = stepping._stand = lambda dt, until_s: 0  # type: ignore[method-assign]
     for (command, *arguments), seconds in script:
         for robot in (cruising, stepping):
             getattr(robot, command)(*arguments)
             robot.advance_to(robot.time_s + seconds)
-        state = {key: value for key, value in vars(cruising).items() if key not in ("_rng", "_cruise")}
-        assert state == {key: value for key, value in vars(stepping).items() if key not in ("_rng", "_cruise")}
+        state = {key: value for key, value in vars(cruising).items() if key not in ("_rng", "_cruise", "_stand")}
+        assert state == {
+            key: value for key, value in vars(stepping).items() if key not in ("_rng", "_cruise", "_stand")
+        }
     assert cruising.impacts == stepping.impacts
