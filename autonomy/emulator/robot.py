@@ -290,11 +290,11 @@ class Robot:
         unchecked = (free_mm - math.hypot(x - free_x, y - free_y) - CRUISE_MARGIN_MM) / abs(distance_mm) - 1.0
         steps = 0
         while time_s + dt <= end_s:
-            next_x, next_y = x + step_x, y + step_y
-            if not steps < unchecked and not free_mm - math.hypot(next_x - free_x, next_y - free_y) > 0.0:
+            if not steps < unchecked and not free_mm - math.hypot(x + step_x - free_x, y + step_y - free_y) > 0.0:
                 break  # the clearance must be measured again: a step of its own
             time_s += dt
-            x, y = next_x, next_y
+            x += step_x
+            y += step_y
             odometer += distance_mm
             if tilt != 0.0:
                 tilt = tilt + (0.0 - tilt) * settle
