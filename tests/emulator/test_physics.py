@@ -277,7 +277,10 @@ def test_physics_does_not_depend_on_how_often_it_is_asked():
             client.status()
         return client.port.emulator.robot.pose
 
-    assert final_pose(0.01) == final_pose(0.37)
+    often, seldom = final_pose(0.01), final_pose(0.37)
+    # A steady drive is moved several steps at once, so positions agree to within rounding
+    assert often.heading_deg == seldom.heading_deg
+    assert often.x_mm == pytest.approx(seldom.x_mm, abs=1e-9) and often.y_mm == pytest.approx(seldom.y_mm, abs=1e-9)
 
 
 commands = st.one_of(
@@ -295,18 +298,31 @@ commands = st.one_of(
     st.sampled_from(["obstacles", "box", "corridor"]),
     st.lists(st.tuples(commands, st.floats(0.0, 3.0)), min_size=1, max_size=12),
 )
-def test_steady_driving_turning_and_standing_are_stepped_to_the_same_numbers_as_step_by_step(name, script):
-    # The cruise takes the steps of a straight drive in one loop, and _stand those of a robot turning
-    # in place or standing; without them every step is _step's.
+def test_steady_driving_turning_and_standing_are_stepped_as_step_by_step(name, script):
+    # The cruise takes the steps of a straight drive at once, and _stand those of a robot turning in
+    # place or standing one by one; without them every step is _step's. Turning and standing come
+    # to the same numbers; a drive moved several steps at once, to the same within rounding.
     world = load_world(name)
     cruising, stepping = Robot(world), Robot(world)
     stepping._cruise = stepping._stand = lambda dt, until_s: 0  # type: ignore[method-assign]
+    left_out = ("_rng", "_cruise", "_stand", "_free_at", "_seen")  # what each measured last, and where
     for (command, *arguments), seconds in script:
         for robot in (cruising, stepping):
             getattr(robot, command)(*arguments)
             robot.advance_to(robot.time_s + seconds)
-        state = {key: value for key, value in vars(cruising).items() if key not in ("_rng", "_cruise", "_stand")}
-        assert state == {
-            key: value for key, value in vars(stepping).items() if key not in ("_rng", "_cruise", "_stand")
-        }
-    assert cruising.impacts == stepping.impacts
+        state = {key: value for key, value in vars(cruising).items() if key not in left_out}
+        assert _close(state, {key: value for key, value in vars(stepping).items() if key not in left_out})
+    assert _close(cruising.impacts, stepping.impacts)
+
+
+def _close(a: object, b: object) -> bool:
+    """Equal, floats to within rounding (1e-6 mm, degrees, seconds or battery units), looking inside containers."""
+    if isinstance(a, float) and isinstance(b, float):
+        return a == pytest.approx(b, rel=1e-12, abs=1e-6)
+    if isinstance(a, dict) and isinstance(b, dict):
+        return a.keys() == b.keys() and all(_close(a[key], b[key]) for key in a)
+    if isinstance(a, list | tuple) and isinstance(b, list | tuple):
+        return type(a) is type(b) and len(a) == len(b) and all(map(_close, a, b))
+    if hasattr(a, "__dataclass_fields__") and type(a) is type(b):
+        return _close(vars(a), vars(b))
+    return a == b
