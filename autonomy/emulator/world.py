@@ -14,7 +14,7 @@ import random
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import yaml
 
@@ -65,19 +65,16 @@ class WorldInvalid(WorldError):
         super().__init__("\n".join(str(p) for p in self.problems))
 
 
-@dataclass(frozen=True)
-class Pose:
-    """Where the robot is: centre in mm and heading in degrees (unbounded, left positive)."""
+class Pose(NamedTuple):
+    """Where the robot is: centre in mm and heading in degrees (unbounded, left positive).
+
+    A named tuple: one is made every tick (the run's truth), and a tuple is made and read
+    several times as fast as a frozen dataclass.
+    """
 
     x_mm: float
     y_mm: float
     heading_deg: float
-
-    def __init__(self, x_mm: float, y_mm: float, heading_deg: float) -> None:
-        # Asked for every tick (the run's truth): the fields set in the instance's dictionary at
-        # once, where the frozen dataclass's own __init__ would set each through object.__setattr__.
-        fields = self.__dict__
-        fields["x_mm"], fields["y_mm"], fields["heading_deg"] = x_mm, y_mm, heading_deg
 
 
 @dataclass(frozen=True)
