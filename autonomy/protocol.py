@@ -465,22 +465,26 @@ def decode_status(packet: bytes) -> Status:
         FramingError: wrong length, byte 0 not ``b``, byte 8 not ``\\n``, or bit 7 of the
             flags set (it is unused and always 0: a packet with it set was damaged).
     """
-    if len(packet) != STATUS_LENGTH or packet[0] != STATUS_START or packet[8] != NEWLINE:
+    if len(packet) != STATUS_LENGTH:
         raise FramingError(f"not a status packet: {packet!r}", bytes(packet))
-    if packet[1] & 0x80:
+    # taken apart at once, and put together with shifts (every poll decodes one)
+    start, flags, tilt, heading_high, heading_low, front, odometer_high, odometer_low, end = packet
+    if start != STATUS_START or end != NEWLINE:
+        raise FramingError(f"not a status packet: {packet!r}", bytes(packet))
+    if flags & 0x80:
         raise FramingError(f"a status packet with the unused flag bit 7 set: {packet!r}", bytes(packet))
-    flags = packet[1]
-    tilt = packet[2] - 256 if packet[2] > 127 else packet[2]
-    heading = int.from_bytes(packet[3:5], "big", signed=True) % 360
+    heading = heading_high << 8 | heading_low
+    if heading_high > 127:  # a signed 16-bit number
+        heading -= 65536
     return Status.unchecked(  # each field is in its range by the way it is decoded
         flags & 0x0F,
-        bool(flags & 0x10),
-        bool(flags & 0x20),
-        bool(flags & 0x40),
-        tilt if tilt > -127 else -127,  # -128 is read as -127
-        heading,
-        packet[5],
-        int.from_bytes(packet[6:8], "big"),
+        flags & 0x10 != 0,
+        flags & 0x20 != 0,
+        flags & 0x40 != 0,
+        tilt if tilt < 128 else tilt - 256 if tilt > 128 else -127,  # signed; -128 is read as -127
+        heading % 360,
+        front,
+        odometer_high << 8 | odometer_low,
         bytes(packet),
     )
 

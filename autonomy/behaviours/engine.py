@@ -11,6 +11,8 @@ class ticks (or stops) as one of py_trees' ``Sequence``, ``Selector``, ``Paralle
 debug lines: ``initialise``, ``update`` and ``terminate`` are called as py_trees calls
 them, and statuses, ``current_child`` and feedback messages come out the same
 (``tests/behaviours/test_engine.py`` ticks random trees both ways and compares every call).
+One thing is left out: py_trees' ``stop`` makes the node a new ``iterator`` (a generator of its
+``tick``) that py_trees itself never reads; making it was a twentieth of a tick, six times a tick.
 Any other node is ticked or stopped through its own method. The class decides: a ``tick`` or
 ``stop`` set on one node object (a test's spy, say) is not looked for, since looking would
 cost every node a look into its ``__dict__`` on every call, which makes Python give up the
@@ -233,7 +235,6 @@ def _stop_leaf(node: Behaviour, new_status: Status) -> None:
     """:meth:`py_trees.behaviour.Behaviour.stop` (as :meth:`RobotBehaviour.stop` runs it)."""
     node.terminate(new_status)
     node.status = new_status
-    node.iterator = node.tick()
 
 
 def _stop_composite(node: Composite, new_status: Status) -> None:  # type: ignore[misc]
@@ -245,7 +246,6 @@ def _stop_composite(node: Composite, new_status: Status) -> None:  # type: ignor
                 stop(child, new_status)
     node.terminate(new_status)
     node.status = new_status
-    node.iterator = node.tick()
 
 
 def _stop_parallel(node: Parallel, new_status: Status) -> None:  # type: ignore[misc]
