@@ -451,8 +451,7 @@ class Runner:
     def _truth(self) -> Pose | None:
         if self._emulator is None:
             return None
-        pose = self._emulator.pose()
-        return Pose(pose.x_mm, pose.y_mm, pose.heading_deg)
+        return Pose._make(self._emulator.pose())  # the emulator's own pose, the same three fields
 
     def request_stop(self, reason: str) -> None:
         """Ends the run after the current tick, as interrupted, for ``reason`` (thread-safe)."""

@@ -48,7 +48,9 @@ def tick_tree(root: Behaviour) -> Status:
 
 def tick(node: Behaviour) -> None:
     """Ticks one node (and its subtree)."""
-    # by the class's tick method as it is now: a class whose tick was replaced is noticed at once
+    # By the class's tick method as it is now: a class whose tick was replaced is noticed at once.
+    # The steps below do this in place where they tick a child or stop a node as a tick goes
+    # (a call less for each: a fiftieth of a tick).
     _KNOWN.get(node.__class__.tick, _by_generator)(node)
 
 
@@ -75,7 +77,7 @@ def _leaf(node: Behaviour) -> None:
         node.logger.error(f"A behaviour returned an invalid status, setting to INVALID [{new_status}][{node.name}]")
         new_status = INVALID
     if new_status is not RUNNING:
-        stop(node, new_status)
+        _KNOWN.get(node.__class__.stop, _by_method)(node, new_status)
     node.status = new_status
 
 
@@ -94,7 +96,7 @@ def _decorator(node: Decorator) -> None:  # type: ignore[misc]
     """:meth:`py_trees.decorators.Decorator.tick`."""
     if node.status is not RUNNING:
         node.initialise()
-    tick(node.decorated)
+    _KNOWN.get(node.decorated.__class__.tick, _by_generator)(node.decorated)
     _settle(node)
 
 
@@ -114,7 +116,7 @@ def _sequence(node: Sequence) -> None:  # type: ignore[misc]
         node.current_child = children[0] if children else None
         for child in children:
             if child.status is not INVALID:
-                stop(child, INVALID)
+                _KNOWN.get(child.__class__.stop, _by_method)(child, INVALID)
         node.initialise()
     elif node.memory and node.current_child is not None:
         index = children.index(node.current_child)
@@ -125,14 +127,14 @@ def _sequence(node: Sequence) -> None:  # type: ignore[misc]
         stop(node, SUCCESS)
         return
     for child in islice(children, index, None):  # the list itself, as py_trees: a child added now is ticked
-        tick(child)
+        _KNOWN.get(child.__class__.tick, _by_generator)(child)
         if child.status is not SUCCESS:
             if not node.memory:
                 for later in islice(children, index + 1, None):
                     if later.status is not INVALID:
                         stop(later, INVALID)
             if child.status is not RUNNING:
-                stop(node, child.status)
+                _KNOWN.get(node.__class__.stop, _by_method)(node, child.status)
             else:
                 node.status = child.status
             return
@@ -163,7 +165,7 @@ def _selector(node: Selector) -> None:  # type: ignore[misc]
         index = 0
     previous = node.current_child
     for child in islice(children, index, None):
-        tick(child)
+        _KNOWN.get(child.__class__.tick, _by_generator)(child)
         if child.status is RUNNING or child.status is SUCCESS:
             node.current_child = child
             if previous is None or previous != child:
@@ -200,7 +202,7 @@ def _parallel(node: Parallel) -> None:  # type: ignore[misc]
     for child in children:
         if policy.synchronise and child.status is SUCCESS:
             continue
-        tick(child)
+        _KNOWN.get(child.__class__.tick, _by_generator)(child)
     new_status = RUNNING
     node.current_child = children[-1]
     failed = next((child for child in children if child.status is FAILURE), None)
