@@ -11,6 +11,7 @@ from typing import Any
 from py_trees.common import Status
 
 from autonomy.behaviours.base import MAX_DISTANCE_MM, MAX_SECONDS, Param, RobotAction, returns_status
+from autonomy.protocol import Status as Packet
 from autonomy.protocol import heading_delta_deg, odometer_delta_mm
 
 
@@ -159,22 +160,24 @@ class Move(RobotAction):
         step_mm = odometer_delta_mm(self._last_odometer_mm, status.odometer_mm)
         self._last_odometer_mm = status.odometer_mm
         asked = self.args["direction"]
-        step_mm = 0 if self.context.rebased else step_mm  # a corrected reading, not a motion
-        wrong_mm = self._wrong_way.update(-step_mm if asked == "backward" else step_mm, self.clock.now())
+        context = self.context  # asked for twice a tick: once
+        step_mm = 0 if context.rebased else step_mm  # a corrected reading, not a motion
+        wrong_mm = self._wrong_way.update(-step_mm if asked == "backward" else step_mm, context.clock.now())
         if wrong_mm:
             self.stop_motion()
             self.feedback_message = f"moving the wrong way: {wrong_mm:.0f} mm {_opposite(asked)} (asked {asked})"
             return Status.FAILURE
-        reason = self._ending()
+        travelled_mm = abs(odometer_delta_mm(self._start_odometer_mm, status.odometer_mm))  # self.travelled_mm()
+        reason = self._ending(status, travelled_mm)
         if reason:
             return Status.SUCCESS if self.stop_motion() else Status.FAILURE
-        self.feedback_message = f"{self.travelled_mm()} mm, front {status.front_distance_mm} mm"
+        self.feedback_message = f"{travelled_mm} mm, front {status.front_distance_mm} mm"
         return Status.RUNNING
 
-    def _ending(self) -> str:
-        args, status = self.args, self.robot_status
-        if args.get("distance_mm") is not None and self.travelled_mm() >= args["distance_mm"]:
-            self.feedback_message = f"drove {self.travelled_mm()} mm"
+    def _ending(self, status: Packet, travelled_mm: int) -> str:
+        args = self.args
+        if args.get("distance_mm") is not None and travelled_mm >= args["distance_mm"]:
+            self.feedback_message = f"drove {travelled_mm} mm"
         elif args.get("seconds") is not None and self.clock.now() - self._start_s >= args["seconds"]:
             self.feedback_message = f"drove for {args['seconds']} s"
         elif args.get("until_obstacle_mm") is not None and status.front_distance_mm < args["until_obstacle_mm"]:
