@@ -170,7 +170,9 @@ class NodeState:
     feedback: str = ""
 
     def __init__(self, status: str, feedback: str = "") -> None:
-        fields = self.__dict__  # as Pose's: made for each node that changed, each tick
+        # Made for each node that changed, each tick: the fields set in the instance's dictionary
+        # at once, where the frozen dataclass's own __init__ would set each through object.__setattr__.
+        fields = self.__dict__
         fields["status"], fields["feedback"] = status, feedback
 
 

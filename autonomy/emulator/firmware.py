@@ -111,7 +111,11 @@ class Firmware:
     def _get(self, parameter: str) -> bytes:
         robot = self.robot
         if parameter == "b":  # every poll: the packet's bytes made at once
-            return encode_status(*self._status_fields())
+            fields = self._status_fields()
+            try:
+                return encode_status(*fields)
+            except ValueError:  # a field out of its range (a sensor set to read past 255): Status says which
+                return Status(*fields).encode()
         if parameter == "R":
             return Health(robot.healthy).encode()
         if parameter == "F":
@@ -129,7 +133,7 @@ class Firmware:
         return Status(*self._status_fields())
 
     def _status_fields(self) -> tuple[int, bool, bool, bool, int, int, int, int]:
-        """The status packet's fields, in :class:`Status`'s order, each a plain int in its range."""
+        """The status packet's fields, in :class:`Status`'s order (the front distance as the sensor reads it)."""
         robot = self.robot
         return (
             robot.mode,

@@ -1,9 +1,10 @@
 """The emulated robot's physics: wheels, turning, servos, sensor, tilt, battery, collisions.
 
 No bytes and no clock here: :meth:`Robot.advance_to` is handed simulated time and steps the
-model in fixed steps, so a run depends only on when commands arrived, never on how often
-somebody looked. Every constant is a field of :class:`RobotParams`, documented in
-docs/emulator.md.
+model in fixed steps, so a run depends only on when commands arrived, not on how often
+somebody looked (to within rounding: a steady drive's steps are taken several at once, and
+positions agree to within a millionth of a millimetre however the time is split). Every
+constant is a field of :class:`RobotParams`, documented in docs/emulator.md.
 """
 
 from __future__ import annotations

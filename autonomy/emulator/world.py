@@ -42,6 +42,8 @@ SENSOR_RAYS = 7
 #: The cells the sensor's search for nearby obstacles is sorted into: mm a side, and most a side.
 NEAR_CELL_MM = 100.0
 NEAR_CELLS = 64
+#: How many reaches' cells a world keeps (a run asks with one).
+MOST_REACHES = 8
 #: How far past a cone's edge a shape must lie for the cone's rays to be known to miss it, mm: far
 #: more than any rounding of a ray's distance, and less than anything a sensor reads.
 BEYOND_MM = 0.01
@@ -189,9 +191,13 @@ _Bounded = tuple[float, float, float, float, Obstacle]
 def _cell_span(low_mm: float, high_mm: float, cell_mm: float, count: int) -> tuple[int, int]:
     """The first and last of ``count`` cells ``cell_mm`` wide from 0 that meet [low_mm, high_mm].
 
-    One more each way than the division says, so that no rounding of it can leave a cell out.
+    One more each way than the division says, so that no rounding of it can leave a cell out;
+    all of them for bounds that are not finite.
     """
-    return max(0, math.floor(low_mm / cell_mm) - 1), min(count - 1, math.floor(high_mm / cell_mm) + 1)
+    low, high = low_mm / cell_mm, high_mm / cell_mm
+    first = max(0, math.floor(low) - 1) if math.isfinite(low) else 0
+    last = min(count - 1, math.floor(high) + 1) if math.isfinite(high) else count - 1
+    return first, last
 
 
 def _inside(inner: Shape, outer: Shape) -> bool:
@@ -258,7 +264,6 @@ def _cone_directions(
         (math.cos(math.radians(first + k * step)), math.sin(math.radians(first + k * step))) for k in range(rays)
     )
     xs, ys = [dx for dx, _ in directions], [dy for _, dy in directions]
-    (first_x, first_y), (last_x, last_y) = directions[0], directions[-1]
     return (
         directions,
         (
@@ -267,10 +272,22 @@ def _cone_directions(
             max([dy for dy in ys if dy > 1e-12], default=0.0),
             min([dy for dy in ys if dy < -1e-12], default=0.0),
         ),
-        # Across each edge ray, pointing out of the cone: no ray of a cone under a half-turn heads
-        # that way, so nothing wholly past either edge is on any of them. A full circle has no edges.
-        ((-last_y, last_x), (first_y, -first_x)) if cone_deg < 180.0 else (),
+        _edges(directions) if cone_deg < 180.0 else (),
     )
+
+
+def _edges(directions: tuple[tuple[float, float], ...]) -> tuple[tuple[float, float], ...]:
+    """Across each edge ray of a cone, pointing out of it: nothing wholly past either edge is on any ray.
+
+    That holds while every ray lies between the edge rays; a heading so large that its rays'
+    angles round apart (some 1e14 degrees) can spread a cone under a half-turn over more, and
+    then the cone has no edges to go by (empty).
+    """
+    (first_x, first_y), (last_x, last_y) = directions[0], directions[-1]
+    edges = ((-last_y, last_x), (first_y, -first_x))
+    if all(dx * nx + dy * ny <= 1e-9 for dx, dy in directions for nx, ny in edges):
+        return edges
+    return ()
 
 
 @dataclass(frozen=True)
@@ -377,10 +394,12 @@ class World:
         margin_mm = reach_mm + 1.0  # outside its bounds grown by more than the reach, a shape is out of reach
         candidates = self._obstacle_bounds
         if 0.0 <= x < self.width_mm and 0.0 <= y < self.height_mm:
-            cell_mm, cells = self._near_cells.get(reach_mm) or self._index_cells(reach_mm)
-            candidates = cells[int(y // cell_mm)][int(x // cell_mm)]
-            if not candidates:  # nothing near anywhere in this cell (the sensor, most of the time)
-                return ()
+            index = self._near_cells.get(reach_mm) or self._index_cells(reach_mm)
+            if index is not None:
+                cell_mm, cells = index
+                candidates = cells[int(y // cell_mm)][int(x // cell_mm)]
+                if not candidates:  # nothing near anywhere in this cell (the sensor, most of the time)
+                    return ()
         return tuple(
             obstacle
             for x_min, y_min, x_max, y_max, obstacle in candidates
@@ -398,14 +417,18 @@ class World:
         """By reach: the cells' side, and for each cell (by row) the obstacles :meth:`_near` looks at."""
         return {}
 
-    def _index_cells(self, reach_mm: float) -> tuple[float, list[list[tuple[_Bounded, ...]]]]:
+    def _index_cells(self, reach_mm: float) -> tuple[float, list[list[tuple[_Bounded, ...]]]] | None:
         """Sorts the obstacles into cells for ``reach_mm``: a cell keeps each one its points may be near.
 
         A point passes :meth:`_near`'s bounds test only for a shape whose bounds, grown by the
         margin, contain it; a cell keeps every shape whose grown bounds meet the cell (edges
         included), so that the test looks at no fewer shapes than before, only at fewer far ones.
-        Cells are ``NEAR_CELL_MM`` a side, larger in a large arena (at most ``NEAR_CELLS`` a side).
+        Cells are ``NEAR_CELL_MM`` a side, larger in a large arena (some ``NEAR_CELLS`` a side).
+        A run asks with one reach; the cells of ``MOST_REACHES`` are kept. None (look at every
+        shape) for a further reach, and for an arena that is not finite.
         """
+        if len(self._near_cells) >= MOST_REACHES or not math.isfinite(self.width_mm + self.height_mm):
+            return None
         margin_mm = reach_mm + 1.0
         cell_mm = max(NEAR_CELL_MM, self.width_mm / NEAR_CELLS, self.height_mm / NEAR_CELLS)
         columns, rows = int(self.width_mm // cell_mm) + 1, int(self.height_mm // cell_mm) + 1  # x // cell_mm < columns
@@ -418,8 +441,7 @@ class World:
                 for column in range(first_column, last_column + 1):
                     lists[row][column].append(item)
         cells = [[tuple(cell) for cell in row] for row in lists]
-        if len(self._near_cells) < 8:  # a run asks with one reach; a few are kept
-            self._near_cells[reach_mm] = cell_mm, cells
+        self._near_cells[reach_mm] = cell_mm, cells
         return cell_mm, cells
 
     def clearance(self, x: float, y: float) -> float:

@@ -274,7 +274,7 @@ _odd = st.sampled_from([math.nan, math.inf, -math.inf, -0.0])
     st.one_of(_coordinate, _odd),
     st.one_of(_coordinate, _odd),
     st.one_of(st.floats(-720, 720), st.just(1e17)),
-    st.sampled_from([0.0, 25.0, 360.0]),
+    st.sampled_from([0.0, 25.0, 170.0, 179.9, 360.0]),
     st.sampled_from([1, 2, 7]),
     st.sampled_from([math.inf, math.nan, 256.0, 10.0, 0.0, -1.0]),
 )
@@ -314,3 +314,42 @@ def test_the_cells_keep_every_obstacle_within_reach(arena, shapes, points, reach
     for x, y in points + edges:
         expected = tuple(o for o in world.obstacles if o.gap(x, y) < reach_mm)
         assert world._near(x, y, reach_mm) == expected
+
+
+def test_a_cone_whose_rays_round_apart_is_not_cut_short_by_its_edges():
+    # At a heading of 1e17 degrees a 179.9-degree cone's rays round to angles 186 degrees apart:
+    # an obstacle on the first ray lies past the last ray's edge, and must still be seen.
+    world = World("test", 3000.0, 3000.0, Pose(1500.0, 1500.0, 0.0), (Box(1900.0, 1505.0, 2000.0, 1530.0),))
+    for heading in (1e17, 1e16, 45.0):
+        expected = _cone_reference(world, 1500.0, 1500.0, heading, 179.9, 7, math.inf)
+        assert world.cone_distance(1500.0, 1500.0, heading, 179.9, 7) == expected
+
+
+@pytest.mark.parametrize(
+    "arena, shape",
+    [
+        ((math.inf, 3000.0), Box(500.0, 0.0, 700.0, 100.0)),
+        ((3000.0, 3000.0), Box(500.0, 0.0, math.inf, 100.0)),
+        ((3000.0, 3000.0), Circle(math.nan, 500.0, 50.0)),
+        ((3000.0, 3000.0), Circle(800.0, 500.0, math.inf)),
+    ],
+)
+def test_the_cells_take_shapes_and_arenas_that_are_not_finite(arena, shape):
+    # The same as without cells: each shape's bounds grown by the reach, then its gap (a NaN
+    # bound holds nothing, as before)
+    world = World("test", *arena, Pose(0.0, 0.0, 0.0), (shape,))
+    for x, y in [(600.0, 250.0), (2900.0, 2900.0), (0.0, 0.0)]:
+        x_min, y_min, x_max, y_max = shape.bounds()
+        inside = x_min - 257.0 < x < x_max + 257.0 and y_min - 257.0 < y < y_max + 257.0
+        assert world._near(x, y, 256.0) == ((shape,) if inside and shape.gap(x, y) < 256.0 else ())
+    assert world.cone_distance(600.0, 250.0, 270.0, reach_mm=256.0) == _cone_reference(
+        world, 600.0, 250.0, 270.0, 25.0, 7, 256.0
+    )
+
+
+def test_a_world_keeps_the_cells_of_a_few_reaches_and_looks_at_every_shape_for_more():
+    world = load_world("obstacles")
+    for reach in range(1, 20):
+        near = world._near(1300.0, 1100.0, 50.0 * reach)
+        assert near == tuple(o for o in world.obstacles if o.gap(1300.0, 1100.0) < 50.0 * reach)
+    assert len(world._near_cells) == 8
