@@ -367,7 +367,7 @@ class Client:
         with self._lock:
             if self._closed:
                 raise LinkError(f"the link to {self.name} is closed")
-            frame = _STATUS_FRAME if command is _STATUS_GET else command.encode()  # the poll: every tick
+            frame = command.encode()
             tries = 1 + ((self.retries if retries is None else retries) if command.retryable else 0)
             self.stats.requests += 1
             failure: AutonomyError  # set by every attempt that does not return (there is at least one)
@@ -609,7 +609,6 @@ class Client:
 #: The requests for each parameter, made once (commands are immutable).
 _GET = {letter: Get(letter) for letter in PARAMETERS}
 _STATUS_GET = _GET["b"]
-_STATUS_FRAME = _STATUS_GET.encode()
 
 
 def _text(frame: bytes) -> str:

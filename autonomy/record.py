@@ -272,11 +272,10 @@ class TickRecord:
         """
         s, truth, time_s, speed_mm_s = self.status, self.truth, self.time_s, self.speed_mm_s
         x_mm, y_mm, heading_deg = self.dead_reckoning  # poses are tuples: taken apart at once
-        if truth is None:
-            numbers = time_s + speed_mm_s + x_mm + y_mm + heading_deg
-        else:
+        numbers = time_s + speed_mm_s + x_mm + y_mm + heading_deg
+        if truth is not None:
             truth_x_mm, truth_y_mm, truth_heading_deg = truth
-            numbers = time_s + speed_mm_s + x_mm + y_mm + heading_deg + truth_x_mm + truth_y_mm + truth_heading_deg
+            numbers += truth_x_mm + truth_y_mm + truth_heading_deg
         if not math.isfinite(numbers):
             raise ValueError(f"tick {self.tick} holds a number that is not finite")
         nodes = ",".join(

@@ -167,7 +167,7 @@ class Move(RobotAction):
             self.stop_motion()
             self.feedback_message = f"moving the wrong way: {wrong_mm:.0f} mm {_opposite(asked)} (asked {asked})"
             return Status.FAILURE
-        travelled_mm = abs(odometer_delta_mm(self._start_odometer_mm, status.odometer_mm))  # self.travelled_mm()
+        travelled_mm = self.travelled_mm()
         reason = self._ending(status, travelled_mm)
         if reason:
             return Status.SUCCESS if self.stop_motion() else Status.FAILURE

@@ -71,14 +71,7 @@ def _leaf(node: Behaviour) -> None:
     """:meth:`py_trees.behaviour.Behaviour.tick` (as :meth:`RobotBehaviour.tick` runs it)."""
     if node.status is not RUNNING:
         node.initialise()
-    # _settle(node), written out: most nodes ticked are leaves
-    new_status = node.update()
-    if type(new_status) is not Status:
-        node.logger.error(f"A behaviour returned an invalid status, setting to INVALID [{new_status}][{node.name}]")
-        new_status = INVALID
-    if new_status is not RUNNING:
-        _KNOWN.get(node.__class__.stop, _by_method)(node, new_status)
-    node.status = new_status
+    _settle(node)
 
 
 def _settle(node: Behaviour) -> None:
@@ -88,7 +81,7 @@ def _settle(node: Behaviour) -> None:
         node.logger.error(f"A behaviour returned an invalid status, setting to INVALID [{new_status}][{node.name}]")
         new_status = INVALID
     if new_status is not RUNNING:
-        stop(node, new_status)
+        _KNOWN.get(node.__class__.stop, _by_method)(node, new_status)
     node.status = new_status
 
 
