@@ -646,13 +646,24 @@ def cmd_check(args: argparse.Namespace) -> int:
     return EXIT_USAGE if bad else EXIT_OK
 
 
-def _exercise_path(text: str) -> str:
-    """An exercise given by path, or by name from ./exercises/."""
+def _exercise_path(text: str) -> tuple[str, str]:
+    """An exercise given by path, or by name from ./exercises/; or empty and why there is none of that name."""
     from pathlib import Path
 
+    from autonomy.source import suggest
+    from autonomy.views.lines import printable
+
     if Path(text).is_file() or "/" in text or text.endswith((".yaml", ".yml")):
-        return text
-    return str(Path("exercises") / f"{text}.yaml")
+        return text, ""
+    path = Path("exercises") / f"{text}.yaml"
+    if path.is_file():
+        return str(path), ""
+    names = sorted(found.stem for found in Path("exercises").glob("*.yaml")) if Path("exercises").is_dir() else []
+    shown = printable(text if len(text) <= 40 else text[:40] + "...")
+    here = f"use one of {', '.join(names)}" if names else "there is no exercises folder here"
+    return "", (
+        f"no exercise named '{shown}' in ./exercises/{suggest(text, names)}: {here}, or give the exercise file's path"
+    )
 
 
 def cmd_grade(args: argparse.Namespace) -> int:
@@ -663,8 +674,11 @@ def cmd_grade(args: argparse.Namespace) -> int:
     from autonomy.classroom.grade import default_wall_s
     from autonomy.classroom.report import feedback, to_csv, to_html, to_json
 
+    path, missing = _exercise_path(args.exercise)
+    if missing:
+        return _fail(missing, EXIT_USAGE)
     try:
-        exercise = load_exercise(_exercise_path(args.exercise))
+        exercise = load_exercise(path)
     except ExerciseInvalid as err:
         return _problems(err.problems)
     submissions = find_submissions(args.submissions)

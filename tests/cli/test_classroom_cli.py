@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import csv
 import json
+import subprocess
+import sys
 
 from tests.cli.test_cli import ROOT, autonomy
 
@@ -177,3 +179,23 @@ def test_grading_options_out_of_range_are_one_line_errors():
         result = autonomy("grade", "garage", "missions/square.yaml", option, value)
         assert result.returncode == 2 and "Traceback" not in result.stderr
         assert len(result.stderr.strip().splitlines()) == 1 and f"argument {option}: must be from" in result.stderr
+
+
+def test_an_exercise_name_that_is_not_there_is_one_line_with_the_names_that_are(tmp_path):
+    result = autonomy("grade", "bmp", "missions/square.yaml")
+    assert result.returncode == 2 and "Traceback" not in result.stderr
+    assert result.stderr.strip() == (
+        "autonomy: error: no exercise named 'bmp' in ./exercises/ (did you mean 'bump'?): use one of bump, "
+        "garage, opening, slalom, square, or give the exercise file's path"
+    )
+    elsewhere = subprocess.run(
+        [sys.executable, "-m", "autonomy", "grade", "bump", str(ROOT / "missions" / "square.yaml")],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        cwd=tmp_path,
+    )
+    assert elsewhere.returncode == 2 and elsewhere.stderr.strip() == (
+        "autonomy: error: no exercise named 'bump' in ./exercises/: there is no exercises folder here, "
+        "or give the exercise file's path"
+    )
