@@ -23,11 +23,10 @@ from typing import Any
 from urllib.parse import urlencode
 
 from autonomy.classroom.exercise import Exercise, Seed
-from autonomy.classroom.judge import RunFacts, Verdict, gather, judge, path_points
+from autonomy.classroom.judge import Gatherer, RunFacts, Verdict, judge, path_points
 from autonomy.client import Client
 from autonomy.clock import RealClock
 from autonomy.mission import MissionInvalid, MissionSpec, NodeSpec, Problem, validate_text
-from autonomy.record import Record
 from autonomy.runner import Runner
 from autonomy.source import UnreadableFile, parse, read_text
 
@@ -184,17 +183,21 @@ def check_submission(exercise: Exercise, path: Path, allow_plugins: bool) -> tup
     return spec, []
 
 
-def run_seed(exercise: Exercise, spec: MissionSpec, seed: Seed) -> list[Record]:
-    """Runs ``spec`` once on ``seed`` in the exercise's world, in virtual time; returns its records."""
+def run_seed(exercise: Exercise, spec: MissionSpec, seed: Seed) -> RunFacts:
+    """Runs ``spec`` once on ``seed`` in the exercise's world, in virtual time; returns its facts.
+
+    The facts are gathered as the records come, and the records let go: a long run is not
+    held in memory (nor gone over again and again by the garbage collector).
+    """
     options = {"world": exercise.world_ref, "seed": seed.seed, "time": "virtual", "noise": seed.noise_mm}
     url = "emu://?" + urlencode({**options, "faults": seed.faults} if seed.faults else options)
     client = Client.open(url)
-    records: list[Record] = []
+    gatherer = Gatherer()
     try:
-        Runner.for_mission(spec, client, max_seconds=exercise.time_limit_s, listeners=[records.append]).run()
+        Runner.for_mission(spec, client, max_seconds=exercise.time_limit_s, listeners=[gatherer]).run()
     finally:
         client.close()
-    return records
+    return gatherer.facts()
 
 
 def _collision_points(facts: RunFacts) -> list[tuple[float, float]]:
@@ -217,7 +220,7 @@ def grade_one(exercise: Exercise, student: str, path: Path, allow_plugins: bool 
     seeds = []
     held = [0] * len(exercise.criteria)
     for seed in exercise.seeds:
-        facts = gather(run_seed(exercise, spec, seed))
+        facts = run_seed(exercise, spec, seed)
         verdicts = _with_requirements(exercise, [judge(c, facts, exercise.world) for c in exercise.criteria])
         for index, verdict in enumerate(verdicts):
             held[index] += verdict.held

@@ -1,5 +1,6 @@
 """Exercises graded on the emulator: references score full marks, wrong solutions lose marks for the right reason."""
 
+import dataclasses
 import json
 from pathlib import Path
 
@@ -289,3 +290,50 @@ def test_a_requirement_holds_only_where_its_own_requirements_held_too(tmp_path):
         Verdict(False, "b (counts only with end_in_zone garage, which did not hold)"),
         Verdict(False, "c"),
     ]
+
+
+def test_a_trace_of_the_run_is_judged_as_the_live_run_was(tmp_path):
+    """The grader gathers a run's facts as its records come; a trace of the same run gives the same verdicts."""
+    from autonomy.classroom.grade import check_submission
+    from autonomy.classroom.judge import Gatherer, gather, judge
+    from autonomy.client import Client
+    from autonomy.runner import Runner
+    from autonomy.trace import TraceWriter, read_trace
+
+    exercise = load_exercise(EXERCISES / "square.yaml")
+    spec, problems = check_submission(exercise, EXERCISES / "wrong" / "square_turns_right.yaml", False)
+    assert problems == []
+    seed = exercise.seeds[0]
+    client = Client.open(f"emu://?world={exercise.world_ref}&seed={seed.seed}&time=virtual&noise={seed.noise_mm}")
+    live = Gatherer()
+    path = tmp_path / "run.jsonl"
+    with path.open("w", encoding="utf-8") as stream:
+        Runner.for_mission(spec, client, listeners=[live, TraceWriter(stream)]).run()
+    client.close()
+    facts, again = live.facts(), gather(read_trace(path).records())
+    assert len(again.path) == len(facts.path) > 100 and len(again.beeps) == len(facts.beeps) > 0
+    assert (again.outcome, again.collisions) == (facts.outcome, facts.collisions)
+    assert again.time_s == pytest.approx(facts.time_s, abs=1e-4)  # a trace holds times to 0.1 ms, poses to 0.1 mm
+    held = [judge(c, facts, exercise.world).held for c in exercise.criteria]
+    assert [judge(c, again, exercise.world).held for c in exercise.criteria] == held
+    assert True in held and False in held  # a wrong solution: the verdicts compared are not all alike
+
+
+def test_facts_need_a_header_an_end_and_the_truth():
+    from autonomy.classroom.judge import gather
+    from autonomy.client import Client
+    from autonomy.mission import build_tree, load_mission
+    from autonomy.runner import Runner
+
+    records = []
+    client = Client.open("emu://?world=box&time=virtual")
+    spec = load_mission(ROOT / "missions" / "square.yaml")
+    Runner(build_tree(spec), client, mission=spec.name, listeners=[records.append]).run()
+    client.close()
+    assert gather(records).outcome == "succeeded"
+    with pytest.raises(ValueError, match="header and its end"):
+        gather(records[:-1])
+    last = len(records) - 1
+    without_truth = [r if i in (0, last) else dataclasses.replace(r, truth=None) for i, r in enumerate(records)]
+    with pytest.raises(ValueError, match="no truth pose"):
+        gather(without_truth)
