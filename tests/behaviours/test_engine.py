@@ -145,8 +145,13 @@ def twins(spec: Any) -> tuple[tuple[Any, list[str], VirtualClock], ...]:
     return tuple(made)
 
 
+#: What a node is stopped with: INVALID when halted, or how it ended. Nothing stops a node with RUNNING (not
+#: py_trees, not the runner), and py_trees' own tick trips over a memory selector stopped so.
+HALTS = [Status.INVALID, Status.SUCCESS, Status.FAILURE]
+
+
 @settings(max_examples=1000, deadline=None)
-@given(trees, st.integers(1, 12), st.integers(0, 11), st.integers(0, 30), st.sampled_from([Status.INVALID, *STATUSES]))
+@given(trees, st.integers(1, 12), st.integers(0, 11), st.integers(0, 30), st.sampled_from(HALTS))
 def test_the_engine_ticks_and_stops_any_tree_as_py_trees_does(spec, ticks, halt_at, which, halt_status):
     (theirs, their_log, their_clock), (ours, our_log, our_clock) = twins(spec)
     for number in range(ticks):
