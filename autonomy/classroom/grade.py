@@ -28,12 +28,16 @@ from autonomy.client import Client
 from autonomy.clock import RealClock
 from autonomy.mission import MissionInvalid, MissionSpec, NodeSpec, Problem, validate_text
 from autonomy.runner import Runner
-from autonomy.source import UnreadableFile, parse, read_text
+from autonomy.source import UnreadableFile, read_text
 
 #: Wall time one submission (all its seeds) may take by default, seconds.
 DEFAULT_WALL_S = 60.0
 #: Memory one submission's worker may take by default, MiB.
 DEFAULT_MEMORY_MB = 1024
+#: Why a submission's plugins are refused (YAML's ``plugins:`` or XML's ``_plugins``): nothing of them is imported.
+PLUGINS_REFUSED = (
+    "Python plugins are not run when grading unless the teacher allows them (autonomy grade --allow-plugins)"
+)
 
 
 @dataclass
@@ -153,15 +157,10 @@ def check_submission(exercise: Exercise, path: Path, allow_plugins: bool) -> tup
         text = read_text(path)
     except UnreadableFile as err:
         return None, [f"{label}:{err.line}:{err.column}: cannot read the file: {err.reason}"]
-    root, _ = parse(text)
-    if not allow_plugins and root is not None and isinstance(root.value, dict) and "plugins" in root.value:
-        line, column = root.keys["plugins"]
-        return None, [
-            f"{label}:{line}:{column}: plugins: Python plugins are not run when grading "
-            "unless the teacher allows them (autonomy grade --allow-plugins)"
-        ]
     try:  # grading runs in the exercise's world: the mission's own is not loaded (nor echoed)
-        spec = validate_text(text, label, path.parent, check_world=False)
+        spec = validate_text(
+            text, label, path.parent, check_world=False, refuse_plugins=None if allow_plugins else PLUGINS_REFUSED
+        )
     except MissionInvalid as err:
         return None, [str(p) for p in err.problems]
     if exercise.allowed_nodes is not None:

@@ -106,10 +106,11 @@ def _type_name(value: Any) -> str:
 
 
 class _Validator:
-    def __init__(self, source: str, registry: Registry, check_world: bool) -> None:
+    def __init__(self, source: str, registry: Registry, check_world: bool, refuse_plugins: str | None = None) -> None:
         self.source = source
         self.registry = registry
         self.check_world = check_world
+        self.refuse_plugins = refuse_plugins
         self.problems: list[Problem] = []
         self.references: list[tuple[str, str, Located, str]] = []  # (owner, subtree name, where, path)
 
@@ -246,6 +247,9 @@ class _Validator:
 
     def plugins(self, block: Located | None, base_dir: Path) -> list[str]:
         if block is None:
+            return []
+        if self.refuse_plugins is not None:  # refused as written, whatever it names: nothing is imported
+            self.problem(block, "plugins", self.refuse_plugins)
             return []
         if not isinstance(block.value, list):
             self.problem(block, "plugins", "plugins is a list of Python module names, e.g. [my_behaviours]")
@@ -687,6 +691,7 @@ def validate_text(
     base_dir: Path | None = None,
     registry: Registry | None = None,
     check_world: bool = True,
+    refuse_plugins: str | None = None,
 ) -> MissionSpec:
     """Validates a mission given as text.
 
@@ -697,6 +702,8 @@ def validate_text(
         registry: The node types known besides its plugins' (default: the built-in ones).
         check_world: Whether to load the world it names; grading does not (it runs in the
             exercise's world, and must not read files a submission points at).
+        refuse_plugins: When given, a list of Python plugins (YAML's ``plugins:``, XML's
+            ``_plugins``) is a problem with this message, and none of it is imported.
 
     Raises:
         MissionInvalid: with every problem found.
@@ -704,7 +711,7 @@ def validate_text(
     xml = source.lower().endswith(".xml") or text.lstrip("\ufeff \t\r\n").startswith("<")
     root, errors = parse_xml(text) if xml else parse(text)
     problems = [Problem(source, e.line, e.column, "", e.message) for e in errors]
-    validator = _Validator(source, (registry or BUILTINS).copy(), check_world)
+    validator = _Validator(source, (registry or BUILTINS).copy(), check_world, refuse_plugins)
     spec = validator.mission(root, base_dir or Path.cwd()) if root is not None else None
     problems += validator.problems
     if problems or spec is None:

@@ -86,8 +86,24 @@ def test_plugins_are_refused_before_anything_of_them_is_imported(tmp_path):
     path.write_text("mission: sneaky\nplugins: [evil]\ntree:\n  move: {speed: 2, until_obstacle_mm: 150}\n")
     report = grade_one(exercise, "dave", path)
     assert report.total == 0 and "unless the teacher allows them" in report.problems[0]
-    assert report.problems[0].startswith(f"{path}:2:1: plugins")
+    assert report.problems[0].startswith(f"{path}:2:10: plugins")
     assert not marker.exists()
+
+
+@pytest.mark.parametrize("name", ["mission.yaml", "mission.xml"])
+def test_plugins_named_in_a_behaviortree_xml_submission_are_refused_too(tmp_path, name):
+    """A submission may be BehaviorTree.CPP XML, whatever its name: its ``_plugins`` are refused as ``plugins:`` are."""
+    exercise = load_exercise(EXERCISES / "garage.yaml")
+    marker = tmp_path / "imported"
+    (tmp_path / "p.py").write_text(f"open({str(marker)!r}, 'w').write('ran')\n")
+    path = tmp_path / name
+    path.write_text(
+        '<?xml version="1.0" encoding="UTF-8"?>\n<root BTCPP_format="4" main_tree_to_execute="x">\n'
+        '  <BehaviorTree ID="x" _plugins="p"><move speed="2" until_obstacle_mm="150"/></BehaviorTree>\n</root>\n'
+    )
+    report = grade_one(exercise, "mallory", path)
+    assert report.total == 0 and not marker.exists()
+    assert any(p.startswith(f"{path}:3:") and "unless the teacher allows them" in p for p in report.problems)
 
 
 def endless_plugin(folder: Path) -> Path:
