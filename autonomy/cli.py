@@ -686,11 +686,22 @@ def cmd_grade(args: argparse.Namespace) -> int:
     targets = [
         (target, write) for target, write in ((args.csv, to_csv), (args.json, to_json), (args.html, to_html)) if target
     ]
-    inputs = {Path(p).resolve() for p in (args.exercise, *args.submissions)} | {p.resolve() for _, p in submissions}
+    # every file read (the exercise, its world, each submission's mission, a folder's files) is kept from harm
+    inputs = {Path(p).resolve() for p in (path, *args.submissions)} | {p.resolve() for _, p in submissions}
+    inputs |= {Path(exercise.world_ref).resolve()} if os.sep in exercise.world_ref else set()  # a file, not a name
+    for _, given in submissions:
+        try:
+            inputs |= {p.resolve() for p in given.iterdir()} if given.is_dir() else set()
+        except OSError:  # a folder that cannot be listed: its student's report says so
+            pass
+    chosen: set[Path] = set()
     for target, _ in targets:  # before hours of grading, not after
         where = Path(target)
         if where.resolve() in inputs:
             return _fail(f"{target} is one of the files to grade: write the marks elsewhere", EXIT_USAGE)
+        if where.resolve() in chosen:
+            return _fail(f"{target} is given for two outputs: give each its own file", EXIT_USAGE)
+        chosen.add(where.resolve())
         if where.is_dir() or not where.parent.is_dir() or not os.access(where.parent, os.W_OK):
             return _fail(f"cannot write {target}: no such folder, or not writable", EXIT_USAGE)
     if not args.quiet:
@@ -740,7 +751,8 @@ def cmd_grade(args: argparse.Namespace) -> int:
     code = EXIT_OK
     for target, write in targets:  # one that fails does not keep the others from being written
         try:
-            Path(target).write_text(write(exercise, reports), encoding="utf-8")
+            # a name that is not UTF-8 (a folder unpacked from another system) is written with '?' for its bytes
+            Path(target).write_text(write(exercise, reports), encoding="utf-8", errors="replace")
         except OSError as err:
             code = _fail(f"cannot write {target}: {err.strerror or err}", EXIT_USAGE)
             continue

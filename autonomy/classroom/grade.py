@@ -26,6 +26,7 @@ from autonomy.classroom.exercise import Exercise, Seed
 from autonomy.classroom.judge import Gatherer, RunFacts, Verdict, judge, path_points
 from autonomy.client import Client
 from autonomy.clock import RealClock
+from autonomy.errors import LinkError
 from autonomy.mission import MissionInvalid, MissionSpec, NodeSpec, Problem, validate_text
 from autonomy.runner import Runner
 from autonomy.source import UnreadableFile, read_text
@@ -101,18 +102,43 @@ def find_submissions(paths: Iterable[str | Path]) -> list[tuple[str, Path]]:
     """(student, path) for each submission: a mission file, or a folder of one student's files.
 
     A folder's student is the folder's name and its mission is its one ``.yaml`` file (or
-    ``mission.yaml`` when it has several). Files are sorted by student, so reports are too.
+    ``mission.yaml`` when it has several). Students of the same name (``a/alice.yaml``,
+    ``b/alice.yaml``; ``alice/hw2/mission.yaml``, ``bob/hw2/mission.yaml``) are told apart by
+    as many of their folders as it takes. A name that is not UTF-8 is shown with U+FFFD where
+    its bytes are not. Files are sorted by student, so reports are too.
     """
-    found = []
-    for raw in paths:
-        path = Path(raw)
-        found.append((path.stem if path.is_file() or path.suffix in (".yaml", ".yml") else path.name, path))
-    counts: dict[str, int] = {}
-    for name, _ in found:
-        counts[name] = counts.get(name, 0) + 1
-    # two students of the same name (a/alice.yaml, b/alice.yaml) are told apart by their folders
-    found = [(f"{path.parent.name}/{name}" if counts[name] > 1 else name, path) for name, path in found]
+    given = [Path(raw) for raw in paths]
+    choices = [_names(path) for path in given]
+    level = [0] * len(given)
+    while True:
+        seen: dict[str, list[int]] = {}
+        for index, names in enumerate(choices):
+            seen.setdefault(names[level[index]], []).append(index)
+        further = [i for group in seen.values() if len(group) > 1 for i in group if level[i] + 1 < len(choices[i])]
+        if not further:  # all told apart, or nothing left to tell them apart by (the same file given twice)
+            break
+        for index in further:
+            level[index] += 1
+    found = [(names[level[index]], path) for index, (names, path) in enumerate(zip(choices, given, strict=True))]
     return sorted(found, key=lambda item: (item[0], str(item[1])))
+
+
+def _names(path: Path) -> list[str]:
+    """A submission's student, then with more and more of its folders, then the path as given.
+
+    The student is a file's name without its suffix, or a folder's name (``.`` is the folder it names).
+    """
+    name = path.stem if path.is_file() or path.suffix in (".yaml", ".yml") else path.name
+    whole = Path(os.path.abspath(path))
+    folders = [_readable(part) for part in whole.parent.parts[1:]]
+    name = _readable(name or whole.name or str(path))
+    # past the top folder, the path as given (alice.yml beside a folder alice/) tells them apart
+    return [name, *("/".join([*folders[-depth:], name]) for depth in range(1, len(folders) + 1)), _readable(str(path))]
+
+
+def _readable(text: str) -> str:
+    """``text`` as valid Unicode: the bytes of a file name that were not UTF-8 become U+FFFD."""
+    return text.encode("utf-8", "surrogateescape").decode("utf-8", "replace")
 
 
 def _mission_file(path: Path) -> tuple[Path | None, str]:
@@ -189,7 +215,9 @@ def run_seed(exercise: Exercise, spec: MissionSpec, seed: Seed) -> RunFacts:
     held in memory (nor gone over again and again by the garbage collector).
     """
     options = {"world": exercise.world_ref, "seed": seed.seed, "time": "virtual", "noise": seed.noise_mm}
-    url = "emu://?" + urlencode({**options, "faults": seed.faults} if seed.faults else options)
+    # a world file's path may hold bytes that are not UTF-8: they go through the URL as they are
+    query = urlencode({**options, "faults": seed.faults} if seed.faults else options, errors="surrogateescape")
+    url = "emu://?" + query
     client = Client.open(url)
     gatherer = Gatherer()
     try:
@@ -219,7 +247,12 @@ def grade_one(exercise: Exercise, student: str, path: Path, allow_plugins: bool 
     seeds = []
     held = [0] * len(exercise.criteria)
     for seed in exercise.seeds:
-        facts = run_seed(exercise, spec, seed)
+        try:
+            facts = run_seed(exercise, spec, seed)
+        except LinkError as err:  # the seed's link faults left no link to start on: that seed alone scores nothing
+            why = f"no run: under this seed's faults the link failed before the mission started ({type(err).__name__})"
+            seeds.append(SeedResult(seed.label, "no run", 0.0, [(False, why)] * len(exercise.criteria)))
+            continue
         verdicts = _with_requirements(exercise, [judge(c, facts, exercise.world) for c in exercise.criteria])
         for index, verdict in enumerate(verdicts):
             held[index] += verdict.held

@@ -33,7 +33,8 @@ def parse_emu_url(url: str) -> dict[str, str]:
     if parts.netloc or parts.path.strip("/"):
         raise SerialException(f"an emu:// URL takes only ?options, as in emu://?world=box; got {url!r}")
     options: dict[str, str] = {}
-    for key, value in parse_qsl(parts.query, keep_blank_values=True):
+    # %XX that are not UTF-8 (a path's bytes) come back as the same surrogates os.fsdecode makes of them
+    for key, value in parse_qsl(parts.query, keep_blank_values=True, errors="surrogateescape"):
         if key in options:
             raise SerialException(f"emu:// option '{key}' given twice")
         options[key] = value

@@ -2,6 +2,7 @@
 
 import dataclasses
 import json
+import os
 from pathlib import Path
 
 import pytest
@@ -353,3 +354,54 @@ def test_facts_need_a_header_an_end_and_the_truth():
     without_truth = [r if i in (0, last) else dataclasses.replace(r, truth=None) for i, r in enumerate(records)]
     with pytest.raises(ValueError, match="no truth pose"):
         gather(without_truth)
+
+
+def test_students_of_the_same_name_are_told_apart_by_as_many_folders_as_it_takes(tmp_path, monkeypatch):
+    given = ["hw/alice/hw2/mission.yaml", "hw/bob/hw2/mission.yaml", "a/x/eve.yaml", "b/x/eve.yaml", "c/alice.yml"]
+    for where in (*given, "c/alice/mission.yaml"):
+        (tmp_path / where).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / where).write_text("mission: m\ntree:\n  beep: {}\n")
+    (tmp_path / "d").mkdir()
+    strange = os.fsdecode(b"d/lat\xe9in.yaml")  # a name unpacked from another system's zip: not UTF-8
+    (tmp_path / strange).write_text("mission: m\ntree:\n  beep: {}\n")
+    monkeypatch.chdir(tmp_path)
+    found = find_submissions([*given, "c/alice", strange])
+    assert [name for name, _ in found] == [
+        "a/x/eve",
+        "alice/hw2/mission",
+        "b/x/eve",
+        "bob/hw2/mission",
+        "c/alice",
+        "c/alice.yml",
+        "lat\ufffdin",
+    ]
+    monkeypatch.chdir(tmp_path / "c" / "alice")
+    assert find_submissions(["."]) == [("alice", Path("."))]  # the folder "." names
+
+
+def test_an_exercise_in_a_folder_whose_name_is_not_utf8_runs_in_its_own_world_file(tmp_path):
+    folder = tmp_path / os.fsdecode(b"cours\xe9")
+    folder.mkdir()
+    (folder / "lab.yaml").write_text((EXERCISES.parent / "autonomy/emulator/worlds/garage.yaml").read_text())
+    (folder / "ex.yaml").write_text(
+        "world: lab.yaml\ntime_limit_s: 30\nseeds: [1]\ncriteria:\n  - end_in_zone: garage\n"
+    )
+    exercise = load_exercise(folder / "ex.yaml")
+    report = grade_one(exercise, "ada", EXERCISES / "solutions" / "garage.yaml")
+    assert report.problems == [] and report.total == exercise.max_points
+
+
+def test_a_seed_whose_faults_leave_no_link_scores_nothing_on_that_seed_alone(tmp_path):
+    path = tmp_path / "ex.yaml"
+    path.write_text(
+        "world: garage\ntime_limit_s: 30\nseeds:\n  - {seed: 1, faults: 'drop=0.3'}\n  - 2\n"
+        "criteria:\n  - end_in_zone: garage\n"
+    )
+    exercise = load_exercise(path)
+    report = grade_one(exercise, "ada", EXERCISES / "solutions" / "garage.yaml")
+    assert report.problems == [] and report.total == 0.5
+    first, second = report.seeds
+    assert first.outcome == "no run" and first.verdicts == [
+        (False, "no run: under this seed's faults the link failed before the mission started (ReplyTimeout)")
+    ]
+    assert second.verdicts == [(True, "garage: ended inside")]

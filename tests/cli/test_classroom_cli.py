@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import json
+import os
 import subprocess
 import sys
 
@@ -199,3 +200,49 @@ def test_an_exercise_name_that_is_not_there_is_one_line_with_the_names_that_are(
         "autonomy: error: no exercise named 'bump' in ./exercises/: there is no exercises folder here, "
         "or give the exercise file's path"
     )
+
+
+def grade_in(folder, *args: str) -> subprocess.CompletedProcess:
+    """`autonomy grade` run in ``folder`` (which has an exercises/ of its own)."""
+    return subprocess.run(
+        [sys.executable, "-m", "autonomy", "grade", *args],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        cwd=folder,
+        env={**os.environ, "PYTHONPATH": str(ROOT)},
+    )
+
+
+def test_marks_are_never_written_over_a_file_that_is_graded_nor_twice_to_one_file(tmp_path):
+    (tmp_path / "exercises").mkdir()
+    exercise = tmp_path / "exercises" / "garage.yaml"
+    exercise.write_text((ROOT / "exercises" / "garage.yaml").read_text())
+    (tmp_path / "class" / "alice").mkdir(parents=True)
+    mission = tmp_path / "class" / "alice" / "mission.yaml"
+    mission.write_text((ROOT / "exercises" / "solutions" / "garage.yaml").read_text())
+    before = {exercise: exercise.read_bytes(), mission: mission.read_bytes()}
+    for target in ("exercises/garage.yaml", "class/alice/mission.yaml"):  # the exercise by its name; inside a folder
+        result = grade_in(tmp_path, "garage", "class/alice", "--csv", target)
+        assert result.returncode == 2 and "Traceback" not in result.stderr
+        assert result.stderr == f"autonomy: error: {target} is one of the files to grade: write the marks elsewhere\n"
+    assert {path: path.read_bytes() for path in before} == before
+    twice = grade_in(tmp_path, "garage", "class/alice", "--csv", "marks", "--html", "marks")
+    assert twice.returncode == 2 and twice.stderr == (
+        "autonomy: error: marks is given for two outputs: give each its own file\n"
+    )
+    assert not (tmp_path / "marks").exists()
+
+
+def test_a_file_name_that_is_not_utf8_is_graded_and_every_output_written(tmp_path):
+    (tmp_path / "exercises").mkdir()
+    (tmp_path / "exercises" / "garage.yaml").write_text((ROOT / "exercises" / "garage.yaml").read_text())
+    name = os.fsdecode(b"lat\xe9in.yaml")  # unpacked from another system's zip
+    (tmp_path / name).write_text((ROOT / "exercises" / "solutions" / "garage.yaml").read_text())
+    result = grade_in(tmp_path, "garage", name, "--csv", "m.csv", "--json", "m.json", "--html", "m.html")
+    assert result.returncode == 0 and "Traceback" not in result.stderr, result.stderr
+    assert result.stdout.splitlines()[1] == "lat\ufffdin: 10 / 10 in '2. Park in the garage'"
+    assert next(csv.DictReader((tmp_path / "m.csv").open()))["student"] == "lat\ufffdin"
+    student = json.loads((tmp_path / "m.json").read_text())["students"][0]
+    assert (student["student"], student["file"], student["total"]) == ("lat\ufffdin", "lat?in.yaml", 10)
+    assert "lat\ufffdin" in (tmp_path / "m.html").read_text()
