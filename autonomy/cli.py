@@ -37,8 +37,15 @@ class _Parser(argparse.ArgumentParser):
 
 
 def _fail(message: str, code: int) -> int:
-    print(f"autonomy: error: {message}", file=sys.stderr)
+    print(f"autonomy: error: {_shown(message)}", file=sys.stderr)
     return code
+
+
+def _shown(text: object) -> str:
+    """One line as it may reach a terminal: a file named with control characters changes nothing on the screen."""
+    from autonomy.views.lines import printable
+
+    return printable(str(text))
 
 
 #: Most problems printed for one file: past that, the first ones are what to fix.
@@ -48,7 +55,7 @@ MAX_PROBLEMS_SHOWN = 100
 def _problems(problems: Sequence[object]) -> int:
     """Prints a file's problems, one ``FILE:LINE:COL: ...`` a line (at most 100, then a count); exit 2."""
     for problem in problems[:MAX_PROBLEMS_SHOWN]:
-        print(problem, file=sys.stderr)
+        print(_shown(problem), file=sys.stderr)
     if len(problems) > MAX_PROBLEMS_SHOWN:
         print(f"... and {len(problems) - MAX_PROBLEMS_SHOWN:,} more problems, not shown", file=sys.stderr)
     return EXIT_USAGE
@@ -598,7 +605,7 @@ def cmd_plot(args: argparse.Namespace) -> int:
             plot_run(trace, out)
     except OSError as err:
         return _fail(f"cannot write {out}: {err.strerror or err}", EXIT_USAGE)
-    print(f"{out}: {len(trace.ticks)} ticks of '{trace.header.mission}'")
+    print(_shown(f"{out}: {len(trace.ticks)} ticks of '{trace.header.mission}'"))
     return EXIT_OK
 
 
@@ -620,7 +627,7 @@ def cmd_world_show(args: argparse.Namespace) -> int:
             stream.write(svg)
     except OSError as err:
         return _fail(f"cannot write {args.output}: {err.strerror or err}", EXIT_USAGE)
-    print(f"{args.output}: world '{world.name}', {world.width_mm:g} x {world.height_mm:g} mm")
+    print(_shown(f"{args.output}: world '{world.name}', {world.width_mm:g} x {world.height_mm:g} mm"))
     return EXIT_OK
 
 
@@ -640,9 +647,9 @@ def cmd_check(args: argparse.Namespace) -> int:
         count = sum(1 for _ in preorder(build_tree(spec)))
         warnings = lint(spec)
         noted = f", {plural(len(warnings), 'warning')}" if warnings else ""
-        print(f"{path}: ok (mission '{spec.name}', {plural(count, 'node')}{noted})")
+        print(_shown(f"{path}: ok (mission '{spec.name}', {plural(count, 'node')}{noted})"))
         for warning in warnings:
-            print(warning)
+            print(_shown(warning))
     return EXIT_USAGE if bad else EXIT_OK
 
 

@@ -246,3 +246,16 @@ def test_a_file_name_that_is_not_utf8_is_graded_and_every_output_written(tmp_pat
     student = json.loads((tmp_path / "m.json").read_text())["students"][0]
     assert (student["student"], student["file"], student["total"]) == ("lat\ufffdin", "lat?in.yaml", 10)
     assert "lat\ufffdin" in (tmp_path / "m.html").read_text()
+
+
+def test_check_prints_no_control_character_of_a_file_name(tmp_path):
+    """A teacher checks a class's files: a name chosen to set the window title or clear the screen does neither."""
+    good = tmp_path / "x\x1b]0;pwned\x07\x1b[2J.yaml"
+    good.write_text("mission: m\ntree:\n  beep: {}\n")
+    bad = tmp_path / "y\x1b[2J.yaml"
+    bad.write_text("mission: m\ntree:\n  mvoe: {}\n")
+    result = autonomy("check", str(good), str(bad))
+    assert result.returncode == 2 and "Traceback" not in result.stderr
+    assert "\x1b" not in result.stdout + result.stderr and "\x07" not in result.stdout
+    assert result.stdout == f"{tmp_path}/x�]0;pwned��[2J.yaml: ok (mission 'm', 1 node)\n"
+    assert result.stderr == f"{tmp_path}/y�[2J.yaml:3:3: tree.mvoe: unknown node 'mvoe' (did you mean 'move'?)\n"
