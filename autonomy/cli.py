@@ -755,7 +755,8 @@ def cmd_grade(args: argparse.Namespace) -> int:
             print(line)
     elif not args.quiet:
         _print_marks(exercise, reports)
-    code = EXIT_OK
+    # a student checking their own mission learns from the exit code too that nothing of it ran
+    code = EXIT_USAGE if alone and reports[0].problems else EXIT_OK
     for target, write in targets:  # one that fails does not keep the others from being written
         try:
             # a name that is not UTF-8 (a folder unpacked from another system) is written with '?' for its bytes
@@ -1067,6 +1068,9 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 def run() -> None:
     """Console-script entry point."""
+    for name in ("stdout", "stderr"):
+        if getattr(sys, name) is None:  # started with it closed (>&-): what it says is lost, the command still runs
+            setattr(sys, name, open(os.devnull, "w", encoding="utf-8"))  # noqa: SIM115 - for the whole process
     try:
         code = main()
         sys.stdout.flush()

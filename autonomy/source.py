@@ -90,6 +90,17 @@ def visible(text: str) -> str:
     return "".join(repr(c)[1:-1] if unicodedata.category(c) in _HIDDEN else c for c in text)
 
 
+#: A number YAML 1.1 reads as text: an exponent without a point or a sign (1e9, 5e-3).
+_EXPONENT_AS_TEXT = re.compile(r"^[-+]?\d+(\.\d*)?[eE][-+]?\d+$")
+
+
+def exponent_hint(value: Any) -> str:
+    """Why a value written as a number came as text, when YAML read it so (``1e9``); else empty."""
+    if isinstance(value, str) and _EXPONENT_AS_TEXT.match(value):
+        return f" (YAML reads {value} as text: write it out, or with a point and a sign, as 1.0e+3)"
+    return ""
+
+
 def suggest(word: str, options: list[str]) -> str:
     """`` (did you mean 'x'?)`` for the option closest to ``word``, or empty when none is close."""
     close = difflib.get_close_matches(word, options, n=1, cutoff=0.6)
@@ -221,7 +232,7 @@ class Reader:
         value = located.value
         if isinstance(value, bool) or not isinstance(value, (int, float)) or (whole and not isinstance(value, int)):
             kind = "a whole number" if whole else "a number"
-            self.problem(located, path, f"expected {kind}, got {located.plain!r}")
+            self.problem(located, path, f"expected {kind}, got {located.plain!r}{exponent_hint(value)}")
             return None
         if not math.isfinite(value) or not low <= value <= high:
             self.problem(located, path, f"must be from {shown(low)} to {shown(high)}, got {value!r}")
@@ -277,7 +288,7 @@ def text_problems(text: str) -> list[SourceError]:
             what = f"an invisible {unicodedata.name(char, 'format character').lower()} ({code})"
         else:
             what = f"the control character {_NAMES.get(char, code)}" + (f" ({code})" if char in _NAMES else "")
-        problems.append(SourceError(line, column, f"{what}: remove it; a mission file is plain text"))
+        problems.append(SourceError(line, column, f"{what}: remove it; the file must be plain text"))
         if len(problems) == 20:
             break
     return problems

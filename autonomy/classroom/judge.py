@@ -18,6 +18,7 @@ from autonomy.classroom.exercise import Criterion
 from autonomy.emulator.world import World
 from autonomy.protocol import heading_delta_deg
 from autonomy.record import Pose, Record, RunEnd, RunHeader, TickRecord
+from autonomy.runner import plural
 
 SUCCEEDED = "succeeded"
 FAILED = "failed"
@@ -186,11 +187,12 @@ def judge(criterion: Criterion, facts: RunFacts, world: World) -> Verdict:
         tolerance = criterion.options["tolerance_deg"]
         heading = end_pose.heading_deg % 360.0
         error = abs(heading_delta_deg(value, heading))
+        shown = round(heading) % 360  # 359.7 is shown as 0, as a compass would
         return Verdict(
-            error <= tolerance, f"ended facing {heading:.0f} deg, needed {value:g} ± {tolerance:g} (off by {error:.0f})"
+            error <= tolerance, f"ended facing {shown} deg, needed {value:g} ± {tolerance:g} (off by {error:.0f})"
         )
     if kind == "max_nodes":
-        return Verdict(facts.nodes <= value, f"uses {facts.nodes} nodes, allowed {value}")
+        return Verdict(facts.nodes <= value, f"uses {plural(facts.nodes, 'node')}, allowed {value}")
     if kind == "succeed":
         why = f": {facts.reason}" if facts.reason else ""
         return Verdict(facts.outcome == SUCCEEDED, f"the mission {facts.outcome} after {facts.time_s:.1f} s{why}")

@@ -28,6 +28,7 @@ from autonomy.source import (
     UnreadableFile,
     control_character,
     exists,
+    exponent_hint,
     is_file,
     parse,
     read_text,
@@ -87,9 +88,6 @@ class MissionSpec:
     source: str
     plugins: list[str] = field(default_factory=list)
     sha256: str = ""
-
-
-_EXPONENT_AS_TEXT = re.compile(r"^[-+]?\d+(\.\d*)?[eE][-+]?\d+$")
 
 
 def _type_name(value: Any) -> str:
@@ -483,14 +481,15 @@ class _Validator:
             or (kind == "int" and not isinstance(value, int))
         ):
             expected = "a whole number" if kind == "int" else "a number"
-            hint = ""
-            if isinstance(value, str) and _EXPONENT_AS_TEXT.match(value):
-                hint = f" (YAML reads {value} as text: write it out, or with a point and a sign, as 1.0e+3)"
-            self.problem(located, path, f"{what} must be {expected}, got {_type_name(value)}{hint}")
+            self.problem(located, path, f"{what} must be {expected}, got {_type_name(value)}{exponent_hint(value)}")
             return _INVALID
         low, high = param.minimum, param.maximum
         if not math.isfinite(value) or abs(value) > MAX_NUMBER:
-            self.problem(located, path, f"{what} must be a finite number of at most {MAX_NUMBER:,}, got {value}")
+            if high is not None:  # the parameter's own range says more than the limit on every number
+                unit = f" {param.unit}" if param.unit else ""
+                self.problem(located, path, f"{what} must be {param.describe_range()}{unit}, got {value} ({param.doc})")
+            else:
+                self.problem(located, path, f"{what} must be a finite number of at most {MAX_NUMBER:,}, got {value}")
             return _INVALID
         if (low is not None and value < low) or (high is not None and value > high) or (param.positive and value <= 0):
             unit = f" {param.unit}" if param.unit else ""

@@ -175,6 +175,10 @@ def test_grading_twice_writes_the_same_bytes():
             "2:15: time_limit_s: must be from 0.1 to 3,600",
         ),
         (
+            "world: garage\ntime_limit_s: 1e3\nseeds: [1]\ncriteria:\n  - succeed: true\n",
+            "2:15: time_limit_s: expected a number, got '1e3' (YAML reads 1e3 as text: write it out, or with a",
+        ),
+        (
             "world: garage\ntime_limit_s: 30\nseeds: [1, 1]\ncriteria:\n  - succeed: true\n",
             "3:8: seeds: a seed is given twice",
         ),
@@ -405,3 +409,16 @@ def test_a_seed_whose_faults_leave_no_link_scores_nothing_on_that_seed_alone(tmp
         (False, "no run: under this seed's faults the link failed before the mission started (ReplyTimeout)")
     ]
     assert second.verdicts == [(True, "garage: ended inside")]
+
+
+def test_verdict_lines_read_as_a_person_would_write_them():
+    from autonomy.classroom.exercise import Criterion
+    from autonomy.classroom.judge import RunFacts, judge
+    from autonomy.record import Pose
+
+    world = load_exercise(EXERCISES / "garage.yaml").world
+    facts = RunFacts(1, "succeeded", "", 3.0, [(3.0, Pose(500.0, 500.0, -0.3))], [], [], 0.0)
+    facing = Criterion("end_heading_deg", 0, 1.0, {"tolerance_deg": 10.0}, "end_heading_deg 0")
+    assert judge(facing, facts, world).line == "ended facing 0 deg, needed 0 ± 10 (off by 0)"  # not 360 deg
+    nodes = Criterion("max_nodes", 3, 1.0, {}, "max_nodes 3")
+    assert judge(nodes, facts, world).line == "uses 1 node, allowed 3"

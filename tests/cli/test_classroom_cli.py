@@ -259,3 +259,11 @@ def test_check_prints_no_control_character_of_a_file_name(tmp_path):
     assert "\x1b" not in result.stdout + result.stderr and "\x07" not in result.stdout
     assert result.stdout == f"{tmp_path}/x�]0;pwned��[2J.yaml: ok (mission 'm', 1 node)\n"
     assert result.stderr == f"{tmp_path}/y�[2J.yaml:3:3: tree.mvoe: unknown node 'mvoe' (did you mean 'move'?)\n"
+
+
+def test_a_student_grading_a_mission_that_cannot_run_gets_exit_2(tmp_path):
+    mission = tmp_path / "mine.yaml"
+    mission.write_text("mission: mine\ntree:\n  mvoe: {speed: 2}\n")
+    result = autonomy("grade", "garage", str(mission))
+    assert result.returncode == 2 and "Traceback" not in result.stderr
+    assert f"{mission}:3:3: tree.mvoe: unknown node 'mvoe' (did you mean 'move'?)" in result.stdout

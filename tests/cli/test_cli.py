@@ -195,3 +195,19 @@ def test_probe_of_a_robot_that_only_says_ok_is_one_line_and_exit_3():
     finally:
         listener.close()
     assert_one_line_error(result, 3, "no answer from", "lines of text but none the reply asked for", "'OK'")
+
+
+def test_a_command_started_with_its_output_closed_still_runs_and_stops_the_robot(tmp_path):
+    """``autonomy run ... >&-``: nothing can be said, the run and its trace are whole."""
+    trace = tmp_path / "run.jsonl"
+    result = subprocess.run(
+        [sys.executable, "-m", "autonomy", "run", "missions/square.yaml", "--fast", "--trace", str(trace)],
+        stderr=subprocess.PIPE,
+        text=True,
+        timeout=60,
+        cwd=ROOT,
+        preexec_fn=lambda: os.close(1),  # noqa: PLW1509 - the child's own output, closed before it starts
+    )
+    assert result.returncode == 0 and result.stderr == ""
+    end = json.loads(trace.read_text().splitlines()[-1])
+    assert end["type"] == "end" and end["outcome"] == "succeeded" and end["stopped"] is True

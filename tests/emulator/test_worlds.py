@@ -44,6 +44,8 @@ def test_ray_casts_against_boxes_and_circles():
         ("arena_mm: [0, 10]", "1:12: arena_mm[0]", "must be from 1 to 100,000"),
         ("arena_mm: [1000, 1000]\nobstacles: [{wall: {}}]", "2:14: obstacles[0].wall", "unknown shape 'wall'"),
         ("arena_mm: [1000, 1000]\nstart: {x_mm: east}", "2:15: start.x_mm", "expected a number, got 'east'"),
+        ("arena_mm: [1e5, 1000]", "1:12: arena_mm[0]", "got '1e5' (YAML reads 1e5 as text: write it out"),
+        ("arena_mm: [1000, 1000]\n\x1b", "2:1", "the control character ESC (U+001B): remove it; the file must be"),
         ("arena_mm: [1000, 1000]\nstart: {x_mm: .nan}", "2:15: start.x_mm", "must be from"),
         ("arena_mm: [1000, 1000]\nstart: {heading: 90}", "2:9: start.heading", "did you mean 'heading_deg'?"),
         ("arena_mm: [1000, 1000]\nobstacle: []", "2:1: obstacle", "did you mean 'obstacles'?"),

@@ -293,3 +293,6 @@ def test_a_number_of_any_parameter_is_at_most_a_billion_and_one_of_any_kind_says
         validate_text("mission: m\ntree:\n  far: {mm: 1000000001}\n", "m.yaml", registry=registry)
     with pytest.raises(MissionInvalid, match=r"wait seconds must be a number, got 'soon' \(text\)"):
         validate_text("mission: m\ntree:\n  wait: {seconds: soon}\n", "m.yaml")
+    # a parameter with a range of its own says that range, not the limit on every number
+    with pytest.raises(MissionInvalid, match=r"move distance_mm must be above 0, at most 100,000 mm, got inf \(stop"):
+        validate_text("mission: m\ntree:\n  move: {speed: 2, distance_mm: .inf}\n", "m.yaml")
