@@ -770,27 +770,51 @@ def cmd_grade(args: argparse.Namespace) -> int:
 
 
 def _print_marks(exercise: Any, reports: list[Any]) -> None:
-    """The class's marks as a table in the terminal."""
+    """The class's marks as a table in the terminal; why a student was not graded, below it.
+
+    Criteria are named in the table's head when that fits the terminal, else numbered there
+    and named under the table.
+    """
     from rich.console import Console
     from rich.table import Table
 
     from autonomy.views.lines import printable
 
-    table = Table(title=f"{printable(exercise.title)}: marks out of {exercise.max_points:g}")
-    table.add_column("student", no_wrap=True)
-    table.add_column("total", justify="right", no_wrap=True)
-    for criterion in exercise.criteria:
-        table.add_column(f"{printable(criterion.label)} ({criterion.points:g})", justify="right", overflow="fold")
-    troubled = any(report.problems for report in reports)
+    console = Console(highlight=False)
+    labels = [f"{printable(c.label)} ({c.points:g})" for c in exercise.criteria]
+    names = [printable(report.student) for report in reports]
+    cells = [len(f"{m:g}") for report in reports for m in report.marks]
+
+    def width(heads: list[str]) -> int:  # the table's width with these heads over the criteria
+        widest = max([len("student"), *map(len, names)])
+        return widest + len("total") + sum(max(len(head), *cells, 1) for head in heads) + 3 * (len(heads) + 2) + 1
+
+    numbers = [f"#{index}" for index in range(1, len(labels) + 1)]
+    title = f"{printable(exercise.title)}: marks out of {exercise.max_points:g}"
+    heads = labels if width(labels) <= console.width else numbers
+    console.print(title, soft_wrap=True)
+    if width(numbers) > console.width:  # too narrow even for a table: a line a student
+        for name, report in zip(names, reports, strict=True):
+            marks = ", ".join(f"{number} {m:g}" for number, m in zip(numbers, report.marks, strict=True))
+            console.print(f"{name}: {report.total:g} ({marks})", soft_wrap=True)
+    else:
+        table = Table()
+        table.add_column("student", no_wrap=True)
+        table.add_column("total", justify="right", no_wrap=True)
+        for head in heads:
+            table.add_column(head, justify="right", no_wrap=True)
+        for name, report in zip(names, reports, strict=True):
+            table.add_row(name, f"{report.total:g}", *[f"{m:g}" for m in report.marks])
+        console.print(table)
+    if heads is not labels:
+        for number, label in zip(numbers, labels, strict=True):
+            console.print(f"  {number} {label}", soft_wrap=True)
+    troubled = [(name, report) for name, report in zip(names, reports, strict=True) if report.problems]
     if troubled:
-        table.add_column("why nothing ran", overflow="fold")
-    for report in reports:
-        row = [printable(report.student), f"{report.total:g}", *[f"{m:g}" for m in report.marks]]
-        if troubled:
+        console.print("Not graded (the mark is 0):", soft_wrap=True)
+        for name, report in troubled:
             more = f" (+{len(report.problems) - 1} more)" if len(report.problems) > 1 else ""
-            row.append(printable(report.problems[0]) + more if report.problems else "")
-        table.add_row(*row)
-    Console(highlight=False).print(table)
+            console.print(f"  {name}: {printable(report.problems[0])}{more}", soft_wrap=True)
 
 
 def cmd_show(args: argparse.Namespace) -> int:

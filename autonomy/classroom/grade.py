@@ -72,7 +72,7 @@ class Report:
         total: The marks scored.
         max_points: The most that could be scored.
         marks: Each criterion's mark: its points times the share of seeds where it held.
-        problems: Why nothing ran (``FILE:LINE:COL`` lines, or a reason), else empty.
+        problems: Why it was not graded (``FILE:LINE:COL`` lines, or a reason), else empty.
         seeds: Each seed's run.
     """
 

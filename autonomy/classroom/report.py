@@ -68,7 +68,7 @@ def feedback(exercise: Exercise, report: Report) -> list[str]:
         f"in '{printable(exercise.title)}'"
     ]
     if report.problems:
-        lines.append("  Nothing ran, and the mark is 0:")
+        lines.append("  Not graded, and the mark is 0:")
         lines += [f"  {printable(p)}" for p in report.problems]
         return lines
     for index, criterion in enumerate(exercise.criteria):
@@ -150,7 +150,7 @@ def to_html(exercise: Exercise, reports: list[Report]) -> str:
         parts.append(f"<p>{escape(printable(report.file))}</p>")
         if report.problems:
             text = "\n".join(printable(p) for p in report.problems)
-            parts.append(f'<p>Nothing ran:</p><pre class="problems">{escape(text)}</pre></section>')
+            parts.append(f'<p>Not graded:</p><pre class="problems">{escape(text)}</pre></section>')
             continue
         parts.append('<div class="seeds">')
         for seed in report.seeds:

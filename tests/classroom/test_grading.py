@@ -76,7 +76,7 @@ def test_an_invalid_mission_scores_zero_and_its_report_is_its_errors(tmp_path):
     report = grade_one(exercise, "carol", path)
     assert report.total == 0
     assert report.problems == [f"{path}:3:3: tree.mvoe: unknown node 'mvoe' (did you mean 'move'?)"]
-    assert "  Nothing ran, and the mark is 0:" in feedback(exercise, report)
+    assert "  Not graded, and the mark is 0:" in feedback(exercise, report)
 
 
 def test_plugins_are_refused_before_anything_of_them_is_imported(tmp_path):

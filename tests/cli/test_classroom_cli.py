@@ -8,6 +8,8 @@ import os
 import subprocess
 import sys
 
+import pytest
+
 from tests.cli.test_cli import ROOT, autonomy
 
 
@@ -267,3 +269,47 @@ def test_a_student_grading_a_mission_that_cannot_run_gets_exit_2(tmp_path):
     result = autonomy("grade", "garage", str(mission))
     assert result.returncode == 2 and "Traceback" not in result.stderr
     assert f"{mission}:3:3: tree.mvoe: unknown node 'mvoe' (did you mean 'move'?)" in result.stdout
+
+
+@pytest.mark.parametrize(
+    ("columns", "expected"),
+    [
+        (
+            "200",
+            [
+                "┃ student           ┃ total ┃ end_in_zone garage (5) ┃ max_collisions 0 (3) ┃ "
+                "finish_within_s 30 (2) ┃",
+                "│ garage            │    10 │                      5 │                    3 │                      2 "
+                "│",
+                "│ garage_until_bump │     0 │                      0 │                    0 │                      0 "
+                "│",
+            ],
+        ),
+        (
+            "60",
+            [
+                "┃ student           ┃ total ┃ #1 ┃ #2 ┃ #3 ┃",
+                "│ garage            │    10 │  5 │  3 │  2 │",
+                "  #1 end_in_zone garage (5)",
+                "  #3 finish_within_s 30 (2)",
+            ],
+        ),
+        (
+            "20",
+            ["garage: 10 (#1 5, #2 3, #3 2)", "garage_until_bump: 0 (#1 0, #2 0, #3 0)", "  #2 max_collisions 0 (3)"],
+        ),
+    ],
+)
+def test_the_marks_table_fits_the_terminal_naming_criteria_under_it_when_it_must(columns, expected):
+    solutions = [ROOT / "exercises" / "solutions" / "garage.yaml", ROOT / "exercises/wrong/garage_until_bump.yaml"]
+    result = subprocess.run(
+        [sys.executable, "-m", "autonomy", "grade", "garage", *map(str, solutions), "--workers", "2"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        cwd=ROOT,
+        env={**os.environ, "COLUMNS": columns},
+    )
+    assert result.returncode == 0, result.stderr
+    lines = result.stdout.splitlines()
+    assert [line for line in expected if line not in lines] == []
