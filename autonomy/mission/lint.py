@@ -6,10 +6,12 @@
 - A condition followed only by actions that finish at once (beep, log, servo, stop), under a
   ``repeat``: it succeeds in one tick and is started again on the next, so it fires on every
   tick while the condition holds; the collision flag alone is held for 0.5 s, ten ticks.
-- A ``repeat`` forever that nothing ends: no ``times``, and no ``parallel``, ``timeout`` or
-  ``while`` above it, so the mission never ends unless its child fails.
+  Not when something that takes time follows it before the repeat comes round again.
+- A ``repeat`` forever that nothing ends: no ``times``, no ``parallel``, ``timeout`` or
+  ``while`` above it, and no condition below it that could fail and so end it.
 - A ``move`` with no ending (no ``distance_mm``, ``seconds`` or ``until_obstacle_mm``) that
-  nothing above it can stop: no ``selector``, ``parallel``, ``timeout`` or ``while``.
+  nothing above it can stop: no ``parallel``, ``timeout`` or ``while``, and no ``selector``
+  (without memory) with a branch before it, which takes over when it can.
 """
 
 from __future__ import annotations
@@ -57,6 +59,39 @@ def _ticked_again(above: tuple[NodeSpec, ...]) -> bool:
     return any(a.type.name == "repeat" for a in above)
 
 
+def _branches(node: NodeSpec, above: tuple[NodeSpec, ...]) -> Iterator[tuple[NodeSpec, int]]:
+    """Each node above ``node``, nearest first, with the index among its children of the branch that leads down."""
+    below = node
+    for parent in reversed(above):
+        index = next((i for i, child in enumerate(parent.children) if child is below), -1)  # -1: a subtree's
+        yield parent, index
+        below = parent
+
+
+def _followed_by_time(node: NodeSpec, above: tuple[NodeSpec, ...]) -> bool:
+    """Whether something that takes time (a wait, a move...) runs after ``node`` before its repeat starts it anew."""
+    for parent, index in _branches(node, above):
+        if parent.type.name == "repeat":
+            return False
+        after = parent.children[index + 1 :] if parent.type.name == "sequence" and index >= 0 else []
+        if any(c.type.name not in INSTANT_ACTIONS and not _is_condition(c) for c in after):
+            return True
+    return False
+
+
+def _can_fail(spec: MissionSpec, node: NodeSpec) -> bool:
+    """Whether ``node`` holds a condition, which can fail and end a ``repeat`` (drive until a wall is near)."""
+    return any(n.type.category == "condition" for n, _ in _walk(spec, node, ()))
+
+
+def _preempted(node: NodeSpec, above: tuple[NodeSpec, ...]) -> bool:
+    """Whether something above ``node`` can end it: a parallel, timeout or while; a selector with a branch before it."""
+    return any(
+        parent.type.name in ENDERS or (parent.type.name == "selector" and index > 0 and not parent.args.get("memory"))
+        for parent, index in _branches(node, above)
+    )
+
+
 def lint(spec: MissionSpec) -> list[Problem]:
     """The warnings for a valid mission, each at the node it is about, in file order."""
     found: dict[tuple[int, int, str], Problem] = {}
@@ -69,7 +104,12 @@ def lint(spec: MissionSpec) -> list[Problem]:
         name = node.type.name
         if name == "sequence" and node.children and _ticked_again(above):
             first, rest = node.children[0], node.children[1:]
-            if _is_condition(first) and rest and all(c.type.name in INSTANT_ACTIONS for c in rest):
+            if (
+                _is_condition(first)
+                and rest
+                and all(c.type.name in INSTANT_ACTIONS for c in rest)
+                and not _followed_by_time(node, above)
+            ):
                 did = " and ".join(sorted({c.type.name for c in rest}))
                 held = " (the collision flag stays set 0.5 s: about 10 ticks)" if first.type.name == "collided" else ""
                 warn(
@@ -84,17 +124,22 @@ def lint(spec: MissionSpec) -> list[Problem]:
                 f"repeats '{node.children[0].display_name}', which is done in one tick: it runs on every tick "
                 f"({spec.tick_hz:g} times a second); put a wait after it in a sequence",
             )
-        if name == "repeat" and not node.args.get("times") and not any(a.type.name in ENDERS for a in above):
+        if (
+            name == "repeat"
+            and not node.args.get("times")
+            and not any(a.type.name in ENDERS for a in above)
+            and not _can_fail(spec, node)
+        ):
             warn(
                 node,
                 "repeats forever and nothing ends it: the mission only ends if its child fails; give times:, "
                 "or put it under a timeout, or in a parallel with a wait",
             )
         elif name == "move" and not any(node.args.get(k) for k in ("distance_mm", "seconds", "until_obstacle_mm")):
-            if not any(a.type.name in (*ENDERS, "selector") for a in above):
+            if not _preempted(node, above):
                 warn(
                     node,
                     "drives on until something stops it, and nothing here does: give distance_mm, seconds or "
-                    "until_obstacle_mm, or put it in a selector or parallel with a condition that ends it",
+                    "until_obstacle_mm, or put it after a condition in a selector, or in a parallel",
                 )
     return sorted(found.values(), key=lambda p: (p.line, p.column))

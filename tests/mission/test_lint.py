@@ -89,3 +89,27 @@ def test_an_instant_action_repeated_and_a_decorated_condition_are_warned_about_t
     ]
     assert "it runs on every tick (20 times a second)" in found[0]
     assert "then only beep, under a repeat" in found[1]
+
+
+def test_a_sequence_followed_by_a_wait_before_its_repeat_comes_round_is_not_warned_about():
+    text = (
+        "mission: m\ntree:\n  repeat:\n    times: 5\n    do:\n      sequence:\n"
+        "        - sequence: [{obstacle_within: {mm: 200}}, {beep: {}}]\n        - {wait: {seconds: 2}}\n"
+    )
+    assert warnings(text) == []
+    assert len(warnings(text.replace("{wait: {seconds: 2}}", "{beep: {}}"))) == 1  # only instants after it: warned
+
+
+def test_a_repeat_forever_ended_by_a_condition_failing_is_not_warned_about():
+    until = (
+        "mission: m\ntree:\n  repeat:\n    do:\n      sequence:\n"
+        "        - invert: {do: {obstacle_within: {mm: 200}}}\n        - move: {speed: 2, distance_mm: 50}\n"
+    )
+    assert warnings(until) == []
+
+
+def test_a_move_first_in_a_selector_has_nothing_to_stop_it():
+    found = warnings("mission: m\ntree:\n  selector: [{move: {speed: 2}}, {beep: {}}]\n")
+    assert len(found) == 1 and found[0].startswith("3:15: tree.selector[0].move: warning: drives on until something")
+    remembering = "mission: m\ntree:\n  selector:\n    memory: true\n    children: [collided, {move: {speed: 2}}]\n"
+    assert len(warnings(remembering)) == 1  # a selector with memory does not look at 'collided' again
