@@ -134,7 +134,7 @@ class LiveView:
         out = []
         for line in tree_lines(header, state.nodes, rows):
             if line.node < 0:
-                out.append(Text(f"… {line.folded} more lines", style="dim"))
+                out.append(Text(f"{'  ' * line.depth}… {line.folded} more lines", style="dim"))
                 continue
             info = header.nodes[line.node]
             node_state = state.nodes[line.node]

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 from dataclasses import dataclass
+from itertools import pairwise
 from typing import Any
 
 from autonomy.record import FAILURE, INVALID, RUNNING, SUCCESS, NodeInfo, NodeState, RunHeader
@@ -110,9 +111,44 @@ def tree_lines(header: RunHeader, states: dict[int, NodeState] | None = None, ma
     parents = {n.id: n.parent for n in header.nodes}
     lines = walk(lambda c: running(c) or running(parents[c]), lambda n: not running(n) and n != 0)
     if len(lines) > max_lines:
-        hidden = len(lines) - max_lines + 1
-        lines = lines[: max_lines - 1] + [Line(-1, 0, hidden)]
+        lines = _around_running(lines, [i for i, line in enumerate(lines) if running(line.node)], max_lines)
     return lines
+
+
+def _around_running(lines: list[Line], running: list[int], max_lines: int) -> list[Line]:
+    """At most ``max_lines`` of ``lines``: every running one, and as many as fit around the last of them.
+
+    Each run of lines left out becomes one line saying how many (``Line(-1, depth, count)``), so the
+    node that runs now is on screen even in a sequence of hundreds.
+    """
+    focus = running[-1] if running else 0
+    kept = set(running) | {focus}
+
+    def shown(indexes: set[int]) -> int:  # lines drawn: those kept, and one for each run left out
+        order = sorted(indexes)
+        gaps = (order[0] > 0) + (order[-1] < len(lines) - 1) + sum(b - a > 1 for a, b in pairwise(order))
+        return len(order) + gaps
+
+    if shown(kept) > max_lines:  # not even the running branch fits: its deepest part does
+        kept = set(sorted(kept)[-max(1, max_lines - 1) :])
+    before, after = focus - 1, focus + 1
+    while before >= 0 or after < len(lines):  # widen around the focus, a line before for each after
+        for index in (after, before):
+            if 0 <= index < len(lines) and index not in kept and shown(kept | {index}) <= max_lines:
+                kept.add(index)
+        if shown(kept | {after}) > max_lines and shown(kept | {before}) > max_lines:
+            break
+        before, after = before - 1, after + 1
+    out: list[Line] = []
+    previous = -1
+    for index in sorted(kept):
+        if index - previous > 1:
+            out.append(Line(-1, lines[previous + 1].depth, index - previous - 1))
+        out.append(lines[index])
+        previous = index
+    if previous < len(lines) - 1:
+        out.append(Line(-1, lines[previous + 1].depth, len(lines) - 1 - previous))
+    return out
 
 
 def tree_text(header: RunHeader) -> str:

@@ -219,3 +219,18 @@ def test_grading_a_class_in_a_terminal_shows_a_progress_bar_then_the_marks_table
         ["opening_straight", "0", "0", "0", "0"],
     ], screen
     assert all(len(line) <= 80 for line in screen)
+
+
+@pytest.mark.parametrize("now", [1, 2, 20, 27, 39, 40])
+def test_a_long_sequence_shows_the_step_that_runs_whatever_its_place(now):
+    nodes = [NodeInfo(0, "root", "sequence", "composite", {}, None)]
+    nodes += [NodeInfo(i, f"wait {i}", "wait", "action", {}, 0) for i in range(1, 41)]
+    header = RunHeader("waits", nodes, 20.0)
+    states = {i: NodeState("SUCCESS" if i < now else "INVALID") for i in range(1, 41)}
+    states[0] = states[now] = NodeState("RUNNING")
+    lines = tree_lines(header, states, 12)
+    shown = [line.node for line in lines]
+    assert len(lines) <= 12 and shown[0] == 0 and now in shown
+    assert sum(line.folded for line in lines if line.node < 0) + len(shown) - shown.count(-1) == 41  # all accounted for
+    at = shown.index(now)
+    assert shown[at - 1] in (now - 1, -1, 0) and (at + 1 == len(shown) or shown[at + 1] in (now + 1, -1))
