@@ -1006,7 +1006,13 @@ def build_parser() -> argparse.ArgumentParser:
         "trace", metavar="TRACE", help="a trace written by run --trace, or a .btlog (ours or BehaviorTree.CPP's)"
     )
     _view_arguments(replay)
-    replay.add_argument("--speed", type=_positive, default=1.0, metavar="X", help="playback speed (default 1)")
+    replay.add_argument(
+        "--speed",
+        type=_bounded(float, 0.01, 1000, "a playback speed"),
+        default=1.0,
+        metavar="X",
+        help="playback speed, 0.01 to 1000 (default 1)",
+    )
     replay.add_argument("--lines", action="store_true", help="line output even on a terminal")
     replay.add_argument("--hold", type=float, default=2.0, metavar="S", help=argparse.SUPPRESS)
     replay.set_defaults(func=cmd_replay)

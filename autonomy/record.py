@@ -473,6 +473,20 @@ _JSON_BOOL = {True: "true", False: "false"}
 _RAW, _QUOTE = '"raw":"', '"'
 
 
+def _battery(value: Any) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value <= 255:
+        raise RecordError(f"battery must be a whole number from 0 to 255, got {value!r}")
+    return value
+
+
+def _node_state(value: Any) -> NodeState:
+    if not isinstance(value, list) or not 1 <= len(value) <= 2 or value[0] not in (RUNNING, SUCCESS, FAILURE, INVALID):
+        raise RecordError(
+            f"a node's state is [status, feedback], the status RUNNING, SUCCESS, FAILURE or INVALID; got {value!r}"
+        )
+    return NodeState(value[0], str(value[1]) if len(value) > 1 else "")
+
+
 def _finite(value: Any, what: str) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
         raise RecordError(f"{what} must be a finite number, got {value!r}")
@@ -530,14 +544,12 @@ def record_from_json(value: Any) -> Record:
                 tick=int(value["tick"]),
                 time_s=_finite(value["time_s"], "time_s"),
                 status=_status_from_json(value["status"]),
-                battery=int(value["battery"]),
+                battery=_battery(value["battery"]),
                 healthy=bool(value["healthy"]),
                 speed_mm_s=_finite(value["speed_mm_s"], "speed_mm_s"),
                 dead_reckoning=Pose.from_json(value["dead_reckoning"]),
                 truth=None if truth is None else Pose.from_json(truth),
-                nodes={
-                    int(k): NodeState(str(v[0]), str(v[1]) if len(v) > 1 else "") for k, v in value["nodes"].items()
-                },
+                nodes={int(k): _node_state(v) for k, v in value["nodes"].items()},
                 wire=[Exchange.from_json(e) for e in value.get("wire", [])],
                 events=[Event.from_json(e) for e in value.get("events", [])],
             )

@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import TextIO
 
 from autonomy.clock import Clock, RealClock
+from autonomy.emulator.world import WorldInvalid, world_from_dict
 from autonomy.errors import AutonomyError
 from autonomy.record import Listener, Record, RecordError, RunEnd, RunHeader, TickRecord, record_from_json, to_line
 
@@ -173,7 +174,7 @@ def read_trace(path: str | Path) -> Trace:
         try:
             if len(line) > MAX_LINE_CHARS:
                 raise RecordError(f"the line is longer than {MAX_LINE_CHARS} characters")
-            record = record_from_json(json.loads(line))
+            record = record_from_json(json.loads(line, parse_constant=_not_a_number))
         except (json.JSONDecodeError, RecordError, RecursionError) as err:
             if last and not complete and isinstance(err, json.JSONDecodeError):
                 cut_off = number
@@ -183,10 +184,16 @@ def read_trace(path: str | Path) -> Trace:
         if header is None:
             if not isinstance(record, RunHeader):
                 raise TraceError(f"{path}:{number}: a trace starts with its header; this is a {type(record).__name__}")
+            why = _header_problem(record)
+            if why:
+                raise TraceError(f"{path}:{number}: {why}")
             header = record
         elif isinstance(record, TickRecord):
             if end is not None:
                 raise TraceError(f"{path}:{number}: a tick after the run's end")
+            unknown = [node_id for node_id in record.nodes if not 0 <= node_id < len(header.nodes)]
+            if unknown:
+                raise TraceError(f"{path}:{number}: tick {record.tick} names node {unknown[0]}, not in the header")
             ticks.append(record)
         elif isinstance(record, RunEnd):
             end = record
@@ -195,6 +202,30 @@ def read_trace(path: str | Path) -> Trace:
     if header is None:
         raise TraceError(f"{path}: empty: no header line")
     return Trace(header, ticks, end, cut_off)
+
+
+def _not_a_number(name: str) -> None:
+    raise RecordError(f"{name} is not a number a trace holds")
+
+
+def _header_problem(header: RunHeader) -> str:
+    """Why a header's tree or world cannot be drawn, or empty: the views take both as they are."""
+    for index, node in enumerate(header.nodes):
+        if node.id != index:
+            return f"the header's nodes are numbered 0, 1, 2... in order; node {index} is numbered {node.id}"
+        if (node.parent is None) != (index == 0) or (node.parent is not None and not 0 <= node.parent < index):
+            return f"node {index}'s parent must be a node before it (the root, 0, alone has none); got {node.parent}"
+    if not header.nodes:
+        return "the header has no nodes"
+    if header.world is not None:
+        if not isinstance(header.world, dict):
+            return f"the header's world is a world file's content, got {type(header.world).__name__}"
+        try:
+            world_from_dict(header.world)
+        except WorldInvalid as err:
+            first = err.problems[0]
+            return f"the header's world is not valid: {f'{first.path}: ' if first.path else ''}{first.message}"
+    return ""
 
 
 #: Longest wait between two ticks of a replay, in played seconds: a longer quiet spell is cut short.

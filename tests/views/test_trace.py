@@ -6,6 +6,7 @@ import dataclasses
 import io
 import json
 import math
+import re
 import signal
 import subprocess
 import sys
@@ -82,7 +83,7 @@ def test_a_run_killed_with_sigkill_leaves_a_readable_trace(tmp_path):
         ('{"type": "tick"}\n', ":1: a tick record with a missing or malformed field"),
         ("not json\n{}\n", ":1: not JSON"),
         ('{"type": "header", "version": 99, "mission": "m", "nodes": [], "tick_hz": 20}\n', "record version 99"),
-        ('{"type": "header", "mission": "m", "nodes": [], "tick_hz": NaN}\n', "tick_hz must be a finite number"),
+        ('{"type": "header", "mission": "m", "nodes": [], "tick_hz": NaN}\n', ":1: NaN is not a number a trace holds"),
         ("[1, 2]\n", ":1: not a record"),
     ],
 )
@@ -94,9 +95,69 @@ def test_bad_traces_are_refused_with_file_and_line(tmp_path, content, message):
     assert str(caught.value).startswith(str(path))
 
 
+#: A line of a real trace changed (0: the header, 20: a tick), and what reading it then says.
+DAMAGED = {
+    "an unknown node": (
+        20,
+        lambda t: t.update(nodes={"99": ["RUNNING"]}),
+        ":21: tick 20 names node 99, not in",
+    ),
+    "NaN in a pose": (20, lambda t: t.update(dead_reckoning=[float("nan"), 1, 2]), ":21: NaN is not a number"),
+    "infinity": (20, lambda t: t.update(battery=float("inf")), ":21: Infinity is not a number a trace holds"),
+    "a huge battery": (20, lambda t: t.update(battery=1e300), ":21: battery must be a whole number from 0 to 255"),
+    "an unknown status": (
+        20,
+        lambda t: t.update(nodes={"1": ["SKIPPED"]}),
+        ":21: a node's state is [status",
+    ),
+    "NaN in a parameter": (0, lambda h: h["nodes"][1]["params"].update(speed=float("nan")), ":1: NaN is not a number"),
+    "an empty arena": (
+        0,
+        lambda h: h["world"].update(arena_mm=[0, 0]),
+        ":1: the header's world is not valid: arena_mm[0]: must be from 1",
+    ),
+    "nodes numbered from 1": (
+        0,
+        lambda h: [n.update(id=n["id"] + 1) for n in h["nodes"]],
+        ":1: the header's nodes are numbered 0, 1, 2... in order; node 0 is numbered 1",
+    ),
+    "a parent after its child": (
+        0,
+        lambda h: h["nodes"][1].update(parent=5),
+        ":1: node 1's parent must be",
+    ),
+    "a world by name": (
+        0,
+        lambda h: h.update(world="box"),
+        ":1: the header's world is a world file's",
+    ),
+}
+
+
+@pytest.mark.parametrize("damage", sorted(DAMAGED))
+def test_a_damaged_trace_is_refused_at_its_line_before_any_view_draws_it(tmp_path, damage):
+    path, _ = run_and_record(tmp_path)
+    lines = path.read_text().splitlines()
+    index, change, message = DAMAGED[damage]
+    record = json.loads(lines[index])
+    change(record)
+    lines[index] = json.dumps(record)
+    path.write_text("\n".join(lines) + "\n")
+    with pytest.raises(TraceError, match=re.escape(f"{path}{message}")):
+        read_trace(path)
+    result = subprocess.run(
+        [sys.executable, "-m", "autonomy", "plot", str(path), "-o", str(tmp_path / "x.png")],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+    )
+    assert result.returncode == 2 and result.stderr.startswith(f"autonomy: error: {path}{message}")
+
+
 def test_the_replay_command_refuses_a_bad_trace_in_one_line(tmp_path):
     path = tmp_path / "bad.jsonl"
-    path.write_text('{"type": "header", "mission": "m", "nodes": [], "tick_hz": 20}\n\x00garbage\n')
+    root = '{"id": 0, "name": "r", "type": "wait", "category": "action", "params": {}, "parent": null}'
+    path.write_text(f'{{"type": "header", "mission": "m", "nodes": [{root}], "tick_hz": 20}}\n\x00garbage\n')
     result = subprocess.run(
         [sys.executable, "-m", "autonomy", "replay", str(path)], cwd=ROOT, capture_output=True, text=True
     )
