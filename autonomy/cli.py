@@ -253,7 +253,11 @@ class _Output:
                 callback("its output was closed")
 
     def paragraph(self, text: str) -> None:
-        """Writes a paragraph; on a terminal, folded between words to its width (a pipe gets one line)."""
+        """Writes a paragraph; on a terminal, folded between words to its width (a pipe gets one line).
+
+        A behaviour's exception quoted in it (``RuntimeError("\\x1b[31m...")``) reaches the terminal as ``�``.
+        """
+        text = _shown(text)
         try:
             terminal = sys.stdout.isatty()
         except ValueError:  # closed
@@ -337,11 +341,12 @@ def _print_crash(end: Any, debug: bool) -> None:
     for event in end.events if end is not None else []:
         if event.kind != "exception":
             continue
-        if debug and event.traceback:
-            print(event.traceback.rstrip(), file=sys.stderr)
+        if debug and event.traceback:  # line by line, each made printable
+            for line in event.traceback.rstrip().splitlines():
+                print(_shown(line), file=sys.stderr)
         else:
             for frame in event.frames:
-                print(f"  {frame}", file=sys.stderr)
+                print(f"  {_shown(frame)}", file=sys.stderr)
             print("  (--debug prints the whole traceback)", file=sys.stderr)
 
 
@@ -572,7 +577,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
         else:
             replay(trace, LinePrinter(output), RealClock(), args.speed)
         if trace.end is not None:
-            output(trace.end.paragraph)
+            output.paragraph(trace.end.paragraph)
     except KeyboardInterrupt:
         return EXIT_INTERRUPTED
     return EXIT_OK

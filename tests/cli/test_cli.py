@@ -211,3 +211,18 @@ def test_a_command_started_with_its_output_closed_still_runs_and_stops_the_robot
     assert result.returncode == 0 and result.stderr == ""
     end = json.loads(trace.read_text().splitlines()[-1])
     assert end["type"] == "end" and end["outcome"] == "succeeded" and end["stopped"] is True
+
+
+@pytest.mark.parametrize("debug", [[], ["--debug"]])
+def test_a_behaviours_exception_with_control_characters_changes_nothing_on_the_screen(tmp_path, debug):
+    (tmp_path / "evil.py").write_text(
+        "from autonomy.behaviours import RobotAction\n\n\nclass Evil(RobotAction):\n"
+        '    """Raises with control characters."""\n\n    node_type = "evil"\n\n'
+        "    def update(self):\n"
+        '        raise RuntimeError("boom \\x1b[31m in evil\\n second line")\n'
+    )
+    mission = tmp_path / "evil.yaml"
+    mission.write_text("mission: evil\nplugins: [evil]\ntree:\n  evil: {}\n")
+    result = autonomy("run", str(mission), "--fast", *debug)
+    assert result.returncode == 1 and "\x1b" not in result.stdout + result.stderr
+    assert f"raised RuntimeError: boom �[31m in evil� second line at {tmp_path}/evil.py:10 in update." in result.stdout
