@@ -163,6 +163,18 @@ def settled_heap() -> Iterator[None]:
         gc.unfreeze()
 
 
+#: Most characters kept of a behaviour's text (feedback, a log message, an exception's): the views
+#: show a line of it, and one text of megabytes a tick would make a trace no reader takes.
+MAX_TEXT_CHARS = 1000
+#: Most characters kept of an exception's whole traceback (its end: the innermost frames).
+MAX_TRACEBACK_CHARS = 20_000
+
+
+def clipped(text: str, most: int = MAX_TEXT_CHARS) -> str:
+    """``text``, or its first ``most`` characters ending with ``…``."""
+    return text if len(text) <= most else text[: most - 1] + "…"
+
+
 #: The most exchanges a runner keeps to hand out again (errors' texts may all differ).
 MOST_EXCHANGES_KEPT = 1024
 
@@ -244,7 +256,7 @@ class Runner:
             listener(record)
 
     def _log(self, message: str, kind: str = "log") -> None:
-        self._events.append(Event(kind, message))
+        self._events.append(Event(kind, clipped(str(message))))
 
     def _on_exchange(self, frame: bytes, outcome: Reply | AutonomyError, attempt: int) -> None:
         reply = _reply_text(outcome)
@@ -476,7 +488,7 @@ class Runner:
             status, feedback = node.status, node.feedback_message
             if status is not statuses[index] or feedback != feedbacks[index]:
                 statuses[index], feedbacks[index] = status, feedback
-                changes[index] = NodeState(status.value, feedback or "")
+                changes[index] = NodeState(status.value, clipped(feedback) if feedback else "")
         return changes
 
     def _loop(self) -> str:
@@ -543,8 +555,10 @@ class Runner:
         # testing the mutation tool's frames are on every stack, so the fallback cannot be told apart.)
         own = [f for f in frames if not f.filename.startswith(_LIBRARY_DIRS)] or list(frames)  # pragma: no mutate
         lines = tuple(f"{_short_path(f.filename)}:{f.lineno} in {f.name}: {(f.line or '').strip()}" for f in own[-3:])
-        error = f"{type(err).__name__}: {err}"
+        error = clipped(f"{type(err).__name__}: {err}")
         full = "".join(traceback.format_exception(err))
+        if len(full) > MAX_TRACEBACK_CHARS:
+            full = "…" + full[-(MAX_TRACEBACK_CHARS - 1) :]
         node_id = self._ids[id(node)]
         nodes = cast(RunHeader, self.header).nodes  # tick() refuses to run before setup() made it
         info = nodes[node_id]
@@ -563,7 +577,7 @@ class Runner:
         if not failed:
             return ""
         node = failed[-1]  # the last tried: a sequence stops at it, a selector tried it after all the others
-        return f"'{node.name}' failed" + (f" ({node.feedback_message})" if node.feedback_message else "")
+        return f"'{node.name}' failed" + (f" ({clipped(node.feedback_message)})" if node.feedback_message else "")
 
     def _halt(self) -> None:
         """Halts running nodes, so that motion actions send their stop."""

@@ -328,3 +328,33 @@ def test_a_record_with_a_number_json_cannot_hold_ends_the_trace_after_the_lines_
         writer(record)
     assert stream.getvalue().splitlines() == [to_line(r) for r in [header, *ticks[:3]]]
     assert writer.failure == f"tick {bad.tick} holds a number that is not finite"
+
+
+def test_a_behaviours_text_of_megabytes_is_clipped_so_its_trace_can_be_read(tmp_path):
+    """One feedback, log line or exception of 5 MB would make a line no reader takes: each keeps 1,000 characters."""
+    import py_trees
+
+    from autonomy.runner import MAX_TEXT_CHARS
+
+    huge = ",".join(map(str, range(800_000)))
+
+    class Chatty(py_trees.behaviour.Behaviour):
+        def update(self):
+            if self.feedback_message:
+                raise RuntimeError(huge)
+            self.feedback_message = huge
+            return py_trees.common.Status.RUNNING
+
+    path = tmp_path / "run.jsonl"
+    client = Client.open("emu://?time=virtual")
+    with open(path, "w", encoding="utf-8") as stream:
+        summary = Runner(Chatty("chatty"), client, mission="chatty", listeners=[TraceWriter(stream)]).run()
+    client.close()
+    assert summary.outcome == "stopped by an error" and len(summary.paragraph) < 3 * MAX_TEXT_CHARS
+    trace = read_trace(path)
+    feedback = trace.ticks[0].nodes[0].feedback
+    assert len(feedback) == MAX_TEXT_CHARS and feedback == huge[: MAX_TEXT_CHARS - 1] + "…"
+    crash = next(e for e in trace.end.events if e.kind == "exception")
+    assert len(crash.message) < 2 * MAX_TEXT_CHARS and "273… at " in crash.message
+    assert len(crash.traceback) == 20_000 and crash.traceback.startswith("…")
+    assert path.stat().st_size < 100_000
