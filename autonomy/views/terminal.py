@@ -20,7 +20,7 @@ from rich.text import Text
 
 from autonomy.clock import Clock, RealClock
 from autonomy.record import Record, RunEnd, RunHeader, TickRecord, TreeState
-from autonomy.views.lines import printable
+from autonomy.views.lines import fit, printable
 from autonomy.views.treetext import (
     LEGEND_STATUS,
     SHAPE_SYMBOLS,
@@ -113,18 +113,23 @@ class LiveView:
         return layout
 
     def _title(self) -> Text:
+        """One line: the mission's name (cut to what the line leaves it), the outcome, time, world, what Ctrl-C does."""
         header, last = self.header, self.last
-        text = Text(printable(f" {header.mission if header else '...'} "), style="bold reverse")
+        rest = Text()
         if self.end is not None:
             colour = "green" if self.end.outcome == "succeeded" else "red"
-            text.append(f" {self.end.outcome} ", style=f"bold {colour}")
+            rest.append(f" {self.end.outcome} ", style=f"bold {colour}")
         else:
-            text.append(f" {self.title} ", style="bold yellow")
+            rest.append(f" {self.title} ", style="bold yellow")
         if last is not None:
-            text.append(f" {last.time_s:6.1f} s  tick {last.tick}")
+            rest.append(f" {last.time_s:6.1f} s  tick {last.tick}")
         if header is not None and header.world:
-            text.append(printable(f"  world {header.world.get('name', '?')}"))
-        text.append("   Ctrl-C stops the robot" if self.title == "live" and self.end is None else "   Ctrl-C quits")
+            rest.append(fit(f"  world {header.world.get('name', '?')}", 24))
+        rest.append("   Ctrl-C stops the robot" if self.title == "live" and self.end is None else "   Ctrl-C quits")
+        room = max(8, self.console.size.width - len(rest.plain) - 2)
+        text = Text(f" {fit(header.mission if header else '...', room)} ", style="bold reverse")
+        text.append_text(rest)
+        text.no_wrap, text.overflow = True, "ellipsis"
         return text
 
     def _tree(self, rows: int) -> Group:

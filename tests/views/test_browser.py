@@ -263,3 +263,36 @@ def test_the_heading_plot_lifts_its_pen_wherever_the_heading_wrapped_between_two
     wrapped = [any(headings[i] < headings[i - 1] for i in range(a + 1, b + 1)) for a, b in itertools.pairwise(drawn)]
     assert len(drawn) > 300 and 0 < sum(wrapped) < len(wrapped)
     assert [step[0] for step in d.split()] == ["M"] + ["M" if w else "L" for w in wrapped]
+
+
+def test_a_wide_tree_stays_readable_and_the_panel_follows_the_step_that_runs(tmp_path, page, serve):
+    """Forty steps of a sequence (some 5,000 px of tree) and a long mission name, as a class's projector shows them."""
+    name = "a mission whose name goes on and on " * 4
+    mission = tmp_path / "waits.yaml"
+    mission.write_text(f"mission: {name.strip()}\ntree:\n  sequence:\n" + "    - wait: {seconds: 0.25}\n" * 40)
+    path = record_trace(tmp_path, str(mission))
+    trace = read_trace(path)
+    served = serve("replay", path, "--view")
+    page.goto(served.url)
+    page.wait_for_selector("#controls:not([hidden])")
+    natural, shown = page.eval_on_selector(
+        "#tree svg", "s => [+s.getAttribute('width'), s.getBoundingClientRect().width]"
+    )
+    assert natural > 4000 and shown >= 0.69 * natural  # shrunk no further than its words can be read
+    for step in (3, 27, 40):  # the first, a middle and the last wait: each in view when it runs
+        index = next(
+            i for i, t in enumerate(trace.ticks) if t.nodes.get(step, None) and t.nodes[step].status == "RUNNING"
+        )
+        page.locator("#slider").fill(str(index))
+        assert fill(page, step) == YELLOW
+        inside = page.eval_on_selector(
+            f"#node-{step}",
+            "g => { const r = g.getBoundingClientRect(), b = document.querySelector('#tree').getBoundingClientRect();"
+            " return r.left >= b.left && r.right <= b.right && r.top >= b.top && r.bottom <= b.bottom; }",
+        )
+        assert inside, step
+    badge = page.eval_on_selector("#state", "el => el.getBoundingClientRect().right")
+    assert (
+        badge <= 1400 and page.evaluate("document.documentElement.scrollWidth") <= 1400
+    )  # the name is cut, not the page
+    assert served.interrupt()[0] == 0

@@ -59,6 +59,8 @@ function load(payload) {
   $("mission").textContent = payload.header ? payload.header.mission : "waiting for the run";
   document.title = "autonomy: " + (payload.header ? payload.header.mission : "a run");
   $("tree").innerHTML = payload.tree_svg || "";
+  view.treeFocus = null;
+  fitTree();
   for (const g of document.querySelectorAll("#tree .node")) {
     const rect = g.querySelector("rect");
     const y = parseFloat(rect.getAttribute("y")) + parseFloat(rect.getAttribute("height")) + 11;
@@ -228,14 +230,39 @@ function renderPlots(i) {
 
 // ------------------------------------------------------------------ tree, log, header
 
+// A wide tree is shrunk to the panel, but never below MIN_TREE_SCALE of its size, where its
+// words are still read: past that the panel scrolls, and follows the node that runs.
+const MIN_TREE_SCALE = 0.7;
+
+function fitTree() {
+  const svg = document.querySelector("#tree svg");
+  const natural = svg ? parseFloat(svg.getAttribute("width")) : 0;
+  const room = $("tree").clientWidth;
+  if (natural > 0 && room > 0) svg.style.width = `${Math.max(Math.min(natural, room), natural * MIN_TREE_SCALE)}px`;
+}
+window.addEventListener("resize", fitTree);
+
 function renderTree(i) {
   const state = i >= 0 ? stateAt(i, false) : {};
+  let running = null;
   for (const g of document.querySelectorAll("#tree .node")) {
     const s = state[g.dataset.node] || ["INVALID"];
     g.setAttribute("data-status", s[0]);
     const fb = g.querySelector(".feedback");
     fb.textContent = s[0] === "RUNNING" || s[0] === "FAILURE" ? (s[1] || "") : "";
+    // the highest id that runs: ids go parents before children, so the deepest, the latest of a sequence
+    if (s[0] === "RUNNING" && (!running || +g.dataset.node > +running.dataset.node)) running = g;
   }
+  if (running && running.id !== view.treeFocus) {  // only when it moves on: a person may scroll meanwhile
+    view.treeFocus = running.id;
+    follow(running);
+  }
+}
+
+function follow(g) {
+  const box = $("tree"), r = g.getBoundingClientRect(), b = box.getBoundingClientRect();
+  if (r.left < b.left || r.right > b.right) box.scrollLeft += (r.left + r.right - b.left - b.right) / 2;
+  if (r.top < b.top || r.bottom > b.bottom) box.scrollTop += (r.top + r.bottom - b.top - b.bottom) / 2;
 }
 
 function renderLog(i) {
