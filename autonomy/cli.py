@@ -1013,10 +1013,10 @@ def build_parser() -> argparse.ArgumentParser:
     _view_arguments(replay)
     replay.add_argument(
         "--speed",
-        type=_bounded(float, 0.01, 1000, "a playback speed"),
+        type=_bounded(float, 0.01, 1_000_000, "a playback speed"),
         default=1.0,
         metavar="X",
-        help="playback speed, 0.01 to 1000 (default 1)",
+        help="playback speed, 0.01 to 1,000,000 (default 1)",
     )
     replay.add_argument("--lines", action="store_true", help="line output even on a terminal")
     replay.add_argument("--hold", type=float, default=2.0, metavar="S", help=argparse.SUPPRESS)
