@@ -272,6 +272,13 @@ class _Output:
         self(text)
 
 
+def _is_terminal(stream: Any) -> bool:
+    try:
+        return bool(stream.isatty())
+    except ValueError:  # closed
+        return False
+
+
 def _silence_stdout() -> None:
     """Points standard output at /dev/null, so that the interpreter's last flush cannot fail."""
     import os
@@ -377,6 +384,9 @@ def cmd_run(args: argparse.Namespace) -> int:
     interrupts = _InterruptOnce()
     interrupts.install()
     output = _Output()
+    if args.live and not _is_terminal(sys.stdout):
+        print("autonomy: --live needs a terminal; printing lines instead", file=sys.stderr)
+        args.live = False
     if not args.quiet and not args.live:
         output(f"Running '{spec.name}' {where}.")
     trace = None

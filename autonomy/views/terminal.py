@@ -31,6 +31,8 @@ from autonomy.views.treetext import (
 )
 
 MAX_REFRESH_HZ = 10.0
+#: The smallest terminal the view is drawn on (the robot's panel takes TELEMETRY_WIDTH of it).
+MIN_WIDTH, MIN_HEIGHT = 60, 16
 #: In a run in virtual time, drawing takes at most one part in this many of the time.
 DRAW_SHARE = 160.0
 #: Records less than this far apart come from a run in virtual time.
@@ -96,9 +98,15 @@ class LiveView:
             self._interval_s = max(1.0 / MAX_REFRESH_HZ, (drawn_s - now) * DRAW_SHARE if burst else 0.0)
             self._drawn_s = drawn_s
 
-    def render(self) -> Layout:
-        """The whole screen."""
-        height = self.console.size.height
+    def render(self) -> Layout | Text:
+        """The whole screen (or, on a terminal too small for it, what size it needs)."""
+        width, height = self.console.size
+        if width < MIN_WIDTH or height < MIN_HEIGHT:
+            return Text(
+                f"{fit(self.header.mission if self.header else '...', width)}\n"
+                f"the terminal is {width}x{height}; the live view needs {MIN_WIDTH}x{MIN_HEIGHT}: make it bigger",
+                style="bold",
+            )
         layout = Layout()
         layout.split_column(
             Layout(self._title(), name="title", size=1),

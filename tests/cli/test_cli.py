@@ -226,3 +226,9 @@ def test_a_behaviours_exception_with_control_characters_changes_nothing_on_the_s
     result = autonomy("run", str(mission), "--fast", *debug)
     assert result.returncode == 1 and "\x1b" not in result.stdout + result.stderr
     assert f"raised RuntimeError: boom �[31m in evil� second line at {tmp_path}/evil.py:10 in update." in result.stdout
+
+
+def test_live_without_a_terminal_says_so_and_prints_lines():
+    result = autonomy("run", "missions/square.yaml", "--fast", "--live")
+    assert result.returncode == 0 and result.stderr == "autonomy: --live needs a terminal; printing lines instead\n"
+    assert result.stdout.startswith("Running 'square'") and "move 300 mm" in result.stdout

@@ -234,3 +234,21 @@ def test_a_long_sequence_shows_the_step_that_runs_whatever_its_place(now):
     assert sum(line.folded for line in lines if line.node < 0) + len(shown) - shown.count(-1) == 41  # all accounted for
     at = shown.index(now)
     assert shown[at - 1] in (now - 1, -1, 0) and (at + 1 == len(shown) or shown[at + 1] in (now + 1, -1))
+
+
+def test_a_terminal_too_small_for_the_live_view_says_what_size_it_needs():
+    import io
+
+    from rich.console import Console
+    from rich.text import Text
+
+    from autonomy.views.terminal import LiveView
+
+    small = LiveView(Console(file=io.StringIO(), width=20, height=10, force_terminal=True))
+    small.header = big_header()
+    shown = small.render()
+    assert isinstance(shown, Text)
+    assert shown.plain == "big\nthe terminal is 20x10; the live view needs 60x16: make it bigger"
+    enough = LiveView(Console(file=io.StringIO(), width=60, height=16, force_terminal=True))
+    enough.header = big_header()
+    assert not isinstance(enough.render(), Text)  # the whole view
