@@ -296,3 +296,28 @@ def test_a_wide_tree_stays_readable_and_the_panel_follows_the_step_that_runs(tmp
         badge <= 1400 and page.evaluate("document.documentElement.scrollWidth") <= 1400
     )  # the name is cut, not the page
     assert served.interrupt()[0] == 0
+
+
+HIDE = (
+    "hidden => { Object.defineProperty(document, 'hidden', {get: () => hidden, configurable: true});"
+    " document.dispatchEvent(new Event('visibilitychange')); }"
+)
+
+
+def test_a_hidden_tab_lets_go_of_its_stream_and_takes_the_run_up_again_when_shown(tmp_path, page, serve):
+    """A browser keeps six connections to a server: tabs in the background must not hold them all."""
+    mission = tmp_path / "waits.yaml"
+    mission.write_text("mission: waits\ntree:\n  sequence:\n    - wait: {seconds: 1.5}\n    - wait: {seconds: 1.5}\n")
+    served = serve("run", str(mission), "--quiet", "--view")
+    page.goto(served.url)
+    page.wait_for_function("document.querySelector('#node-1')?.dataset.status === 'RUNNING'", timeout=10_000)
+    assert page.evaluate("window.autonomyView.streaming()")
+    page.evaluate(HIDE, True)
+    assert not page.evaluate("window.autonomyView.streaming()")
+    page.wait_for_timeout(2_000)  # the second wait has started meanwhile; a hidden tab is not told
+    assert fill(page, 2) == GREY
+    page.evaluate(HIDE, False)
+    page.wait_for_function("document.querySelector('#node-2')?.dataset.status === 'RUNNING'", timeout=10_000)
+    assert page.evaluate("window.autonomyView.streaming()")
+    page.wait_for_function("document.querySelector('#state').textContent === 'succeeded'", timeout=10_000)
+    assert served.interrupt()[0] == 0

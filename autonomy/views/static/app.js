@@ -379,7 +379,8 @@ $("slider").addEventListener("input", (e) => { setPlaying(false); show(parseInt(
 // While no server answers it comes back after 1 s, then less and less often, down to once in
 // NEXT_RUN_MOST_WAIT_MS.
 function watchForNextRun(run, waitMs = NEXT_RUN_FIRST_WAIT_MS) {
-  const source = new EventSource(`api/next?run=${encodeURIComponent(run)}`);
+  if (asleep()) return;
+  const source = opened(new EventSource(`api/next?run=${encodeURIComponent(run)}`));
   source.addEventListener("open", () => { waitMs = NEXT_RUN_FIRST_WAIT_MS; });
   source.addEventListener("run", () => { source.close(); connect(); });
   source.addEventListener("error", () => {
@@ -388,14 +389,42 @@ function watchForNextRun(run, waitMs = NEXT_RUN_FIRST_WAIT_MS) {
   });
 }
 
+// A hidden tab lets go of its event stream: a browser keeps at most six connections to one
+// server, and a seventh tab's page would wait for one of them. Shown again, it connects anew.
+let stream = null;
+let sleeping = false;
+
+function opened(source) {
+  stream = source;
+  return source;
+}
+
+function asleep() {
+  if (document.hidden) sleeping = true;
+  return sleeping;
+}
+
+document.addEventListener("visibilitychange", () => {
+  if (document.hidden && stream) {
+    stream.close();
+    stream = null;
+    sleeping = true;
+  } else if (!document.hidden && sleeping) {
+    sleeping = false;
+    connect();
+  }
+});
+
 function connect() {
+  if (asleep()) return;
   fetch("api/run").then((r) => r.json()).then((payload) => {
     load(payload);
     if (payload.mode !== "live") return;
     if (payload.end) { watchForNextRun(payload.run); return; }
     // the run it watches goes with it: a browser that comes back to the next server on this
     // port (this one stopped in the middle of the run) is told to start again
-    const source = new EventSource(`api/stream?from=${view.ticks.length}&run=${encodeURIComponent(payload.run)}`);
+    if (asleep()) return;
+    const source = opened(new EventSource(`api/stream?from=${view.ticks.length}&run=${encodeURIComponent(payload.run)}`));
     source.addEventListener("header", () => { source.close(); connect(); });
     let previewed = false;
     const take = (e) => {
@@ -420,6 +449,8 @@ function connect() {
   });
 }
 
-window.autonomyView = { show, view, stateAt: (i) => stateAt(i, false) };
+window.autonomyView = {
+  show, view, stateAt: (i) => stateAt(i, false), streaming: () => !!stream && stream.readyState !== EventSource.CLOSED,
+};
 const inline = document.getElementById("run-data");
 if (inline) load(JSON.parse(inline.textContent)); else connect();
