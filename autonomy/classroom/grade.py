@@ -400,7 +400,8 @@ def grade_class(
                     process.join(5)
                     connection.close()
                     del running[connection]
-                    finish(index, failed(index, f"took more than {wall_s:g} s of wall time (an endless loop?)"))
+                    why = f"took more than {wall_s:g} s of wall time: an endless loop, or a tree too big to run in time"
+                    finish(index, failed(index, f"{why} (--wall-seconds gives more)"))
     finally:
         # a second Ctrl-C must not cut the clean-up short and leave workers behind
         blocked = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM, signal.SIGHUP})
