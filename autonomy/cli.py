@@ -695,6 +695,7 @@ def cmd_grade(args: argparse.Namespace) -> int:
     from autonomy.classroom import ExerciseInvalid, find_submissions, grade_class, load_exercise
     from autonomy.classroom.grade import default_wall_s
     from autonomy.classroom.report import feedback, to_csv, to_html, to_json
+    from autonomy.emulator.world import SHIPPED
 
     path, missing = _exercise_path(args.exercise)
     if missing:
@@ -710,7 +711,7 @@ def cmd_grade(args: argparse.Namespace) -> int:
     ]
     # every file read (the exercise, its world, each submission's mission, a folder's files) is kept from harm
     inputs = {Path(p).resolve() for p in (path, *args.submissions)} | {p.resolve() for _, p in submissions}
-    inputs |= {Path(exercise.world_ref).resolve()} if os.sep in exercise.world_ref else set()  # a file, not a name
+    inputs |= {Path(exercise.world_ref).resolve()} if exercise.world_ref not in SHIPPED else set()  # a file
     for _, given in submissions:
         try:
             inputs |= {p.resolve() for p in given.iterdir()} if given.is_dir() else set()

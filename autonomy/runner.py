@@ -175,6 +175,20 @@ def clipped(text: str, most: int = MAX_TEXT_CHARS) -> str:
     return text if len(text) <= most else text[: most - 1] + "…"
 
 
+def traceback_text(err: BaseException) -> str:
+    """``err``'s traceback as Python prints it, short enough for a trace's line.
+
+    Past :data:`MAX_TRACEBACK_CHARS`: its innermost frames and its message clipped, so that an
+    exception's own text of megabytes leaves its frames in.
+    """
+    whole = "".join(traceback.format_exception(err))
+    if len(whole) <= MAX_TRACEBACK_CHARS:
+        return whole
+    frames = "".join(traceback.format_tb(err.__traceback__))
+    frames = frames[-(MAX_TRACEBACK_CHARS - MAX_TEXT_CHARS - 100) :]
+    return f"Traceback (its innermost frames):\n…{frames}{clipped(f'{type(err).__name__}: {err}')}\n"
+
+
 #: The most exchanges a runner keeps to hand out again (errors' texts may all differ).
 MOST_EXCHANGES_KEPT = 1024
 
@@ -338,8 +352,8 @@ class Runner:
             self._events.append(err.event)
         except (Exception, SystemExit) as err:  # noqa: BLE001 - a bug anywhere must still end in a stopped robot
             summary.outcome = CRASHED
-            summary.reason = f"{type(err).__name__}: {err}"
-            self._events.append(Event("exception", summary.reason, traceback="".join(traceback.format_exc())))
+            summary.reason = clipped(f"{type(err).__name__}: {err}")
+            self._events.append(Event("exception", summary.reason, traceback=traceback_text(err)))
         finally:
             summary.time_s = self.clock.now() - self._start_s
             self._halt()
@@ -556,9 +570,7 @@ class Runner:
         own = [f for f in frames if not f.filename.startswith(_LIBRARY_DIRS)] or list(frames)  # pragma: no mutate
         lines = tuple(f"{_short_path(f.filename)}:{f.lineno} in {f.name}: {(f.line or '').strip()}" for f in own[-3:])
         error = clipped(f"{type(err).__name__}: {err}")
-        full = "".join(traceback.format_exception(err))
-        if len(full) > MAX_TRACEBACK_CHARS:
-            full = "…" + full[-(MAX_TRACEBACK_CHARS - 1) :]
+        full = traceback_text(err)
         node_id = self._ids[id(node)]
         nodes = cast(RunHeader, self.header).nodes  # tick() refuses to run before setup() made it
         info = nodes[node_id]

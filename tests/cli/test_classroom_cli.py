@@ -229,6 +229,12 @@ def test_marks_are_never_written_over_a_file_that_is_graded_nor_twice_to_one_fil
         assert result.returncode == 2 and "Traceback" not in result.stderr
         assert result.stderr == f"autonomy: error: {target} is one of the files to grade: write the marks elsewhere\n"
     assert {path: path.read_bytes() for path in before} == before
+    world = tmp_path / "lab.yaml"  # an exercise beside its world file, both given from their own folder
+    world.write_text((ROOT / "autonomy" / "emulator" / "worlds" / "garage.yaml").read_text())
+    (tmp_path / "ex.yaml").write_text(exercise.read_text().replace("world: garage", "world: lab.yaml"))
+    result = grade_in(tmp_path, "ex.yaml", "class/alice", "--csv", "lab.yaml")
+    assert result.returncode == 2 and "lab.yaml is one of the files to grade" in result.stderr
+    assert world.read_text() == (ROOT / "autonomy" / "emulator" / "worlds" / "garage.yaml").read_text()
     twice = grade_in(tmp_path, "garage", "class/alice", "--csv", "marks", "--html", "marks")
     assert twice.returncode == 2 and twice.stderr == (
         "autonomy: error: marks is given for two outputs: give each its own file\n"

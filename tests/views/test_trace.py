@@ -356,5 +356,28 @@ def test_a_behaviours_text_of_megabytes_is_clipped_so_its_trace_can_be_read(tmp_
     assert len(feedback) == MAX_TEXT_CHARS and feedback == huge[: MAX_TEXT_CHARS - 1] + "…"
     crash = next(e for e in trace.end.events if e.kind == "exception")
     assert len(crash.message) < 2 * MAX_TEXT_CHARS and "273… at " in crash.message
-    assert len(crash.traceback) == 20_000 and crash.traceback.startswith("…")
+    assert len(crash.traceback) <= 20_000 and "in update\n    raise RuntimeError(huge)\n" in crash.traceback
+
+
+def test_an_exception_of_megabytes_outside_a_tick_is_clipped_too(tmp_path):
+    """A behaviour's setup raising: its text is kept to 1,000 characters, its traceback keeps its frames."""
+    import py_trees
+
+    from autonomy.runner import MAX_TEXT_CHARS, MAX_TRACEBACK_CHARS
+
+    class Broken(py_trees.behaviour.Behaviour):
+        def setup(self, **kwargs):
+            raise RuntimeError("z" * 3_000_000)
+
+        def update(self):
+            return py_trees.common.Status.SUCCESS
+
+    path = tmp_path / "run.jsonl"
+    client = Client.open("emu://?time=virtual")
+    with open(path, "w", encoding="utf-8") as stream:
+        summary = Runner(Broken("broken"), client, mission="broken", listeners=[TraceWriter(stream)]).run()
+    client.close()
+    assert summary.outcome == "stopped by an error" and len(summary.reason) == MAX_TEXT_CHARS
+    crash = next(e for e in read_trace(path).end.events if e.kind == "exception")
+    assert len(crash.traceback) <= MAX_TRACEBACK_CHARS and "in setup\n" in crash.traceback
     assert path.stat().st_size < 100_000
