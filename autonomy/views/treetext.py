@@ -116,10 +116,11 @@ def tree_lines(header: RunHeader, states: dict[int, NodeState] | None = None, ma
 
 
 def _around_running(lines: list[Line], running: list[int], max_lines: int) -> list[Line]:
-    """At most ``max_lines`` of ``lines``: every running one, and as many as fit around the last of them.
+    """At most ``max_lines`` of ``lines``: the running ones that fit, deepest first, and as many as fit around the last.
 
-    Each run of lines left out becomes one line saying how many (``Line(-1, depth, count)``), so the
-    node that runs now is on screen even in a sequence of hundreds.
+    Each run of lines left out becomes one line saying how many (``Line(-1, depth, count)``), or,
+    when it is one line, that line itself; so the node that runs now is on screen even in a
+    sequence of hundreds, or at the bottom of a deep chain.
     """
     focus = running[-1] if running else 0
     kept = set(running) | {focus}
@@ -129,8 +130,8 @@ def _around_running(lines: list[Line], running: list[int], max_lines: int) -> li
         gaps = (order[0] > 0) + (order[-1] < len(lines) - 1) + sum(b - a > 1 for a, b in pairwise(order))
         return len(order) + gaps
 
-    if shown(kept) > max_lines:  # not even the running branch fits: its deepest part does
-        kept = set(sorted(kept)[-max(1, max_lines - 1) :])
+    while shown(kept) > max_lines and len(kept) > 1:  # the running chain does not fit: its top goes first
+        kept.discard(min(kept - {focus}))
     before, after = focus - 1, focus + 1
     while before >= 0 or after < len(lines):  # widen around the focus, a line before for each after
         for index in (after, before):
@@ -141,13 +142,18 @@ def _around_running(lines: list[Line], running: list[int], max_lines: int) -> li
         before, after = before - 1, after + 1
     out: list[Line] = []
     previous = -1
-    for index in sorted(kept):
-        if index - previous > 1:
-            out.append(Line(-1, lines[previous + 1].depth, index - previous - 1))
-        out.append(lines[index])
+    for index in [*sorted(kept), len(lines)]:
+        hidden = index - previous - 1
+        if hidden == 1:  # one line left out takes the room of the line saying so: it is shown
+            out.append(lines[previous + 1])
+        elif hidden > 1:
+            out.append(Line(-1, lines[previous + 1].depth, hidden))
+        if index < len(lines):
+            out.append(lines[index])
         previous = index
-    if previous < len(lines) - 1:
-        out.append(Line(-1, lines[previous + 1].depth, len(lines) - 1 - previous))
+    if len(out) > max_lines:  # a limit below three: the running line, and what fits before it
+        at = out.index(lines[focus])
+        out = out[max(0, at - max_lines + 1) :][:max_lines]
     return out
 
 

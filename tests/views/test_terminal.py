@@ -7,8 +7,11 @@ import shutil
 import subprocess
 import sys
 import time
+from itertools import pairwise
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from autonomy.record import NodeInfo, NodeState, RunHeader
 from autonomy.views.treetext import tree_lines
@@ -209,7 +212,8 @@ def test_grading_a_class_in_a_terminal_shows_a_progress_bar_then_the_marks_table
     session = tmux(f"{shlex.quote(sys.executable)} -m autonomy grade opening {files} --workers 1")
     progress = session.wait_for("grading", seconds=20)
     assert any("/3" in line for line in progress), progress  # done / total while it works
-    screen = session.wait_for("marks out of 10", seconds=60)
+    session.wait_for("marks out of 10", seconds=60)
+    screen = session.wait_for("└", seconds=10)  # the table's last line: every row is drawn
     text = "\n".join(screen)
     assert "grading ━" not in text  # the bar is gone once the table is there
     rows = [[cell.strip() for cell in line.split("│")[1:-1]] for line in screen if line.startswith("│ opening")]
@@ -252,3 +256,23 @@ def test_a_terminal_too_small_for_the_live_view_says_what_size_it_needs():
     enough = LiveView(Console(file=io.StringIO(), width=60, height=16, force_terminal=True))
     enough.header = big_header()
     assert not isinstance(enough.render(), Text)  # the whole view
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.data())
+def test_folding_any_tree_keeps_the_limit_and_the_node_that_runs(data):
+    size = data.draw(st.integers(1, 60))
+    parents = [None] + [data.draw(st.integers(max(0, i - 3), i - 1)) for i in range(1, size)]
+    nodes = [NodeInfo(i, f"n{i}", "sequence", "composite", {}, p) for i, p in enumerate(parents)]
+    header = RunHeader("m", nodes, 20.0)
+    deepest = data.draw(st.integers(0, size - 1))
+    states = {i: NodeState(data.draw(st.sampled_from(["SUCCESS", "FAILURE", "INVALID"]))) for i in range(size)}
+    node = deepest
+    while node is not None:  # a running chain, the root down to one node
+        states[node], node = NodeState("RUNNING"), parents[node]
+    limit = data.draw(st.integers(1, 30))
+    lines = tree_lines(header, states, limit)
+    assert len(lines) <= limit
+    assert deepest in [line.node for line in lines]  # the node that runs now is always on screen
+    assert all(line.folded > 1 for line in lines if line.node < 0)  # one line left out is shown instead
+    assert not any(a.node < 0 and b.node < 0 for a, b in pairwise(lines))
