@@ -791,6 +791,7 @@ def _print_marks(exercise: Any, reports: list[Any]) -> None:
     Criteria are named in the table's head when that fits the terminal, else numbered there
     and named under the table.
     """
+    from rich.cells import cell_len
     from rich.console import Console
     from rich.table import Table
 
@@ -800,10 +801,11 @@ def _print_marks(exercise: Any, reports: list[Any]) -> None:
     labels = [f"{printable(c.label)} ({c.points:g})" for c in exercise.criteria]
     names = [printable(report.student) for report in reports]
     cells = [len(f"{m:g}") for report in reports for m in report.marks]
+    student = max([len("student"), *map(cell_len, names)])  # on screen: a Chinese character takes two cells
+    total = max([len("total"), *(len(f"{report.total:g}") for report in reports)])
 
     def width(heads: list[str]) -> int:  # the table's width with these heads over the criteria
-        widest = max([len("student"), *map(len, names)])
-        return widest + len("total") + sum(max(len(head), *cells, 1) for head in heads) + 3 * (len(heads) + 2) + 1
+        return student + total + sum(max(cell_len(head), *cells, 1) for head in heads) + 3 * (len(heads) + 2) + 1
 
     numbers = [f"#{index}" for index in range(1, len(labels) + 1)]
     title = f"{printable(exercise.title)}: marks out of {exercise.max_points:g}"

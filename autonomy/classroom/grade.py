@@ -104,8 +104,8 @@ def find_submissions(paths: Iterable[str | Path]) -> list[tuple[str, Path]]:
     A folder's student is the folder's name and its mission is its one ``.yaml`` file (or
     ``mission.yaml`` when it has several). Students of the same name (``a/alice.yaml``,
     ``b/alice.yaml``; ``alice/hw2/mission.yaml``, ``bob/hw2/mission.yaml``) are told apart by
-    as many of their folders as it takes. A name that is not UTF-8 is shown with U+FFFD where
-    its bytes are not. Files are sorted by student, so reports are too.
+    as many of their folders as it takes. The bytes of a name that are not UTF-8 are written
+    out (``lat\\xe9in``). Files are sorted by student, so reports are too.
     """
     given = [Path(raw) for raw in paths]
     choices = [_names(path) for path in given]
@@ -137,8 +137,11 @@ def _names(path: Path) -> list[str]:
 
 
 def _readable(text: str) -> str:
-    """``text`` as valid Unicode: the bytes of a file name that were not UTF-8 become U+FFFD."""
-    return text.encode("utf-8", "surrogateescape").decode("utf-8", "replace")
+    r"""``text`` as valid Unicode: the bytes of a file name that are not UTF-8 written out (``lat\xe9in``).
+
+    Written out, not replaced: two names that differ only there stay two names.
+    """
+    return text.encode("utf-8", "surrogateescape").decode("utf-8", "backslashreplace")
 
 
 def _mission_file(path: Path) -> tuple[Path | None, str]:
@@ -243,7 +246,7 @@ def grade_one(exercise: Exercise, student: str, path: Path, allow_plugins: bool 
         return Report(student, "", 0.0, exercise.max_points, zero, [why])
     spec, problems = check_submission(exercise, mission, allow_plugins)
     if spec is None:
-        return Report(student, str(mission), 0.0, exercise.max_points, zero, problems)
+        return Report(student, _readable(str(mission)), 0.0, exercise.max_points, zero, problems)
     seeds = []
     held = [0] * len(exercise.criteria)
     for seed in exercise.seeds:
@@ -269,7 +272,7 @@ def grade_one(exercise: Exercise, student: str, path: Path, allow_plugins: bool 
     count = len(exercise.seeds)
     exact = [c.points * held[i] / count for i, c in enumerate(exercise.criteria)]
     marks = [round(m, 2) for m in exact]
-    return Report(student, str(mission), round(sum(exact), 2), exercise.max_points, marks, [], seeds)
+    return Report(student, _readable(str(mission)), round(sum(exact), 2), exercise.max_points, marks, [], seeds)
 
 
 def _with_requirements(exercise: Exercise, verdicts: list[Verdict]) -> list[Verdict]:

@@ -249,11 +249,12 @@ def test_a_file_name_that_is_not_utf8_is_graded_and_every_output_written(tmp_pat
     (tmp_path / name).write_text((ROOT / "exercises" / "solutions" / "garage.yaml").read_text())
     result = grade_in(tmp_path, "garage", name, "--csv", "m.csv", "--json", "m.json", "--html", "m.html")
     assert result.returncode == 0 and "Traceback" not in result.stderr, result.stderr
-    assert result.stdout.splitlines()[1] == "lat\ufffdin: 10 / 10 in '2. Park in the garage'"
-    assert next(csv.DictReader((tmp_path / "m.csv").open()))["student"] == "lat\ufffdin"
+    shown = "lat\\xe9in"  # the byte that is not UTF-8 written out: lat\xe9in and lat\xe8in stay two students
+    assert result.stdout.splitlines()[1] == f"{shown}: 10 / 10 in '2. Park in the garage'"
+    assert next(csv.DictReader((tmp_path / "m.csv").open()))["student"] == shown
     student = json.loads((tmp_path / "m.json").read_text())["students"][0]
-    assert (student["student"], student["file"], student["total"]) == ("lat\ufffdin", "lat?in.yaml", 10)
-    assert "lat\ufffdin" in (tmp_path / "m.html").read_text()
+    assert (student["student"], student["file"], student["total"]) == (shown, f"{shown}.yaml", 10)
+    assert shown in (tmp_path / "m.html").read_text()
 
 
 def test_check_prints_no_control_character_of_a_file_name(tmp_path):
@@ -319,3 +320,25 @@ def test_the_marks_table_fits_the_terminal_naming_criteria_under_it_when_it_must
     assert result.returncode == 0, result.stderr
     lines = result.stdout.splitlines()
     assert [line for line in expected if line not in lines] == []
+
+
+def test_the_marks_table_counts_wide_characters_as_the_terminal_does(tmp_path):
+    from rich.cells import cell_len
+
+    (tmp_path / "张伟张伟张伟张伟张伟张伟.yaml").write_text((ROOT / "exercises/solutions/garage.yaml").read_text())
+    (tmp_path / "bo.yaml").write_text((ROOT / "exercises/wrong/garage_until_bump.yaml").read_text())
+    files = sorted(str(p) for p in tmp_path.glob("*.yaml"))
+    for columns in ("200", "60"):
+        result = subprocess.run(
+            [sys.executable, "-m", "autonomy", "grade", "garage", *files, "--workers", "2"],
+            capture_output=True,
+            text=True,
+            timeout=120,
+            cwd=ROOT,
+            env={**os.environ, "COLUMNS": columns},
+        )
+        assert result.returncode == 0, result.stderr
+        table = [line for line in result.stdout.splitlines() if line[:1] in "┏┃┡│└"]
+        assert table and all(cell_len(line) <= int(columns) for line in table)
+        assert "…" not in result.stdout  # no head nor mark cut
+        assert "│ 张伟张伟张伟张伟张伟张伟 │    10 │" in result.stdout
