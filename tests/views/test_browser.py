@@ -16,6 +16,11 @@ from tests.views.conftest import ROOT
 
 YELLOW, GREEN, RED, GREY = "rgb(255, 212, 59)", "rgb(140, 233, 154)", "rgb(255, 135, 135)", "rgb(241, 243, 245)"
 FILL_OF = {"RUNNING": YELLOW, "SUCCESS": GREEN, "FAILURE": RED, "INVALID": GREY}
+#: Puts the page in the background (True) or in view (False), as a browser does with its tabs.
+HIDE = (
+    "hidden => { Object.defineProperty(document, 'hidden', {get: () => hidden, configurable: true});"
+    " document.dispatchEvent(new Event('visibilitychange')); }"
+)
 
 
 def fill(page, node_id: int) -> str:
@@ -65,8 +70,10 @@ def test_a_live_run_colours_the_tree_and_draws_the_path(tmp_path, page, serve):
     assert code == 0 and "succeeded" in out
 
 
-def test_a_page_left_on_a_finished_run_follows_the_next_run_on_the_same_port(tmp_path, page, serve):
+@pytest.mark.parametrize("hidden", [False, True], ids=["in-view", "hidden-meanwhile"])
+def test_a_page_left_on_a_finished_run_follows_the_next_run_on_the_same_port(tmp_path, page, serve, hidden):
     # As on a class's projector: the page stays open while one `autonomy run --view` ends and the next starts.
+    # Or in a tab put in the background while no server answered, and shown again: it takes up its wait.
     with socket.socket() as probe:
         probe.bind(("127.0.0.1", 0))
         port = probe.getsockname()[1]
@@ -80,6 +87,10 @@ def test_a_page_left_on_a_finished_run_follows_the_next_run_on_the_same_port(tmp
     assert code == 0
     page.wait_for_timeout(1500)
     assert page.text_content("#mission") == "first"  # no server: the finished run stays on the page
+    if hidden:
+        page.evaluate(HIDE, True)
+        page.wait_for_timeout(3500)  # longer than its next look for a server
+        page.evaluate(HIDE, False)
     second = serve("run", str(tmp_path / "second.yaml"), "--fast", "--quiet", "--view", port=port)
     assert second.url == first.url
     page.wait_for_function("document.querySelector('#mission').textContent === 'second'", timeout=10_000)
@@ -296,12 +307,6 @@ def test_a_wide_tree_stays_readable_and_the_panel_follows_the_step_that_runs(tmp
         badge <= 1400 and page.evaluate("document.documentElement.scrollWidth") <= 1400
     )  # the name is cut, not the page
     assert served.interrupt()[0] == 0
-
-
-HIDE = (
-    "hidden => { Object.defineProperty(document, 'hidden', {get: () => hidden, configurable: true});"
-    " document.dispatchEvent(new Event('visibilitychange')); }"
-)
 
 
 def test_a_hidden_tab_lets_go_of_its_stream_and_takes_the_run_up_again_when_shown(tmp_path, page, serve):

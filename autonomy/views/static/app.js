@@ -41,6 +41,7 @@ function svgEl(name, attrs, parent) {
 
 function load(payload) {
   view.mode = payload.mode;
+  view.run = payload.run;
   view.header = payload.header;
   view.ticks = [];
   view.end = null;
@@ -379,44 +380,49 @@ $("slider").addEventListener("input", (e) => { setPlaying(false); show(parseInt(
 // While no server answers it comes back after 1 s, then less and less often, down to once in
 // NEXT_RUN_MOST_WAIT_MS.
 function watchForNextRun(run, waitMs = NEXT_RUN_FIRST_WAIT_MS) {
+  live.waitingAfter = run;
   if (asleep()) return;
   const source = opened(new EventSource(`api/next?run=${encodeURIComponent(run)}`));
   source.addEventListener("open", () => { waitMs = NEXT_RUN_FIRST_WAIT_MS; });
   source.addEventListener("run", () => { source.close(); connect(); });
   source.addEventListener("error", () => {
     source.close();
-    setTimeout(() => watchForNextRun(run, Math.min(waitMs * 2, NEXT_RUN_MOST_WAIT_MS)), waitMs);
+    live.retry = setTimeout(() => watchForNextRun(run, Math.min(waitMs * 2, NEXT_RUN_MOST_WAIT_MS)), waitMs);
   });
 }
 
 // A hidden tab lets go of its event stream: a browser keeps at most six connections to one
-// server, and a seventh tab's page would wait for one of them. Shown again, it connects anew.
-let stream = null;
-let sleeping = false;
+// server, and a seventh tab's page would wait for one of them. Shown again, it takes up where
+// it was: the run it showed, or its wait for the next one.
+const live = { stream: null, sleeping: false, retry: null, waitingAfter: null };
 
 function opened(source) {
-  stream = source;
+  if (live.stream && live.stream !== source) live.stream.close();  // one stream a page
+  live.stream = source;
   return source;
 }
 
 function asleep() {
-  if (document.hidden) sleeping = true;
-  return sleeping;
+  if (document.hidden) live.sleeping = true;
+  return live.sleeping;
 }
 
 document.addEventListener("visibilitychange", () => {
-  if (document.hidden && stream) {
-    stream.close();
-    stream = null;
-    sleeping = true;
-  } else if (!document.hidden && sleeping) {
-    sleeping = false;
-    connect();
+  if (document.hidden) {
+    if (live.stream) live.stream.close();
+    live.stream = null;
+    clearTimeout(live.retry);
+    live.sleeping = true;
+  } else if (live.sleeping) {
+    live.sleeping = false;
+    if (live.waitingAfter !== null) watchForNextRun(live.waitingAfter);
+    else connect();
   }
 });
 
 function connect() {
   if (asleep()) return;
+  live.waitingAfter = null;
   fetch("api/run").then((r) => r.json()).then((payload) => {
     load(payload);
     if (payload.mode !== "live") return;
@@ -446,11 +452,12 @@ function connect() {
       wakeUp();
       watchForNextRun(payload.run);
     });
-  });
+  }, () => watchForNextRun(view.run || ""));  // no server answers (yet): wait for one, and its run
 }
 
 window.autonomyView = {
-  show, view, stateAt: (i) => stateAt(i, false), streaming: () => !!stream && stream.readyState !== EventSource.CLOSED,
+  show, view, stateAt: (i) => stateAt(i, false),
+  streaming: () => !!live.stream && live.stream.readyState !== EventSource.CLOSED,
 };
 const inline = document.getElementById("run-data");
 if (inline) load(JSON.parse(inline.textContent)); else connect();
