@@ -33,7 +33,7 @@ class _Parser(argparse.ArgumentParser):
     """argparse with errors as one line and exit code 2."""
 
     def error(self, message: str) -> None:  # type: ignore[override]
-        self.exit(EXIT_USAGE, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+        self.exit(EXIT_USAGE, f"{self.prog}: error: {_shown(message)} (see {self.prog} --help)\n")
 
 
 def _fail(message: str, code: int) -> int:

@@ -68,20 +68,35 @@ def _branches(node: NodeSpec, above: tuple[NodeSpec, ...]) -> Iterator[tuple[Nod
         below = parent
 
 
-def _followed_by_time(node: NodeSpec, above: tuple[NodeSpec, ...]) -> bool:
+def _takes_time(spec: MissionSpec, node: NodeSpec) -> bool:
+    """Whether ``node`` holds an action that takes time: anything but a beep, log, servo or stop."""
+    return any(n.type.category == "action" and n.type.name not in INSTANT_ACTIONS for n, _ in _walk(spec, node, ()))
+
+
+def _followed_by_time(spec: MissionSpec, node: NodeSpec, above: tuple[NodeSpec, ...]) -> bool:
     """Whether something that takes time (a wait, a move...) runs after ``node`` before its repeat starts it anew."""
     for parent, index in _branches(node, above):
         if parent.type.name == "repeat":
             return False
         after = parent.children[index + 1 :] if parent.type.name == "sequence" and index >= 0 else []
-        if any(c.type.name not in INSTANT_ACTIONS and not _is_condition(c) for c in after):
+        if any(_takes_time(spec, c) for c in after):
             return True
     return False
 
 
+#: Nodes a child's failure goes up through: a failing condition under them fails them too.
+PASS_FAILURE_UP = ("sequence", "invert", "force_failure", "subtree")
+
+
 def _can_fail(spec: MissionSpec, node: NodeSpec) -> bool:
-    """Whether ``node`` holds a condition, which can fail and end a ``repeat`` (drive until a wall is near)."""
-    return any(n.type.category == "condition" for n, _ in _walk(spec, node, ()))
+    """Whether a condition below ``node`` can fail it, and so end a ``repeat`` (drive until a wall is near).
+
+    Not one whose failure something on the way up takes in: a selector, a ``force_success``...
+    """
+    return any(
+        n.type.category == "condition" and all(a.type.name in PASS_FAILURE_UP for a in above[1:])
+        for n, above in _walk(spec, node, ())
+    )
 
 
 def _preempted(node: NodeSpec, above: tuple[NodeSpec, ...]) -> bool:
@@ -108,7 +123,7 @@ def lint(spec: MissionSpec) -> list[Problem]:
                 _is_condition(first)
                 and rest
                 and all(c.type.name in INSTANT_ACTIONS for c in rest)
-                and not _followed_by_time(node, above)
+                and not _followed_by_time(spec, node, above)
             ):
                 did = " and ".join(sorted({c.type.name for c in rest}))
                 held = " (the collision flag stays set 0.5 s: about 10 ticks)" if first.type.name == "collided" else ""

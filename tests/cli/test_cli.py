@@ -232,3 +232,9 @@ def test_live_without_a_terminal_says_so_and_prints_lines():
     result = autonomy("run", "missions/square.yaml", "--fast", "--live")
     assert result.returncode == 0 and result.stderr == "autonomy: --live needs a terminal; printing lines instead\n"
     assert result.stdout.startswith("Running 'square'") and "move 300 mm" in result.stdout
+
+
+def test_a_usage_error_shows_no_control_character_of_what_was_typed():
+    result = autonomy("replay", "x.jsonl", "--speed", "\x1b[31mred\x07")
+    assert result.returncode == 2 and "\x1b" not in result.stderr and "\x07" not in result.stderr
+    assert "expected a playback speed, got '�[31mred�'" in result.stderr

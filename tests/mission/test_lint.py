@@ -113,3 +113,20 @@ def test_a_move_first_in_a_selector_has_nothing_to_stop_it():
     assert len(found) == 1 and found[0].startswith("3:15: tree.selector[0].move: warning: drives on until something")
     remembering = "mission: m\ntree:\n  selector:\n    memory: true\n    children: [collided, {move: {speed: 2}}]\n"
     assert len(warnings(remembering)) == 1  # a selector with memory does not look at 'collided' again
+
+
+def test_a_condition_whose_failure_is_taken_in_on_the_way_up_does_not_end_a_repeat():
+    for body in (
+        "selector: [{obstacle_within: {mm: 200}}, {move: {speed: 2, distance_mm: 50}}]",
+        "sequence: [{force_success: {do: {obstacle_within: {mm: 200}}}}, {move: {speed: 2, distance_mm: 50}}]",
+    ):
+        found = warnings(f"mission: m\ntree:\n  repeat:\n    do:\n      {body}\n")
+        assert [w.split(": warning: ")[1][:30] for w in found] == ["repeats forever and nothing en"], body
+
+
+def test_only_beeps_after_a_condition_then_beep_take_no_time():
+    text = (
+        "mission: m\ntree:\n  repeat:\n    times: 5\n    do:\n      sequence:\n"
+        "        - sequence: [collided, {beep: {}}]\n        - sequence: [{beep: {}}, {log: {message: hi}}]\n"
+    )
+    assert len(warnings(text)) == 1
