@@ -278,6 +278,20 @@ def test_a_student_grading_a_mission_that_cannot_run_gets_exit_2(tmp_path):
     assert f"{mission}:3:3: tree.mvoe: unknown node 'mvoe' (did you mean 'move'?)" in result.stdout
 
 
+def graded_at_width(columns: str, *files: str) -> str:
+    """What `autonomy grade garage FILES` prints in a terminal ``columns`` wide."""
+    result = subprocess.run(
+        [sys.executable, "-m", "autonomy", "grade", "garage", *files, "--workers", "2"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        cwd=ROOT,
+        env={**os.environ, "COLUMNS": columns},
+    )
+    assert result.returncode == 0, result.stderr
+    return result.stdout
+
+
 @pytest.mark.parametrize(
     ("columns", "expected"),
     [
@@ -309,16 +323,7 @@ def test_a_student_grading_a_mission_that_cannot_run_gets_exit_2(tmp_path):
 )
 def test_the_marks_table_fits_the_terminal_naming_criteria_under_it_when_it_must(columns, expected):
     solutions = [ROOT / "exercises" / "solutions" / "garage.yaml", ROOT / "exercises/wrong/garage_until_bump.yaml"]
-    result = subprocess.run(
-        [sys.executable, "-m", "autonomy", "grade", "garage", *map(str, solutions), "--workers", "2"],
-        capture_output=True,
-        text=True,
-        timeout=120,
-        cwd=ROOT,
-        env={**os.environ, "COLUMNS": columns},
-    )
-    assert result.returncode == 0, result.stderr
-    lines = result.stdout.splitlines()
+    lines = graded_at_width(columns, *map(str, solutions)).splitlines()
     assert [line for line in expected if line not in lines] == []
 
 
@@ -329,16 +334,8 @@ def test_the_marks_table_counts_wide_characters_as_the_terminal_does(tmp_path):
     (tmp_path / "bo.yaml").write_text((ROOT / "exercises/wrong/garage_until_bump.yaml").read_text())
     files = sorted(str(p) for p in tmp_path.glob("*.yaml"))
     for columns in ("200", "60"):
-        result = subprocess.run(
-            [sys.executable, "-m", "autonomy", "grade", "garage", *files, "--workers", "2"],
-            capture_output=True,
-            text=True,
-            timeout=120,
-            cwd=ROOT,
-            env={**os.environ, "COLUMNS": columns},
-        )
-        assert result.returncode == 0, result.stderr
-        table = [line for line in result.stdout.splitlines() if line[:1] in "┏┃┡│└"]
+        shown = graded_at_width(columns, *files)
+        table = [line for line in shown.splitlines() if line[:1] in "┏┃┡│└"]
         assert table and all(cell_len(line) <= int(columns) for line in table)
-        assert "…" not in result.stdout  # no head nor mark cut
-        assert "│ 张伟张伟张伟张伟张伟张伟 │    10 │" in result.stdout
+        assert "…" not in shown  # no head nor mark cut
+        assert "│ 张伟张伟张伟张伟张伟张伟 │    10 │" in shown

@@ -330,6 +330,15 @@ def test_a_record_with_a_number_json_cannot_hold_ends_the_trace_after_the_lines_
     assert writer.failure == f"tick {bad.tick} holds a number that is not finite"
 
 
+def traced_run(root, path):
+    """Runs ``root`` on the in-process emulator in virtual time with a trace to ``path``; returns its summary."""
+    client = Client.open("emu://?time=virtual")
+    with open(path, "w", encoding="utf-8") as stream:
+        summary = Runner(root, client, mission=root.name, listeners=[TraceWriter(stream)]).run()
+    client.close()
+    return summary
+
+
 def test_a_behaviours_text_of_megabytes_is_clipped_so_its_trace_can_be_read(tmp_path):
     """One feedback, log line or exception of 5 MB would make a line no reader takes: each keeps 1,000 characters."""
     import py_trees
@@ -346,10 +355,7 @@ def test_a_behaviours_text_of_megabytes_is_clipped_so_its_trace_can_be_read(tmp_
             return py_trees.common.Status.RUNNING
 
     path = tmp_path / "run.jsonl"
-    client = Client.open("emu://?time=virtual")
-    with open(path, "w", encoding="utf-8") as stream:
-        summary = Runner(Chatty("chatty"), client, mission="chatty", listeners=[TraceWriter(stream)]).run()
-    client.close()
+    summary = traced_run(Chatty("chatty"), path)
     assert summary.outcome == "stopped by an error" and len(summary.paragraph) < 3 * MAX_TEXT_CHARS
     trace = read_trace(path)
     feedback = trace.ticks[0].nodes[0].feedback
@@ -373,10 +379,7 @@ def test_an_exception_of_megabytes_outside_a_tick_is_clipped_too(tmp_path):
             return py_trees.common.Status.SUCCESS
 
     path = tmp_path / "run.jsonl"
-    client = Client.open("emu://?time=virtual")
-    with open(path, "w", encoding="utf-8") as stream:
-        summary = Runner(Broken("broken"), client, mission="broken", listeners=[TraceWriter(stream)]).run()
-    client.close()
+    summary = traced_run(Broken("broken"), path)
     assert summary.outcome == "stopped by an error" and len(summary.reason) == MAX_TEXT_CHARS
     crash = next(e for e in read_trace(path).end.events if e.kind == "exception")
     assert len(crash.traceback) <= MAX_TRACEBACK_CHARS and "in setup\n" in crash.traceback
