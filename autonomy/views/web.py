@@ -1,14 +1,15 @@
 """The browser view: a page that shows a run as it goes, or plays a recorded one back.
 
-Served with aiohttp (one well-kept package that has both the HTTP server and server-sent
-events, and runs in a thread of its own beside the runner). Every script, style and font
-comes from this package: the page loads nothing from the internet.
+Served with aiohttp (one well-kept package that has both the HTTP server and WebSockets, and
+runs in a thread of its own beside the runner). Every script, style and font comes from this
+package: the page loads nothing from the internet.
 
 The page gets everything from two addresses: ``api/run`` (the header, the tree and map
-pictures, and every record so far) and ``api/stream?from=N`` (server-sent events: ``ticks``,
-a list of the tick records since the last event, or ``preview`` for a burst of them in a run
-in virtual time, then ``end``; a page that had previews asks ``api/run`` again at the end). :func:`standalone_html`
-freezes the same page on a whole run, in one file.
+pictures, and every record so far) and the WebSocket ``api/stream?from=N`` (messages
+``NAME\nJSON``: ``ticks``, a list of the tick records since the last message, or ``preview``
+for a burst of them in a run in virtual time, then ``end``; a page that had previews asks
+``api/run`` again at the end). A page on a finished run waits on the WebSocket ``api/next``
+for the next run. :func:`standalone_html` freezes the same page on a whole run, in one file.
 """
 
 from __future__ import annotations
@@ -134,15 +135,15 @@ class RecordHub:
         lines = ",".join(to_line(tick) for tick in ticks)
         return head[:-1] + ',"ticks":[' + lines + '],"end":' + (to_line(end) if end else "null") + "}"
 
-    def event(self, ticks: list[TickRecord]) -> bytes:
-        """The server-sent event for ``ticks``: all of them, or for a burst a preview.
+    def event(self, ticks: list[TickRecord]) -> str:
+        """The message for ``ticks``: all of them, or for a burst a preview.
 
         A preview is at most :data:`PREVIEW_RECORDS` records: each the last tick of its share of
         the burst, carrying every node change and event of that share, so the tree and the log
         are right and the path and plots are drawn from fewer points until the run ends.
         """
         if len(ticks) <= self.PREVIEW_RECORDS:
-            return ("event: ticks\ndata: [" + ",".join(to_line(t) for t in ticks) + "]\n\n").encode()
+            return "ticks\n[" + ",".join(to_line(t) for t in ticks) + "]"
         size = -(-len(ticks) // self.PREVIEW_RECORDS)
         shares = [ticks[i : i + size] for i in range(0, len(ticks), size)]
         merged = []
@@ -152,7 +153,7 @@ class RecordHub:
                 nodes.update(tick.nodes)
             events = [event for tick in share for event in tick.events]
             merged.append(replace(share[-1], nodes=nodes, wire=[], events=events))
-        return ("event: preview\ndata: [" + ",".join(t.to_line() for t in merged) + "]\n\n").encode()
+        return "preview\n[" + ",".join(t.to_line() for t in merged) + "]"
 
 
 class ViewServer:
@@ -264,7 +265,8 @@ class ViewServer:
     async def _run(self, request: web.Request) -> web.Response:
         return web.Response(text=self.hub.payload(), content_type="application/json")
 
-    async def _stream(self, request: web.Request) -> web.StreamResponse:
+    async def _stream(self, request: web.Request) -> web.WebSocketResponse:
+        """The run as it goes, for a page: messages ``ticks``, ``preview``, ``end``, or ``header`` (start again)."""
         hub = self.hub
         try:
             sent = max(0, int(request.query.get("from", "0")))
@@ -272,24 +274,24 @@ class ViewServer:
             raise web.HTTPBadRequest(text="from must be a tick count") from None
         generation = hub.generation
 
-        async def send(response: web.StreamResponse, event: asyncio.Event) -> None:
+        async def send(put: Callable[[str], Awaitable[None]], event: asyncio.Event) -> None:
             nonlocal sent
             if "run" in request.query and request.query["run"] != hub.run:
                 # the page watched another run: one this server had before, or the last server on
                 # this port, stopped in the middle of its run (its browser came back here)
-                await response.write(b"event: header\ndata: {}\n\n")
+                await put("header\n{}")
                 return
             while True:
                 event.clear()
                 if hub.generation != generation:
-                    await response.write(b"event: header\ndata: {}\n\n")
+                    await put("header\n{}")
                     return
                 ticks, end = hub.ticks[sent:], hub.end
-                if ticks:  # every tick since the last wake, in one event: the page parses once
-                    await response.write(hub.event(ticks))
+                if ticks:  # every tick since the last wake, in one message: the page parses once
+                    await put(hub.event(ticks))
                     sent += len(ticks)
                 if end is not None and sent >= len(hub.ticks):
-                    await response.write(f"event: end\ndata: {to_line(end)}\n\n".encode())
+                    await put(f"end\n{to_line(end)}")
                     return
                 if hub.closed:  # stopping: what there was has been sent (a run ended by Ctrl-C too)
                     return
@@ -297,40 +299,53 @@ class ViewServer:
 
         return await self._events(request, send)
 
-    async def _next(self, request: web.Request) -> web.StreamResponse:
-        """Server-sent events for a page on a finished live run.
+    async def _next(self, request: web.Request) -> web.WebSocketResponse:
+        """For a page on a finished live run: the message ``run`` once a run other than the page's has started.
 
-        Sends ``run`` once a run other than the page's has started, here or on the next server
-        on this port (while there is none, the page comes back less and less often).
+        Here, or on the next server on this port (while there is none, the page comes back less
+        and less often).
         """
         hub = self.hub
         seen = request.query.get("run", "")
 
-        async def send(response: web.StreamResponse, event: asyncio.Event) -> None:
+        async def send(put: Callable[[str], Awaitable[None]], event: asyncio.Event) -> None:
             while not hub.closed:
                 event.clear()
                 if hub.run not in ("", seen):
-                    await response.write(b"event: run\ndata: {}\n\n")
+                    await put("run\n{}")
                     return
                 await event.wait()
 
         return await self._events(request, send)
 
     async def _events(
-        self, request: web.Request, send: Callable[[web.StreamResponse, asyncio.Event], Awaitable[None]]
-    ) -> web.StreamResponse:
-        """A server-sent event stream: ``send`` writes its events, woken by the hub, until it returns."""
-        response = web.StreamResponse(headers={"Content-Type": "text/event-stream", "Cache-Control": "no-cache"})
-        await response.prepare(request)
+        self, request: web.Request, send: Callable[[Callable[[str], Awaitable[None]], asyncio.Event], Awaitable[None]]
+    ) -> web.WebSocketResponse:
+        """A WebSocket on which ``send`` puts its messages (``NAME\\nJSON``), woken by the hub, until it returns.
+
+        A WebSocket, not server-sent events: a browser keeps six HTTP connections to one server,
+        and a page held one for as long as it was open, so the seventh page of a run never loaded.
+        It ends when ``send`` returns, or when the page goes.
+        """
+        socket = web.WebSocketResponse(timeout=1.0)  # closing waits at most a second for the page's answer
+        await socket.prepare(request)
         event = asyncio.Event()
         self.hub._waiters.add(event)  # noqa: SLF001
+        sending = asyncio.ensure_future(send(socket.send_str, event))
+        listening = asyncio.ensure_future(socket.receive())  # returns once the page closes its end
         try:
-            await send(response, event)
-        except (ConnectionResetError, asyncio.CancelledError):
-            pass
+            await asyncio.wait({sending, listening}, return_when=asyncio.FIRST_COMPLETED)
         finally:
             self.hub._waiters.discard(event)  # noqa: SLF001
-        return response
+            for task in (sending, listening):
+                task.cancel()
+            results = await asyncio.gather(sending, listening, return_exceptions=True)
+            if not socket.closed:
+                await socket.close()
+        failed = results[0]
+        if isinstance(failed, Exception) and not isinstance(failed, (ConnectionError, asyncio.CancelledError)):
+            raise failed  # not the page going away: a fault of the server's own
+        return socket
 
 
 def standalone_html(trace: Trace) -> str:

@@ -326,3 +326,21 @@ def test_a_hidden_tab_lets_go_of_its_stream_and_takes_the_run_up_again_when_show
     assert page.evaluate("window.autonomyView.streaming()")
     page.wait_for_function("document.querySelector('#state').textContent === 'succeeded'", timeout=10_000)
     assert served.interrupt()[0] == 0
+
+
+def test_eight_pages_in_view_all_load_and_follow_one_run(tmp_path, browser, serve):
+    """A browser keeps six HTTP connections to a server: the pages' streams are WebSockets, which it does not count."""
+    mission = tmp_path / "waits.yaml"
+    mission.write_text("mission: waits\ntree:\n  sequence:\n    - wait: {seconds: 2}\n    - wait: {seconds: 1}\n")
+    served = serve("run", str(mission), "--quiet", "--view")
+    context = browser.new_context()
+    try:
+        pages = [context.new_page() for _ in range(8)]
+        for page in pages:
+            page.goto(served.url, timeout=10_000)
+        for page in pages:
+            page.wait_for_function("document.querySelector('#state').textContent === 'succeeded'", timeout=15_000)
+            assert page.eval_on_selector("#node-2", "el => el.dataset.status") == "SUCCESS"
+    finally:
+        context.close()
+    assert served.interrupt()[0] == 0

@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import asyncio
 import json
 import threading
 import urllib.request
+
+import aiohttp
 
 from autonomy.client import Client
 from autonomy.mission import build_tree, load_mission
@@ -14,22 +17,27 @@ from autonomy.views.web import ViewServer
 from tests.views.conftest import ROOT
 
 
-def events_of(stream: str) -> list[tuple[str, str]]:
-    out = []
-    for block in stream.strip().split("\n\n"):
-        lines = dict(line.split(": ", 1) for line in block.splitlines())
-        out.append((lines["event"], lines["data"]))
-    return out
+def messages_of(url: str) -> list[tuple[str, str]]:
+    """Every message of a page's WebSocket at ``url``, as (name, JSON), until the server closes it."""
+
+    async def read() -> list[tuple[str, str]]:
+        out = []
+        async with aiohttp.ClientSession() as session, session.ws_connect(url) as socket:
+            async for message in socket:
+                name, _, data = message.data.partition("\n")
+                out.append((name, data))
+        return out
+
+    return asyncio.run(read())
 
 
 def test_a_run_in_virtual_time_is_previewed_then_served_whole():
     server = ViewServer("127.0.0.1", 0)
     server.start()
-    received: list[str] = []
+    received: list[tuple[str, str]] = []
 
     def read() -> None:
-        with urllib.request.urlopen(server.url + "api/stream?from=0", timeout=30) as stream:
-            received.append(stream.read().decode())
+        received.extend(messages_of(server.url.replace("http", "ws") + "api/stream?from=0"))
 
     reader = threading.Thread(target=read)
 
@@ -44,7 +52,7 @@ def test_a_run_in_virtual_time_is_previewed_then_served_whole():
     try:
         summary = Runner(build_tree(spec), client, mission=spec.name, listeners=[server.hub, start_reading]).run()
         reader.join(timeout=30)
-        events = events_of(received[0])
+        events = received
         assert events[-1][0] == "end" and json.loads(events[-1][1])["outcome"] == "succeeded"
         previews = [json.loads(data) for kind, data in events if kind == "preview"]
         assert previews and all(len(batch) <= server.hub.PREVIEW_RECORDS for batch in previews)

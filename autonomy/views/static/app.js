@@ -375,6 +375,21 @@ $("slider").addEventListener("input", (e) => { setPlaying(false); show(parseInt(
 
 // ------------------------------------------------------------------ live
 
+// The server's messages come over a WebSocket, each "NAME\nJSON" (autonomy/views/web.py): not
+// server-sent events, since a browser keeps six HTTP connections to one server and each page
+// held one for as long as it was open. `lost` is called when the server's end goes first.
+function openStream(path, handlers) {
+  const socket = new WebSocket(new URL(path, location.href).href.replace(/^http/, "ws"));
+  socket.addEventListener("message", (m) => {
+    const cut = m.data.indexOf("\n");
+    const handle = handlers[m.data.slice(0, cut)];
+    if (handle) handle(m.data.slice(cut + 1));
+  });
+  socket.addEventListener("close", () => { if (!socket.ended && handlers.lost) handlers.lost(); });
+  socket.end = () => { socket.ended = true; socket.close(); };
+  return opened(socket);
+}
+
 // A page on a finished live run waits for the next one: a later run on this server, or the
 // next `autonomy run --view` on the same port (the browser keeps coming back while there is none).
 // While no server answers it comes back after 1 s, then less and less often, down to once in
@@ -382,24 +397,23 @@ $("slider").addEventListener("input", (e) => { setPlaying(false); show(parseInt(
 function watchForNextRun(run, waitMs = NEXT_RUN_FIRST_WAIT_MS) {
   live.waitingAfter = run;
   if (asleep()) return;
-  const source = opened(new EventSource(`api/next?run=${encodeURIComponent(run)}`));
-  source.addEventListener("open", () => { waitMs = NEXT_RUN_FIRST_WAIT_MS; });
-  source.addEventListener("run", () => { source.close(); connect(); });
-  source.addEventListener("error", () => {
-    source.close();
-    live.retry = setTimeout(() => watchForNextRun(run, Math.min(waitMs * 2, NEXT_RUN_MOST_WAIT_MS)), waitMs);
+  const socket = openStream(`api/next?run=${encodeURIComponent(run)}`, {
+    run: () => { socket.end(); connect(); },
+    lost: () => {
+      live.retry = setTimeout(() => watchForNextRun(run, Math.min(waitMs * 2, NEXT_RUN_MOST_WAIT_MS)), waitMs);
+    },
   });
+  socket.addEventListener("open", () => { waitMs = NEXT_RUN_FIRST_WAIT_MS; });
 }
 
-// A hidden tab lets go of its event stream: a browser keeps at most six connections to one
-// server, and a seventh tab's page would wait for one of them. Shown again, it takes up where
-// it was: the run it showed, or its wait for the next one.
+// A hidden tab lets go of its stream, and shown again takes up where it was: the run it showed,
+// or its wait for the next one.
 const live = { stream: null, sleeping: false, retry: null, waitingAfter: null };
 
-function opened(source) {
-  if (live.stream && live.stream !== source) live.stream.close();  // one stream a page
-  live.stream = source;
-  return source;
+function opened(socket) {
+  if (live.stream && live.stream !== socket) live.stream.end();  // one stream a page
+  live.stream = socket;
+  return socket;
 }
 
 function asleep() {
@@ -409,7 +423,7 @@ function asleep() {
 
 document.addEventListener("visibilitychange", () => {
   if (document.hidden) {
-    if (live.stream) live.stream.close();
+    if (live.stream) live.stream.end();
     live.stream = null;
     clearTimeout(live.retry);
     live.sleeping = true;
@@ -427,37 +441,40 @@ function connect() {
     load(payload);
     if (payload.mode !== "live") return;
     if (payload.end) { watchForNextRun(payload.run); return; }
-    // the run it watches goes with it: a browser that comes back to the next server on this
-    // port (this one stopped in the middle of the run) is told to start again
     if (asleep()) return;
-    const source = opened(new EventSource(`api/stream?from=${view.ticks.length}&run=${encodeURIComponent(payload.run)}`));
-    source.addEventListener("header", () => { source.close(); connect(); });
     let previewed = false;
-    const take = (e) => {
-      const ticks = JSON.parse(e.data);
-      view.burst = ticks.length > 2 || e.type === "preview";
+    const take = (data, preview) => {
+      const ticks = JSON.parse(data);
+      view.burst = ticks.length > 2 || preview;
       for (const t of ticks) addTick(t);
       view.index = view.ticks.length - 1;
       view.dirty = true;
       wakeUp();
     };
-    source.addEventListener("ticks", take);
-    // a burst of ticks (a run in virtual time) comes as a preview; the whole run is fetched at its end
-    source.addEventListener("preview", (e) => { previewed = true; take(e); });
-    source.addEventListener("end", (e) => {
-      source.close();
-      if (previewed) { connect(); return; }
-      addEnd(JSON.parse(e.data));
-      view.dirty = true;
-      wakeUp();
-      watchForNextRun(payload.run);
+    const socket = openStream(`api/stream?from=${view.ticks.length}&run=${encodeURIComponent(payload.run)}`, {
+      // the run it watches goes with it: a browser that comes back to the next server on this
+      // port (this one stopped in the middle of the run) is told to start again
+      header: () => { socket.end(); connect(); },
+      ticks: (data) => take(data, false),
+      // a burst of ticks (a run in virtual time) comes as a preview; the whole run is fetched at its end
+      preview: (data) => { previewed = true; take(data, true); },
+      end: (data) => {
+        socket.end();
+        if (previewed) { connect(); return; }
+        addEnd(JSON.parse(data));
+        view.dirty = true;
+        wakeUp();
+        watchForNextRun(payload.run);
+      },
+      // the server went in the middle of the run: look again in a second (then wait for a server)
+      lost: () => { live.retry = setTimeout(connect, NEXT_RUN_FIRST_WAIT_MS); },
     });
   }, () => watchForNextRun(view.run || ""));  // no server answers (yet): wait for one, and its run
 }
 
 window.autonomyView = {
   show, view, stateAt: (i) => stateAt(i, false),
-  streaming: () => !!live.stream && live.stream.readyState !== EventSource.CLOSED,
+  streaming: () => !!live.stream && live.stream.readyState <= WebSocket.OPEN,
 };
 const inline = document.getElementById("run-data");
 if (inline) load(JSON.parse(inline.textContent)); else connect();
