@@ -265,7 +265,7 @@ class ViewServer:
     async def _run(self, request: web.Request) -> web.Response:
         return web.Response(text=self.hub.payload(), content_type="application/json")
 
-    async def _stream(self, request: web.Request) -> web.WebSocketResponse:
+    async def _stream(self, request: web.Request) -> web.StreamResponse:
         """The run as it goes, for a page: messages ``ticks``, ``preview``, ``end``, or ``header`` (start again)."""
         hub = self.hub
         try:
@@ -299,7 +299,7 @@ class ViewServer:
 
         return await self._events(request, send)
 
-    async def _next(self, request: web.Request) -> web.WebSocketResponse:
+    async def _next(self, request: web.Request) -> web.StreamResponse:
         """For a page on a finished live run: the message ``run`` once a run other than the page's has started.
 
         Here, or on the next server on this port (while there is none, the page comes back less
@@ -320,7 +320,7 @@ class ViewServer:
 
     async def _events(
         self, request: web.Request, send: Callable[[Callable[[str], Awaitable[None]], asyncio.Event], Awaitable[None]]
-    ) -> web.WebSocketResponse:
+    ) -> web.StreamResponse:
         """A WebSocket on which ``send`` puts its messages (``NAME\\nJSON``), woken by the hub, until it returns.
 
         A WebSocket, not server-sent events: a browser keeps six HTTP connections to one server,
@@ -328,7 +328,10 @@ class ViewServer:
         It ends when ``send`` returns, or when the page goes.
         """
         socket = web.WebSocketResponse(timeout=1.0)  # closing waits at most a second for the page's answer
-        await socket.prepare(request)
+        try:
+            await socket.prepare(request)
+        except ConnectionError:  # the page went while its socket was being opened (a tab shown and hidden at once)
+            return web.Response()  # to nobody: aiohttp lets go of a response to a connection already gone
         event = asyncio.Event()
         self.hub._waiters.add(event)  # noqa: SLF001
         sending = asyncio.ensure_future(send(socket.send_str, event))

@@ -147,6 +147,10 @@ def test_a_replay_slider_shows_the_tree_at_any_tick(tmp_path, page, serve):
         assert page.text_content("#slider-label") == f"tick {index + 1} / {len(trace.ticks)}"
         assert path_points(page) == index + 1
         assert page.text_content("#clock") == f"{trace.ticks[index].time_s:.1f} s"
+    page.evaluate(HIDE, True)  # a tab switch: a replay stays at the tick it shows
+    page.evaluate(HIDE, False)
+    page.wait_for_timeout(300)
+    assert page.text_content("#slider-label") == f"tick 8 / {len(trace.ticks)}"
     page.select_option("#speed", "16")
     page.click("#play")
     page.wait_for_function("+document.querySelector('#slider').value > 60", timeout=10_000)
@@ -170,6 +174,10 @@ def test_a_saved_page_works_offline_from_one_file(tmp_path, page):
     page.locator("#slider").fill("203")
     assert page.text_content("#state") == "succeeded" and fill(page, 0) == GREEN
     assert "Mission 'square' succeeded" in page.text_content("#summary")
+    page.evaluate(HIDE, True)  # a tab switch: a saved page has no server to look for, and stays where it is
+    page.evaluate(HIDE, False)
+    page.wait_for_timeout(300)
+    assert page.text_content("#slider-label") == "tick 204 / 204" and requests[-1].startswith("file:")
     # The last turn takes the heading from 355 to 0 degrees: the plot lifts its pen there, and
     # no stroke crosses it, while every other plot is one stroke.
     trace = read_trace(path)

@@ -72,3 +72,28 @@ def test_a_run_in_virtual_time_is_previewed_then_served_whole():
     finally:
         client.close()
         server.stop()
+
+
+def test_a_page_that_goes_while_its_websocket_opens_leaves_no_error(caplog):
+    """A tab shown and hidden at once closes a socket still opening: normal, and silent."""
+    import logging
+    import socket
+    import struct
+
+    server = ViewServer("127.0.0.1", 0)
+    server.start()
+    request = (
+        f"GET /api/next?run=x HTTP/1.1\r\nHost: 127.0.0.1:{server.port}\r\nUpgrade: websocket\r\n"
+        "Connection: Upgrade\r\nSec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n\r\n"
+    ).encode()
+    try:
+        with caplog.at_level(logging.ERROR):
+            for _ in range(30):
+                with socket.create_connection(("127.0.0.1", server.port)) as raw:
+                    raw.setsockopt(socket.SOL_SOCKET, socket.SO_LINGER, struct.pack("ii", 1, 0))  # a reset
+                    raw.sendall(request)
+            page = urllib.request.urlopen(server.url + "api/run", timeout=10).read()
+        assert json.loads(page)["mode"] == "live"  # the server still serves
+        assert [r.getMessage() for r in caplog.records if r.levelno >= logging.ERROR] == []
+    finally:
+        server.stop()

@@ -422,6 +422,8 @@ function asleep() {
 }
 
 document.addEventListener("visibilitychange", () => {
+  // a replay, or a page saved whole, has no stream to let go of: it stays where it is
+  if (document.getElementById("run-data") || view.mode === "replay") return;
   if (document.hidden) {
     if (live.stream) live.stream.end();
     live.stream = null;
