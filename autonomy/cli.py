@@ -258,11 +258,7 @@ class _Output:
         A behaviour's exception quoted in it (``RuntimeError("\\x1b[31m...")``) reaches the terminal as ``�``.
         """
         text = _shown(text)
-        try:
-            terminal = sys.stdout.isatty()
-        except ValueError:  # closed
-            terminal = False
-        if terminal:
+        if _is_terminal(sys.stdout):
             import shutil
             import textwrap
 
@@ -673,7 +669,6 @@ def _exercise_path(text: str) -> tuple[str, str]:
     from pathlib import Path
 
     from autonomy.source import suggest
-    from autonomy.views.lines import printable
 
     if Path(text).is_file() or "/" in text or text.endswith((".yaml", ".yml")):
         return text, ""
@@ -681,7 +676,7 @@ def _exercise_path(text: str) -> tuple[str, str]:
     if path.is_file():
         return str(path), ""
     names = sorted(found.stem for found in Path("exercises").glob("*.yaml")) if Path("exercises").is_dir() else []
-    shown = printable(text if len(text) <= 40 else text[:40] + "...")
+    shown = text if len(text) <= 40 else text[:40] + "..."  # made printable where it is printed (_fail)
     here = f"use one of {', '.join(names)}" if names else "there is no exercises folder here"
     return "", (
         f"no exercise named '{shown}' in ./exercises/{suggest(text, names)}: {here}, or give the exercise file's path"
@@ -775,7 +770,7 @@ def cmd_grade(args: argparse.Namespace) -> int:
     code = EXIT_USAGE if alone and reports[0].problems else EXIT_OK
     for target, write in targets:  # one that fails does not keep the others from being written
         try:
-            # a name that is not UTF-8 (a folder unpacked from another system) is written with '?' for its bytes
+            # a problem quoting a path that is not UTF-8 (a folder from another system) has '?' for its bytes
             Path(target).write_text(write(exercise, reports), encoding="utf-8", errors="replace")
         except OSError as err:
             code = _fail(f"cannot write {target}: {err.strerror or err}", EXIT_USAGE)
@@ -795,11 +790,9 @@ def _print_marks(exercise: Any, reports: list[Any]) -> None:
     from rich.console import Console
     from rich.table import Table
 
-    from autonomy.views.lines import printable
-
     console = Console(highlight=False)
-    labels = [f"{printable(c.label)} ({c.points:g})" for c in exercise.criteria]
-    names = [printable(report.student) for report in reports]
+    labels = [f"{_shown(c.label)} ({c.points:g})" for c in exercise.criteria]
+    names = [_shown(report.student) for report in reports]
     cells = [len(f"{m:g}") for report in reports for m in report.marks]
     student = max([len("student"), *map(cell_len, names)])  # on screen: a Chinese character takes two cells
     total = max([len("total"), *(len(f"{report.total:g}") for report in reports)])
@@ -808,7 +801,7 @@ def _print_marks(exercise: Any, reports: list[Any]) -> None:
         return student + total + sum(max(cell_len(head), *cells, 1) for head in heads) + 3 * (len(heads) + 2) + 1
 
     numbers = [f"#{index}" for index in range(1, len(labels) + 1)]
-    title = f"{printable(exercise.title)}: marks out of {exercise.max_points:g}"
+    title = f"{_shown(exercise.title)}: marks out of {exercise.max_points:g}"
     heads = labels if width(labels) <= console.width else numbers
     console.print(title, soft_wrap=True)
     if width(numbers) > console.width:  # too narrow even for a table: a line a student
@@ -832,7 +825,7 @@ def _print_marks(exercise: Any, reports: list[Any]) -> None:
         console.print("Not graded (the mark is 0):", soft_wrap=True)
         for name, report in troubled:
             more = f" (+{len(report.problems) - 1} more)" if len(report.problems) > 1 else ""
-            console.print(f"  {name}: {printable(report.problems[0])}{more}", soft_wrap=True)
+            console.print(f"  {name}: {_shown(report.problems[0])}{more}", soft_wrap=True)
 
 
 def cmd_show(args: argparse.Namespace) -> int:

@@ -74,7 +74,7 @@ class Gatherer:
 
     def __call__(self, record: Record) -> None:
         """Takes one record."""
-        if type(record) is not TickRecord and not isinstance(record, TickRecord):
+        if not isinstance(record, TickRecord):
             if isinstance(record, RunHeader) and self._header is None:
                 self._header = record
             elif isinstance(record, RunEnd) and self._end is None:
@@ -99,15 +99,12 @@ class Gatherer:
             ValueError: the records held no header or end, or no truth pose (the run was not on
                 the built-in emulator, so nothing can be judged).
         """
-        header, end, path = self._header, self._end, list(self._path)
+        header, end = self._header, self._end
         if header is None or end is None:
             raise ValueError("a run to judge needs its header and its end record")
-        if self._no_truth:
+        if self._no_truth or (end.truth is None and not self._path):
             raise ValueError("the run has no truth pose: only runs on the built-in emulator can be judged")
-        if end.truth is not None:
-            path.append((end.time_s, end.truth))
-        elif not path:
-            raise ValueError("the run has no truth pose: only runs on the built-in emulator can be judged")
+        path = self._path + ([(end.time_s, end.truth)] if end.truth is not None else [])
         return RunFacts(
             nodes=len(header.nodes),
             outcome=end.outcome,

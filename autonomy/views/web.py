@@ -32,6 +32,8 @@ from autonomy.views.mapsvg import world_svg
 from autonomy.views.treesvg import svg_tree
 
 STATIC_FILES = {"app.js": "text/javascript", "app.css": "text/css"}
+#: Sends one message (``NAME\nJSON``) on a page's WebSocket.
+Put = Callable[[str], Awaitable[None]]
 
 
 def _static(name: str) -> str:
@@ -274,7 +276,7 @@ class ViewServer:
             raise web.HTTPBadRequest(text="from must be a tick count") from None
         generation = hub.generation
 
-        async def send(put: Callable[[str], Awaitable[None]], event: asyncio.Event) -> None:
+        async def send(put: Put, event: asyncio.Event) -> None:
             nonlocal sent
             if "run" in request.query and request.query["run"] != hub.run:
                 # the page watched another run: one this server had before, or the last server on
@@ -308,7 +310,7 @@ class ViewServer:
         hub = self.hub
         seen = request.query.get("run", "")
 
-        async def send(put: Callable[[str], Awaitable[None]], event: asyncio.Event) -> None:
+        async def send(put: Put, event: asyncio.Event) -> None:
             while not hub.closed:
                 event.clear()
                 if hub.run not in ("", seen):
@@ -319,7 +321,7 @@ class ViewServer:
         return await self._events(request, send)
 
     async def _events(
-        self, request: web.Request, send: Callable[[Callable[[str], Awaitable[None]], asyncio.Event], Awaitable[None]]
+        self, request: web.Request, send: Callable[[Put, asyncio.Event], Awaitable[None]]
     ) -> web.StreamResponse:
         """A WebSocket on which ``send`` puts its messages (``NAME\\nJSON``), woken by the hub, until it returns.
 
