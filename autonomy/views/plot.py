@@ -81,7 +81,7 @@ def plot_run(trace: Trace, path: str | Path) -> None:
     top, bottom = figure.subfigures(2, 1, height_ratios=[8, 1 + rows * 0.22])
     left, right = top.subfigures(1, 2, width_ratios=[1, 1.15])
     outcome = trace.end.outcome if trace.end is not None else "cut off (no end record)"
-    figure.suptitle(f"{header.mission}: {outcome}, {len(ticks)} ticks, {header.date}", fontsize=13)
+    figure.suptitle(printable(f"{header.mission}: {outcome}, {len(ticks)} ticks, {header.date}"), fontsize=13)
     _map(left.add_subplot(), trace)
     axes = right.subplots(len(TELEMETRY), 1, sharex=True)
     times = [t.time_s for t in ticks]
@@ -120,7 +120,7 @@ def _map(ax: Any, trace: Trace) -> None:
                 ax.annotate(printable(str(name)), (cx - r, cy + r), color="#d9480f", fontsize=8)
         ax.set_xlim(-50, width + 50)
         ax.set_ylim(-50, height + 50)
-        ax.set_title(f"world {world.get('name', '?')}", fontsize=10)
+        ax.set_title(printable(f"world {world.get('name', '?')}"), fontsize=10)
     else:
         ax.set_title("world unknown: dead reckoning from the start", fontsize=10)
     ax.plot(
@@ -177,7 +177,9 @@ def _timeline(ax: Any, trace: Trace, rows: int) -> None:
         for when_s, how in marks:
             ax.plot([when_s, when_s], [row - 0.35, row + 0.35], color=OUTCOME_COLOURS[how], linewidth=1)
     ax.set_yticks(range(rows))
-    ax.set_yticklabels([("  " * depth[n.id]) + n.name for n in header.nodes[:rows]], fontsize=7, family="monospace")
+    ax.set_yticklabels(
+        [("  " * depth[n.id]) + printable(n.name) for n in header.nodes[:rows]], fontsize=7, family="monospace"
+    )
     ax.invert_yaxis()
     ax.set_xlabel("time (s)")
     ax.set_title(

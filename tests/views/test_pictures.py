@@ -103,3 +103,19 @@ def test_a_series_is_broken_only_where_it_jumps_more_than_half_its_wrap():
     assert ys[:2] == [350, 359] and math.isnan(ys[2]) and ys[3:] == [2, 10, 190, 181]  # 10 -> 190 is a turn
     assert broken_at_wraps(times, [0, 300, 0, 300, 0, 300], None) == (times, [0, 300, 0, 300, 0, 300])
     assert broken_at_wraps([], [], 360) == ([], [])
+
+
+def test_a_trace_naming_things_with_control_characters_plots_them_printable_without_warnings(tmp_path):
+    import json
+
+    trace = tmp_path / "run.jsonl"
+    assert autonomy("run", "missions/square.yaml", "--fast", "--quiet", "--trace", str(trace)).returncode == 0
+    lines = trace.read_text().splitlines()
+    header = json.loads(lines[0])
+    header["mission"], header["nodes"][1]["name"] = "evil\x1b[2J\x07 name", "node\x1b]0;pwn\x07"
+    trace.write_text("\n".join([json.dumps(header), *lines[1:]]) + "\n")
+    svg = tmp_path / "run.svg"
+    result = autonomy("plot", str(trace), "-o", str(svg))
+    assert result.returncode == 0 and result.stderr == ""  # no missing-glyph warnings from the picture
+    text = svg.read_text()
+    assert "\x1b" not in text and "evil�[2J� name" in text and "node�]0;pwn�" in text
