@@ -18,17 +18,22 @@ BehaviorTree.CPP's loggers); :class:`TreeState` folds them back into every node'
 
 from __future__ import annotations
 
+import base64
+import binascii
 import json
 import math
 from collections.abc import Callable, Iterable
 from dataclasses import asdict, dataclass, field
-from json.encoder import encode_basestring_ascii
 from typing import Any, NamedTuple, Union
+
+import msgspec
 
 from autonomy.protocol import Status as Packet
 
-#: The version of the record format; a reader refuses records of a newer version.
-RECORD_VERSION = 1
+#: The version of the record format; a reader refuses records of a newer version. Version 2
+#: writes numbers in full (version 1 rounded them), a packet's bytes in base64 (1: hex), and
+#: leaves out a tick's ``nodes`` and ``wire`` when they are empty.
+RECORD_VERSION = 2
 
 RUNNING, SUCCESS, FAILURE, INVALID = "RUNNING", "SUCCESS", "FAILURE", "INVALID"
 
@@ -79,19 +84,20 @@ class Pose(NamedTuple):
     heading_deg: float
 
     def to_json(self) -> list[float]:
-        """``[x_mm, y_mm, heading_deg]``, rounded to 0.1."""
-        return [round(self.x_mm, 1), round(self.y_mm, 1), round(self.heading_deg, 1)]
+        """``[x_mm, y_mm, heading_deg]``."""
+        return [self.x_mm, self.y_mm, self.heading_deg]
 
     @classmethod
     def from_json(cls, value: Any) -> Pose:
-        """The inverse of :meth:`to_json`."""
+        """The inverse of :meth:`to_json`: each number as it was (a whole one stays whole)."""
         x, y, heading = value
-        return cls(float(x), float(y), float(heading))
+        if not all(type(v) in (int, float) for v in (x, y, heading)):
+            raise RecordError(f"a pose is [x_mm, y_mm, heading_deg], three numbers; got {value!r}")
+        return cls(x, y, heading)
 
 
-@dataclass(frozen=True)
-class Exchange:
-    """One attempt on the wire: the frame sent and what came back.
+class Exchange(msgspec.Struct, frozen=True, array_like=True):
+    """One attempt on the wire: the frame sent and what came back (in JSON, ``[sent, reply, attempt]``).
 
     Attributes:
         sent: The command, without its newline (``F+200``).
@@ -102,13 +108,10 @@ class Exchange:
     sent: str
     reply: str
     attempt: int = 0
-    #: Its JSON, kept on the value once made: the runner hands out the same exchange values again
-    #: and again. Not a field (no annotation): ``fields``, ``asdict`` and ``astuple`` leave it out.
-    _json = None
 
     def to_json(self) -> list[Any]:
-        """``[sent, reply]``, with the attempt number third when it is a retry."""
-        return [self.sent, self.reply, self.attempt] if self.attempt else [self.sent, self.reply]
+        """``[sent, reply, attempt]``."""
+        return [self.sent, self.reply, self.attempt]
 
     @classmethod
     def from_json(cls, value: Any) -> Exchange:
@@ -116,8 +119,7 @@ class Exchange:
         return cls(str(value[0]), str(value[1]), int(value[2]) if len(value) > 2 else 0)
 
 
-@dataclass(frozen=True)
-class Event:
+class Event(msgspec.Struct, frozen=True, omit_defaults=True):
     """Something that happened: a ``log`` message, a collision, a behaviour's exception...
 
     Attributes:
@@ -162,18 +164,11 @@ class Event:
         )
 
 
-@dataclass(frozen=True)
-class NodeState:
-    """A node's status and ``feedback_message`` after a tick."""
+class NodeState(msgspec.Struct, frozen=True, array_like=True):
+    """A node's status and ``feedback_message`` after a tick (in JSON, ``[status, feedback]``)."""
 
     status: str
     feedback: str = ""
-
-    def __init__(self, status: str, feedback: str = "") -> None:
-        # Made for each node that changed, each tick: the fields set in the instance's dictionary
-        # at once, where the frozen dataclass's own __init__ would set each through object.__setattr__.
-        fields = self.__dict__
-        fields["status"], fields["feedback"] = status, feedback
 
 
 @dataclass
@@ -231,8 +226,7 @@ class RunHeader:
         return out
 
 
-@dataclass
-class TickRecord:
+class TickRecord(msgspec.Struct, tag="tick", tag_field="type", omit_defaults=True, dict=True):
     """What one tick saw and did.
 
     Attributes:
@@ -257,88 +251,43 @@ class TickRecord:
     speed_mm_s: float
     dead_reckoning: Pose
     truth: Pose | None = None
-    nodes: dict[int, NodeState] = field(default_factory=dict)
-    wire: list[Exchange] = field(default_factory=list)
-    events: list[Event] = field(default_factory=list)
-    #: The line :func:`to_line` made, kept for the next listener (a field, so that keeping it
-    #: does not turn the record's attributes into a dictionary of their own).
-    _line: str | None = field(default=None, init=False, repr=False, compare=False)
+    nodes: dict[int, NodeState] = {}
+    wire: list[Exchange] = []
+    events: list[Event] = []
+    #: The line :func:`to_line` made, kept on the record for the next listener. Not a field (no
+    #: annotation): not written, compared or copied.
+    _line = None
 
     def to_line(self) -> str:
-        """:meth:`to_json` as one line of JSON, written out directly: a trace writes one per tick.
+        """:meth:`to_json` as one line of JSON, made by msgspec's encoder straight from the record.
 
-        It is the same JSON as ``json.dumps(self.to_json())`` (a test checks every field), made
-        about three times faster, since a run in virtual time writes thousands a second.
+        A run in virtual time writes thousands a second; the encoder, written in C, takes the
+        record's fields as they are, several times faster than any line made in Python.
+
+        Raises:
+            ValueError: a number is not finite (NaN or infinity, which JSON cannot hold).
         """
-        s, truth, time_s, speed_mm_s = self.status, self.truth, self.time_s, self.speed_mm_s
-        x_mm, y_mm, heading_deg = self.dead_reckoning  # poses are tuples: taken apart at once
-        numbers = time_s + speed_mm_s + x_mm + y_mm + heading_deg
-        if truth is not None:
-            truth_x_mm, truth_y_mm, truth_heading_deg = truth
-            numbers += truth_x_mm + truth_y_mm + truth_heading_deg
-        if not math.isfinite(numbers):
+        try:
+            line = _encode(self)
+        except UnicodeEncodeError:  # a behaviour's text holding a lone surrogate: escaped, as json does
+            return json.dumps(self.to_json(), separators=(",", ":"), allow_nan=False)
+        # the encoder writes NaN and infinity as null, which no field of a tick holds otherwise
+        # (only a behaviour's text can spell it, and then the numbers are looked at)
+        if b"null" in line and not self._finite():
             raise ValueError(f"tick {self.tick} holds a number that is not finite")
-        nodes = ",".join(
-            [
-                f'"{k}":["{v.status}",{_text(v.feedback)}]' if v.feedback else f'"{k}":["{v.status}"]'
-                for k, v in self.nodes.items()
-            ]
-        )
-        exchanges = self.wire  # nearly always the status poll alone: no list to join
-        if len(exchanges) == 1:
-            wire = exchanges[0]._json or _exchange_json(exchanges[0])
-        else:
-            wire = ",".join([e._json or _exchange_json(e) for e in exchanges])
-        tenths, raw = _TENTHS, s.raw
-        fields = (
-            self.tick,
-            time_s,
-            _FLAGS.get((s.mode, s.auto_mode, s.collided, s.moving)) or _flags_json(s),
-            s.tilt_deg,
-            s.heading_deg,
-            s.front_distance_mm,
-            s.odometer_mm,
-            f",{_RAW}{raw.hex()}{_QUOTE}" if raw else "",
-            self.battery,
-            _JSON_BOOL[self.healthy],
-            tenths.get(speed_mm_s) or _tenths(speed_mm_s),
-            x_mm,
-            y_mm,
-            tenths.get(heading_deg) or _tenths(heading_deg),
-            nodes,
-            wire,
-        )
-        # One %-format for the whole line, the truth's included: several times faster than as
-        # many f-string fields, or than formatting the truth apart and adding it on.
-        if truth is None:
-            line = _TICK_LINE % fields
-        else:
-            h = truth_heading_deg
-            line = _TICK_LINE_TRUTH % (fields + (truth_x_mm, truth_y_mm, tenths.get(h) or _tenths(h)))
-        if self.events:
-            events = json.dumps([e.to_json() for e in self.events], separators=(",", ":"))
-            line = f'{line[:-1]},"events":{events}}}'
-        return line
+        return line.decode()
+
+    def _finite(self) -> bool:
+        numbers = self.time_s + self.speed_mm_s + sum(self.dead_reckoning) + (sum(self.truth) if self.truth else 0.0)
+        return math.isfinite(numbers)
 
     def to_json(self) -> dict[str, Any]:
-        """The tick as one JSON object."""
-        out: dict[str, Any] = {
-            "type": "tick",
-            "tick": self.tick,
-            "time_s": round(self.time_s, 4),
-            "status": _status_json(self.status),
-            "battery": self.battery,
-            "healthy": self.healthy,
-            "speed_mm_s": round(self.speed_mm_s, 1),
-            "dead_reckoning": self.dead_reckoning.to_json(),
-            "nodes": {str(k): [v.status, v.feedback] if v.feedback else [v.status] for k, v in self.nodes.items()},
-            "wire": [e.to_json() for e in self.wire],
-        }
-        if self.truth is not None:
-            out["truth"] = self.truth.to_json()
-        if self.events:
-            out["events"] = [e.to_json() for e in self.events]
+        """The tick as one JSON object (ids as text, as JSON writes them)."""
+        out: dict[str, Any] = msgspec.to_builtins(self, str_keys=True)
         return out
+
+
+_encode = msgspec.json.Encoder().encode
 
 
 @dataclass
@@ -375,7 +324,7 @@ class RunEnd:
             "outcome": self.outcome,
             "reason": self.reason,
             "stopped": self.stopped,
-            "time_s": round(self.time_s, 4),
+            "time_s": self.time_s,
             "summary": self.summary,
             "paragraph": self.paragraph,
             "wire": [e.to_json() for e in self.wire],
@@ -391,18 +340,21 @@ Record = Union[RunHeader, TickRecord, RunEnd]
 Listener = Callable[[Record], None]
 
 
-def _status_json(status: Packet) -> dict[str, Any]:
-    out = status.as_dict()
-    out.pop("raw", None)
-    if status.raw:
-        out["raw"] = status.raw.hex()
-    return out
-
-
 def _status_from_json(value: dict[str, Any]) -> Packet:
-    raw = bytes.fromhex(value["raw"]) if value.get("raw") else b""
     fields = {k: value[k] for k in Packet.__dataclass_fields__ if k != "raw"}
-    return Packet(**fields, raw=raw)
+    return Packet(**fields, raw=_packet_bytes(value.get("raw") or ""))
+
+
+def _packet_bytes(text: Any) -> bytes:
+    """A packet's bytes as a trace writes them: base64 (version 2), or hex (version 1: 18 digits)."""
+    if not isinstance(text, str):
+        raise RecordError(f"a packet's raw bytes are text (base64), got {text!r}")
+    try:
+        if len(text) == 2 * 9 and all(c in "0123456789abcdefABCDEF" for c in text):  # a 9-byte packet in hex
+            return bytes.fromhex(text)
+        return base64.b64decode(text, validate=True)
+    except (ValueError, binascii.Error):
+        raise RecordError(f"a packet's raw bytes are base64 (hex before version 2), got {text!r}") from None
 
 
 def to_line(record: Record) -> str:
@@ -424,53 +376,6 @@ def to_line(record: Record) -> str:
             line = json.dumps(record.to_json(), separators=(",", ":"), allow_nan=False)
         record._line = line  # type: ignore[union-attr]
     return line
-
-
-#: A string as JSON, quotes included, in ASCII as ``json.dumps`` writes the other lines: any text a
-#: behaviour gives (a lone surrogate too) makes a line that can be written (the json module's own C encoder).
-_text = encode_basestring_ascii
-_TICK_LINE = (
-    '{"type":"tick","tick":%d,"time_s":%.4f,"status":{%s,'
-    '"tilt_deg":%d,"heading_deg":%d,"front_distance_mm":%d,"odometer_mm":%d%s},"battery":%d,"healthy":%s,'
-    '"speed_mm_s":%s,"dead_reckoning":[%.1f,%.1f,%s],"nodes":{%s},"wire":[%s]}'
-)
-_TICK_LINE_TRUTH = _TICK_LINE[:-1] + ',"truth":[%.1f,%.1f,%s]}'
-#: Headings and speeds written to a tenth, by value: a run holds the same few for many ticks,
-#: and formatting a float takes several times as long as looking it up.
-_TENTHS: dict[float, str] = {}
-_MOST_TENTHS = 4096
-
-
-def _tenths(value: float) -> str:
-    text = f"{value:.1f}"
-    if value and len(_TENTHS) < _MOST_TENTHS:  # 0.0 and -0.0 are one key, but two texts
-        _TENTHS[value] = text
-    return text
-
-
-#: A packet's mode and flags as JSON, by value: a run holds the same few (at most 128) for many
-#: ticks, and one field of the line costs less than four.
-_FLAGS: dict[tuple[int, bool, bool, bool], str] = {}
-
-
-def _flags_json(s: Packet) -> str:
-    text = (
-        f'"mode":{s.mode},"auto_mode":{_JSON_BOOL[s.auto_mode]},'
-        f'"collided":{_JSON_BOOL[s.collided]},"moving":{_JSON_BOOL[s.moving]}'
-    )
-    _FLAGS[s.mode, s.auto_mode, s.collided, s.moving] = text
-    return text
-
-
-def _exchange_json(exchange: Exchange) -> str:
-    e = exchange
-    line = f"[{_text(e.sent)},{_text(e.reply)},{e.attempt}]" if e.attempt else f"[{_text(e.sent)},{_text(e.reply)}]"
-    object.__setattr__(e, "_json", line)  # frozen, but the text is the value's own
-    return line
-
-
-_JSON_BOOL = {True: "true", False: "false"}
-_RAW, _QUOTE = '"raw":"', '"'
 
 
 def _battery(value: Any) -> int:
@@ -549,7 +454,7 @@ def record_from_json(value: Any) -> Record:
                 speed_mm_s=_finite(value["speed_mm_s"], "speed_mm_s"),
                 dead_reckoning=Pose.from_json(value["dead_reckoning"]),
                 truth=None if truth is None else Pose.from_json(truth),
-                nodes={int(k): _node_state(v) for k, v in value["nodes"].items()},
+                nodes={int(k): _node_state(v) for k, v in value.get("nodes", {}).items()},
                 wire=[Exchange.from_json(e) for e in value.get("wire", [])],
                 events=[Event.from_json(e) for e in value.get("events", [])],
             )

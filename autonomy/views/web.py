@@ -19,10 +19,10 @@ import json
 import threading
 import uuid
 from collections.abc import Awaitable, Callable
-from dataclasses import replace
 from importlib import resources
 from typing import Any
 
+import msgspec
 from aiohttp import web
 
 from autonomy.clock import Clock, RealClock
@@ -154,7 +154,7 @@ class RecordHub:
             for tick in share:
                 nodes.update(tick.nodes)
             events = [event for tick in share for event in tick.events]
-            merged.append(replace(share[-1], nodes=nodes, wire=[], events=events))
+            merged.append(msgspec.structs.replace(share[-1], nodes=nodes, wire=[], events=events))
         return "preview\n[" + ",".join(t.to_line() for t in merged) + "]"
 
 

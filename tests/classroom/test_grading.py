@@ -1,10 +1,10 @@
 """Exercises graded on the emulator: references score full marks, wrong solutions lose marks for the right reason."""
 
-import dataclasses
 import json
 import os
 from pathlib import Path
 
+import msgspec
 import pytest
 
 from autonomy.classroom import ExerciseInvalid, find_submissions, grade_class, grade_one, load_exercise
@@ -355,7 +355,7 @@ def test_facts_need_a_header_an_end_and_the_truth():
     with pytest.raises(ValueError, match="header and its end"):
         gather(records[:-1])
     last = len(records) - 1
-    without_truth = [r if i in (0, last) else dataclasses.replace(r, truth=None) for i, r in enumerate(records)]
+    without_truth = [r if i in (0, last) else msgspec.structs.replace(r, truth=None) for i, r in enumerate(records)]
     with pytest.raises(ValueError, match="no truth pose"):
         gather(without_truth)
 

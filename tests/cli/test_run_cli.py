@@ -71,9 +71,9 @@ def test_run_writes_a_trace(tmp_path):
     assert lines[0]["type"] == "header" and lines[0]["mission"] == "move until wall"
     assert lines[0]["mission_file"] == "missions/move_until_wall.yaml" and len(lines[0]["mission_sha256"]) == 64
     assert lines[-1]["type"] == "end" and lines[-1]["outcome"] == "succeeded" and lines[-1]["stopped"]
-    sent = [c[0] for line in lines[1:] for c in line["wire"] if not c[0].startswith("G")]
+    sent = [c[0] for line in lines[1:] for c in line.get("wire", []) if not c[0].startswith("G")]
     assert sent[:3] == ["F+300", "X0000", "S9992"]
-    assert sum(1 for line in lines[1:] for c in line["wire"] if len(c) == 2) == lines[-1]["summary"]["requests"]
+    assert sum(1 for line in lines[1:] for c in line.get("wire", []) if c[2] == 0) == lines[-1]["summary"]["requests"]
 
 
 def test_ctrl_c_stops_the_robot_and_exits_130(tmp_path):
@@ -94,7 +94,7 @@ def test_ctrl_c_stops_the_robot_and_exits_130(tmp_path):
     assert process.returncode == 130, err
     assert "interrupted" in out and "It was stopped at the end." in out
     records = [json.loads(line) for line in trace.read_text().splitlines()]
-    assert ["F+300", "OK"] in [c for record in records[1:] for c in record["wire"]]
+    assert ["F+300", "OK", 0] in [c for record in records[1:] for c in record.get("wire", [])]
     assert records[-1]["type"] == "end" and records[-1]["outcome"] == "interrupted" and records[-1]["stopped"]
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import itertools
+import re
 import signal
 import socket
 import subprocess
@@ -202,6 +203,12 @@ def test_a_saved_page_works_offline_from_one_file(tmp_path, page):
         " ? Math.abs(+s.split(',')[1] - +all[n - 1].split(',')[1]) : 0))",
     )
     assert 0 < tallest < 22  # the turns draw slopes, none from one edge to the other (44 px tall)
+    # a trace holds numbers in full; the page shows them to a tenth
+    assert max(abs(t.speed_mm_s - round(t.speed_mm_s, 1)) for t in trace.ticks) > 0
+    for name, unit in (("speed", "mm/s"), ("heading", "deg")):
+        value, span = (page.text_content(f"#plots svg[data-name={name}] .{c}") for c in ("value", "range"))
+        assert re.fullmatch(rf"-?\d+(\.\d)? {unit}", value), value
+        assert re.fullmatch(rf"-?\d+(\.\d)? \.\. -?\d+(\.\d)? {unit}, 0 \.\. \d+\.\d s", span), span
 
 
 def test_a_behaviortree_cpp_log_replays_in_the_page_with_its_tree_and_no_made_up_telemetry(tmp_path, page, serve):
@@ -248,12 +255,14 @@ def test_the_heading_plot_lifts_its_pen_wherever_the_heading_wrapped_between_two
     # degrees) after the last, so the values of two drawn points alone cannot tell a wrap from a turn.
     import dataclasses
 
+    import msgspec
+
     from autonomy.record import to_line
 
     recorded = read_trace(record_trace(tmp_path, "missions/square.yaml"))
     first = recorded.ticks[0]
     ticks = [
-        dataclasses.replace(
+        msgspec.structs.replace(
             first,
             tick=n + 1,
             time_s=n * 0.05,

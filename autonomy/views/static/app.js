@@ -166,6 +166,9 @@ function setupMap(payload) {
   svgEl("line", { x1: 0, y1: 0, x2: 90, y2: 0, stroke: "#e67700", "stroke-width": 3, "vector-effect": "non-scaling-stroke" }, robot);
 }
 
+// A number as the page shows it: to a tenth at most (a trace holds numbers in full).
+function tenths(value) { return Math.round(value * 10) / 10; }
+
 function pose(t) { return t.truth || t.dead_reckoning; }
 
 function renderMap(i) {
@@ -224,8 +227,8 @@ function renderPlots(i) {
       return `${lift ? "M" : "L"}${x.toFixed(1)},${y.toFixed(1)}`;
     });
     svg.querySelector(".series").setAttribute("d", steps.join(" "));
-    svg.querySelector(".value").textContent = i >= 0 ? `${Math.round(values[i] * 10) / 10} ${unit}` : "";
-    svg.querySelector(".range").textContent = `${lo} .. ${hi} ${unit}, 0 .. ${tMax.toFixed(1)} s`;
+    svg.querySelector(".value").textContent = i >= 0 ? `${tenths(values[i])} ${unit}` : "";
+    svg.querySelector(".range").textContent = `${tenths(lo)} .. ${tenths(hi)} ${unit}, 0 .. ${tMax.toFixed(1)} s`;
   });
 }
 
