@@ -32,7 +32,7 @@ chromium:
 test: $(STAMP) chromium
 	$(BIN)/ruff check .
 	$(BIN)/ruff format --check .
-	AUTONOMY_CHROMIUM="$(CHROMIUM)" $(BIN)/python -m pytest -q
+	AUTONOMY_CHROMIUM="$(CHROMIUM)" $(BIN)/python -m pytest -q -n 2
 
 ## fuzz: the fuzz tests run long: 100,000 mutants, texts and reply byte strings, 10,000 YAML documents
 fuzz: $(STAMP)
