@@ -28,6 +28,7 @@ from typing import Any, NamedTuple, Union
 
 import msgspec
 
+from autonomy.protocol import STATUS_LENGTH
 from autonomy.protocol import Status as Packet
 
 #: The version of the record format; a reader refuses records of a newer version. Version 2
@@ -90,10 +91,9 @@ class Pose(NamedTuple):
     @classmethod
     def from_json(cls, value: Any) -> Pose:
         """The inverse of :meth:`to_json`: each number as it was (a whole one stays whole)."""
-        x, y, heading = value
-        if not all(type(v) in (int, float) for v in (x, y, heading)):
-            raise RecordError(f"a pose is [x_mm, y_mm, heading_deg], three numbers; got {value!r}")
-        return cls(x, y, heading)
+        if not isinstance(value, list) or len(value) != 3 or not all(_is_finite(v) for v in value):
+            raise RecordError(f"a pose is [x_mm, y_mm, heading_deg], three finite numbers; got {_short(value)}")
+        return cls(*value)
 
 
 class Exchange(msgspec.Struct, frozen=True, array_like=True):
@@ -115,8 +115,17 @@ class Exchange(msgspec.Struct, frozen=True, array_like=True):
 
     @classmethod
     def from_json(cls, value: Any) -> Exchange:
-        """The inverse of :meth:`to_json`."""
-        return cls(str(value[0]), str(value[1]), int(value[2]) if len(value) > 2 else 0)
+        """The inverse of :meth:`to_json` (version 1 left out a first attempt's 0)."""
+        if (
+            not isinstance(value, list)
+            or not 2 <= len(value) <= 3
+            or not all(isinstance(v, str) for v in value[:2])
+            or (len(value) == 3 and not (type(value[2]) is int and value[2] >= 0))
+        ):
+            raise RecordError(
+                f"a wire entry is [sent, reply, attempt], two texts and a whole number; got {_short(value)}"
+            )
+        return cls(value[0], value[1], value[2] if len(value) > 2 else 0)
 
 
 class Event(msgspec.Struct, frozen=True, omit_defaults=True):
@@ -154,14 +163,21 @@ class Event(msgspec.Struct, frozen=True, omit_defaults=True):
     @classmethod
     def from_json(cls, value: dict[str, Any]) -> Event:
         """The inverse of :meth:`to_json`."""
-        return cls(
-            str(value["kind"]),
-            str(value["message"]),
-            value.get("node"),
-            str(value.get("where", "")),
-            tuple(value.get("frames", ())),
-            str(value.get("traceback", "")),
-        )
+        if not isinstance(value, dict):
+            raise RecordError(f"an event is an object with kind and message; got {_short(value)}")
+        node, frames = value.get("node"), value.get("frames", [])
+        texts = [value.get(k, "") for k in ("kind", "message", "where", "traceback")]
+        if (
+            not all(isinstance(t, str) for t in texts)
+            or not (node is None or (type(node) is int and node >= 0))
+            or not (isinstance(frames, list) and all(isinstance(f, str) for f in frames))
+        ):
+            raise RecordError(
+                "an event is {kind, message} with texts, and maybe a node id, where, frames (a list of texts) "
+                f"and a traceback; got {_short(value)}"
+            )
+        kind, message, where, traceback = texts
+        return cls(kind, message, node, where, tuple(frames), traceback)
 
 
 class NodeState(msgspec.Struct, frozen=True, array_like=True):
@@ -212,7 +228,8 @@ class RunHeader:
 
     def to_json(self) -> dict[str, Any]:
         """The header as one JSON object."""
-        return {"type": "header", **asdict(self)}
+        # in this version's form, as the ticks written after it are (a version-1 trace shown again)
+        return {"type": "header", **asdict(self), "version": RECORD_VERSION}
 
     def node(self, node_id: int) -> NodeInfo:
         """The node with id ``node_id``."""
@@ -270,7 +287,9 @@ class TickRecord(msgspec.Struct, tag="tick", tag_field="type", omit_defaults=Tru
         try:
             line = _encode(self)
         except UnicodeEncodeError:  # a behaviour's text holding a lone surrogate: escaped, as json does
-            return json.dumps(self.to_json(), separators=(",", ":"), allow_nan=False)
+            if not self._finite():
+                raise ValueError(f"tick {self.tick} holds a number that is not finite") from None
+            return json.dumps(self.to_json(), separators=(",", ":"))
         # the encoder writes NaN and infinity as null, which no field of a tick holds otherwise
         # (only a behaviour's text can spell it, and then the numbers are looked at)
         if b"null" in line and not self._finite():
@@ -278,16 +297,17 @@ class TickRecord(msgspec.Struct, tag="tick", tag_field="type", omit_defaults=Tru
         return line.decode()
 
     def _finite(self) -> bool:
-        numbers = self.time_s + self.speed_mm_s + sum(self.dead_reckoning) + (sum(self.truth) if self.truth else 0.0)
-        return math.isfinite(numbers)
+        numbers = (self.time_s, self.speed_mm_s, *self.dead_reckoning, *(self.truth or ()))
+        return all(math.isfinite(n) for n in numbers)
 
     def to_json(self) -> dict[str, Any]:
         """The tick as one JSON object (ids as text, as JSON writes them)."""
-        out: dict[str, Any] = msgspec.to_builtins(self, str_keys=True)
+        out: dict[str, Any] = msgspec.to_builtins(self, str_keys=True, enc_hook=str)
         return out
 
 
-_encode = msgspec.json.Encoder().encode
+#: Anything a behaviour gives that is not plain JSON (a str subclass...) is written as its text.
+_encode = msgspec.json.Encoder(enc_hook=str).encode
 
 
 @dataclass
@@ -340,6 +360,18 @@ Record = Union[RunHeader, TickRecord, RunEnd]
 Listener = Callable[[Record], None]
 
 
+def _object(value: Any, what: str) -> dict[str, Any]:
+    if not isinstance(value, dict):
+        raise RecordError(f"{what} must be an object, got {_short(value)}")
+    return value
+
+
+def _array(value: Any, what: str) -> list[Any]:
+    if not isinstance(value, list):
+        raise RecordError(f"{what} must be a list, got {_short(value)}")
+    return value
+
+
 def _status_from_json(value: dict[str, Any]) -> Packet:
     fields = {k: value[k] for k in Packet.__dataclass_fields__ if k != "raw"}
     return Packet(**fields, raw=_packet_bytes(value.get("raw") or ""))
@@ -350,11 +382,17 @@ def _packet_bytes(text: Any) -> bytes:
     if not isinstance(text, str):
         raise RecordError(f"a packet's raw bytes are text (base64), got {text!r}")
     try:
-        if len(text) == 2 * 9 and all(c in "0123456789abcdefABCDEF" for c in text):  # a 9-byte packet in hex
-            return bytes.fromhex(text)
-        return base64.b64decode(text, validate=True)
+        if len(text) == 2 * STATUS_LENGTH and all(
+            c in "0123456789abcdefABCDEF" for c in text
+        ):  # a 9-byte packet in hex
+            raw = bytes.fromhex(text)
+        else:
+            raw = base64.b64decode(text, validate=True)
     except (ValueError, binascii.Error):
-        raise RecordError(f"a packet's raw bytes are base64 (hex before version 2), got {text!r}") from None
+        raise RecordError(f"a packet's raw bytes are base64 (hex before version 2), got {_short(text)}") from None
+    if len(raw) not in (0, STATUS_LENGTH):
+        raise RecordError(f"a status packet is 9 bytes (or none, for one made in code); raw holds {len(raw)}")
+    return raw
 
 
 def to_line(record: Record) -> str:
@@ -373,7 +411,11 @@ def to_line(record: Record) -> str:
         if isinstance(record, TickRecord):
             line = record.to_line()
         else:
-            line = json.dumps(record.to_json(), separators=(",", ":"), allow_nan=False)
+            try:
+                line = json.dumps(record.to_json(), separators=(",", ":"), allow_nan=False)
+            except ValueError:  # NaN or infinity: say which record
+                kind = "header" if isinstance(record, RunHeader) else "end"
+                raise ValueError(f"the run's {kind} record holds a number that is not finite") from None
         record._line = line  # type: ignore[union-attr]
     return line
 
@@ -385,16 +427,63 @@ def _battery(value: Any) -> int:
 
 
 def _node_state(value: Any) -> NodeState:
-    if not isinstance(value, list) or not 1 <= len(value) <= 2 or value[0] not in (RUNNING, SUCCESS, FAILURE, INVALID):
+    if (
+        not isinstance(value, list)
+        or not 1 <= len(value) <= 2
+        or value[0] not in (RUNNING, SUCCESS, FAILURE, INVALID)
+        or (len(value) == 2 and not isinstance(value[1], str))
+    ):
         raise RecordError(
-            f"a node's state is [status, feedback], the status RUNNING, SUCCESS, FAILURE or INVALID; got {value!r}"
+            "a node's state is [status, feedback], the status RUNNING, SUCCESS, FAILURE or INVALID and the "
+            f"feedback a text; got {_short(value)}"
         )
-    return NodeState(value[0], str(value[1]) if len(value) > 1 else "")
+    return NodeState(value[0], value[1] if len(value) > 1 else "")
+
+
+def _is_finite(value: Any) -> bool:
+    """A JSON number that a float holds, NaN and infinity left out (a 400-digit whole number too)."""
+    if type(value) not in (int, float):
+        return False
+    try:
+        return math.isfinite(value)
+    except OverflowError:
+        return False
+
+
+def _whole(value: Any, what: str) -> int:
+    if type(value) is not int:
+        raise RecordError(f"{what} must be a whole number, got {_short(value)}")
+    return value
+
+
+def _truth_value(value: Any, what: str) -> bool:
+    if type(value) is not bool:
+        raise RecordError(f"{what} must be true or false, got {_short(value)}")
+    return value
+
+
+def _short(value: Any) -> str:
+    """``value`` as JSON, cut to a readable length for a message."""
+    text = json.dumps(value, default=repr)
+    return text if len(text) <= 80 else text[:77] + "..."
+
+
+def _finite_numbers(value: Any, what: str) -> Any:
+    """``value`` (a summary: numbers in objects), each number checked to be finite."""
+    if isinstance(value, dict):
+        for key, item in value.items():
+            _finite_numbers(item, f"{what}.{key}")
+    elif isinstance(value, list):
+        for item in value:
+            _finite_numbers(item, what)
+    elif type(value) in (int, float) and not _is_finite(value):
+        raise RecordError(f"{what} must be a finite number, got {_short(value)}")
+    return value
 
 
 def _finite(value: Any, what: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise RecordError(f"{what} must be a finite number, got {value!r}")
+    if not _is_finite(value):
+        raise RecordError(f"{what} must be a finite number, got {_short(value)}")
     return float(value)
 
 
@@ -446,32 +535,32 @@ def record_from_json(value: Any) -> Record:
         if kind == "tick":
             truth = value.get("truth")
             return TickRecord(
-                tick=int(value["tick"]),
+                tick=_whole(value["tick"], "tick"),
                 time_s=_finite(value["time_s"], "time_s"),
                 status=_status_from_json(value["status"]),
                 battery=_battery(value["battery"]),
-                healthy=bool(value["healthy"]),
+                healthy=_truth_value(value["healthy"], "healthy"),
                 speed_mm_s=_finite(value["speed_mm_s"], "speed_mm_s"),
                 dead_reckoning=Pose.from_json(value["dead_reckoning"]),
                 truth=None if truth is None else Pose.from_json(truth),
-                nodes={int(k): _node_state(v) for k, v in value.get("nodes", {}).items()},
-                wire=[Exchange.from_json(e) for e in value.get("wire", [])],
-                events=[Event.from_json(e) for e in value.get("events", [])],
+                nodes={int(k): _node_state(v) for k, v in _object(value.get("nodes", {}), "nodes").items()},
+                wire=[Exchange.from_json(e) for e in _array(value.get("wire", []), "wire")],
+                events=[Event.from_json(e) for e in _array(value.get("events", []), "events")],
             )
         return RunEnd(
             outcome=str(value["outcome"]),
             reason=str(value.get("reason", "")),
             stopped=bool(value["stopped"]),
             time_s=_finite(value["time_s"], "time_s"),
-            summary=dict(value.get("summary") or {}),
+            summary=_finite_numbers(dict(_object(value.get("summary") or {}, "summary")), "summary"),
             paragraph=str(value.get("paragraph", "")),
-            wire=[Exchange.from_json(e) for e in value.get("wire", [])],
-            events=[Event.from_json(e) for e in value.get("events", [])],
+            wire=[Exchange.from_json(e) for e in _array(value.get("wire", []), "wire")],
+            events=[Event.from_json(e) for e in _array(value.get("events", []), "events")],
             truth=None if value.get("truth") is None else Pose.from_json(value["truth"]),
         )
     except RecordError:
         raise
-    except (KeyError, TypeError, ValueError, IndexError, AttributeError) as err:
+    except (KeyError, TypeError, ValueError, IndexError, AttributeError, OverflowError) as err:
         raise RecordError(f"a {value.get('type')} record with a missing or malformed field: {err!r}") from None
 
 

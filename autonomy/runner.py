@@ -502,7 +502,9 @@ class Runner:
             status, feedback = node.status, node.feedback_message
             if status is not statuses[index] or feedback != feedbacks[index]:
                 statuses[index], feedbacks[index] = status, feedback
-                changes[index] = NodeState(status.value, clipped(feedback) if feedback else "")
+                # a behaviour's own text type (a str subclass, a number) is kept as plain text
+                text = (feedback if type(feedback) is str else str(feedback)) if feedback else ""
+                changes[index] = NodeState(status.value, clipped(text))
         return changes
 
     def _loop(self) -> str:

@@ -85,7 +85,10 @@ class TraceWriter:
         held = self._held
         try:
             held.append(to_line(record))
-        except ValueError as err:  # a number JSON cannot hold: the lines before it are kept
+        except (
+            ValueError,
+            TypeError,
+        ) as err:  # a number JSON cannot hold: the lines before it are kept; the run goes on
             self.flush()
             self.failure = self.failure or str(err)
             return
@@ -151,14 +154,18 @@ def read_trace(path: str | Path) -> Trace:
     """
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
+        data = path.read_bytes()
+    except OSError as err:
+        raise TraceError(f"{path}: cannot read the trace: {err.strerror or err}") from err
+    # Whole lines are UTF-8; a trace cut off in the middle of a character is read to its last whole line.
+    whole = data.rfind(b"\n") + 1
+    try:
+        text = data[:whole].decode("utf-8") + data[whole:].decode("utf-8", "replace")
     except UnicodeDecodeError:
         raise TraceError(
             f"{path}: not a recording: a trace is JSON lines of text (run --trace), "
             "a .btlog starts with BTCPP4-FileLogger2 (run --btlog)"
         ) from None
-    except OSError as err:
-        raise TraceError(f"{path}: cannot read the trace: {err.strerror or err}") from err
     lines = text.split("\n")
     complete = text.endswith("\n")
     if complete:
@@ -175,11 +182,16 @@ def read_trace(path: str | Path) -> Trace:
             if len(line) > MAX_LINE_CHARS:
                 raise RecordError(f"the line is longer than {MAX_LINE_CHARS} characters")
             record = record_from_json(json.loads(line, parse_constant=_not_a_number))
-        except (json.JSONDecodeError, RecordError, RecursionError) as err:
+        except (ValueError, RecursionError) as err:  # not JSON, a bad record, a number of thousands of digits
             if last and not complete and isinstance(err, json.JSONDecodeError):
                 cut_off = number
                 break
-            what = f"not JSON ({err.msg})" if isinstance(err, json.JSONDecodeError) else str(err)
+            if isinstance(err, json.JSONDecodeError):
+                what = f"not JSON ({err.msg})"
+            elif isinstance(err, RecordError):
+                what = str(err)
+            else:
+                what = f"not a trace line a reader takes ({err})"
             raise TraceError(f"{path}:{number}: {what}") from None
         if header is None:
             if not isinstance(record, RunHeader):

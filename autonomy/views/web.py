@@ -358,7 +358,9 @@ def standalone_html(trace: Trace) -> str:
     hub = RecordHub("replay")
     for record in trace.records():
         hub(record)
-    data = hub.payload().replace("</", "<\\/")
+    # No "<" at all inside the script element: "</script>" would end it, and "<!--<script" would keep
+    # the real end from ending it. JSON has "<" only inside strings, where \u003c is the same text.
+    data = hub.payload().replace("<", "\\u003c")
     page = _static("index.html")
     page = page.replace('<link rel="stylesheet" href="static/app.css">', f"<style>\n{_static('app.css')}</style>")
     script = f'<script id="run-data" type="application/json">{data}</script>\n<script>\n{_static("app.js")}</script>'

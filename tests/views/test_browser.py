@@ -361,3 +361,29 @@ def test_eight_pages_in_view_all_load_and_follow_one_run(tmp_path, browser, serv
     finally:
         context.close()
     assert served.interrupt()[0] == 0
+
+
+def test_a_saved_page_shows_texts_that_look_like_html_as_text(tmp_path, page):
+    # "<!--<script" in the data would keep the page's data block from ending: nothing would be drawn
+    import msgspec
+
+    from autonomy.record import Event, NodeState, to_line
+
+    recorded = read_trace(record_trace(tmp_path, "missions/square.yaml"))
+    odd = "<!--<script> a </script> b \u2028 c <b>bold</b>"
+    ticks = list(recorded.ticks)
+    ticks[3] = msgspec.structs.replace(ticks[3], events=[Event("log", odd)], nodes={1: NodeState("RUNNING", odd)})
+    trace = tmp_path / "odd.jsonl"
+    trace.write_text("".join(to_line(r) + "\n" for r in [recorded.header, *ticks, recorded.end]), encoding="utf-8")
+    html = tmp_path / "odd.html"
+    plot = [sys.executable, "-m", "autonomy", "plot", str(trace), "-o", str(html)]
+    result = subprocess.run(plot, capture_output=True, text=True, cwd=ROOT)
+    assert result.returncode == 0, result.stderr
+    assert "<!--" not in html.read_text(encoding="utf-8").split('id="run-data"')[1].split("</script>")[0]
+    page.goto(html.as_uri())
+    page.wait_for_selector("#controls:not([hidden])")
+    page.locator("#slider").fill("5")
+    assert page.text_content("#slider-label") == f"tick 6 / {len(ticks)}"  # the slider counts from 0
+    logged = page.eval_on_selector_all("#log li", "els => els.map(e => e.textContent)")
+    assert any(line.endswith(f"log: {odd}") for line in logged), logged
+    assert page.eval_on_selector_all("#log li b", "els => els.length") == 0  # text, not markup

@@ -126,7 +126,11 @@ def test_bad_traces_are_refused_with_file_and_line(tmp_path, content, message):
     assert str(caught.value).startswith(str(path))
 
 
-#: A line of a real trace changed (0: the header, 20: a tick), and what reading it then says.
+#: Numbers written into a line as they are: one of more digits than Python turns into text by
+#: default, and one too big for a float (JSON has no infinity; a reader takes 1e999 as one).
+FIVE_THOUSAND_DIGITS, TOO_BIG = "<five thousand digits>", "<1e999>"
+AS_WRITTEN = {FIVE_THOUSAND_DIGITS: "1" + "0" * 4999, TOO_BIG: "1e999"}
+#: A line of a real trace changed (0: the header, 20: a tick, -1: the end), and what reading it then says.
 DAMAGED = {
     "an unknown node": (
         20,
@@ -162,6 +166,27 @@ DAMAGED = {
         lambda h: h.update(world="box"),
         ":1: the header's world is a world file's",
     ),
+    "an infinite truth": (
+        20,
+        lambda t: t.update(truth=[TOO_BIG, 1, 2]),
+        ":21: a pose is [x_mm, y_mm, heading_deg], three",
+    ),
+    "a 400-digit pose": (20, lambda t: t.update(truth=[10**400, 1, 2]), ":21: a pose is [x_mm, y_mm, heading_deg]"),
+    "a 400-digit time": (20, lambda t: t.update(time_s=10**400), ":21: time_s must be a finite number"),
+    "a 5000-digit time": (20, lambda t: t.update(time_s=FIVE_THOUSAND_DIGITS), ":21: not a trace line a reader takes"),
+    "an infinite end": (-1, lambda e: e.update(truth=[TOO_BIG, 1, 2]), ":{end}: a pose is [x_mm, y_mm, heading_deg]"),
+    "an infinite summary": (-1, lambda e: e["summary"].update(distance_mm=TOO_BIG), ":{end}: summary.distance_mm must"),
+    "a packet of 3 bytes": (20, lambda t: t["status"].update(raw="AAAA"), ":21: a status packet is 9 bytes"),
+    "a wire entry that is a text": (20, lambda t: t.update(wire=["Gb000"]), ":21: a wire entry is [sent, reply, att"),
+    "nodes that are null": (20, lambda t: t.update(nodes=None), ":21: nodes must be an object, got null"),
+    "a feedback that is null": (20, lambda t: t.update(nodes={"1": ["RUNNING", None]}), ":21: a node's state is"),
+    "a tick of 1.5": (20, lambda t: t.update(tick=1.5), ":21: tick must be a whole number, got 1.5"),
+    "healthy as text": (20, lambda t: t.update(healthy="false"), ':21: healthy must be true or false, got "false"'),
+    "frames as text": (
+        -1,
+        lambda e: e.update(events=[{"kind": "log", "message": "m", "frames": "abc"}]),
+        ":{end}: an event is {kind, message} with texts",
+    ),
 }
 
 
@@ -173,6 +198,9 @@ def test_a_damaged_trace_is_refused_at_its_line_before_any_view_draws_it(tmp_pat
     record = json.loads(lines[index])
     change(record)
     lines[index] = json.dumps(record)
+    for placeholder, text in AS_WRITTEN.items():
+        lines[index] = lines[index].replace(json.dumps(placeholder), text)
+    message = message.replace("{end}", str(len(lines)))
     path.write_text("\n".join(lines) + "\n")
     with pytest.raises(TraceError, match=re.escape(f"{path}{message}")):
         read_trace(path)
@@ -419,3 +447,48 @@ def test_an_exception_of_megabytes_outside_a_tick_is_clipped_too(tmp_path):
     crash = next(e for e in read_trace(path).end.events if e.kind == "exception")
     assert len(crash.traceback) <= MAX_TRACEBACK_CHARS and "in setup\n" in crash.traceback
     assert path.stat().st_size < 100_000
+
+
+def test_a_behaviours_own_text_type_is_written_as_text_and_the_run_goes_on(tmp_path):
+    import py_trees
+
+    class Label(str):
+        pass
+
+    class Labelled(py_trees.behaviour.Behaviour):
+        def update(self):
+            self.feedback_message = Label("looking around") if self.feedback_message != "looking around" else 42
+            return py_trees.common.Status.SUCCESS if self.feedback_message == 42 else py_trees.common.Status.RUNNING
+
+    path = tmp_path / "run.jsonl"
+    summary = traced_run(Labelled("labelled"), path)
+    assert summary.outcome == "succeeded"
+    feedbacks = [t.nodes[0].feedback for t in read_trace(path).ticks if 0 in t.nodes]
+    assert feedbacks == ["looking around", "42"] and all(type(f) is str for f in feedbacks)
+
+
+def test_a_trace_cut_off_in_the_middle_of_a_character_is_read_to_its_last_whole_line(tmp_path):
+    _, recorder = run_and_record(tmp_path)
+    snowman = msgspec.structs.replace(recorder.ticks[3], nodes={1: NodeState("RUNNING", "\u2603 caf\u00e9")})
+    lines = [to_line(r) + "\n" for r in [recorder.records[0], *recorder.ticks[:3], snowman, recorder.ticks[4]]]
+    data = "".join(lines).encode()
+    cut = data.index("\u2603".encode()) + 1  # inside the snowman's three bytes
+    path = tmp_path / "cut.jsonl"
+    path.write_bytes(data[:cut])
+    trace = read_trace(path)
+    assert len(trace.ticks) == 3 and trace.cut_off_line == 5 and trace.end is None
+    path.write_bytes(data)
+    assert read_trace(path).ticks[3].nodes[1].feedback == "\u2603 caf\u00e9"
+
+
+def test_a_tick_whose_numbers_add_up_past_a_float_and_whose_text_says_null_is_still_written():
+    packet = Packet(1, True, False, False, 0, 0, 255, 0)
+    tick = TickRecord(1, 0.05, packet, 200, True, 0.0, Pose(1e308, 1e308, 0.0), nodes={0: NodeState("RUNNING", "null")})
+    assert record_from_json(json.loads(tick.to_line())) == tick
+    with pytest.raises(ValueError, match="tick 1 holds a number that is not finite"):
+        msgspec.structs.replace(tick, speed_mm_s=math.inf).to_line()
+    odd = msgspec.structs.replace(tick, speed_mm_s=math.nan, nodes={0: NodeState("RUNNING", "\udc80")})
+    with pytest.raises(ValueError, match="tick 1 holds a number that is not finite"):  # the json module's way too
+        odd.to_line()
+    with pytest.raises(ValueError, match="the run's end record holds a number that is not finite"):
+        to_line(RunEnd("succeeded", "", True, math.nan))
