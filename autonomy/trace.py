@@ -18,7 +18,17 @@ from typing import TextIO
 from autonomy.clock import Clock, RealClock
 from autonomy.emulator.world import WorldInvalid, world_from_dict
 from autonomy.errors import AutonomyError
-from autonomy.record import Listener, Record, RecordError, RunEnd, RunHeader, TickRecord, record_from_json, to_line
+from autonomy.record import (
+    Listener,
+    Record,
+    RecordError,
+    RunEnd,
+    RunHeader,
+    TickRecord,
+    record_from_json,
+    tick_lines,
+    to_line,
+)
 
 #: Largest trace line read back (a 200-node tree's first tick is well under 100 kB).
 MAX_LINE_CHARS = 4_000_000
@@ -56,10 +66,11 @@ class FlushTimer:
 class TraceWriter:
     """A listener that writes each record as one line of a trace file.
 
-    Tick lines are held back and written together, with a flush: at the header, at the end,
+    Tick records are held back and written together, with a flush: at the header, at the end,
     whenever :data:`FlushTimer.FLUSH_S` of real time has passed since the last flush, and every
-    :data:`MOST_HELD` lines (a run in virtual time makes hundreds in 0.1 s). One write a batch
-    costs a tick far less than one a line. So a run killed at any moment loses at most that
+    :data:`MOST_HELD` ticks (a run in virtual time makes hundreds in 0.1 s). Their lines are made
+    together too (:func:`~autonomy.record.tick_lines`): one call of the encoder and one write a
+    batch cost a tick far less than one a line. So a run killed at any moment loses at most that
     much of its trace (and never a line in the middle: a reader stops at the last whole one).
     Whoever stops a run some other way calls :meth:`flush`.
 
@@ -68,54 +79,54 @@ class TraceWriter:
         clock: Real time, for the flushes.
     """
 
-    #: Most tick lines held back before they are written.
+    #: Most tick records held back before they are written.
     MOST_HELD = 100
 
     def __init__(self, stream: TextIO, clock: Clock | None = None) -> None:
         self.stream = stream
         self._flush = FlushTimer(clock or RealClock())
-        self._held: list[str] = []
-        #: Why the trace stopped being written (a full disk), or empty. The run goes on.
+        self._held: list[TickRecord] = []
+        #: Why the trace stopped being written (a full disk, a number JSON cannot hold), or empty.
+        #: The run goes on.
         self.failure = ""
 
     def __call__(self, record: Record) -> None:
         """Takes one record; once the file cannot be written to, notes why and writes no more."""
         if self.failure:
             return
-        held = self._held
-        try:
-            held.append(to_line(record))
-        except (
-            ValueError,
-            TypeError,
-        ) as err:  # a number JSON cannot hold: the lines before it are kept; the run goes on
+        if type(record) is TickRecord:
+            held = self._held
+            held.append(record)
+            if len(held) >= self.MOST_HELD or self._flush.due():
+                self.flush()
+            return
+        try:  # the header and the end go out at once, after the ticks held before them
+            line = to_line(record)
+        except (ValueError, TypeError) as err:  # a number JSON cannot hold: the lines before it are kept
             self.flush()
             self.failure = self.failure or str(err)
             return
-        if type(record) is not TickRecord:  # the header and the end go out at once
-            self._flush.due(anyway=True)
-            self.flush()
-        elif len(held) >= self.MOST_HELD or self._flush.due():
-            self.flush()
+        self._flush.due(anyway=True)
+        self.flush(line + "\n")
 
-    def flush(self) -> None:
-        """Writes the lines held back, and flushes the file."""
+    def flush(self, then: str = "") -> None:
+        """Writes the ticks held back (and ``then``, a line to follow them), and flushes the file."""
         if self.failure:
             return
         held = self._held
-        if held:
-            # made before the lines are let go: a Ctrl-C in the middle leaves them held (one during
-            # the write itself is raised once the write has returned: the batch went out whole)
-            text = "\n".join(held) + "\n"
-            self._held = []
-        else:
-            text = ""
+        # made before the ticks are let go: a Ctrl-C in the middle leaves them held (one during
+        # the write itself is raised once the write has returned: the batch went out whole)
+        text, why = tick_lines(held) if held else ("", "")
+        self._held = []
+        if not why:
+            text += then
         try:
             if text:
                 self.stream.write(text)
             self.stream.flush()
         except (OSError, ValueError) as err:  # a full disk, a file that takes no writes, a closed stream
             self.failure = getattr(err, "strerror", None) or str(err)
+        self.failure = self.failure or why
 
 
 @dataclass

@@ -492,3 +492,17 @@ def test_a_tick_whose_numbers_add_up_past_a_float_and_whose_text_says_null_is_st
         odd.to_line()
     with pytest.raises(ValueError, match="the run's end record holds a number that is not finite"):
         to_line(RunEnd("succeeded", "", True, math.nan))
+
+
+def test_ticks_made_into_lines_together_are_the_lines_made_one_by_one(tmp_path):
+    from autonomy.record import tick_lines
+
+    _, recorder = run_and_record(tmp_path)
+    ticks = recorder.ticks
+    one_by_one = "".join(to_line(msgspec.structs.replace(t)) + "\n" for t in ticks)
+    assert tick_lines(ticks) == (one_by_one, "")
+    said = msgspec.structs.replace(ticks[2], nodes={1: NodeState("RUNNING", "null \udc80")})  # both slow ways
+    bad = msgspec.structs.replace(ticks[4], truth=Pose(math.inf, 0.0, 0.0))
+    text, why = tick_lines([*ticks[:2], said, ticks[3], bad, ticks[5]])
+    assert text == "".join(to_line(t) + "\n" for t in [*ticks[:2], said, ticks[3]])
+    assert why == f"tick {bad.tick} holds a number that is not finite"
