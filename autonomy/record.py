@@ -398,8 +398,8 @@ def _packet_bytes(text: Any) -> bytes:
 def to_line(record: Record) -> str:
     """One record as one line of JSON (no newline); NaN and infinity are refused.
 
-    The line is made once per record and kept on it, so the trace writer and the browser
-    view share the work.
+    The line is made once per record and kept on it, so the browser view's pages share the
+    work. (The trace writer makes its lines a hundred at a time: :func:`tick_lines`.)
     """
     if type(record) is TickRecord:  # nearly every record: the short way first
         line = record._line
@@ -425,22 +425,26 @@ def tick_lines(ticks: list[TickRecord]) -> tuple[str, str]:
 
     One call for a hundred ticks keeps the encoder's work together, which a run ticking in
     between would otherwise spread thin (and slow). The lines are those :func:`to_line` makes.
+    Never raises for what a record holds: a trace problem ends the trace, not the run.
 
     Returns:
-        The text, and why it stops short of the last tick (a number that is not finite), or "".
+        The text, and why it stops short of the last tick (a number that is not finite, a text
+        that cannot be written), or "".
     """
     try:
         data = _encode_lines(ticks)
-    except (UnicodeEncodeError, TypeError):  # a lone surrogate in a text: line by line, the slow way
+    except Exception:  # noqa: BLE001 - a lone surrogate in a text, or worse: line by line, the slow way
         data = None
-    if data is not None and b"null" not in data:  # NaN and infinity are written as null: looked for below
+    # NaN and infinity are written as null; a behaviour's text can spell it too
+    if data is not None and (b"null" not in data or all(tick._finite() for tick in ticks)):
         return data.decode(), ""
     lines = []
     for tick in ticks:
         try:
             lines.append(to_line(tick) + "\n")
-        except (ValueError, TypeError) as err:  # what a trace cannot hold ends the trace, never the run
-            return "".join(lines), str(err)
+        except Exception as err:  # noqa: BLE001 - what a trace cannot hold ends the trace, never the run
+            why = str(err) if isinstance(err, ValueError) else f"tick {tick.tick} cannot be written ({err!r:.200})"
+            return "".join(lines), why
     return "".join(lines), ""
 
 

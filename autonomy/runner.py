@@ -170,6 +170,12 @@ MAX_TEXT_CHARS = 1000
 MAX_TRACEBACK_CHARS = 20_000
 
 
+def plain_text(value: object) -> str:
+    """``value`` as plain text: a behaviour's own text type (a str subclass, a number...) made a str."""
+    text = value if isinstance(value, str) else str(value)
+    return text if type(text) is str else str.__str__(text)  # a copy of exactly str, whatever __str__ says
+
+
 def clipped(text: str, most: int = MAX_TEXT_CHARS) -> str:
     """``text``, or its first ``most`` characters ending with ``…``."""
     return text if len(text) <= most else text[: most - 1] + "…"
@@ -502,8 +508,7 @@ class Runner:
             status, feedback = node.status, node.feedback_message
             if status is not statuses[index] or feedback != feedbacks[index]:
                 statuses[index], feedbacks[index] = status, feedback
-                # a behaviour's own text type (a str subclass, a number) is kept as plain text
-                text = (feedback if type(feedback) is str else str(feedback)) if feedback else ""
+                text = (feedback if type(feedback) is str else plain_text(feedback)) if feedback else ""
                 changes[index] = NodeState(status.value, clipped(text))
         return changes
 

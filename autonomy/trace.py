@@ -86,6 +86,8 @@ class TraceWriter:
         self.stream = stream
         self._flush = FlushTimer(clock or RealClock())
         self._held: list[TickRecord] = []
+        #: The header's or the end's line, to follow the ticks held (kept until written).
+        self._then = ""
         #: Why the trace stopped being written (a full disk, a number JSON cannot hold), or empty.
         #: The run goes on.
         self.failure = ""
@@ -102,24 +104,29 @@ class TraceWriter:
             return
         try:  # the header and the end go out at once, after the ticks held before them
             line = to_line(record)
-        except (ValueError, TypeError) as err:  # a number JSON cannot hold: the lines before it are kept
+        except Exception as err:  # noqa: BLE001 - a number JSON cannot hold...: the lines before it are kept
             self.flush()
             self.failure = self.failure or str(err)
             return
         self._flush.due(anyway=True)
-        self.flush(line + "\n")
+        self._then = line + "\n"
+        self.flush()
 
-    def flush(self, then: str = "") -> None:
-        """Writes the ticks held back (and ``then``, a line to follow them), and flushes the file."""
+    def flush(self) -> None:
+        """Writes the ticks held back (and the header's or end's line after them), and flushes the file."""
         if self.failure:
             return
         held = self._held
         # made before the ticks are let go: a Ctrl-C in the middle leaves them held (one during
         # the write itself is raised once the write has returned: the batch went out whole)
-        text, why = tick_lines(held) if held else ("", "")
+        try:
+            text, why = tick_lines(held) if held else ("", "")
+        except Exception as err:  # noqa: BLE001 - never the run's end
+            text, why = "", f"the trace's lines could not be made ({err!r:.200})"
         self._held = []
         if not why:
-            text += then
+            text += self._then
+        self._then = ""
         try:
             if text:
                 self.stream.write(text)

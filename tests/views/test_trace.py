@@ -460,11 +460,70 @@ def test_a_behaviours_own_text_type_is_written_as_text_and_the_run_goes_on(tmp_p
             self.feedback_message = Label("looking around") if self.feedback_message != "looking around" else 42
             return py_trees.common.Status.SUCCESS if self.feedback_message == 42 else py_trees.common.Status.RUNNING
 
+    class Itself(str):
+        def __str__(self):
+            return self  # str() of it is itself again: an encoder told to write it as text goes round
+
+    class Stubborn(py_trees.behaviour.Behaviour):
+        def update(self):
+            self.feedback_message = Itself(f"tick {len(self.ticks)}")
+            self.ticks.append(1)
+            return py_trees.common.Status.SUCCESS if len(self.ticks) > 3 else py_trees.common.Status.RUNNING
+
     path = tmp_path / "run.jsonl"
     summary = traced_run(Labelled("labelled"), path)
     assert summary.outcome == "succeeded"
     feedbacks = [t.nodes[0].feedback for t in read_trace(path).ticks if 0 in t.nodes]
     assert feedbacks == ["looking around", "42"] and all(type(f) is str for f in feedbacks)
+    stubborn = Stubborn("stubborn")
+    stubborn.ticks = []
+    assert traced_run(stubborn, path).outcome == "succeeded"
+    trace = read_trace(path)
+    assert [t.nodes[0].feedback for t in trace.ticks] == ["tick 0", "tick 1", "tick 2", "tick 3"] and trace.end
+
+
+def test_a_record_the_encoder_cannot_write_ends_the_trace_not_the_run(tmp_path):
+    from autonomy.record import tick_lines
+
+    class Itself(str):
+        def __str__(self):
+            return self
+
+    _, recorder = run_and_record(tmp_path)
+    header, ticks, end = recorder.records[0], recorder.ticks, recorder.records[-1]
+    bad = msgspec.structs.replace(ticks[3], nodes={1: NodeState("RUNNING", Itself("x"))})  # made by hand
+    text, why = tick_lines([*ticks[:3], bad, ticks[4]])
+    assert text == "".join(to_line(t) + "\n" for t in ticks[:3]) and why.startswith("tick 4 cannot be written")
+    stream = io.StringIO()
+    writer = TraceWriter(stream)
+    for record in [header, *ticks[:3], bad, *ticks[4:8], end]:
+        writer(record)  # never raises
+    writer.flush()
+    assert stream.getvalue().splitlines() == [to_line(r) for r in [header, *ticks[:3]]]
+    assert writer.failure.startswith("tick 4 cannot be written")
+
+
+def test_the_end_line_waits_on_the_writer_while_the_ticks_before_it_are_made_into_lines(tmp_path, monkeypatch):
+    # a Ctrl-C while the held ticks are turned into lines leaves the end to the closing flush
+    import autonomy.trace
+
+    _, recorder = run_and_record(tmp_path)
+    header, ticks, end = recorder.records[0], recorder.ticks, recorder.records[-1]
+    stream = io.StringIO()
+    writer = TraceWriter(stream, VirtualClock())
+    for record in [header, *ticks[:5]]:
+        writer(record)
+    real = autonomy.trace.tick_lines
+
+    def interrupted(held):
+        monkeypatch.setattr(autonomy.trace, "tick_lines", real)
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(autonomy.trace, "tick_lines", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        writer(end)
+    writer.flush()  # as `autonomy run` does on its way out
+    assert stream.getvalue().splitlines() == [to_line(r) for r in [header, *ticks[:5], end]]
 
 
 def test_a_trace_cut_off_in_the_middle_of_a_character_is_read_to_its_last_whole_line(tmp_path):
