@@ -302,12 +302,11 @@ class TickRecord(msgspec.Struct, tag="tick", tag_field="type", omit_defaults=Tru
 
     def to_json(self) -> dict[str, Any]:
         """The tick as one JSON object (ids as text, as JSON writes them)."""
-        out: dict[str, Any] = msgspec.to_builtins(self, str_keys=True, enc_hook=str)
+        out: dict[str, Any] = msgspec.to_builtins(self, str_keys=True)
         return out
 
 
-#: Anything a behaviour gives that is not plain JSON (a str subclass...) is written as its text.
-_encode = msgspec.json.Encoder(enc_hook=str).encode
+_encode = msgspec.json.Encoder().encode
 
 
 @dataclass
@@ -381,13 +380,8 @@ def _packet_bytes(text: Any) -> bytes:
     """A packet's bytes as a trace writes them: base64 (version 2), or hex (version 1: 18 digits)."""
     if not isinstance(text, str):
         raise RecordError(f"a packet's raw bytes are text (base64), got {text!r}")
-    try:
-        if len(text) == 2 * STATUS_LENGTH and all(
-            c in "0123456789abcdefABCDEF" for c in text
-        ):  # a 9-byte packet in hex
-            raw = bytes.fromhex(text)
-        else:
-            raw = base64.b64decode(text, validate=True)
+    try:  # 9 bytes are 18 hex digits, and 12 characters of base64 (18 is never whole base64)
+        raw = bytes.fromhex(text) if len(text) == 2 * STATUS_LENGTH else base64.b64decode(text, validate=True)
     except (ValueError, binascii.Error):
         raise RecordError(f"a packet's raw bytes are base64 (hex before version 2), got {_short(text)}") from None
     if len(raw) not in (0, STATUS_LENGTH):
@@ -433,7 +427,7 @@ def tick_lines(ticks: list[TickRecord]) -> tuple[str, str]:
     """
     try:
         data = _encode_lines(ticks)
-    except Exception:  # noqa: BLE001 - a lone surrogate in a text, or worse: line by line, the slow way
+    except Exception:  # noqa: BLE001 - a lone surrogate in a text, or what no encoder takes: line by line
         data = None
     # NaN and infinity are written as null; a behaviour's text can spell it too
     if data is not None and (b"null" not in data or all(tick._finite() for tick in ticks)):
@@ -448,7 +442,7 @@ def tick_lines(ticks: list[TickRecord]) -> tuple[str, str]:
     return "".join(lines), ""
 
 
-_encode_lines = msgspec.json.Encoder(enc_hook=str).encode_lines
+_encode_lines = msgspec.json.Encoder().encode_lines
 
 
 def _battery(value: Any) -> int:

@@ -276,7 +276,7 @@ class Runner:
             listener(record)
 
     def _log(self, message: str, kind: str = "log") -> None:
-        self._events.append(Event(kind, clipped(str(message))))
+        self._events.append(Event(kind, clipped(plain_text(message))))
 
     def _on_exchange(self, frame: bytes, outcome: Reply | AutonomyError, attempt: int) -> None:
         reply = _reply_text(outcome)
