@@ -2,8 +2,9 @@
 
 Every criterion is decided from what the records say (the emulator's truth pose, the
 collision events, the commands on the wire, the end record), so a trace file can be judged
-again later. A trace holds times to 0.1 ms and poses to 0.1 mm: the verdicts are the same but
-for a pose within 0.05 mm of a zone's edge, and a number in a line may round the other way.
+again later, with the same verdicts: it holds the run's numbers in full. (A trace of record
+version 1 held times to 0.1 ms and poses to 0.1 mm: a pose within 0.05 mm of a zone's edge
+could be judged the other way.)
 Each verdict says in one line what happened, with numbers: ``garage: ended 35 mm outside
 (needed inside)``, ``collisions: 3, allowed 0``.
 """
