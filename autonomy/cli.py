@@ -1120,6 +1120,10 @@ def run() -> None:
         code = EXIT_OK
     except KeyboardInterrupt:  # before or after a run, when there is no robot to stop
         code = EXIT_INTERRUPTED
+    # The command is done: a Ctrl-C pressed again now (as the interpreter shuts down, when Python
+    # has put back the default handler) would end the process by the signal, not with its code.
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
     sys.exit(code)
 
 

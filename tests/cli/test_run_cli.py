@@ -292,3 +292,41 @@ def test_the_summary_is_folded_between_words_on_a_terminal_and_one_line_in_a_pip
     lines = seen.decode().splitlines()
     assert len(lines) > 3 and all(len(line) < columns or " " not in line.strip() for line in lines)
     assert " ".join(lines).split() == words  # no word cut in two
+
+
+def test_a_second_ctrl_c_as_the_live_view_ends_leaves_exit_code_130(tmp_path):
+    # The second Ctrl-C lands as the process shuts down: it must not end it by the signal itself
+    # (a shell running it would stop too), but with the code an interrupted run has.
+    import os
+    import pty
+    import select
+
+    trace = tmp_path / "run.jsonl"
+    command = [sys.executable, "-m", "autonomy", "run", "missions/wander.yaml", "--live", "--trace", str(trace)]
+    pid, terminal = pty.fork()
+    if pid == 0:  # the child: the live view on a terminal of its own
+        os.chdir(ROOT)
+        os.execv(sys.executable, command)
+    seen = b""
+
+    def read_for(seconds: float) -> None:
+        nonlocal seen
+        deadline = time.monotonic() + seconds
+        while time.monotonic() < deadline:
+            if select.select([terminal], [], [], 0.05)[0]:
+                try:
+                    seen += os.read(terminal, 65536)
+                except OSError:  # the child has gone
+                    return
+
+    read_for(3)  # the view is up, the robot driving
+    os.kill(pid, signal.SIGINT)
+    time.sleep(0.05)
+    os.kill(pid, signal.SIGINT)
+    read_for(10)
+    _, status = os.waitpid(pid, 0)
+    os.close(terminal)
+    assert os.WIFEXITED(status) and os.WEXITSTATUS(status) == 130, f"ended by signal {os.WTERMSIG(status)}"
+    said = seen.replace(b"\r\n", b" ")  # the summary, folded to the terminal's width
+    assert b"interrupted after" in said and b"It was stopped at the end." in said and b"Traceback" not in said
+    assert json.loads(trace.read_text().splitlines()[-1])["stopped"]
