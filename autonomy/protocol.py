@@ -196,9 +196,11 @@ class Get:
         return ReplyKind.PARAMETER
 
     def encode(self) -> bytes:
-        """Returns e.g. ``b"Gb000\\n"``."""
-        return f"G{self.parameter}000\n".encode("ascii")
+        """Returns e.g. ``b"Gb000\\n"`` (made once for each parameter: the status is asked every tick)."""
+        return _GET_FRAMES[self.parameter]
 
+
+_GET_FRAMES = {parameter: f"G{parameter}000\n".encode("ascii") for parameter in PARAMETERS}
 
 Command = Union[Beep, Stop, Move, ServoTo, ServoBy, Turn, Get]
 
@@ -316,6 +318,10 @@ class Health:
         return OK if self.ok else NO
 
 
+#: How a frozen dataclass sets its fields (past its own guard).
+_set = object.__setattr__
+
+
 @dataclass(frozen=True)
 class Status:
     """The 9-byte binary status packet (``Gb000``), decoded.
@@ -379,25 +385,22 @@ class Status:
         """A packet from values already known to be plain ints in range, not checked again.
 
         For decoded bytes and clamped readings, which cannot be out of range: a status is
-        made twice a tick, and the dataclass's own ``__init__`` sets each field through the
-        frozen class's guard. The packet is the same as ``Status(...)`` would make.
+        made twice a tick, and the dataclass's own ``__init__`` checks every field again. The
+        fields are set one by one, as that ``__init__`` sets them: a packet given a whole
+        ``__dict__`` at once costs every later read of its fields several times as much
+        (Python gives up the instance's compact form). The packet is the same as
+        ``Status(...)`` would make.
         """
         packet = object.__new__(cls)
-        object.__setattr__(
-            packet,
-            "__dict__",
-            {
-                "mode": mode,
-                "auto_mode": auto_mode,
-                "collided": collided,
-                "moving": moving,
-                "tilt_deg": tilt_deg,
-                "heading_deg": heading_deg,
-                "front_distance_mm": front_distance_mm,
-                "odometer_mm": odometer_mm,
-                "raw": raw,
-            },
-        )
+        _set(packet, "mode", mode)
+        _set(packet, "auto_mode", auto_mode)
+        _set(packet, "collided", collided)
+        _set(packet, "moving", moving)
+        _set(packet, "tilt_deg", tilt_deg)
+        _set(packet, "heading_deg", heading_deg)
+        _set(packet, "front_distance_mm", front_distance_mm)
+        _set(packet, "odometer_mm", odometer_mm)
+        _set(packet, "raw", raw)
         return packet
 
     def encode(self) -> bytes:

@@ -15,9 +15,8 @@ A spec is a comma-separated list, e.g. ``drop=0.01,corrupt=0.01,no=0.02,pace``:
 
 from __future__ import annotations
 
-import functools
 import math
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, field, fields
 
 PROBABILITIES = ("drop", "corrupt", "delay", "garbage", "no")
 
@@ -37,6 +36,14 @@ class FaultSpec:
     garbage: float = 0.0
     no: float = 0.0
     pace: bool = False
+    #: True when anything is injected or paced: the wire can change what a frame meets. Worked out
+    #: once (asked before every frame an in-process emulator answers), and kept with the fields: an
+    #: attribute set later would cost every read of the spec (Python would give up its compact form).
+    active: bool = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        active = bool(self.drop or self.corrupt or self.delay or self.garbage or self.no or self.pace)
+        object.__setattr__(self, "active", active)  # a frozen dataclass sets its own fields this way
 
     @classmethod
     def parse(cls, text: str) -> FaultSpec:
@@ -46,7 +53,7 @@ class FaultSpec:
             FaultSpecError: an unknown fault or a value out of range; the message says which.
         """
         values: dict[str, float | bool] = {}
-        known = [f.name for f in fields(cls)]
+        known = [f.name for f in fields(cls) if f.init]
         for item in filter(None, (part.strip() for part in text.split(","))):
             if item == "none":
                 continue
@@ -69,11 +76,6 @@ class FaultSpec:
                 raise FaultSpecError(f"fault '{name}' cannot be negative, got {value}")
             values[name] = value
         return cls(**values)  # type: ignore[arg-type]
-
-    @functools.cached_property  # asked before every frame an in-process emulator answers
-    def active(self) -> bool:
-        """True when anything is injected or paced: the wire can change what a frame meets."""
-        return bool(self.drop or self.corrupt or self.delay or self.garbage or self.no or self.pace)
 
     def __str__(self) -> str:
         parts = [f"{name}={getattr(self, name):g}" for name in PROBABILITIES if getattr(self, name)]

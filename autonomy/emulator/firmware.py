@@ -26,7 +26,6 @@ from autonomy.protocol import (
     Status,
     Stop,
     Turn,
-    encode_heading,
     encode_status,
     parse_command,
 )
@@ -89,6 +88,8 @@ class Firmware:
 
     def answer(self, command: Command) -> bytes:
         """Acts on ``command`` and returns the reply bytes."""
+        if type(command) is Get:  # the status poll, every tick: no motion check to pass
+            return self._get(command.parameter)
         robot = self.robot
         if isinstance(command, MOTION) and not robot.can_move:
             return NO
@@ -141,7 +142,7 @@ class Firmware:
             robot.collided,
             robot.moving,
             -127 if (tilt := round(robot.tilt_deg)) < -127 else 127 if tilt > 127 else tilt,
-            encode_heading(robot.heading_deg),
+            int(round(robot.heading_deg)) % 360,  # encode_heading(), without the call
             robot.front_distance_mm(),
             round(robot.odometer_mm) % 65536,
         )

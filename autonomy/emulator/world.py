@@ -11,6 +11,7 @@ from __future__ import annotations
 import functools
 import math
 import random
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
@@ -186,6 +187,8 @@ Obstacle = Box | Circle
 Shape = Box | Circle
 #: An obstacle's bounds (x_min, y_min, x_max, y_max, in mm), and the obstacle.
 _Bounded = tuple[float, float, float, float, Obstacle]
+#: A reach's cells: their side in mm, and for each cell (by row, then column) the obstacles `World._near` looks at.
+_Cells = tuple[float, list[list[tuple[_Bounded, ...]]]]
 
 
 def _cell_span(low_mm: float, high_mm: float, cell_mm: float, count: int) -> tuple[int, int]:
@@ -260,20 +263,26 @@ def _cone_directions(
     """
     step = cone_deg / (rays - 1)
     first = heading_deg - cone_deg / 2
-    directions = tuple(
-        (math.cos(math.radians(first + k * step)), math.sin(math.radians(first + k * step))) for k in range(rays)
-    )
-    xs, ys = [dx for dx, _ in directions], [dy for _, dy in directions]
-    return (
-        directions,
-        (
-            max([dx for dx in xs if dx > 1e-12], default=0.0),
-            min([dx for dx in xs if dx < -1e-12], default=0.0),
-            max([dy for dy in ys if dy > 1e-12], default=0.0),
-            min([dy for dy in ys if dy < -1e-12], default=0.0),
-        ),
-        _edges(directions) if cone_deg < 180.0 else (),
-    )
+    units: list[tuple[float, float]] = []
+    # max() of the components above 1e-12 and min() of those below -1e-12 (0.0 for none), NaN left out,
+    # in the loop that makes them: a turning robot asks for a new cone every tick
+    east = west = north = south = 0.0
+    for k in range(rays):
+        angle = math.radians(first + k * step)
+        dx, dy = math.cos(angle), math.sin(angle)
+        units.append((dx, dy))
+        if dx > 1e-12:
+            if dx > east:
+                east = dx
+        elif dx < -1e-12 and dx < west:
+            west = dx
+        if dy > 1e-12:
+            if dy > north:
+                north = dy
+        elif dy < -1e-12 and dy < south:
+            south = dy
+    directions = tuple(units)
+    return directions, (east, west, north, south), _edges(directions) if cone_deg < 180.0 else ()
 
 
 def _edges(directions: tuple[tuple[float, float], ...]) -> tuple[tuple[float, float], ...]:
@@ -284,10 +293,11 @@ def _edges(directions: tuple[tuple[float, float], ...]) -> tuple[tuple[float, fl
     then the cone has no edges to go by (empty).
     """
     (first_x, first_y), (last_x, last_y) = directions[0], directions[-1]
-    edges = ((-last_y, last_x), (first_y, -first_x))
-    if all(dx * nx + dy * ny <= 1e-9 for dx, dy in directions for nx, ny in edges):
-        return edges
-    return ()
+    for dx, dy in directions:
+        # each ray's component across either edge, as (-last_y, last_x) and (first_y, -first_x)
+        if not (dx * -last_y + dy * last_x <= 1e-9 and dx * first_y + dy * -first_x <= 1e-9):
+            return ()
+    return ((-last_y, last_x), (first_y, -first_x))
 
 
 @dataclass(frozen=True)
@@ -302,6 +312,16 @@ class World:
     zones: tuple[Zone, ...] = field(default_factory=tuple)
     jitter: Jitter = field(default_factory=Jitter)
     description: str = ""
+    # What the sensor's search keeps (see _near and _index_cells): each obstacle's bounds, and by reach
+    # the cells. Set at once with the fields, not on first use: an attribute set later would cost
+    # every read of the world's fields (Python would give up the instance's compact form).
+    _obstacle_bounds: tuple[_Bounded, ...] = field(init=False, repr=False, compare=False)
+    _near_cells: dict[float, _Cells] = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        bounds = tuple((*obstacle.bounds(), obstacle) for obstacle in self.obstacles)
+        object.__setattr__(self, "_obstacle_bounds", bounds)  # a frozen dataclass sets its own fields this way
+        object.__setattr__(self, "_near_cells", {})
 
     def ray_distance(
         self, x: float, y: float, heading_deg: float, obstacles: tuple[Obstacle, ...] | None = None
@@ -346,11 +366,34 @@ class World:
             reach_mm: Nothing this far or further matters (a sensor's range): such a distance
                 comes back as infinity, and obstacles that far from (x, y) are not looked at.
         """
-        near = None
+        near: Sequence[Obstacle] | None = None
         if math.isfinite(reach_mm):
-            near = self._near(x, y, reach_mm)
-            if not near and min(x, y, self.width_mm - x, self.height_mm - y) >= reach_mm:
-                return math.inf  # nothing within reach in any direction
+            width, height = self.width_mm, self.height_mm
+            index = None
+            if 0.0 <= x < width and 0.0 <= y < height:  # the sensor, every poll: what _near does, without the calls
+                index = self._near_cells.get(reach_mm) or self._index_cells(reach_mm)
+            if index is not None:
+                cell_mm, cells = index
+                candidates = cells[int(y // cell_mm)][int(x // cell_mm)]
+                margin_mm = reach_mm + 1.0
+                near = (
+                    [
+                        obstacle
+                        for x_min, y_min, x_max, y_max, obstacle in candidates
+                        if x_min - margin_mm < x < x_max + margin_mm
+                        and y_min - margin_mm < y < y_max + margin_mm
+                        and obstacle.gap(x, y) < reach_mm
+                    ]
+                    if candidates
+                    else ()
+                )
+                # min(x, y, width - x, height - y) >= reach_mm for a point inside the arena, without the call
+                if not near and x >= reach_mm and y >= reach_mm and width - x >= reach_mm and height - y >= reach_mm:
+                    return math.inf  # nothing within reach in any direction
+            else:
+                near = self._near(x, y, reach_mm)
+                if not near and min(x, y, width - x, height - y) >= reach_mm:
+                    return math.inf  # nothing within reach in any direction
         if rays <= 1 or cone_deg <= 0:
             found = self.ray_distance(x, y, heading_deg, near)
             return found if found < reach_mm else math.inf
@@ -377,8 +420,9 @@ class World:
             found = d
         if below and south and (d := -y / south) < found:
             found = d
+        (left_x, left_y), (right_x, right_y) = edges or ((0.0, 0.0), (0.0, 0.0))
         for obstacle in obstacles:
-            if edges and (obstacle.beyond(x, y, *edges[0]) or obstacle.beyond(x, y, *edges[1])):
+            if edges and (obstacle.beyond(x, y, left_x, left_y) or obstacle.beyond(x, y, right_x, right_y)):
                 continue  # wholly outside the cone, past one of its edges (beside or behind the robot)
             for dx, dy in directions:
                 if (d := obstacle.ray_distance(x, y, dx, dy)) < found:
@@ -408,16 +452,7 @@ class World:
             and obstacle.gap(x, y) < reach_mm
         )
 
-    @functools.cached_property
-    def _obstacle_bounds(self) -> tuple[_Bounded, ...]:
-        return tuple((*obstacle.bounds(), obstacle) for obstacle in self.obstacles)
-
-    @functools.cached_property
-    def _near_cells(self) -> dict[float, tuple[float, list[list[tuple[_Bounded, ...]]]]]:
-        """By reach: the cells' side, and for each cell (by row) the obstacles :meth:`_near` looks at."""
-        return {}
-
-    def _index_cells(self, reach_mm: float) -> tuple[float, list[list[tuple[_Bounded, ...]]]] | None:
+    def _index_cells(self, reach_mm: float) -> _Cells | None:
         """Sorts the obstacles into cells for ``reach_mm``: a cell keeps each one its points may be near.
 
         A point passes :meth:`_near`'s bounds test only for a shape whose bounds, grown by the

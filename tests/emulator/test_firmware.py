@@ -131,18 +131,22 @@ def test_fault_spec_parses_and_prints():
     assert spec == FaultSpec(0.01, 0.02, 0.1, 0.5, 0.03, 0.04, True)
     assert FaultSpec.parse(str(spec)) == spec
     assert FaultSpec.parse("") == FaultSpec() == FaultSpec.parse("none")
+    assert spec.active and not FaultSpec().active and FaultSpec.parse("pace").active
+    assert "active" not in repr(spec)
 
 
 @pytest.mark.parametrize(
     ("text", "message"),
     [
         ("drip=0.1", "unknown fault 'drip'"),
+        ("active=1", r"unknown fault 'active' in 'active=1': use drop, corrupt, delay, delay_s, garbage, no, pace$"),
         ("drop=2", "probability 0..1"),
         ("drop=lots", "needs a number"),
         ("delay_s=-1", "negative"),
     ],
 )
 def test_fault_spec_errors_say_what_is_wrong(text, message):
+    # (whether any fault is on is worked out, not given: it is no fault's name)
     with pytest.raises(FaultSpecError, match=message):
         FaultSpec.parse(text)
 

@@ -1,5 +1,6 @@
 """World files: the shipped ones load, bad ones are explained."""
 
+import dataclasses
 import math
 
 import pytest
@@ -355,3 +356,11 @@ def test_a_world_keeps_the_cells_of_a_few_reaches_and_looks_at_every_shape_for_m
         near = world._near(1300.0, 1100.0, 50.0 * reach)
         assert near == tuple(o for o in world.obstacles if o.gap(1300.0, 1100.0) < 50.0 * reach)
     assert len(world._near_cells) == 8
+
+
+def test_what_the_sensor_keeps_is_no_part_of_a_world_s_value():
+    used, fresh = load_world("obstacles"), load_world("obstacles")
+    assert used.cone_distance(1300.0, 1100.0, 90.0, reach_mm=256.0) < 256.0 and used._near_cells
+    assert used == fresh and repr(used) == repr(fresh) and "_near" not in repr(used)
+    moved = dataclasses.replace(used, obstacles=used.obstacles[:1])  # its own bounds and cells, from scratch
+    assert not moved._near_cells and len(moved._obstacle_bounds) == 1

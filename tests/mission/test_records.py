@@ -243,3 +243,24 @@ def test_every_refused_command_is_counted():
         "emu://?time=virtual&world=empty&mode=manual",
     )
     assert runner.summary.refused == 2 and runner.summary.commands["S"] == 1
+
+
+def test_a_run_without_node_states_records_the_same_ticks_with_no_nodes():
+    # What a grader runs: the records it judges (time, packets, poses, the wire, events) are the
+    # run's own; only the nodes' changes are left out.
+    tree = "  sequence: [{beep: {}}, {move: {speed: 2, distance_mm: 300}}, {turn: {left: 90}}]\n"
+    url = "emu://?time=virtual&world=box&seed=3"
+    full, _ = recorded(tree, url)
+    bare, runner = recorded(tree, url, node_states=False)
+    assert any(t.nodes for t in full.ticks) and not any(t.nodes for t in bare.ticks)
+    assert len(bare.ticks) == len(full.ticks) > 20 and runner.summary.outcome == "succeeded"
+    for a, b in zip(full.ticks, bare.ticks, strict=True):
+        assert (a.tick, a.time_s, a.status, a.truth, a.dead_reckoning, a.speed_mm_s) == (
+            b.tick,
+            b.time_s,
+            b.status,
+            b.truth,
+            b.dead_reckoning,
+            b.speed_mm_s,
+        )
+        assert (a.wire, a.events) == (b.wire, b.events)
