@@ -177,6 +177,19 @@ def plain_text(value: object) -> str:
     return text if type(text) is str else str.__str__(text)  # a copy of exactly str, whatever __str__ says
 
 
+def feedback_text(value: object) -> str:
+    """A node's feedback as plain text (``""`` for none); never raises.
+
+    A behaviour's own feedback object whose text cannot be had (its ``__str__`` raises) is
+    named instead: a run is not ended by what would only be shown, whether or not anybody
+    looks at its nodes (a grader does not).
+    """
+    try:
+        return plain_text(value) if value else ""
+    except Exception as err:  # noqa: BLE001 - any failure of a behaviour's own type to be text
+        return f"(a {type(value).__name__} that cannot be shown as text: {type(err).__name__})"
+
+
 def clipped(text: str, most: int = MAX_TEXT_CHARS) -> str:
     """``text``, or its first ``most`` characters ending with ``…``."""
     return text if len(text) <= most else text[: most - 1] + "…"
@@ -332,11 +345,10 @@ class Runner:
             summary.distance_mm += abs(moved_mm)
             summary.turned_deg += abs(turned_deg)
             pose = self._pose
-            if moved_mm:
+            x_mm, y_mm = pose.x_mm, pose.y_mm
+            if moved_mm or not (x_mm and y_mm):  # standing or turning in place, away from 0: where it was
                 mid_rad = math.radians(last.heading_deg + turned_deg / 2)
-                x_mm, y_mm = pose.x_mm + moved_mm * math.cos(mid_rad), pose.y_mm + moved_mm * math.sin(mid_rad)
-            else:  # standing, or turning in place: where it was
-                x_mm, y_mm = pose.x_mm, pose.y_mm
+                x_mm, y_mm = x_mm + moved_mm * math.cos(mid_rad), y_mm + moved_mm * math.sin(mid_rad)
             self._pose = _as_pose((x_mm, y_mm, float(status.heading_deg)))
             if time_s > self._last_time_s:
                 speed_mm_s = moved_mm / (time_s - self._last_time_s)
@@ -480,7 +492,9 @@ class Runner:
                 raise BehaviourCrashed(self._crash_event(err)) from err  # raised by a behaviour, not by Ctrl-C
             raise
         self.summary.ticks += 1
-        wire, self._wire = self._wire, []  # _take_wire() and _take_events(), without the calls
+        truth, nodes = self._truth(), self._changes() if self.node_states else {}
+        # _take_wire() and _take_events(), without the calls; once nothing else can fail (the end takes them then)
+        wire, self._wire = self._wire, []
         events, self._events = self._events, []
         record = TickRecord(  # in its fields' order: keywords cost a tick's record twice as much to make
             self.summary.ticks,  # tick
@@ -490,8 +504,8 @@ class Runner:
             self._healthy,
             speed_mm_s,
             self._pose,  # dead_reckoning
-            self._truth(),
-            self._changes() if self.node_states else {},  # nodes
+            truth,
+            nodes,
             wire,
             events,
         )
@@ -527,7 +541,7 @@ class Runner:
             status, feedback = node.status, node.feedback_message
             if status is not statuses[index] or feedback != feedbacks[index]:
                 statuses[index], feedbacks[index] = status, feedback
-                text = (feedback if type(feedback) is str else plain_text(feedback)) if feedback else ""
+                text = feedback if type(feedback) is str else feedback_text(feedback)
                 changes[index] = NodeState(status.value, clipped(text))
         return changes
 

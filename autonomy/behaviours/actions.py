@@ -351,7 +351,7 @@ class Wait(RobotAction):
     @returns_status
     def update(self) -> Status:
         """RUNNING until the time is up."""
-        left = self._end_s - (self.robot or self.context).clock.now()  # self.clock without the calls (every tick)
+        left = self._end_s - self.clock.now()
         self.feedback_message = f"{left if left > 0.0 else 0.0:.1f} s left"  # max(0.0, left)
         return Status.SUCCESS if left <= 1e-9 else Status.RUNNING
 

@@ -121,7 +121,7 @@ class Emulator:
 
     def _advance(self) -> float:
         """:meth:`advance`, with the lock held; returns the time it caught up with."""
-        now = self.clock.now() - self._origin_s  # now_s(), without the call (twice a tick)
+        now = self.now_s()
         while self._inbox and self._inbox[0][0] <= now:
             due, data = self._inbox.popleft()
             self.robot.advance_to(due)

@@ -16,7 +16,8 @@ A spec is a comma-separated list, e.g. ``drop=0.01,corrupt=0.01,no=0.02,pace``:
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, fields
+from typing import ClassVar
 
 PROBABILITIES = ("drop", "corrupt", "delay", "garbage", "no")
 
@@ -37,9 +38,10 @@ class FaultSpec:
     no: float = 0.0
     pace: bool = False
     #: True when anything is injected or paced: the wire can change what a frame meets. Worked out
-    #: once (asked before every frame an in-process emulator answers), and kept with the fields: an
-    #: attribute set later would cost every read of the spec (Python would give up its compact form).
-    active: bool = field(init=False, repr=False, compare=False)
+    #: once (asked before every frame an in-process emulator answers) and set with the fields: an
+    #: attribute set later would cost every read of the spec (Python would give up its compact
+    #: form). Each spec has its own; ``ClassVar`` keeps it out of the dataclass's fields.
+    active: ClassVar[bool]
 
     def __post_init__(self) -> None:
         active = bool(self.drop or self.corrupt or self.delay or self.garbage or self.no or self.pace)
@@ -53,7 +55,7 @@ class FaultSpec:
             FaultSpecError: an unknown fault or a value out of range; the message says which.
         """
         values: dict[str, float | bool] = {}
-        known = [f.name for f in fields(cls) if f.init]
+        known = [f.name for f in fields(cls)]
         for item in filter(None, (part.strip() for part in text.split(","))):
             if item == "none":
                 continue

@@ -15,7 +15,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
-from typing import Any, NamedTuple
+from typing import Any, ClassVar, NamedTuple
 
 import yaml
 
@@ -314,9 +314,10 @@ class World:
     description: str = ""
     # What the sensor's search keeps (see _near and _index_cells): each obstacle's bounds, and by reach
     # the cells. Set at once with the fields, not on first use: an attribute set later would cost
-    # every read of the world's fields (Python would give up the instance's compact form).
-    _obstacle_bounds: tuple[_Bounded, ...] = field(init=False, repr=False, compare=False)
-    _near_cells: dict[float, _Cells] = field(init=False, repr=False, compare=False)
+    # every read of the world's fields (Python would give up the instance's compact form). Each
+    # world has its own; ``ClassVar`` keeps them out of the dataclass's fields.
+    _obstacle_bounds: ClassVar[tuple[_Bounded, ...]]
+    _near_cells: ClassVar[dict[float, _Cells]]
 
     def __post_init__(self) -> None:
         bounds = tuple((*obstacle.bounds(), obstacle) for obstacle in self.obstacles)

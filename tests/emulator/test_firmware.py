@@ -1,5 +1,7 @@
 """The emulator's firmware, byte for byte, and its wire: frames, resync, faults, baud rates."""
 
+import dataclasses
+
 import pytest
 
 from autonomy.clock import VirtualClock
@@ -132,7 +134,7 @@ def test_fault_spec_parses_and_prints():
     assert FaultSpec.parse(str(spec)) == spec
     assert FaultSpec.parse("") == FaultSpec() == FaultSpec.parse("none")
     assert spec.active and not FaultSpec().active and FaultSpec.parse("pace").active
-    assert "active" not in repr(spec)
+    assert "active" not in repr(spec) and FaultSpec(**dataclasses.asdict(spec)) == spec
 
 
 @pytest.mark.parametrize(

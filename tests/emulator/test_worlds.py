@@ -362,5 +362,8 @@ def test_what_the_sensor_keeps_is_no_part_of_a_world_s_value():
     used, fresh = load_world("obstacles"), load_world("obstacles")
     assert used.cone_distance(1300.0, 1100.0, 90.0, reach_mm=256.0) < 256.0 and used._near_cells
     assert used == fresh and repr(used) == repr(fresh) and "_near" not in repr(used)
+    assert [f.name for f in dataclasses.fields(used)] == [
+        "name", "width_mm", "height_mm", "start", "obstacles", "zones", "jitter", "description"
+    ]  # fmt: skip
     moved = dataclasses.replace(used, obstacles=used.obstacles[:1])  # its own bounds and cells, from scratch
     assert not moved._near_cells and len(moved._obstacle_bounds) == 1

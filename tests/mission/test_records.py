@@ -264,3 +264,64 @@ def test_a_run_without_node_states_records_the_same_ticks_with_no_nodes():
             b.speed_mm_s,
         )
         assert (a.wire, a.events) == (b.wire, b.events)
+
+
+class Unprintable:
+    def __str__(self) -> str:
+        raise ValueError("no text")
+
+
+class Mumbles(RobotAction):
+    """Logs, and leaves a feedback of its own type that cannot be made text."""
+
+    node_type = ""
+
+    def update(self) -> Status:
+        self.context.log("hello from the tick")
+        self.feedback_message = Unprintable()
+        return Status.SUCCESS
+
+
+@pytest.mark.parametrize("node_states", [True, False])
+def test_a_feedback_that_cannot_be_text_is_named_and_the_run_goes_on_whether_or_not_nodes_are_recorded(node_states):
+    # a grader (no node states) and a run (node states) must end the same way
+    recorder = Recorder()
+    client = Client.open("emu://?time=virtual")
+    runner = Runner(Mumbles("odd"), client, mission="t", listeners=[recorder], node_states=node_states)
+    assert runner.run().outcome == "succeeded"
+    shown = [t.nodes[0].feedback for t in recorder.ticks if 0 in t.nodes]
+    assert shown == (["(a Unprintable that cannot be shown as text: ValueError)"] if node_states else [])
+
+
+def test_a_tick_whose_record_fails_leaves_its_wire_and_events_to_the_end(monkeypatch):
+    recorder = Recorder()
+    client = Client.open("emu://?time=virtual")
+    runner = Runner(Mumbles("odd"), client, mission="t", listeners=[recorder])
+
+    calls = []
+
+    def fails_once() -> None:  # in the first tick's record; the end's is asked for again
+        calls.append(1)
+        if len(calls) == 1:
+            raise RuntimeError("no truth today")
+
+    monkeypatch.setattr(runner, "_truth", fails_once)
+    summary = runner.run()
+    assert summary.outcome == CRASHED and "no truth today" in summary.reason and summary.stopped
+    assert not recorder.ticks
+    end = recorder.records[-1]
+    assert [e.sent for e in end.wire][:3] == ["Gb000", "Gb000", "GB000"] and end.wire[-1].sent == "X0000"
+    assert "hello from the tick" in [e.message for e in end.events]
+
+
+def test_a_robot_standing_at_minus_zero_is_reckoned_at_zero_as_each_step_adds_its_nothing():
+    from autonomy.emulator.world import Pose as WorldPose
+    from autonomy.emulator.world import World
+
+    client = Client.open("emu://?time=virtual")
+    port = client.port
+    port.emulator = Emulator(World("edge", 1000.0, 1000.0, WorldPose(-0.0, -0.0, 0.0)), clock=port.clock)
+    recorder = Recorder()
+    Runner(tree_of("  wait: {seconds: 0.2}\n"), client, mission="t", listeners=[recorder]).run()
+    later = [t.dead_reckoning for t in recorder.ticks[1:]]
+    assert later and all(math.copysign(1.0, p.x_mm) == 1.0 == math.copysign(1.0, p.y_mm) for p in later)
