@@ -493,12 +493,7 @@ class Client:
         (``answer_now``); the reply is then read from what it returned, the same way.
         """
         self.stats.attempts += 1
-        data = None
-        if self._answer_now is not None and not self._waiting_ready:
-            try:  # self._io(self._answer_now, frame), without the call: every poll comes this way
-                data = self._answer_now(frame)
-            except PORT_ERRORS as err:
-                raise self._lost(err) from err
+        data = None if self._answer_now is None or self._waiting_ready else self._io(self._answer_now, frame)
         if data is None:
             if self._waiting_ready:
                 self._drain_heard()
@@ -550,10 +545,7 @@ class Client:
         try:
             return operation(*args)
         except PORT_ERRORS as err:
-            raise self._lost(err) from err
-
-    def _lost(self, err: BaseException) -> LinkLost:
-        return LinkLost(f"lost the link to {self.name}: {_reason(err)}")
+            raise LinkLost(f"lost the link to {self.name}: {_reason(err)}") from err
 
     # ------------------------------------------------------------------ commands
 
@@ -583,8 +575,7 @@ class Client:
 
     def status(self) -> Status:
         """Returns the binary status packet (``Gb000``)."""
-        reply = self.request(_STATUS_GET)
-        return reply if type(reply) is Status else _expect(reply, Status)  # the one a poll gets, without the call
+        return _expect(self.request(_STATUS_GET), Status)
 
     def _parameter(self, letter: str) -> int | str:
         return _expect(self.request(_GET[letter]), Parameter).value

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import enum
 
-from autonomy.protocol import Status
+from autonomy.protocol import Status, heading_delta_deg, odometer_delta_mm
 
 #: What a robot of this size cannot exceed between two status polls (twice the fastest
 #: setting of the emulator, or more); a packet beyond it holds a corrupted byte.
@@ -55,15 +55,10 @@ def status_jump(earlier: Status, earlier_s: float, later: Status, later_s: float
     elapsed_s = later_s - earlier_s
     if not elapsed_s > 0.0:  # max(0.0, elapsed_s): called on every poll, where a call to max() costs
         elapsed_s = 0.0
-    # abs(odometer_delta_mm(...)) and abs(heading_delta_deg(...)), worked out here: asked of every packet
-    moved_mm = (later.odometer_mm - earlier.odometer_mm) % 65536
-    if moved_mm >= 32768:
-        moved_mm = 65536 - moved_mm
+    moved_mm = abs(odometer_delta_mm(earlier.odometer_mm, later.odometer_mm))
     if moved_mm > PLAUSIBLE_SPEED_MM_S * elapsed_s + PLAUSIBLE_SLACK_MM:
         return f"odometer {earlier.odometer_mm} -> {later.odometer_mm} mm in {elapsed_s:.2f} s"
-    turned_deg = (later.heading_deg - earlier.heading_deg + 180) % 360 - 180
-    if turned_deg < 0:
-        turned_deg = -turned_deg
+    turned_deg = abs(heading_delta_deg(earlier.heading_deg, later.heading_deg))
     if turned_deg > PLAUSIBLE_TURN_RATE_DEG_S * elapsed_s + PLAUSIBLE_SLACK_DEG:
         return f"heading {earlier.heading_deg} -> {later.heading_deg} deg in {elapsed_s:.2f} s"
     if abs(later.tilt_deg - earlier.tilt_deg) > PLAUSIBLE_TILT_RATE_DEG_S * elapsed_s + PLAUSIBLE_TILT_SLACK_DEG:
@@ -83,16 +78,12 @@ def status_surprise(before: Status, before_s: float, last: Status, last_s: float
     if span_s < MIN_SPEED_SPAN_S:
         return False
     reach_s2 = elapsed_s * (elapsed_s + span_s)
-    # odometer_delta_mm and heading_delta_deg, worked out here: asked of every packet
-    moved_mm = (last.odometer_mm - before.odometer_mm) % 65536
-    speed_mm_s = (moved_mm - 65536 if moved_mm >= 32768 else moved_mm) / span_s
-    moved_mm = (packet.odometer_mm - last.odometer_mm) % 65536
-    if moved_mm >= 32768:
-        moved_mm -= 65536
+    speed_mm_s = odometer_delta_mm(before.odometer_mm, last.odometer_mm) / span_s
+    moved_mm = odometer_delta_mm(last.odometer_mm, packet.odometer_mm)
     if abs(moved_mm - speed_mm_s * elapsed_s) > EXPECTED_ACCELERATION_MM_S2 * reach_s2 + EXPECTED_SLACK_MM:
         return True
-    rate_deg_s = ((last.heading_deg - before.heading_deg + 180) % 360 - 180) / span_s
-    turned_deg = (packet.heading_deg - last.heading_deg + 180) % 360 - 180
+    rate_deg_s = heading_delta_deg(before.heading_deg, last.heading_deg) / span_s
+    turned_deg = heading_delta_deg(last.heading_deg, packet.heading_deg)
     return (
         abs(turned_deg - rate_deg_s * elapsed_s) > EXPECTED_ANGULAR_ACCELERATION_DEG_S2 * reach_s2 + EXPECTED_SLACK_DEG
     )
@@ -142,12 +133,7 @@ class StatusGuard:
         why = status_jump(trusted, self._trusted_s, packet, now_s)
         if why:
             return self._hold(packet, now_s, why)
-        surprise = (  # not _same_flags(packet, trusted), without the call
-            packet.mode != trusted.mode
-            or packet.auto_mode != trusted.auto_mode
-            or packet.collided != trusted.collided
-            or packet.moving != trusted.moving
-        ) or (
+        surprise = not _same_flags(packet, trusted) or (
             self._before is not None
             and status_surprise(self._before, self._before_s, trusted, self._trusted_s, packet, now_s)
         )

@@ -15,7 +15,6 @@ never reach back into it.
 from __future__ import annotations
 
 import contextlib
-import functools
 import gc
 import math
 import os
@@ -39,7 +38,7 @@ from autonomy.client import Client
 from autonomy.clock import wall_date
 from autonomy.errors import AutonomyError, LinkError
 from autonomy.mission import MissionSpec, build_tree
-from autonomy.protocol import Reply
+from autonomy.protocol import Reply, heading_delta_deg, odometer_delta_mm
 from autonomy.protocol import Status as Packet
 from autonomy.record import (
     Event,
@@ -213,10 +212,6 @@ def traceback_text(err: BaseException) -> str:
 MOST_EXCHANGES_KEPT = 1024
 
 
-#: ``Pose._make`` of a tuple known to hold its three fields (the emulator's pose, every tick), without the check.
-_as_pose = functools.partial(tuple.__new__, Pose)
-
-
 def _reply_text(outcome: Reply | AutonomyError) -> str:
     if isinstance(outcome, AutonomyError):
         return f"error: {outcome}"
@@ -302,7 +297,7 @@ class Runner:
         self._events.append(Event(kind, clipped(plain_text(message))))
 
     def _on_exchange(self, frame: bytes, outcome: Reply | AutonomyError, attempt: int) -> None:
-        reply = "status" if type(outcome) is Packet else _reply_text(outcome)  # a status every tick: no call
+        reply = _reply_text(outcome)
         exchange = self._exchanges.get((frame, reply, attempt))
         if exchange is None:  # exchanges are values: a run repeats the same few, the status poll every tick
             exchange = Exchange(frame[:-1].decode("ascii"), reply, attempt)  # a frame we encoded: ASCII
@@ -336,20 +331,16 @@ class Runner:
             if status.collided and first:
                 self.summary.collisions += 1
         else:
-            # odometer_delta_mm and heading_delta_deg, without the calls (every tick)
-            moved_mm = (status.odometer_mm - last.odometer_mm) % 65536
-            if moved_mm >= 32768:
-                moved_mm -= 65536
-            turned_deg = (status.heading_deg - last.heading_deg + 180) % 360 - 180
-            summary = self.summary
-            summary.distance_mm += abs(moved_mm)
-            summary.turned_deg += abs(turned_deg)
-            pose = self._pose
-            x_mm, y_mm = pose.x_mm, pose.y_mm
-            if moved_mm or not (x_mm and y_mm):  # standing or turning in place, away from 0: where it was
-                mid_rad = math.radians(last.heading_deg + turned_deg / 2)
-                x_mm, y_mm = x_mm + moved_mm * math.cos(mid_rad), y_mm + moved_mm * math.sin(mid_rad)
-            self._pose = _as_pose((x_mm, y_mm, float(status.heading_deg)))
+            moved_mm = odometer_delta_mm(last.odometer_mm, status.odometer_mm)
+            turned_deg = heading_delta_deg(last.heading_deg, status.heading_deg)
+            self.summary.distance_mm += abs(moved_mm)
+            self.summary.turned_deg += abs(turned_deg)
+            mid_rad = math.radians(last.heading_deg + turned_deg / 2)
+            self._pose = Pose(
+                self._pose.x_mm + moved_mm * math.cos(mid_rad),
+                self._pose.y_mm + moved_mm * math.sin(mid_rad),
+                float(status.heading_deg),
+            )
             if time_s > self._last_time_s:
                 speed_mm_s = moved_mm / (time_s - self._last_time_s)
             if status.collided and not last.collided:
@@ -492,10 +483,8 @@ class Runner:
                 raise BehaviourCrashed(self._crash_event(err)) from err  # raised by a behaviour, not by Ctrl-C
             raise
         self.summary.ticks += 1
+        # the wire and events are taken last: should anything before fail, the end record has them
         truth, nodes = self._truth(), self._changes() if self.node_states else {}
-        # _take_wire() and _take_events(), without the calls; once nothing else can fail (the end takes them then)
-        wire, self._wire = self._wire, []
-        events, self._events = self._events, []
         record = TickRecord(  # in its fields' order: keywords cost a tick's record twice as much to make
             self.summary.ticks,  # tick
             time_s,
@@ -506,17 +495,16 @@ class Runner:
             self._pose,  # dead_reckoning
             truth,
             nodes,
-            wire,
-            events,
+            self._take_wire(),
+            self._take_events(),
         )
-        for listener in self.listeners:  # _emit(), without the call
-            listener(record)
+        self._emit(record)
         return self.root.status
 
     def _truth(self) -> Pose | None:
         if self._emulator is None:
             return None
-        return _as_pose(self._emulator.pose())  # the emulator's own pose, the same three fields
+        return Pose._make(self._emulator.pose())  # the emulator's own pose, the same three fields
 
     def request_stop(self, reason: str) -> None:
         """Ends the run after the current tick, as interrupted, for ``reason`` (thread-safe)."""
@@ -541,8 +529,7 @@ class Runner:
             status, feedback = node.status, node.feedback_message
             if status is not statuses[index] or feedback != feedbacks[index]:
                 statuses[index], feedbacks[index] = status, feedback
-                text = feedback if type(feedback) is str else feedback_text(feedback)
-                changes[index] = NodeState(status.value, clipped(text))
+                changes[index] = NodeState(status.value, clipped(feedback_text(feedback)))
         return changes
 
     def _loop(self) -> str:

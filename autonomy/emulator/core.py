@@ -8,7 +8,6 @@ pty server are thin shells around it.
 
 from __future__ import annotations
 
-import functools
 import math
 import random
 import threading
@@ -48,11 +47,6 @@ class Exchange(NamedTuple):
     command: Command | None
     reply: bytes
     executed: bool
-
-
-#: The named tuples' own ``__new__`` without its Python frame (one of each is made every tick).
-_exchange = functools.partial(tuple.__new__, Exchange)
-_pose = functools.partial(tuple.__new__, Pose)
 
 
 class Emulator:
@@ -233,7 +227,7 @@ class Emulator:
     def _carry_out(self, frame: bytes, due: float) -> bytes:
         """Has the firmware carry out ``frame`` received at ``due``, logs it; returns the reply."""
         command, reply = self.firmware.execute(frame)
-        self.log.append(_exchange((due, frame, command, reply, command is not None and reply != NO)))
+        self.log.append(Exchange(due, frame, command, reply, command is not None and reply != NO))
         return reply
 
     def _answer(self, frame: bytes, due: float) -> None:
@@ -284,8 +278,7 @@ class Emulator:
         """Where the robot truly is now (the emulator's own state, caught up with the clock)."""
         with self._lock:
             self._advance()
-            robot = self.robot
-            return _pose((robot.x_mm, robot.y_mm, robot.heading_deg))  # robot.pose, without the calls: every tick
+            return self.robot.pose
 
     def commands(self) -> list[Command]:
         """The commands received and carried out, in order."""

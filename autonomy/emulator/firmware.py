@@ -26,6 +26,7 @@ from autonomy.protocol import (
     Status,
     Stop,
     Turn,
+    encode_heading,
     encode_status,
     parse_command,
 )
@@ -88,13 +89,11 @@ class Firmware:
 
     def answer(self, command: Command) -> bytes:
         """Acts on ``command`` and returns the reply bytes."""
-        if type(command) is Get:  # the status poll, every tick: no motion check to pass
+        if isinstance(command, Get):  # first: the status poll, every tick (a request is no motion)
             return self._get(command.parameter)
         robot = self.robot
         if isinstance(command, MOTION) and not robot.can_move:
             return NO
-        if isinstance(command, Get):
-            return self._get(command.parameter)
         if isinstance(command, Beep):
             robot.beep(command.tones, command.volume)
         elif isinstance(command, Stop):
@@ -142,7 +141,7 @@ class Firmware:
             robot.collided,
             robot.moving,
             -127 if (tilt := round(robot.tilt_deg)) < -127 else 127 if tilt > 127 else tilt,
-            int(round(robot.heading_deg)) % 360,  # encode_heading(), without the call
+            encode_heading(robot.heading_deg),
             robot.front_distance_mm(),
             round(robot.odometer_mm) % 65536,
         )

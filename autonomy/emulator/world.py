@@ -11,7 +11,6 @@ from __future__ import annotations
 import functools
 import math
 import random
-from collections.abc import Sequence
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
@@ -293,11 +292,10 @@ def _edges(directions: tuple[tuple[float, float], ...]) -> tuple[tuple[float, fl
     then the cone has no edges to go by (empty).
     """
     (first_x, first_y), (last_x, last_y) = directions[0], directions[-1]
-    for dx, dy in directions:
-        # each ray's component across either edge, as (-last_y, last_x) and (first_y, -first_x)
-        if not (dx * -last_y + dy * last_x <= 1e-9 and dx * first_y + dy * -first_x <= 1e-9):
-            return ()
-    return ((-last_y, last_x), (first_y, -first_x))
+    edges = ((-last_y, last_x), (first_y, -first_x))
+    if all(dx * nx + dy * ny <= 1e-9 for dx, dy in directions for nx, ny in edges):
+        return edges
+    return ()
 
 
 @dataclass(frozen=True)
@@ -367,34 +365,11 @@ class World:
             reach_mm: Nothing this far or further matters (a sensor's range): such a distance
                 comes back as infinity, and obstacles that far from (x, y) are not looked at.
         """
-        near: Sequence[Obstacle] | None = None
+        near = None
         if math.isfinite(reach_mm):
-            width, height = self.width_mm, self.height_mm
-            index = None
-            if 0.0 <= x < width and 0.0 <= y < height:  # the sensor, every poll: what _near does, without the calls
-                index = self._near_cells.get(reach_mm) or self._index_cells(reach_mm)
-            if index is not None:
-                cell_mm, cells = index
-                candidates = cells[int(y // cell_mm)][int(x // cell_mm)]
-                margin_mm = reach_mm + 1.0
-                near = (
-                    [
-                        obstacle
-                        for x_min, y_min, x_max, y_max, obstacle in candidates
-                        if x_min - margin_mm < x < x_max + margin_mm
-                        and y_min - margin_mm < y < y_max + margin_mm
-                        and obstacle.gap(x, y) < reach_mm
-                    ]
-                    if candidates
-                    else ()
-                )
-                # min(x, y, width - x, height - y) >= reach_mm for a point inside the arena, without the call
-                if not near and x >= reach_mm and y >= reach_mm and width - x >= reach_mm and height - y >= reach_mm:
-                    return math.inf  # nothing within reach in any direction
-            else:
-                near = self._near(x, y, reach_mm)
-                if not near and min(x, y, width - x, height - y) >= reach_mm:
-                    return math.inf  # nothing within reach in any direction
+            near = self._near(x, y, reach_mm)
+            if not near and min(x, y, self.width_mm - x, self.height_mm - y) >= reach_mm:
+                return math.inf  # nothing within reach in any direction
         if rays <= 1 or cone_deg <= 0:
             found = self.ray_distance(x, y, heading_deg, near)
             return found if found < reach_mm else math.inf
@@ -421,9 +396,8 @@ class World:
             found = d
         if below and south and (d := -y / south) < found:
             found = d
-        (left_x, left_y), (right_x, right_y) = edges or ((0.0, 0.0), (0.0, 0.0))
         for obstacle in obstacles:
-            if edges and (obstacle.beyond(x, y, left_x, left_y) or obstacle.beyond(x, y, right_x, right_y)):
+            if edges and (obstacle.beyond(x, y, *edges[0]) or obstacle.beyond(x, y, *edges[1])):
                 continue  # wholly outside the cone, past one of its edges (beside or behind the robot)
             for dx, dy in directions:
                 if (d := obstacle.ray_distance(x, y, dx, dy)) < found:

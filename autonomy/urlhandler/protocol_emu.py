@@ -112,10 +112,8 @@ class Serial(SerialBase):
         Only the in-process emulator can do this (see :meth:`Emulator.answer_now`); None means
         the frame was not sent: write it and read the reply as usual.
         """
-        emulator = self.emulator  # _check_open() and _emu, without the calls: every poll comes this way
-        if not self.is_open or emulator is None:
-            raise PortNotOpenError()
-        return emulator.answer_now(frame, self._baudrate)
+        self._check_open()
+        return self._emu.answer_now(frame, self._baudrate)
 
     def reset_input_buffer(self) -> None:
         """Discards reply bytes that have arrived."""
