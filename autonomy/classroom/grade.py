@@ -1,10 +1,12 @@
 """Grading: every submission of a class run on every seed of an exercise, judged and marked.
 
-Each submission runs in a worker process of its own, with a wall-time and a memory limit,
-so that an endless loop, a crash or a huge file costs that student a zero with the reason,
-never the batch. Every run is in virtual time on the in-process emulator, seeded: grading
-twice gives the same marks, byte for byte. Python plugins in a submission are refused
-(before anything of them is imported) unless the teacher allows them.
+Submissions are graded in worker processes, with a wall-time limit for each submission and a
+memory limit for each worker, so that an endless loop, a crash or a huge file costs that
+student a zero with the reason, never the batch. A worker grades one submission after another
+while nothing of them could have changed it, and is replaced otherwise (see :func:`_worker`).
+Every run is in virtual time on the in-process emulator, seeded: grading twice gives the same
+marks, byte for byte. Python plugins in a submission are refused (before anything of them is
+imported) unless the teacher allows them.
 """
 
 from __future__ import annotations
@@ -19,8 +21,10 @@ from collections.abc import Callable, Iterable
 from dataclasses import asdict, dataclass, field
 from multiprocessing.connection import Connection, wait
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 from urllib.parse import urlencode
+
+from py_trees.blackboard import Blackboard
 
 from autonomy.classroom.exercise import Exercise, Seed
 from autonomy.classroom.judge import Gatherer, RunFacts, Verdict, judge, path_points
@@ -35,6 +39,8 @@ from autonomy.source import UnreadableFile, read_text
 DEFAULT_WALL_S = 60.0
 #: Memory one submission's worker may take by default, MiB.
 DEFAULT_MEMORY_MB = 1024
+#: How much more memory than it started with a worker may hold after a submission and grade the next, MiB.
+RETIRE_GROWTH_MB = 32
 #: Why a submission's plugins are refused (YAML's ``plugins:`` or XML's ``_plugins``): nothing of them is imported.
 PLUGINS_REFUSED = (
     "Python plugins are not run when grading unless the teacher allows them (autonomy grade --allow-plugins)"
@@ -295,10 +301,37 @@ def _with_requirements(exercise: Exercise, verdicts: list[Verdict]) -> list[Verd
     return out
 
 
-def _worker(exercise: Exercise, student: str, path: Path, allow_plugins: bool, memory_mb: int, out: Connection) -> None:
-    """A worker process's body: limits its memory, grades, sends the report back.
+def _address_space_mb() -> float | None:
+    """How much address space this process holds (what its memory limit counts), MiB; None where unknown."""
+    try:
+        with open("/proc/self/statm", encoding="ascii") as statm:
+            return int(statm.read().split()[0]) * resource.getpagesize() / 2**20
+    except (OSError, ValueError, IndexError):
+        return None
 
-    It leads a process group of its own, so that whatever a plugin starts goes with it.
+
+def _graded(exercise: Exercise, student: str, path: Path, allow_plugins: bool, memory_mb: int) -> Report | str:
+    """One submission's report, or why it could not be graded (this student's zero)."""
+    try:
+        return grade_one(exercise, student, path, allow_plugins)
+    except MemoryError:
+        return f"used more than {memory_mb} MiB of memory"
+    except (Exception, SystemExit, KeyboardInterrupt) as err:  # noqa: BLE001 - any failure is this student's zero
+        last = traceback.extract_tb(err.__traceback__)[-1:] if err.__traceback__ else []
+        at = f" at {Path(last[0].filename).name}:{last[0].lineno}" if last else ""
+        return f"grading stopped with {type(err).__name__}: {err}{at}"
+
+
+def _worker(exercise: Exercise, allow_plugins: bool, memory_mb: int, channel: Connection) -> None:
+    """A worker process's body: limits its memory, then grades the submissions it is sent, one at a time.
+
+    It leads a process group of its own, so that whatever a plugin starts goes with it. Each
+    submission comes as (student, path) and goes back as (report or why not, whether the
+    worker ends now). A worker grades one submission after another while nothing of them
+    could have changed it: it ends after a submission whose grading failed, after any
+    submission when plugins are allowed (a plugin's Python may change anything), and after
+    one that left it holding more memory than it started with (``RETIRE_GROWTH_MB``), so
+    that every student is graded with the same room. The next submission then gets a new worker.
     """
     os.setpgid(0, 0)
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the grader ends its workers; a Ctrl-C is for the grader
@@ -311,20 +344,43 @@ def _worker(exercise: Exercise, student: str, path: Path, allow_plugins: bool, m
         resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
     except (ValueError, OSError):
         pass
-    try:
-        report: Report | str = grade_one(exercise, student, path, allow_plugins)
-    except MemoryError:
-        report = f"used more than {memory_mb} MiB of memory"
-    except (Exception, SystemExit, KeyboardInterrupt) as err:  # noqa: BLE001 - any failure is this student's zero
-        last = traceback.extract_tb(err.__traceback__)[-1:] if err.__traceback__ else []
-        at = f" at {Path(last[0].filename).name}:{last[0].lineno}" if last else ""
-        report = f"grading stopped with {type(err).__name__}: {err}{at}"
-    try:
-        out.send(report)
-    except (OSError, MemoryError, ValueError):
-        os._exit(3)
-    finally:
-        out.close()
+    started_mb = _address_space_mb()
+    while True:
+        try:
+            job = channel.recv()
+        except (EOFError, OSError):
+            return
+        if job is None:
+            return
+        student, path = job
+        Blackboard.clear()  # as a new worker has it: nothing of the last submission's trees
+        report = _graded(exercise, student, path, allow_plugins, memory_mb)
+        gc.collect()  # the last submission's trees (cycles of parents and children) let go now
+        now_mb = _address_space_mb()
+        last = (
+            allow_plugins
+            or isinstance(report, str)
+            or started_mb is None
+            or now_mb is None
+            or now_mb - started_mb > RETIRE_GROWTH_MB
+        )
+        try:
+            channel.send((report, last))
+        except (OSError, MemoryError, ValueError):
+            os._exit(3)
+        if last:
+            channel.close()
+            return
+
+
+@dataclass
+class _Running:
+    """A worker process, and the submission it grades (None while it waits for one)."""
+
+    process: Any
+    channel: Connection
+    index: int | None = None
+    deadline_s: float = 0.0
 
 
 def grade_class(
@@ -337,14 +393,18 @@ def grade_class(
     allow_plugins: bool = False,
     on_report: Callable[[Report], None] | None = None,
 ) -> list[Report]:
-    """Grades every submission, each in a worker process of its own, at most ``workers`` at once.
+    """Grades every submission in worker processes, at most ``workers`` at once.
+
+    A worker grades one submission after another (see :func:`_worker` for when it is replaced
+    by a new one); each submission has ``wall_s`` of wall time, and a worker that takes longer
+    is ended, costing that student a zero.
 
     Args:
         exercise: The exercise.
         submissions: (student, path) pairs, as :func:`find_submissions` gives them.
         workers: Processes at once (default: the machine's cores).
         wall_s: Wall time a submission may take, all its seeds together.
-        memory_mb: Memory a submission's process may take.
+        memory_mb: Memory a worker process may take.
         allow_plugins: Whether submissions may load Python plugins.
         on_report: Called with each report as it is ready (for a progress bar).
 
@@ -356,7 +416,7 @@ def grade_class(
     clock = RealClock()
     reports: dict[int, Report] = {}
     pending = list(enumerate(submissions))
-    running: dict[Connection, tuple[int, Any, float]] = {}
+    pool: list[_Running] = []
     zero = [0.0] * len(exercise.criteria)
 
     def failed(index: int, why: str) -> Report:
@@ -368,54 +428,69 @@ def grade_class(
         if on_report is not None:
             on_report(report)
 
+    def end(worker: _Running) -> None:
+        pool.remove(worker)
+        worker.channel.close()
+        _kill_group(worker.process)  # whatever the submission started ends with it
+        worker.process.join(5)
+
     try:
-        while pending or running:
-            while pending and len(running) < workers:
-                index, (student, path) = pending.pop(0)
-                receive, send = context.Pipe(duplex=False)
+        while pending or any(worker.index is not None for worker in pool):
+            for worker in pool:
+                if worker.index is None and pending:
+                    worker.index, (student, path) = pending.pop(0)
+                    worker.deadline_s = clock.now() + wall_s
+                    try:
+                        worker.channel.send((student, path))
+                    except OSError:  # the worker is gone: the reading below says so for that student
+                        pass
+            while pending and len(pool) < workers:
+                mine, theirs = context.Pipe(duplex=True)
                 process = context.Process(
-                    target=_worker, args=(exercise, student, path, allow_plugins, memory_mb, send), daemon=True
+                    target=_worker, args=(exercise, allow_plugins, memory_mb, theirs), daemon=True
                 )
                 process.start()
-                send.close()
-                running[receive] = (index, process, clock.now() + wall_s)
-            soonest = min(deadline for _, _, deadline in running.values())
-            ready = wait(list(running), timeout=max(0.0, soonest - clock.now()))
-            for connection in ready:
-                index, process, _ = running.pop(connection)  # type: ignore[index]
+                theirs.close()
+                worker = _Running(process, mine)
+                pool.append(worker)
+                worker.index, (student, path) = pending.pop(0)
+                worker.deadline_s = clock.now() + wall_s
+                mine.send((student, path))
+            busy = [worker for worker in pool if worker.index is not None]
+            soonest = min(worker.deadline_s for worker in busy)
+            ready = wait([worker.channel for worker in busy], timeout=max(0.0, soonest - clock.now()))
+            for worker in busy:
+                if worker.channel not in ready:
+                    continue
+                index = cast(int, worker.index)
                 try:
-                    result = connection.recv()
-                except (EOFError, OSError):
-                    result = None
-                connection.close()
-                process.join(5)
-                _kill_group(process)  # whatever the submission started ends with it
+                    result, last = worker.channel.recv()
+                except (EOFError, OSError, ValueError, TypeError):
+                    result, last = None, True
                 if isinstance(result, Report):
                     finish(index, result)
                 elif isinstance(result, str):
                     finish(index, failed(index, result))
                 else:
-                    finish(
-                        index,
-                        failed(index, f"the grading process ended without a report (exit code {process.exitcode})"),
-                    )
+                    worker.process.join(5)
+                    why = f"the grading process ended without a report (exit code {worker.process.exitcode})"
+                    finish(index, failed(index, why))
+                worker.index = None
+                if last:
+                    end(worker)
             now = clock.now()
-            for connection, (index, process, deadline) in list(running.items()):
-                if now >= deadline:
-                    _kill_group(process)
-                    process.join(5)
-                    connection.close()
-                    del running[connection]
+            for worker in list(pool):
+                if worker.index is not None and now >= worker.deadline_s:
+                    index = worker.index
+                    end(worker)
                     why = f"took more than {wall_s:g} s of wall time: an endless loop, or a tree too big to run in time"
                     finish(index, failed(index, f"{why} (--wall-seconds gives more)"))
     finally:
         # a second Ctrl-C must not cut the clean-up short and leave workers behind
         blocked = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM, signal.SIGHUP})
         try:
-            for connection, (_, process, _) in running.items():
-                _kill_group(process)
-                process.join(5)
-                connection.close()
+            for worker in list(pool):
+                end(worker)
         finally:
             signal.pthread_sigmask(signal.SIG_SETMASK, blocked)
     return [reports[i] for i in range(len(submissions))]

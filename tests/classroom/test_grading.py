@@ -2,12 +2,14 @@
 
 import json
 import os
+import time
 from pathlib import Path
 
 import msgspec
 import pytest
 
 from autonomy.classroom import ExerciseInvalid, find_submissions, grade_class, grade_one, load_exercise
+from autonomy.classroom import grade as grade_module
 from autonomy.classroom.report import feedback, to_csv, to_html, to_json
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -424,3 +426,79 @@ def test_verdict_lines_read_as_a_person_would_write_them():
     assert judge(facing, facts, world).line == "ended facing 0 deg, needed 0 ± 10 (off by 0)"  # not 360 deg
     nodes = Criterion("max_nodes", 3, 1.0, {}, "max_nodes 3")
     assert judge(nodes, facts, world).line == "uses 1 node, allowed 3"
+
+
+def _record_workers(monkeypatch, tmp_path, actions=None):
+    """Has every worker note which process graded which student (and do what ``actions`` says for some)."""
+    log = tmp_path / "workers.log"
+    graded = grade_module.grade_one
+
+    def noting(exercise, student, path, allow_plugins=False):
+        with open(log, "a") as out:
+            out.write(f"{student} {os.getpid()}\n")
+        if actions and student in actions:
+            actions[student]()
+        return graded(exercise, student, path, allow_plugins)
+
+    monkeypatch.setattr(grade_module, "grade_one", noting)  # the workers are forked with it
+
+    def pids():
+        return dict(line.split() for line in log.read_text().splitlines())
+
+    return pids
+
+
+def _class_of(tmp_path, names):
+    """Copies of the garage exercise's reference solution, one a student."""
+    folder = tmp_path / "class"
+    folder.mkdir()
+    text = (EXERCISES / "solutions" / "garage.yaml").read_text()
+    for name in names:
+        (folder / f"{name}.yaml").write_text(text)
+    return find_submissions(sorted(folder.iterdir()))
+
+
+def test_a_worker_grades_one_submission_after_another_and_marks_are_as_a_new_worker_gives_them(monkeypatch, tmp_path):
+    exercise = load_exercise(EXERCISES / "garage.yaml")
+    submissions = _class_of(tmp_path, ["ann", "ben", "cat", "dan", "eve"])
+    pids = _record_workers(monkeypatch, tmp_path)
+    shared = grade_class(exercise, submissions, workers=2)
+    assert len(set(pids().values())) <= 2
+    (tmp_path / "workers.log").unlink()
+    # with plugins allowed every submission has a worker of its own (a plugin may change anything)
+    alone = grade_class(exercise, submissions, workers=2, allow_plugins=True)
+    assert len(set(pids().values())) == 5
+    assert to_json(exercise, shared) == to_json(exercise, alone)
+    assert all(report.total == exercise.max_points for report in shared)
+
+
+def test_a_worker_is_replaced_after_a_submission_that_failed_or_left_it_holding_memory(monkeypatch, tmp_path):
+    exercise = load_exercise(EXERCISES / "garage.yaml")
+    submissions = _class_of(tmp_path, ["a_first", "b_boom", "c_after_boom", "d_hoard", "e_after_hoard", "f_last"])
+    kept = []
+
+    def boom():
+        raise RuntimeError("boom")
+
+    def hoard():
+        kept.append(bytearray(2 * grade_module.RETIRE_GROWTH_MB * 2**20))
+
+    pids = _record_workers(monkeypatch, tmp_path, {"b_boom": boom, "d_hoard": hoard})
+    reports = grade_class(exercise, submissions, workers=1)
+    seen = pids()
+    assert seen["a_first"] == seen["b_boom"] != seen["c_after_boom"] == seen["d_hoard"] != seen["e_after_hoard"]
+    assert seen["e_after_hoard"] == seen["f_last"]
+    totals = {report.student: report.total for report in reports}
+    assert totals == {name: (0.0 if name == "b_boom" else exercise.max_points) for name in totals}
+    assert reports[1].problems[0].startswith("grading stopped with RuntimeError: boom at test_grading.py:")
+
+
+def test_a_worker_that_takes_too_long_is_ended_and_the_rest_are_graded_by_a_new_one(monkeypatch, tmp_path):
+    exercise = load_exercise(EXERCISES / "garage.yaml")
+    submissions = _class_of(tmp_path, ["a_first", "b_endless", "c_after"])
+    pids = _record_workers(monkeypatch, tmp_path, {"b_endless": lambda: time.sleep(60)})
+    reports = grade_class(exercise, submissions, workers=1, wall_s=3)
+    seen = pids()
+    assert seen["a_first"] == seen["b_endless"] != seen["c_after"]
+    assert [report.total for report in reports] == [exercise.max_points, 0.0, exercise.max_points]
+    assert "took more than 3 s of wall time" in reports[1].problems[0]

@@ -2,14 +2,16 @@
 
 import dataclasses
 import math
+from pathlib import Path
 
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+import autonomy.emulator
 from autonomy.client import Client
 from autonomy.emulator import Box, Circle, Jitter, WorldError, WorldInvalid, load_world, world_from_dict
-from autonomy.emulator.world import SENSOR_CONE_DEG, SENSOR_RAYS, SHIPPED, Pose, World
+from autonomy.emulator.world import SENSOR_CONE_DEG, SENSOR_RAYS, SHIPPED, Pose, World, parse_world_text
 
 
 @pytest.mark.parametrize("name", SHIPPED)
@@ -319,6 +321,37 @@ def test_the_cells_keep_every_obstacle_within_reach(arena, shapes, points, reach
         assert world._near(x, y, reach_mm) == expected
 
 
+@settings(max_examples=300, deadline=None)
+@given(
+    _shape,
+    st.tuples(st.floats(-500, 10500), st.floats(-500, 10500), st.floats(0, 400), st.floats(0, 400)),
+    st.floats(0, 1),
+    st.floats(0, 1),
+)
+def test_no_point_of_a_rectangle_is_nearer_a_shape_than_the_rectangle_s_gap(shape, rectangle, across, up):
+    # The cells keep only the shapes that come within reach of them: a cell's gap must never be
+    # more than a point's within it, or the sensor would miss a shape from that point.
+    x_min, y_min, width, height = rectangle
+    x, y = x_min + across * width, y_min + up * height
+    gap = shape.rect_gap(x_min, y_min, x_min + width, y_min + height)
+    assert shape.gap(x, y) >= gap - 1e-9
+    # and the rectangle's point nearest the shape is that far from it: the gap is no looser than it must be
+    toward_x, toward_y = (shape.x_min_mm, shape.y_min_mm) if isinstance(shape, Box) else (shape.x_mm, shape.y_mm)
+    nearest = min(max(toward_x, x_min), x_min + width), min(max(toward_y, y_min), y_min + height)
+    assert shape.gap(*nearest) == pytest.approx(max(gap, 0.0), abs=1e-6)
+
+
+def test_a_cell_keeps_only_the_shapes_that_come_within_reach_of_it():
+    world = World("test", 3000.0, 3000.0, Pose(100.0, 100.0, 0.0), (Box(1000.0, 1000.0, 1100.0, 1100.0),))
+    cell_mm, cells = world._index_cells(256.0)
+    kept = {(row, column) for row, cells_row in enumerate(cells) for column, cell in enumerate(cells_row) if cell}
+    # the box's bounds grown by the margin meet the corner cells (7 and 13), whose nearest points
+    # lie 281 mm from it: only the cells within reach of it keep it
+    assert cell_mm == 100.0 and (10, 10) in kept and (10, 13) in kept and (7, 10) in kept and (12, 12) in kept
+    assert not kept & {(7, 7), (7, 13), (13, 7), (13, 13), (6, 10), (10, 14)}
+    assert world._near(750.0, 750.0, 256.0) == () and world._near(760.0, 1050.0, 256.0) == world.obstacles
+
+
 def test_a_cone_whose_rays_round_apart_is_not_cut_short_by_its_edges():
     # At a heading of 1e17 degrees a 179.9-degree cone's rays round to angles 186 degrees apart:
     # an obstacle on the first ray lies past the last ray's edge, and must still be seen.
@@ -351,7 +384,7 @@ def test_the_cells_take_shapes_and_arenas_that_are_not_finite(arena, shape):
 
 
 def test_a_world_keeps_the_cells_of_a_few_reaches_and_looks_at_every_shape_for_more():
-    world = load_world("obstacles")
+    world = world_from_dict(load_world("obstacles").as_dict())  # a world of its own: no reach asked before
     for reach in range(1, 20):
         near = world._near(1300.0, 1100.0, 50.0 * reach)
         assert near == tuple(o for o in world.obstacles if o.gap(1300.0, 1100.0) < 50.0 * reach)
@@ -359,11 +392,20 @@ def test_a_world_keeps_the_cells_of_a_few_reaches_and_looks_at_every_shape_for_m
 
 
 def test_what_the_sensor_keeps_is_no_part_of_a_world_s_value():
-    used, fresh = load_world("obstacles"), load_world("obstacles")
-    assert used.cone_distance(1300.0, 1100.0, 90.0, reach_mm=256.0) < 256.0 and used._near_cells
+    used, fresh = load_world("obstacles"), world_from_dict(load_world("obstacles").as_dict())
+    assert used is not fresh and used.cone_distance(1300.0, 1100.0, 90.0, reach_mm=256.0) < 256.0 and used._near_cells
     assert used == fresh and repr(used) == repr(fresh) and "_near" not in repr(used)
     assert [f.name for f in dataclasses.fields(used)] == [
         "name", "width_mm", "height_mm", "start", "obstacles", "zones", "jitter", "description"
     ]  # fmt: skip
     moved = dataclasses.replace(used, obstacles=used.obstacles[:1])  # its own bounds and cells, from scratch
     assert not moved._near_cells and len(moved._obstacle_bounds) == 1
+
+
+def test_a_shipped_world_is_read_once_and_is_the_same_value_as_its_file():
+    # grading asks for the exercise's world for every seed: it is read once, a value never changed
+    first, again = load_world("obstacles"), load_world("obstacles")
+    assert first is again
+    path = Path(autonomy.emulator.__file__).parent / "worlds" / "obstacles.yaml"
+    assert first == parse_world_text(path.read_text(), "obstacles.yaml") == load_world(path)
+    assert load_world(path) is not load_world(path)  # a world file is read each time: it may have changed
