@@ -133,6 +133,11 @@ class RobotContext:
         rebased: True when this tick's packet replaced a believed state that was wrong (see
             :class:`~autonomy.client.StatusGuard`): the step from the last tick's packet is
             not a motion, and the wrong-way checks leave it out.
+        watched: Whether anybody reads the nodes' feedback while they run (the live views,
+            a trace). A run that records no node states (a grader's) sets it False, and a
+            node may then leave out the feedback it would say tick after tick while RUNNING (a
+            countdown, the distance so far): it is formatted for nobody. A node that ends
+            still says why.
     """
 
     client: Client
@@ -142,6 +147,7 @@ class RobotContext:
     motion_owner: object | None = None
     polled: tuple[Packet, int, bool] | None = None
     rebased: bool = False
+    watched: bool = True
 
 
 _Update = TypeVar("_Update", bound=Callable[..., Status])

@@ -266,6 +266,42 @@ def test_a_run_without_node_states_records_the_same_ticks_with_no_nodes():
         assert (a.wire, a.events) == (b.wire, b.events)
 
 
+def _feedback_each_tick(tree: str, url: str, node_states: bool) -> tuple[list[dict[str, str]], Runner]:
+    """Each leaf's feedback after every tick, as the tree holds it (whether or not records carry it)."""
+    client = Client.open(url)
+    seen: list[dict[str, str]] = []
+    runner = Runner(tree_of(tree), client, mission="t", node_states=node_states)
+    runner.listeners.append(
+        lambda record: (
+            seen.append({n.name: n.feedback_message for n in runner.root.iterate() if not n.children})
+            if getattr(record, "tick", None) is not None
+            else None
+        )
+    )
+    runner.run()
+    return seen, runner
+
+
+def test_an_unwatched_run_leaves_out_what_nodes_say_while_running_but_never_why_they_ended():
+    tree = "  sequence: [{wait: {seconds: 0.5}}, {move: {speed: 2, distance_mm: 200}}, {turn: {left: 90}}]\n"
+    url = "emu://?time=virtual&world=empty"
+    watched, _ = _feedback_each_tick(tree, url, node_states=True)
+    unwatched, runner = _feedback_each_tick(tree, url, node_states=False)
+    assert len(watched) == len(unwatched) and runner.summary.outcome == "succeeded"
+    said = {name: {tick[name] for tick in watched} for name in watched[0]}
+    quiet = {name: {tick[name] for tick in unwatched} for name in unwatched[0]}
+    assert "0.3 s left" in said["wait 0.5 s"] and any(text.endswith("deg to go") for text in said["turn left 90 deg"])
+    assert any(text.endswith("mm, front 255 mm") for text in said["move 200 mm"])
+    assert quiet["wait 0.5 s"] == {"", "0.0 s left"}
+    assert quiet["move 200 mm"] - {""} == {text for text in said["move 200 mm"] if text.startswith("drove")}
+    assert quiet["turn left 90 deg"] - {""} == {text for text in said["turn left 90 deg"] if text.startswith("turned")}
+    # why a run failed is the same either way
+    crash = "  move: {speed: 4}\n"
+    endings = [_feedback_each_tick(crash, "emu://?time=virtual&world=box", node_states=flag)[1] for flag in (1, 0)]
+    assert endings[0].summary.reason == endings[1].summary.reason
+    assert "failed (collided after" in endings[0].summary.reason
+
+
 class Unprintable:
     def __str__(self) -> str:
         raise ValueError("no text")
