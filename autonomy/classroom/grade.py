@@ -330,8 +330,8 @@ def _worker(exercise: Exercise, allow_plugins: bool, memory_mb: int, channel: Co
     worker ends now). A worker grades one submission after another while nothing of them
     could have changed it: it ends after a submission whose grading failed, after any
     submission when plugins are allowed (a plugin's Python may change anything), and after
-    one that left it holding more memory than it started with (``RETIRE_GROWTH_MB``), so
-    that every student is graded with the same room. The next submission then gets a new worker.
+    one that left it holding more memory than it started with (``RETIRE_GROWTH_MB``). The
+    next submission then gets a new worker.
     """
     os.setpgid(0, 0)
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the grader ends its workers; a Ctrl-C is for the grader
@@ -348,22 +348,20 @@ def _worker(exercise: Exercise, allow_plugins: bool, memory_mb: int, channel: Co
     while True:
         try:
             job = channel.recv()
-        except (EOFError, OSError):
+        except Exception:  # noqa: BLE001 - the grader gone, or no memory left to read with: this worker ends
             return
         if job is None:
             return
         student, path = job
         Blackboard.clear()  # as a new worker has it: nothing of the last submission's trees
         report = _graded(exercise, student, path, allow_plugins, memory_mb)
-        gc.collect()  # the last submission's trees (cycles of parents and children) let go now
-        now_mb = _address_space_mb()
-        last = (
-            allow_plugins
-            or isinstance(report, str)
-            or started_mb is None
-            or now_mb is None
-            or now_mb - started_mb > RETIRE_GROWTH_MB
-        )
+        try:
+            gc.collect()  # the last submission's trees (cycles of parents and children) let go now
+            now_mb = _address_space_mb()
+            grown = started_mb is None or now_mb is None or now_mb - started_mb > RETIRE_GROWTH_MB
+        except MemoryError:  # no memory left even to look: the report still goes, and this worker ends
+            grown = True
+        last = allow_plugins or isinstance(report, str) or grown
         try:
             channel.send((report, last))
         except (OSError, MemoryError, ValueError):
@@ -375,12 +373,13 @@ def _worker(exercise: Exercise, allow_plugins: bool, memory_mb: int, channel: Co
 
 @dataclass
 class _Running:
-    """A worker process, and the submission it grades (None while it waits for one)."""
+    """A worker process, the submission it grades (None while it waits for one), and how many it graded."""
 
     process: Any
     channel: Connection
     index: int | None = None
     deadline_s: float = 0.0
+    graded: int = 0
 
 
 def grade_class(
@@ -396,8 +395,12 @@ def grade_class(
     """Grades every submission in worker processes, at most ``workers`` at once.
 
     A worker grades one submission after another (see :func:`_worker` for when it is replaced
-    by a new one); each submission has ``wall_s`` of wall time, and a worker that takes longer
-    is ended, costing that student a zero.
+    by a new one). A submission whose grading failed (or whose worker died) in a worker that
+    had graded another before is graded again in a new worker, and that result stands: what
+    a submission before left behind (memory, above all) never costs a student their marks, and
+    the marks are those of a new worker for each, whatever the order or the number of
+    workers. Each submission has ``wall_s`` of wall time; a worker that takes longer is ended,
+    costing that student a zero (not graded again: an endless loop would cost twice the time).
 
     Args:
         exercise: The exercise.
@@ -415,7 +418,8 @@ def grade_class(
     context = multiprocessing.get_context("fork")
     clock = RealClock()
     reports: dict[int, Report] = {}
-    pending = list(enumerate(submissions))
+    # (index, whether only a new worker may grade it: a failure in a worker used before, graded again)
+    pending: list[tuple[int, bool]] = [(index, False) for index in range(len(submissions))]
     pool: list[_Running] = []
     zero = [0.0] * len(exercise.criteria)
 
@@ -428,22 +432,31 @@ def grade_class(
         if on_report is not None:
             on_report(report)
 
+    def give(worker: _Running, index: int) -> None:
+        worker.index, worker.deadline_s = index, clock.now() + wall_s
+        try:
+            worker.channel.send(submissions[index])
+        except OSError:  # the worker is gone: reading from it says so, and the submission is graded again
+            pass
+
     def end(worker: _Running) -> None:
-        pool.remove(worker)
-        worker.channel.close()
-        _kill_group(worker.process)  # whatever the submission started ends with it
+        _kill_group(worker.process)  # first: whatever the submission started ends with it
         worker.process.join(5)
+        worker.channel.close()
+        if worker in pool:
+            pool.remove(worker)
 
     try:
         while pending or any(worker.index is not None for worker in pool):
-            for worker in pool:
-                if worker.index is None and pending:
-                    worker.index, (student, path) = pending.pop(0)
-                    worker.deadline_s = clock.now() + wall_s
-                    try:
-                        worker.channel.send((student, path))
-                    except OSError:  # the worker is gone: the reading below says so for that student
-                        pass
+            for worker in list(pool):
+                if worker.index is not None or not pending:
+                    continue
+                job = next((job for job in pending if not job[1]), None)
+                if job is not None:
+                    pending.remove(job)
+                    give(worker, job[0])
+                elif len(pool) >= workers:  # only submissions for a new worker are left: make room for one
+                    end(worker)
             while pending and len(pool) < workers:
                 mine, theirs = context.Pipe(duplex=True)
                 process = context.Process(
@@ -453,9 +466,7 @@ def grade_class(
                 theirs.close()
                 worker = _Running(process, mine)
                 pool.append(worker)
-                worker.index, (student, path) = pending.pop(0)
-                worker.deadline_s = clock.now() + wall_s
-                mine.send((student, path))
+                give(worker, pending.pop(0)[0])
             busy = [worker for worker in pool if worker.index is not None]
             soonest = min(worker.deadline_s for worker in busy)
             ready = wait([worker.channel for worker in busy], timeout=max(0.0, soonest - clock.now()))
@@ -463,21 +474,23 @@ def grade_class(
                 if worker.channel not in ready:
                     continue
                 index = cast(int, worker.index)
+                worker.index = None
                 try:
                     result, last = worker.channel.recv()
                 except (EOFError, OSError, ValueError, TypeError):
                     result, last = None, True
-                if isinstance(result, Report):
+                if last:
+                    end(worker)
+                if not isinstance(result, Report) and worker.graded:  # perhaps what came before: a new worker
+                    pending.insert(0, (index, True))
+                elif isinstance(result, Report):
                     finish(index, result)
                 elif isinstance(result, str):
                     finish(index, failed(index, result))
                 else:
-                    worker.process.join(5)
                     why = f"the grading process ended without a report (exit code {worker.process.exitcode})"
                     finish(index, failed(index, why))
-                worker.index = None
-                if last:
-                    end(worker)
+                worker.graded += 1
             now = clock.now()
             for worker in list(pool):
                 if worker.index is not None and now >= worker.deadline_s:

@@ -443,7 +443,12 @@ def _record_workers(monkeypatch, tmp_path, actions=None):
     monkeypatch.setattr(grade_module, "grade_one", noting)  # the workers are forked with it
 
     def pids():
-        return dict(line.split() for line in log.read_text().splitlines())
+        """Each student's workers, in the order they graded them (a student graded again has two)."""
+        seen: dict[str, list[str]] = {}
+        for line in log.read_text().splitlines():
+            student, pid = line.split()
+            seen.setdefault(student, []).append(pid)
+        return seen
 
     return pids
 
@@ -463,11 +468,11 @@ def test_a_worker_grades_one_submission_after_another_and_marks_are_as_a_new_wor
     submissions = _class_of(tmp_path, ["ann", "ben", "cat", "dan", "eve"])
     pids = _record_workers(monkeypatch, tmp_path)
     shared = grade_class(exercise, submissions, workers=2)
-    assert len(set(pids().values())) <= 2
+    assert len({pid for graded in pids().values() for pid in graded}) <= 2
     (tmp_path / "workers.log").unlink()
     # with plugins allowed every submission has a worker of its own (a plugin may change anything)
     alone = grade_class(exercise, submissions, workers=2, allow_plugins=True)
-    assert len(set(pids().values())) == 5
+    assert len({pid for graded in pids().values() for pid in graded}) == 5
     assert to_json(exercise, shared) == to_json(exercise, alone)
     assert all(report.total == exercise.max_points for report in shared)
 
@@ -486,8 +491,10 @@ def test_a_worker_is_replaced_after_a_submission_that_failed_or_left_it_holding_
     pids = _record_workers(monkeypatch, tmp_path, {"b_boom": boom, "d_hoard": hoard})
     reports = grade_class(exercise, submissions, workers=1)
     seen = pids()
-    assert seen["a_first"] == seen["b_boom"] != seen["c_after_boom"] == seen["d_hoard"] != seen["e_after_hoard"]
-    assert seen["e_after_hoard"] == seen["f_last"]
+    # the failure came in a worker used before: graded again in a new one (which it also ends)
+    (first,), (used, again), (after_boom,) = seen["a_first"], seen["b_boom"], seen["c_after_boom"]
+    assert first == used and len({first, again, after_boom}) == 3
+    assert seen["d_hoard"] == [after_boom] and seen["e_after_hoard"] == seen["f_last"] != [after_boom]
     totals = {report.student: report.total for report in reports}
     assert totals == {name: (0.0 if name == "b_boom" else exercise.max_points) for name in totals}
     assert reports[1].problems[0].startswith("grading stopped with RuntimeError: boom at test_grading.py:")
@@ -499,6 +506,30 @@ def test_a_worker_that_takes_too_long_is_ended_and_the_rest_are_graded_by_a_new_
     pids = _record_workers(monkeypatch, tmp_path, {"b_endless": lambda: time.sleep(60)})
     reports = grade_class(exercise, submissions, workers=1, wall_s=3)
     seen = pids()
-    assert seen["a_first"] == seen["b_endless"] != seen["c_after"]
+    assert seen["a_first"] == seen["b_endless"] != seen["c_after"]  # not graded again: it would take as long
     assert [report.total for report in reports] == [exercise.max_points, 0.0, exercise.max_points]
     assert "took more than 3 s of wall time" in reports[1].problems[0]
+
+
+def test_a_submission_that_fails_only_after_another_is_graded_again_in_a_new_worker(monkeypatch, tmp_path):
+    # What a submission leaves in a worker (memory, above all) must not cost the next student
+    # their marks: a failure in a worker used before is graded again in a new one, whose result stands.
+    exercise = load_exercise(EXERCISES / "garage.yaml")
+    submissions = _class_of(tmp_path, ["a_first", "b_fragile", "c_after"])
+    graded_here = []
+
+    def count():
+        graded_here.append(1)
+
+    def fragile():
+        count()
+        if len(graded_here) > 1:  # this worker graded someone before
+            raise MemoryError
+
+    pids = _record_workers(monkeypatch, tmp_path, {"a_first": count, "b_fragile": fragile, "c_after": count})
+    for workers in (1, 2):
+        (tmp_path / "workers.log").unlink(missing_ok=True)
+        reports = grade_class(exercise, submissions, workers=workers)
+        assert [report.total for report in reports] == [exercise.max_points] * 3, [r.problems for r in reports]
+        if workers == 1:  # it failed after a_first, and was graded again in a new worker
+            assert pids()["b_fragile"][0] == pids()["a_first"][0] != pids()["b_fragile"][1]
