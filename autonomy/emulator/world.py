@@ -42,7 +42,7 @@ SENSOR_RAYS = 7
 #: The cells the sensor's search for nearby obstacles is sorted into: mm a side, and most a side.
 NEAR_CELL_MM = 100.0
 NEAR_CELLS = 64
-#: How many reaches' cells a world keeps (a run asks with one).
+#: How many reaches' cells a world keeps, the last asked for (a run asks with one).
 MOST_REACHES = 8
 #: How far past a cone's edge a shape must lie for the cone's rays to be known to miss it, mm: far
 #: more than any rounding of a ray's distance, and less than anything a sensor reads.
@@ -457,11 +457,15 @@ class World:
         millimetre (``rect_gap``): no point of the cell is nearer any other shape than the margin,
         which :meth:`_near` would find out one shape at a time. Most polls then find their cell
         empty. Cells are ``NEAR_CELL_MM`` a side, larger in a large arena (some ``NEAR_CELLS`` a
-        side). A run asks with one reach; the cells of ``MOST_REACHES`` are kept. None (look at
-        every shape) for a further reach, and for an arena that is not finite.
+        side). A run asks with one reach; the cells of the last ``MOST_REACHES`` reaches are kept
+        (a shipped world is one object for every run of a process, whose runs may each ask with
+        a reach of their own), the oldest making room. None (look at every shape) for an arena
+        that is not finite.
         """
-        if len(self._near_cells) >= MOST_REACHES or not math.isfinite(self.width_mm + self.height_mm):
+        if not math.isfinite(self.width_mm + self.height_mm):
             return None
+        for oldest in list(self._near_cells)[: max(0, len(self._near_cells) - MOST_REACHES + 1)]:
+            self._near_cells.pop(oldest, None)  # a copy of the keys, and pop: another thread may be at it too
         margin_mm = reach_mm + 1.0
         cell_mm = max(NEAR_CELL_MM, self.width_mm / NEAR_CELLS, self.height_mm / NEAR_CELLS)
         columns, rows = int(self.width_mm // cell_mm) + 1, int(self.height_mm // cell_mm) + 1  # x // cell_mm < columns

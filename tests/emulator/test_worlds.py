@@ -383,12 +383,13 @@ def test_the_cells_take_shapes_and_arenas_that_are_not_finite(arena, shape):
     )
 
 
-def test_a_world_keeps_the_cells_of_a_few_reaches_and_looks_at_every_shape_for_more():
+def test_a_world_keeps_the_cells_of_the_last_few_reaches_asked_for():
     world = world_from_dict(load_world("obstacles").as_dict())  # a world of its own: no reach asked before
     for reach in range(1, 20):
         near = world._near(1300.0, 1100.0, 50.0 * reach)
         assert near == tuple(o for o in world.obstacles if o.gap(1300.0, 1100.0) < 50.0 * reach)
-    assert len(world._near_cells) == 8
+        assert 50.0 * reach in world._near_cells  # every reach has its cells while it is asked for
+    assert list(world._near_cells) == [50.0 * reach for reach in range(12, 20)]
 
 
 def test_what_the_sensor_keeps_is_no_part_of_a_world_s_value():
