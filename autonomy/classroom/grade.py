@@ -373,13 +373,13 @@ def _worker(exercise: Exercise, allow_plugins: bool, memory_mb: int, channel: Co
 
 @dataclass
 class _Running:
-    """A worker process, the submission it grades (None while it waits for one), and how many it graded."""
+    """A worker process, the submission it grades (None while it waits for one), and whether it graded one before."""
 
     process: Any
     channel: Connection
     index: int | None = None
     deadline_s: float = 0.0
-    graded: int = 0
+    used: bool = False
 
 
 def grade_class(
@@ -418,8 +418,7 @@ def grade_class(
     context = multiprocessing.get_context("fork")
     clock = RealClock()
     reports: dict[int, Report] = {}
-    # (index, whether only a new worker may grade it: a failure in a worker used before, graded again)
-    pending: list[tuple[int, bool]] = [(index, False) for index in range(len(submissions))]
+    pending = list(range(len(submissions)))
     pool: list[_Running] = []
     zero = [0.0] * len(exercise.criteria)
 
@@ -446,27 +445,22 @@ def grade_class(
         if worker in pool:
             pool.remove(worker)
 
+    def start(index: int) -> None:
+        mine, theirs = context.Pipe(duplex=True)
+        process = context.Process(target=_worker, args=(exercise, allow_plugins, memory_mb, theirs), daemon=True)
+        process.start()
+        theirs.close()
+        worker = _Running(process, mine)
+        pool.append(worker)
+        give(worker, index)
+
     try:
         while pending or any(worker.index is not None for worker in pool):
-            for worker in list(pool):
-                if worker.index is not None or not pending:
-                    continue
-                job = next((job for job in pending if not job[1]), None)
-                if job is not None:
-                    pending.remove(job)
-                    give(worker, job[0])
-                elif len(pool) >= workers:  # only submissions for a new worker are left: make room for one
-                    end(worker)
+            for worker in pool:
+                if worker.index is None and pending:
+                    give(worker, pending.pop(0))
             while pending and len(pool) < workers:
-                mine, theirs = context.Pipe(duplex=True)
-                process = context.Process(
-                    target=_worker, args=(exercise, allow_plugins, memory_mb, theirs), daemon=True
-                )
-                process.start()
-                theirs.close()
-                worker = _Running(process, mine)
-                pool.append(worker)
-                give(worker, pending.pop(0)[0])
+                start(pending.pop(0))
             busy = [worker for worker in pool if worker.index is not None]
             soonest = min(worker.deadline_s for worker in busy)
             ready = wait([worker.channel for worker in busy], timeout=max(0.0, soonest - clock.now()))
@@ -479,10 +473,10 @@ def grade_class(
                     result, last = worker.channel.recv()
                 except (EOFError, OSError, ValueError, TypeError):
                     result, last = None, True
-                if last:
+                if last or not isinstance(result, Report):
                     end(worker)
-                if not isinstance(result, Report) and worker.graded:  # perhaps what came before: a new worker
-                    pending.insert(0, (index, True))
+                if not isinstance(result, Report) and worker.used:
+                    start(index)  # perhaps what came before was the cause: a new worker, in the place it left
                 elif isinstance(result, Report):
                     finish(index, result)
                 elif isinstance(result, str):
@@ -490,7 +484,7 @@ def grade_class(
                 else:
                     why = f"the grading process ended without a report (exit code {worker.process.exitcode})"
                     finish(index, failed(index, why))
-                worker.graded += 1
+                worker.used = True
             now = clock.now()
             for worker in list(pool):
                 if worker.index is not None and now >= worker.deadline_s:

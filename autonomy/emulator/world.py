@@ -464,7 +464,7 @@ class World:
         """
         if not math.isfinite(self.width_mm + self.height_mm):
             return None
-        for oldest in list(self._near_cells)[: max(0, len(self._near_cells) - MOST_REACHES + 1)]:
+        for oldest in list(self._near_cells)[: 1 - MOST_REACHES]:  # keeps the last MOST_REACHES - 1
             self._near_cells.pop(oldest, None)  # a copy of the keys, and pop: another thread may be at it too
         margin_mm = reach_mm + 1.0
         cell_mm = max(NEAR_CELL_MM, self.width_mm / NEAR_CELLS, self.height_mm / NEAR_CELLS)
