@@ -3,15 +3,20 @@
 Measures:
   - a class: 30 submissions x 3 seeds of a 60 s exercise (the wander mission in the
     obstacles world, 5,400 simulated seconds in all), graded with one worker a core: wall
-    time, and simulated seconds per wall second across the class (target: 1000x, 5.4 s);
+    time, and simulated seconds per wall second across the class (target: 1000x, 5.4 s).
+    The class is graded ``--classes`` times (default 5), and the target is judged on the
+    median: this 2-core machine is a shared virtual one whose speed moves by a fifth from
+    one minute to the next, and one run of a few seconds lands anywhere in that. Each run's
+    figure is printed too, the slowest included;
   - one student's `autonomy grade` (a fresh process, the bump exercise, 3 seeds of its
     reference solution): wall time, median of 5 (target: under 1 s).
 
-Usage: python benchmarks/grading.py
+Usage: python benchmarks/grading.py [--classes N]
 """
 
 from __future__ import annotations
 
+import argparse
 import os
 import platform
 import statistics
@@ -42,8 +47,12 @@ def interpreter() -> str:
     return f"Python {platform.python_version()}, {os.path.realpath(sys.executable)}"
 
 
-def main() -> None:
-    print(interpreter())
+def grade_classes(classes: int) -> list[tuple[float, float]]:
+    """Grades the class ``classes`` times; prints each run; returns each run's wall seconds and speed.
+
+    The speed is simulated seconds per wall second across the class.
+    """
+    runs = []
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
         (folder / "wander.yaml").write_text(EXERCISE)
@@ -55,15 +64,35 @@ def main() -> None:
             files.append(path)
         exercise = load_exercise(folder / "wander.yaml")
         workers = os.cpu_count() or 1
-        started = time.perf_counter()
-        reports = grade_class(exercise, find_submissions(files), workers=workers)
-        elapsed = time.perf_counter() - started
-        simulated = sum(seed.time_s for report in reports for seed in report.seeds)
-        assert all(not r.problems for r in reports) and simulated > 0.99 * STUDENTS * 3 * 60
-        print(
-            f"a class: {STUDENTS} submissions x 3 seeds x 60 s ({simulated:,.0f} simulated s), {workers} workers: "
-            f"{elapsed:.1f} s wall, {simulated / elapsed:,.0f}x real time (target 1000x: 5.4 s)"
-        )
+        for run in range(classes):
+            started = time.perf_counter()
+            reports = grade_class(exercise, find_submissions(files), workers=workers)
+            elapsed = time.perf_counter() - started
+            simulated = sum(seed.time_s for report in reports for seed in report.seeds)
+            assert all(not r.problems for r in reports) and simulated > 0.99 * STUDENTS * 3 * 60
+            runs.append((elapsed, simulated / elapsed))
+            print(
+                f"a class ({run + 1}/{classes}): {STUDENTS} submissions x 3 seeds x 60 s "
+                f"({simulated:,.0f} simulated s), {workers} workers: {elapsed:.2f} s wall, "
+                f"{simulated / elapsed:,.0f}x real time"
+            )
+    return runs
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--classes", type=int, default=5, help="how many times the class is graded (default 5)")
+    classes = max(1, parser.parse_args().classes)
+    print(interpreter())
+    runs = grade_classes(classes)
+    speeds = [speed for _, speed in runs]
+    median = statistics.median(speeds)
+    print(
+        f"a class, median of {classes}: {statistics.median(wall for wall, _ in runs):.2f} s wall, "
+        f"{median:,.0f}x real time "
+        f"(slowest {min(speeds):,.0f}x, fastest {max(speeds):,.0f}x; target 1000x: 5.4 s) "
+        f"{'met' if median >= 1000 else 'NOT met'}"
+    )
 
     times = []
     for _ in range(5):
