@@ -44,7 +44,7 @@ mutation: $(STAMP)
 	-$(BIN)/mutmut run
 	$(BIN)/python benchmarks/mutation.py
 
-## bench: the link, emulator and mission benchmarks (figures for the README)
+## bench: every benchmark (the latest figures go in the README, their history in docs/performance.md)
 bench: $(STAMP)
 	$(BIN)/python benchmarks/link.py
 	$(BIN)/python benchmarks/missions.py

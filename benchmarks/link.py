@@ -1,4 +1,4 @@
-"""Link and emulator benchmarks; the figures go in the README.
+"""Link and emulator benchmarks; the latest figures go in the README, their history in docs/performance.md.
 
 Measures, in one run:
   - request/reply round trips per second (Gb000 status polls) through emu:// (virtual time),

@@ -1,4 +1,4 @@
-"""Mission engine benchmarks; the figures go in the README.
+"""Mission engine benchmarks; the latest figures go in the README, their history in docs/performance.md.
 
 Measures, in one run:
   - ticks per second of a compiled 200-node mission next to the same tree built by hand in raw
