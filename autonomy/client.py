@@ -275,7 +275,11 @@ class Client:
                 received = self.stats.bytes_received - received_before
                 baud = getattr(self.port, "baudrate", DEFAULT_BAUD)
                 heard = bytes(self._heard[-16:])
-                if received and heard.endswith(b"\n") and all(32 <= byte < 127 or byte == 10 for byte in heard):
+                injected = str(getattr(self.port, "injected_faults", "") or "")  # an emulated link's own faults
+                if injected:
+                    came = f"{received} bytes came back but none formed a reply" if received else "nothing came back"
+                    hint = f"{came}: the emulator injects link faults ({injected}) that lost or damaged the replies"
+                elif received and heard.endswith(b"\n") and all(32 <= byte < 127 or byte == 10 for byte in heard):
                     last = heard.decode("ascii").strip().splitlines()[-1]  # printable ASCII, checked above
                     hint = (
                         f"{received} bytes came back, lines of text but none the reply asked for "

@@ -263,7 +263,8 @@ class Turn(RobotAction):
             return Status.FAILURE
         if abs(remaining) <= self.TOLERANCE_DEG and not status.moving:
             self.release_motion()
-            self.feedback_message = f"turned {self._turned_deg:.0f} deg"
+            turned = self._turned_deg
+            self.feedback_message = f"turned {abs(turned):.0f} deg {'left' if turned >= 0 else 'right'}"
             return Status.SUCCESS
         if self.clock.now() > self._deadline_s:
             self.stop_motion()

@@ -18,6 +18,7 @@ from serial.serialutil import PortNotOpenError, SerialBase, SerialException
 
 from autonomy.clock import Clock
 from autonomy.emulator.core import Emulator, emulator_from_options
+from autonomy.emulator.faults import PROBABILITIES
 from autonomy.errors import AutonomyError
 
 
@@ -114,6 +115,18 @@ class Serial(SerialBase):
         """
         self._check_open()
         return self._emu.answer_now(frame, self._baudrate)
+
+    @property
+    def injected_faults(self) -> str:
+        """The faults the emulator injects into replies (``drop=0.3``), or "" when none can lose or damage one.
+
+        A client names them when no reply comes through, where it would otherwise ask a real
+        robot's questions (its baud rate, its power).
+        """
+        faults = self.emulator.faults if self.emulator is not None else None
+        if faults is None or not any(getattr(faults, name) for name in PROBABILITIES):
+            return ""
+        return str(faults)
 
     def reset_input_buffer(self) -> None:
         """Discards reply bytes that have arrived."""

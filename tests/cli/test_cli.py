@@ -87,6 +87,12 @@ def test_probe_wrong_baud_rate_is_one_line_and_exit_3():
     assert_one_line_error(result, 3, "no answer", "115200 baud", "is the robot set to 57600 baud?")
 
 
+def test_probe_over_an_emulated_link_too_lossy_to_answer_names_its_faults_not_the_baud_rate():
+    result = autonomy("probe", "--port", "emu://?time=virtual&faults=drop=0.3")
+    assert_one_line_error(result, 3, "no answer", "the emulator injects link faults (drop=0.3)")
+    assert "baud?" not in result.stderr
+
+
 def test_probe_silent_robot_is_one_line_and_exit_3():
     result = autonomy("probe", "--port", "emu://?time=virtual&boot=60", "--wait", "1")
     assert_one_line_error(result, 3, "nothing came back")

@@ -30,6 +30,37 @@ def test_a_silent_pseudo_terminal_is_reported_within_the_ready_time_out():
         os.close(device)
 
 
+@pytest.mark.parametrize(
+    ("faults", "came_back"),
+    [("drop=1", "nothing came back"), ("drop=0.3", "bytes came back but none formed a reply")],
+)
+def test_an_emulated_link_that_loses_every_reply_is_blamed_on_its_injected_faults(faults, came_back):
+    """Not on the baud rate or the power, which a real robot's silence would ask about."""
+    with pytest.raises(ReplyTimeout) as caught:
+        Client.open(f"emu://?faults={faults}&time=virtual", ready_timeout_s=0.5, timeout_s=0.05)
+    message = str(caught.value)
+    assert f"{came_back}: the emulator injects link faults ({faults}) that lost or damaged the replies" in message
+    assert "baud?" not in message and "is the robot on" not in message
+
+
+@pytest.mark.parametrize(
+    ("faults", "named"),
+    [
+        ("", ""),
+        ("pace", ""),
+        ("drop=0.3", "drop=0.3"),
+        ("no=0.5,pace", "no=0.5,pace"),
+        ("delay=0.1", "delay=0.1,delay_s=0.3"),
+    ],
+)
+def test_an_emulator_port_names_only_the_faults_that_can_lose_or_damage_a_reply(faults, named):
+    port = open_port(f"emu://?faults={faults}&time=virtual")
+    try:
+        assert port.injected_faults == named
+    finally:
+        port.close()
+
+
 def test_ports_are_opened_with_the_read_time_out_that_bounds_every_wait():
     assert open_port("loop://").timeout == DEFAULT_TIMEOUT_S
 

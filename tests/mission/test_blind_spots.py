@@ -258,10 +258,14 @@ def test_a_turn_the_wrong_way_says_which_way_it_went_and_which_was_asked(node, r
     assert re.fullmatch(said, node.feedback_message), node.feedback_message
 
 
-def test_a_turn_says_how_far_it_turned_and_a_turn_of_nothing_is_done_at_once():
+def test_a_turn_says_how_far_it_turned_and_which_way_and_a_turn_of_nothing_is_done_at_once():
     rig = Rig(Turn("t", left=90), "world=empty")
     assert rig.tick_until_done() == Status.SUCCESS and re.fullmatch(
-        r"turned (8[7-9]|9[0-3]) deg", rig.root.feedback_message
+        r"turned (8[7-9]|9[0-3]) deg left", rig.root.feedback_message
+    )
+    right = Rig(Turn("t", right=70), "world=empty")  # as the mission says it: not "turned -70 deg"
+    assert right.tick_until_done() == Status.SUCCESS and re.fullmatch(
+        r"turned (6[7-9]|7[0-3]) deg right", right.root.feedback_message
     )
     nothing = Rig(Turn("t", left=0), "world=empty")
     assert nothing.tick_until_done() == Status.SUCCESS
