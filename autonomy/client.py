@@ -275,7 +275,8 @@ class Client:
                 received = self.stats.bytes_received - received_before
                 baud = getattr(self.port, "baudrate", DEFAULT_BAUD)
                 heard = bytes(self._heard[-16:])
-                injected = str(getattr(self.port, "injected_faults", "") or "")  # an emulated link's own faults
+                # an emulated link's own faults (a port class's own property, never a mock's)
+                injected = str(self.port.injected_faults) if hasattr(type(self.port), "injected_faults") else ""
                 if injected:
                     came = f"{received} bytes came back but none formed a reply" if received else "nothing came back"
                     hint = f"{came}: the emulator injects link faults ({injected}) that lost or damaged the replies"
