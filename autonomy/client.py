@@ -275,22 +275,22 @@ class Client:
                 received = self.stats.bytes_received - received_before
                 baud = getattr(self.port, "baudrate", DEFAULT_BAUD)
                 heard = bytes(self._heard[-16:])
-                # an emulated link's own faults (a port class's own property, never a mock's)
-                injected = str(self.port.injected_faults) if hasattr(type(self.port), "injected_faults") else ""
-                if injected:
-                    came = f"{received} bytes came back but none formed a reply" if received else "nothing came back"
-                    hint = f"{came}: the emulator injects link faults ({injected}) that lost or damaged the replies"
-                elif received and heard.endswith(b"\n") and all(32 <= byte < 127 or byte == 10 for byte in heard):
+                # what an emulated link knows of its own silence (a port class's own method, never a mock's)
+                known = self.port.silence_hint() if callable(getattr(type(self.port), "silence_hint", None)) else ""
+                if received and heard.endswith(b"\n") and all(32 <= byte < 127 or byte == 10 for byte in heard):
                     last = heard.decode("ascii").strip().splitlines()[-1]  # printable ASCII, checked above
-                    hint = (
-                        f"{received} bytes came back, lines of text but none the reply asked for "
-                        f"(the last: {last!r}): does this robot speak this protocol?"
+                    came = (
+                        f"{received} bytes came back, lines of text but none the reply asked for (the last: {last!r})"
                     )
+                    guess = "does this robot speak this protocol?"
                 elif received:
                     other = " or ".join(str(b) for b in SUPPORTED_BAUD_RATES if b != baud)
-                    hint = f"{received} bytes came back but none formed a reply: is the robot set to {other} baud?"
+                    came = f"{received} bytes came back but none formed a reply"
+                    guess = f"is the robot set to {other} baud?"
                 else:
-                    hint = "nothing came back: is the robot on, and is this its port?"
+                    came = "nothing came back"
+                    guess = "is the robot on, and is this its port?"
+                hint = f"{came}: {known or guess}"
                 raise ReplyTimeout(
                     f"no answer from {self.name} at {baud} baud within {ready_timeout_s:g} s; {hint}",
                     received,

@@ -227,6 +227,7 @@ class Turn(RobotAction):
         if (left is None) == (right is None):
             raise ValueError("turn takes one of left= or right=, in degrees")
         self.angle_deg = int(left) if left is not None else -int(right)
+        self._side = "left" if left is not None else "right"
         self._wrong_way = WrongWay(self.WRONG_WAY_STEP_DEG, self.WRONG_WAY_TOTAL_DEG)
 
     def initialise(self) -> None:
@@ -252,27 +253,39 @@ class Turn(RobotAction):
         remaining = self.angle_deg - self._turned_deg
         if status.collided:
             self.stop_motion()
-            self.feedback_message = f"collided with {remaining:.0f} deg to go"
+            self.feedback_message = f"collided with {self._to_go(remaining)}"
             return Status.FAILURE
         forward_deg = 0 if self.context.rebased else -step_deg if self.angle_deg < 0 else step_deg
         wrong_deg = self._wrong_way.update(forward_deg, self.clock.now()) if self.angle_deg else 0.0
         if wrong_deg:
             self.stop_motion()
-            asked = "left" if self.angle_deg > 0 else "right"
+            asked = self._side
             self.feedback_message = f"turning the wrong way: {wrong_deg:.0f} deg {_opposite(asked)} (asked {asked})"
             return Status.FAILURE
         if abs(remaining) <= self.TOLERANCE_DEG and not status.moving:
             self.release_motion()
             turned = self._turned_deg
-            self.feedback_message = f"turned {abs(turned):.0f} deg {'left' if turned >= 0 else 'right'}"
+            side = self._side if round(turned) == 0 else "left" if turned > 0 else "right"
+            self.feedback_message = f"turned {abs(turned):.0f} deg {side}"
             return Status.SUCCESS
         if self.clock.now() > self._deadline_s:
             self.stop_motion()
-            self.feedback_message = f"timed out with {remaining:.0f} deg to go"
+            self.feedback_message = f"timed out with {self._to_go(remaining)}"
             return Status.FAILURE
         if self.context.watched:  # for whoever watches (nobody, in a grader's run)
-            self.feedback_message = f"{remaining:.0f} deg to go"
+            self.feedback_message = self._to_go(remaining)
         return Status.RUNNING
+
+    def _to_go(self, remaining_deg: float) -> str:
+        """What is left of the turn, the way it was asked: ``20 deg to go``, or ``5 deg past`` after an overshoot.
+
+        Args:
+            remaining_deg: The target less the turn so far, left positive (as the heading counts).
+        """
+        ahead_deg = remaining_deg if self._side == "left" else -remaining_deg
+        if round(ahead_deg) >= 0:
+            return f"{max(ahead_deg, 0.0):.0f} deg to go"
+        return f"{-ahead_deg:.0f} deg past"
 
 
 class Stop(RobotAction):

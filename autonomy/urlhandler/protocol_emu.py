@@ -116,17 +116,21 @@ class Serial(SerialBase):
         self._check_open()
         return self._emu.answer_now(frame, self._baudrate)
 
-    @property
-    def injected_faults(self) -> str:
-        """The faults the emulator injects into replies (``drop=0.3``), or "" when none can lose or damage one.
+    def silence_hint(self) -> str:
+        """Why no reply got through, when the emulator knows a reason a real robot's guesses would miss; else "".
 
-        A client names them when no reply comes through, where it would otherwise ask a real
-        robot's questions (its baud rate, its power).
+        That is the faults it injects that lose, delay, damage or refuse traffic (``drop=0.3``),
+        while the port sends at the emulator's own baud rate and the robot has booted: a wrong
+        rate or a robot still starting are what a client's own guesses already say. A client
+        says it when the robot does not answer.
         """
-        faults = self.emulator.faults if self.emulator is not None else None
-        if faults is None or not any(getattr(faults, name) for name in PROBABILITIES):
+        emulator = self.emulator
+        if emulator is None or self._baudrate != emulator.baud or emulator.now_s() < emulator.boot_s:
             return ""
-        return str(faults)
+        faults = emulator.faults
+        if not any(getattr(faults, name) for name in PROBABILITIES):  # pace alone loses nothing
+            return ""
+        return f"the emulator injects link faults ({faults}), and they kept the replies from getting through"
 
     def reset_input_buffer(self) -> None:
         """Discards reply bytes that have arrived."""

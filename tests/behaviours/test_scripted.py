@@ -7,6 +7,7 @@ reading in the middle of a drift each get a test of their own.
 
 from __future__ import annotations
 
+import pytest
 from py_trees.common import Status
 
 from autonomy.behaviours.actions import Move, Turn, Wait
@@ -130,6 +131,33 @@ def test_a_turn_collided_says_how_far_it_had_to_go():
     assert script.tick(0.0, packet(heading_deg=0)) == Status.RUNNING
     assert script.tick(0.05, packet(heading_deg=30, collided=True)) == Status.FAILURE
     assert script.action.feedback_message == "collided with 60 deg to go" and script.link.sent == ["T+90", "X"]
+
+
+def test_a_right_turn_says_what_is_left_of_it_as_asked_not_as_a_signed_heading():
+    """turn right 70: the heading counts left positive, the messages count the way the turn was asked."""
+    script = Script(Turn("turn", right=70))
+    assert script.tick(0.0, packet(heading_deg=0)) == Status.RUNNING
+    assert script.tick(0.05, packet(heading_deg=340)) == Status.RUNNING
+    assert script.action.feedback_message == "50 deg to go"
+    assert script.tick(0.10, packet(heading_deg=330, collided=True)) == Status.FAILURE
+    assert script.action.feedback_message == "collided with 40 deg to go" and script.link.sent == ["T-70", "X"]
+
+
+def test_a_turn_past_its_target_says_how_far_past_and_ends_saying_how_far_it_went_and_which_way():
+    script = Script(Turn("turn", left=10))
+    assert script.tick(0.0, packet(heading_deg=0)) == Status.RUNNING
+    assert script.tick(0.05, packet(heading_deg=16)) == Status.RUNNING  # still moving, 6 deg past
+    assert script.action.feedback_message == "6 deg past"
+    assert script.tick(0.10, packet(heading_deg=12, moving=False)) == Status.SUCCESS
+    assert script.action.feedback_message == "turned 12 deg left"
+
+
+@pytest.mark.parametrize(("side", "angle_deg"), [("right", 0), ("right", 2), ("left", 0)])
+def test_a_turn_that_went_nowhere_says_the_way_it_was_asked(side, angle_deg):
+    """0 degrees has no sign of its own: the message names the side the mission asked for."""
+    script = Script(Turn("turn", **{side: angle_deg}))
+    assert script.tick(0.0, packet(heading_deg=0, moving=False)) == Status.SUCCESS  # within 3 degrees, at rest
+    assert script.action.feedback_message == f"turned 0 deg {side}"
 
 
 def test_a_turn_times_out_only_after_its_deadline():

@@ -32,15 +32,33 @@ def test_a_silent_pseudo_terminal_is_reported_within_the_ready_time_out():
 
 @pytest.mark.parametrize(
     ("faults", "came_back"),
-    [("drop=1", "nothing came back"), ("drop=0.3", "bytes came back but none formed a reply")],
+    [
+        ("drop=1", "nothing came back"),
+        ("drop=0.3", "bytes came back but none formed a reply"),
+        ("no=1", "lines of text but none the reply asked for (the last: 'NO')"),
+    ],
 )
 def test_an_emulated_link_that_loses_every_reply_is_blamed_on_its_injected_faults(faults, came_back):
-    """Not on the baud rate or the power, which a real robot's silence would ask about."""
+    """Not on the baud rate, the power or the protocol, which a real robot's silence would ask about."""
     with pytest.raises(ReplyTimeout) as caught:
         Client.open(f"emu://?faults={faults}&time=virtual", ready_timeout_s=0.5, timeout_s=0.05)
     message = str(caught.value)
-    assert f"{came_back}: the emulator injects link faults ({faults}) that lost or damaged the replies" in message
-    assert "baud?" not in message and "is the robot on" not in message
+    assert f"{came_back}: the emulator injects link faults ({faults}), and they kept the replies" in message
+    assert "baud?" not in message and "is the robot on" not in message and "protocol?" not in message
+
+
+@pytest.mark.parametrize(
+    ("options", "guess"),
+    [
+        ("baud=115200&faults=drop=0.001", "is the robot set to 115200 baud?"),
+        ("boot=60&faults=drop=0.01", "is the robot on"),
+    ],
+)
+def test_a_wrong_baud_rate_or_a_robot_still_starting_is_said_even_on_a_faulty_emulated_link(options, guess):
+    """The faults are named only when they are the reason: a wrong rate or a booting robot is said as for a real one."""
+    with pytest.raises(ReplyTimeout) as caught:
+        Client.open(f"emu://?{options}&time=virtual", ready_timeout_s=0.5, timeout_s=0.05)
+    assert guess in str(caught.value) and "injects" not in str(caught.value)
 
 
 @pytest.mark.parametrize(
@@ -53,10 +71,15 @@ def test_an_emulated_link_that_loses_every_reply_is_blamed_on_its_injected_fault
         ("delay=0.1", "delay=0.1,delay_s=0.3"),
     ],
 )
-def test_an_emulator_port_names_only_the_faults_that_can_lose_or_damage_a_reply(faults, named):
+def test_an_emulator_port_names_only_the_faults_that_can_keep_a_reply_from_getting_through(faults, named):
     port = open_port(f"emu://?faults={faults}&time=virtual")
     try:
-        assert port.injected_faults == named
+        hint = port.silence_hint()
+        assert hint == (
+            f"the emulator injects link faults ({named}), and they kept the replies from getting through"
+            if named
+            else ""
+        )
     finally:
         port.close()
 
