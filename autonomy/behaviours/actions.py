@@ -259,8 +259,8 @@ class Turn(RobotAction):
         wrong_deg = self._wrong_way.update(forward_deg, self.clock.now()) if self.angle_deg else 0.0
         if wrong_deg:
             self.stop_motion()
-            asked = self._side
-            self.feedback_message = f"turning the wrong way: {wrong_deg:.0f} deg {_opposite(asked)} (asked {asked})"
+            side = self._side
+            self.feedback_message = f"turning the wrong way: {wrong_deg:.0f} deg {_opposite(side)} (asked {side})"
             return Status.FAILURE
         if abs(remaining) <= self.TOLERANCE_DEG and not status.moving:
             self.release_motion()

@@ -44,8 +44,12 @@ class FaultSpec:
     active: ClassVar[bool]
 
     def __post_init__(self) -> None:
-        active = bool(self.drop or self.corrupt or self.delay or self.garbage or self.no or self.pace)
-        object.__setattr__(self, "active", active)  # a frozen dataclass sets its own fields this way
+        object.__setattr__(self, "active", self.disturbing or self.pace)  # a frozen dataclass sets its own fields so
+
+    @property
+    def disturbing(self) -> bool:
+        """Whether any fault can lose, delay, damage or refuse traffic (pacing alone only times it)."""
+        return any(getattr(self, name) for name in PROBABILITIES)
 
     @classmethod
     def parse(cls, text: str) -> FaultSpec:

@@ -18,7 +18,6 @@ from serial.serialutil import PortNotOpenError, SerialBase, SerialException
 
 from autonomy.clock import Clock
 from autonomy.emulator.core import Emulator, emulator_from_options
-from autonomy.emulator.faults import PROBABILITIES
 from autonomy.errors import AutonomyError
 
 
@@ -127,10 +126,9 @@ class Serial(SerialBase):
         emulator = self.emulator
         if emulator is None or self._baudrate != emulator.baud or emulator.now_s() < emulator.boot_s:
             return ""
-        faults = emulator.faults
-        if not any(getattr(faults, name) for name in PROBABILITIES):  # pace alone loses nothing
+        if not emulator.faults.disturbing:
             return ""
-        return f"the emulator injects link faults ({faults}), and they kept the replies from getting through"
+        return f"the emulator injects link faults ({emulator.faults}), and they kept the replies from getting through"
 
     def reset_input_buffer(self) -> None:
         """Discards reply bytes that have arrived."""

@@ -40,9 +40,7 @@ def test_a_silent_pseudo_terminal_is_reported_within_the_ready_time_out():
 )
 def test_an_emulated_link_that_loses_every_reply_is_blamed_on_its_injected_faults(faults, came_back):
     """Not on the baud rate, the power or the protocol, which a real robot's silence would ask about."""
-    with pytest.raises(ReplyTimeout) as caught:
-        Client.open(f"emu://?faults={faults}&time=virtual", ready_timeout_s=0.5, timeout_s=0.05)
-    message = str(caught.value)
+    message = no_answer(f"faults={faults}")
     assert f"{came_back}: the emulator injects link faults ({faults}), and they kept the replies" in message
     assert "baud?" not in message and "is the robot on" not in message and "protocol?" not in message
 
@@ -56,9 +54,15 @@ def test_an_emulated_link_that_loses_every_reply_is_blamed_on_its_injected_fault
 )
 def test_a_wrong_baud_rate_or_a_robot_still_starting_is_said_even_on_a_faulty_emulated_link(options, guess):
     """The faults are named only when they are the reason: a wrong rate or a booting robot is said as for a real one."""
+    message = no_answer(options)
+    assert guess in message and "injects" not in message
+
+
+def no_answer(options: str) -> str:
+    """What opening an emulated link with ``options`` says when no reply gets through."""
     with pytest.raises(ReplyTimeout) as caught:
         Client.open(f"emu://?{options}&time=virtual", ready_timeout_s=0.5, timeout_s=0.05)
-    assert guess in str(caught.value) and "injects" not in str(caught.value)
+    return str(caught.value)
 
 
 @pytest.mark.parametrize(
