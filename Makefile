@@ -3,16 +3,20 @@ PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
+# The exact versions, with their hashes, that .venv is made of (`make lock` makes it anew).
+LOCK := requirements.lock
+# uv makes the lock: one file for every platform and Python from 3.10 that pip installs.
+UV_VERSION := 0.13.9
 
 CHROMIUM ?= /usr/bin/chromium
 
-.PHONY: run test bench fuzz mutation docs clean chromium
+.PHONY: run test test-latest test-pyyaml lock bench fuzz mutation docs clean chromium
 
-$(BIN)/python:
-	$(PYTHON) -m venv $(VENV)
-
-$(STAMP): pyproject.toml | $(BIN)/python
-	$(BIN)/python -m pip install --quiet -e '.[test]'
+# .venv is made anew whenever the lock or pyproject.toml changes, so that it holds the lock and nothing else.
+$(STAMP): $(LOCK) pyproject.toml
+	$(PYTHON) -m venv --clear $(VENV)
+	$(BIN)/python -m pip install --quiet --require-hashes -r $(LOCK)
+	$(BIN)/python -m pip install --quiet --no-deps --no-build-isolation -e .
 	touch $(STAMP)
 
 ## run: drive the default job on the built-in emulator, in real time
@@ -34,15 +38,44 @@ test: $(STAMP) chromium
 	$(BIN)/ruff format --check .
 	AUTONOMY_CHROMIUM="$(CHROMIUM)" $(BIN)/python -m pytest -q -n 2
 
+## test-latest: the same checks against the newest releases pyproject.toml allows, in .venv-latest: run it before `make lock`
+test-latest: chromium
+	$(PYTHON) -m venv --clear .venv-latest
+	.venv-latest/bin/python -m pip install --quiet --upgrade pip setuptools
+	.venv-latest/bin/python -m pip install --quiet --upgrade -e '.[test]'
+	.venv-latest/bin/python -m tests.lockfile
+	.venv-latest/bin/ruff check .
+	.venv-latest/bin/ruff format --check .
+	AUTONOMY_CHROMIUM="$(CHROMIUM)" .venv-latest/bin/python -m pytest -q -n 2
+
+## test-pyyaml: the YAML reader's tests on every PyYAML release from 6.0.1, with libyaml and without
+test-pyyaml: $(STAMP)
+	for version in 6.0.1 6.0.2 6.0.3 6.0.4; do \
+		$(BIN)/python -m pip install --quiet --upgrade --no-deps --target .pyyaml/$$version "pyyaml==$$version" && \
+		export PYTHONPATH="$(CURDIR)/.pyyaml/$$version" && \
+		$(BIN)/python -c "import yaml; assert yaml.__version__ == '$$version'; print('PyYAML', yaml.__version__)" && \
+		$(BIN)/python -m pytest -q -p no:cacheprovider tests/mission/test_parsers.py tests/mission/test_hostile.py \
+		|| exit 1; \
+	done
+
+## lock: requirements.lock anew, with the newest releases pyproject.toml allows (check them first with `make test-latest`)
+lock:
+	$(PYTHON) -m venv .venv-lock
+	.venv-lock/bin/python -m pip install --quiet uv==$(UV_VERSION)
+	printf 'pip\nsetuptools>=68\n' | .venv-lock/bin/uv pip compile --quiet pyproject.toml - --extra test --universal \
+		--python-version 3.10 --generate-hashes --upgrade --custom-compile-command 'make lock' --output-file $(LOCK)
+
 ## fuzz: the fuzz tests run long: 100,000 mutants, texts and reply byte strings, 10,000 YAML documents
 fuzz: $(STAMP)
 	AUTONOMY_FUZZ_CASES=100000 $(BIN)/python -m pytest -q tests/fuzz
 
 ## mutation: mutation testing of the five modules where a change shows (mutmut; hours on 2 cores), then the score
-mutation: $(STAMP)
-	$(BIN)/python -m pip install --quiet -e '.[test,mutation]'
-	-$(BIN)/mutmut run
-	$(BIN)/python benchmarks/mutation.py
+mutation:
+	$(PYTHON) -m venv --clear .venv-mutation
+	.venv-mutation/bin/python -m pip install --quiet --require-hashes -r $(LOCK)
+	.venv-mutation/bin/python -m pip install --quiet --no-build-isolation -e '.[test,mutation]'
+	-.venv-mutation/bin/mutmut run
+	.venv-mutation/bin/python benchmarks/mutation.py
 
 ## bench: every benchmark (the latest figures go in the README, their history in docs/performance.md)
 bench: $(STAMP)
@@ -59,4 +92,4 @@ docs: $(STAMP)
 	$(BIN)/python -c "from autonomy.mission.catalogue import update_reference; update_reference('docs/missions.md')"
 
 clean:
-	rm -rf $(VENV) build *.egg-info .pytest_cache .ruff_cache .hypothesis mutants
+	rm -rf $(VENV) .venv-latest .venv-lock .venv-mutation .pyyaml build *.egg-info .pytest_cache .ruff_cache .hypothesis mutants

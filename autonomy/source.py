@@ -5,6 +5,13 @@ reported as ``FILE:LINE:COL: PATH: message`` (:class:`Problem`). Parsing uses Py
 safe loader (``yaml.safe_load`` semantics: plain data, no tags that build objects), but
 keeps the node tree so that an error can name ``FILE:LINE:COL``.
 Duplicate keys, which ``safe_load`` silently resolves to the last one, are errors here.
+
+Every file is read by PyYAML's parser written in Python, never by libyaml's (``CSafeLoader``),
+so that a file reads the same on every machine: the two parsers take different files (libyaml
+takes a tab between values, which the Python parser refuses), and libyaml's releases differ
+among themselves (the one PyYAML 6.0.4 bundles refuses flow nesting past 1,000 levels while
+scanning ahead, before this reader's own limit is reached). The Python parser is the same code
+in PyYAML 6.0.1 to 6.0.4, and in every install, with libyaml or without.
 """
 
 from __future__ import annotations
@@ -118,8 +125,9 @@ def control_character(text: str) -> str:
     return ""
 
 
-#: Largest mission, world or exercise file read, bytes.
-MAX_FILE_BYTES = 1_000_000
+#: Largest mission, world or exercise file read, bytes: some 500 times the largest one shipped,
+#: and read (or refused) by PyYAML's parser in Python in well under a second.
+MAX_FILE_BYTES = 500_000
 #: Deepest nesting of lists and mappings a file may have.
 MAX_DEPTH = 100
 
@@ -294,11 +302,11 @@ def text_problems(text: str) -> list[SourceError]:
     return problems
 
 
-#: What the YAML parsers say (PyYAML's and libyaml's words both), and what it means to a student.
+#: What PyYAML's parser says, and what it means to a student.
 #: Each entry: the words to find, where ("problem" or "context"), and the plain message.
 _PLAIN_WORDS = (
     (
-        ("expected <block end>", "did not find expected key"),
+        ("expected <block end>",),
         "problem",
         "this line does not line up with the ones above it: the items of one list or mapping start in the same column",
     ),
@@ -316,18 +324,10 @@ _PLAIN_WORDS = (
     (("',' or '}'",), "problem", "a '{' mapping is not closed with '}', or its entries are not separated by ','"),
     (("quoted scalar",), "context", "a quoted text is not closed: add the closing quote"),
     (
-        ("invalid Unicode character escape",),
-        "problem",
-        "an escape for a code that is not a character (\\ud800 to \\udfff are not): write plain text",
-    ),
-    (
         ("unknown escape character",),
         "problem",
         "an unknown escape in a double-quoted text: write \\\\ for a backslash, or use single quotes",
     ),
-    (("undefined alias",), "problem", "an alias (*name) that no anchor (&name) before it defines"),
-    (("duplicate anchor",), "context", "an anchor (&name) defined a second time: give each its own name"),
-    (("single document",), "context", "a second document: a file holds one, so remove the '---' line"),
 )
 
 
@@ -339,8 +339,12 @@ def _plain_words(err: yaml.MarkedYAMLError, text: str) -> SourceError:
     index = mark.index if mark is not None else -1
     here = text[index] if 0 <= index < len(text) else ""
     if "cannot start any token" in said["problem"]:
-        if here == "\t":
+        if here == "\t" and not text[text.rfind("\n", 0, index) + 1 : index].strip(" \t"):
             return SourceError(line, column, "a tab: indent with spaces (YAML does not allow tabs for indentation)")
+        if here == "\t":
+            return SourceError(
+                line, column, "a tab between values: write spaces (a tab is text only inside quotes or a '|' block)"
+            )
         return SourceError(line, column, f"{here!r} cannot start a value here: put the value in quotes")
     if "could not determine a constructor for the tag" in said["problem"]:
         tag = said["problem"].rsplit(" ", 1)[-1]
@@ -351,6 +355,19 @@ def _plain_words(err: yaml.MarkedYAMLError, text: str) -> SourceError:
                 continue
             return SourceError(line, column, message)
     return SourceError(line, column, f"not valid YAML: {said['problem'] or said['context'] or err}")
+
+
+#: An escape in a double-quoted text: ``\\uXXXX`` and ``\\UXXXXXXXX`` give their code, any other one character.
+_ESCAPE = re.compile(r"\\(?:u([0-9a-fA-F]{4})|U([0-9a-fA-F]{8})|.)", re.DOTALL)
+
+
+def _surrogate_escape(text: str, start: int, end: int) -> int:
+    """Where in ``text[start:end]`` (a double-quoted text) an escape names a lone surrogate, or -1."""
+    for match in _ESCAPE.finditer(text, start, end):
+        code = match.group(1) or match.group(2)
+        if code and 0xD800 <= int(code, 16) <= 0xDFFF:
+            return match.start()
+    return -1
 
 
 class _Refused(Exception):
@@ -381,8 +398,9 @@ class _Composer:
     crosses the limit, before the rest is read, and nothing recurses, however deep the file.
     """
 
-    def __init__(self, loader: yaml.SafeLoader) -> None:
+    def __init__(self, loader: yaml.SafeLoader, text: str) -> None:
         self.loader = loader
+        self.text = text
         self.errors: list[SourceError] = []
         self.count = 0
         self.anchors: dict[str, tuple[Located | None, int]] = {}  # None: still open
@@ -482,6 +500,16 @@ class _Composer:
                 )
             )
             return Located(REFUSED, line, column)
+        if event.style == '"' and _SURROGATES.search(event.value):
+            at = _surrogate_escape(self.text, event.start_mark.index, event.end_mark.index)
+            where = _position(self.text, at) if at >= 0 else (line, column)
+            self.errors.append(
+                SourceError(
+                    *where,
+                    "an escape for a code that is not a character (\\ud800 to \\udfff are not): write plain text",
+                )
+            )
+            return Located(REFUSED, line, column)
         if tag == _STR_TAG:
             return Located(event.value, line, column)  # most values: no constructor needed
         if tag == _MERGE_TAG:
@@ -503,6 +531,8 @@ class _Composer:
         if into.key is None and not into.key_refused:
             if value.value is _MERGE:
                 into.key = ("<<", value.line, value.column)
+            elif value.value is REFUSED:  # its problem is said where it stands
+                into.key_refused = True
             elif not isinstance(value.value, str):
                 self.errors.append(SourceError(value.line, value.column, f"keys must be names, got {value.plain!r}"))
                 into.key_refused = True
@@ -537,6 +567,7 @@ class _Composer:
 
 
 _MERGE = object()
+_SURROGATES = re.compile("[\ud800-\udfff]")
 
 
 class _RefusedValue:
@@ -559,7 +590,7 @@ def refused(located: Located) -> bool:
     return value is REFUSED or (isinstance(value, list) and any(item.value is REFUSED for item in value))
 
 
-_Loader = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
+_Loader = yaml.SafeLoader  # the Python parser, never libyaml's: see the module's docstring
 
 
 def parse(text: str) -> tuple[Located | None, list[SourceError]]:
@@ -576,7 +607,7 @@ def parse(text: str) -> tuple[Located | None, list[SourceError]]:
     if bad:
         return None, bad
     loader = _Loader(text)
-    composer = _Composer(loader)
+    composer = _Composer(loader, text)
     try:
         root = composer.document()
         if root is None:

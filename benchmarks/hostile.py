@@ -3,8 +3,9 @@
 Measures:
   - the validator on mutated missions (tests/fuzz/mutants.py; 100,000 by default): how many
     raised anything but the project's own MissionInvalid (target 0), and the slowest one;
-  - hostile files checked by `autonomy check` in a fresh process (a 5 MB file, 50,000 keys,
-    60,000 children, 1,000 levels of brackets, a chain of 2,000 subtrees, a subtree bomb):
+  - hostile files checked by `autonomy check` in a fresh process (a 5 MB file, 30,000 keys,
+    40,000 children, 1,000 levels of brackets, descriptions as large as a file may be, a chain
+    of 2,000 subtrees, a subtree bomb):
     wall time of each (target: every rejection under 1 s);
   - the fault matrix: the toy robot of tests/client/toyrobot.py (an independent reading of
     the protocol) running the matrix mission, and the emulator running missions/square.yaml,
@@ -31,6 +32,7 @@ sys.path.insert(0, str(ROOT))
 from autonomy.client import Client  # noqa: E402
 from autonomy.mission import MissionInvalid, load_mission, validate_text  # noqa: E402
 from autonomy.runner import SUCCEEDED, Runner  # noqa: E402
+from autonomy.source import MAX_FILE_BYTES  # noqa: E402
 from tests.client.test_fault_matrix import FAULTS, run_on_line  # noqa: E402
 from tests.fuzz.mutants import mutant  # noqa: E402
 
@@ -67,9 +69,12 @@ def validator(count: int) -> None:
 def hostile_files() -> None:
     files = {
         "5 MB of comments": "mission: t\ntree: stop\n" + "# x\n" * 1_300_000,
-        "50,000 keys": "mission: t\ntree: stop\n" + "".join(f"k{i}: {i}\n" for i in range(50_000)),
-        "60,000 children": "mission: t\ntree:\n  sequence:\n" + "    - stop\n" * 60_000,
+        "30,000 keys": "mission: t\ntree: stop\n" + "".join(f"k{i}: {i}\n" for i in range(30_000)),
+        "40,000 children": "mission: t\ntree:\n  sequence:\n" + "    - stop\n" * 40_000,
         "1,000 levels of brackets": "mission: t\ntree: " + "[" * 1000 + "]" * 1000 + "\n",
+        # the YAML parser's slowest reads of a file at the size limit: words of one letter, one quoted text
+        "a description of words": "mission: t\ndescription: " + "a " * (MAX_FILE_BYTES // 2 - 30) + "\ntree: stop\n",
+        "a quoted description": 'mission: t\ndescription: "' + "x" * (MAX_FILE_BYTES - 60) + '"\ntree: stop\n',
         "2,000 chained subtrees": "mission: t\nsubtrees:\n"
         + "".join(f"  s{i}: {{subtree: s{i + 1}}}\n" for i in range(2000))
         + "  s2000: stop\ntree: {subtree: s0}\n",

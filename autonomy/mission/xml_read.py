@@ -28,7 +28,7 @@ ride on the main tree as attributes BehaviorTree.CPP ignores: ``_description``, 
 validator reads them as the parameter's kind.
 
 Untrusted files are safe to read: a DOCTYPE (and with it every entity) is refused, and the
-limits of YAML files hold here too (1 MB, :data:`~autonomy.source.MAX_NODES` elements,
+limits of YAML files hold here too (500 KB, :data:`~autonomy.source.MAX_NODES` elements,
 :data:`~autonomy.source.MAX_DEPTH` levels).
 """
 

@@ -217,7 +217,7 @@ def test_a_memory_hog_or_a_huge_file_costs_that_student_a_zero(tmp_path):
     assert gina.problems == [
         f"{tmp_path / 'gina' / 'mission.yaml'}:2:11: plugins[0]: cannot import plugin 'hog': MemoryError"
     ]
-    assert hank.total == 0 and hank.problems == [f"{huge}:1:1: cannot read the file: larger than 1,000,000 bytes"]
+    assert hank.total == 0 and hank.problems == [f"{huge}:1:1: cannot read the file: larger than 500,000 bytes"]
 
 
 def test_seeds_with_sensor_noise_and_a_lossy_link_are_graded_too(tmp_path):

@@ -126,7 +126,7 @@ def test_every_problem_of_a_world_is_reported_at_once(tmp_path):
 def test_a_file_too_big_or_not_utf8_is_refused_without_reading_it_all(tmp_path):
     big = tmp_path / "big.yaml"
     big.write_text("# " + "x" * 2_000_000)
-    with pytest.raises(WorldInvalid, match="larger than 1,000,000 bytes"):
+    with pytest.raises(WorldInvalid, match="larger than 500,000 bytes"):
         load_world(big)
     latin = tmp_path / "latin.yaml"
     latin.write_bytes("name: caf\xe9\narena_mm: [10, 10]\n".encode("latin-1"))
