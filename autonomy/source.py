@@ -8,10 +8,10 @@ Duplicate keys, which ``safe_load`` silently resolves to the last one, are error
 
 Every file is read by PyYAML's parser written in Python, never by libyaml's (``CSafeLoader``),
 so that a file reads the same on every machine: the two parsers take different files (libyaml
-takes a tab between values, which the Python parser refuses), and libyaml's releases differ
+takes a tab outside quotes, which the Python parser refuses), and libyaml's releases differ
 among themselves (the one PyYAML 6.0.4 bundles refuses flow nesting past 1,000 levels while
 scanning ahead, before this reader's own limit is reached). The Python parser is the same code
-in PyYAML 6.0.1 to 6.0.4, and in every install, with libyaml or without.
+in PyYAML 6.0 to 6.0.4, and in every install, with libyaml or without.
 """
 
 from __future__ import annotations
@@ -278,9 +278,21 @@ _STR_TAG = "tag:yaml.org,2002:str"
 _SAFE_TAGS = {f"tag:yaml.org,2002:{name}" for name in ("null", "bool", "int", "float", "str")}
 
 
+def _line_start(text: str, index: int) -> int:
+    """Where the line of ``text[index]`` starts: after ``\\n``, ``\\r\\n`` or a lone ``\\r``, as YAML has it."""
+    return max(text.rfind("\n", 0, index), text.rfind("\r", 0, index)) + 1
+
+
 def _position(text: str, index: int) -> tuple[int, int]:
-    line_start = text.rfind("\n", 0, index) + 1
-    return text.count("\n", 0, index) + 1, index - line_start + 1
+    """The 1-based line and column of ``text[index]``, as the YAML parser counts them.
+
+    A line ends at ``\\n``, ``\\r\\n`` or a lone ``\\r``, and a byte-order mark at the start takes no
+    column, so that a place found here is the one the parser's own problems name.
+    """
+    breaks = text.count("\n", 0, index) + text.count("\r", 0, index) - text.count("\r\n", 0, index)
+    line_start = _line_start(text, index)
+    bom = line_start == 0 and text.startswith("\ufeff")
+    return breaks + 1, max(index - line_start + 1 - bom, 1)
 
 
 def text_problems(text: str) -> list[SourceError]:
@@ -338,13 +350,9 @@ def _plain_words(err: yaml.MarkedYAMLError, text: str) -> SourceError:
     said = {"problem": err.problem or "", "context": err.context or ""}
     index = mark.index if mark is not None else -1
     here = text[index] if 0 <= index < len(text) else ""
+    if "cannot start any token" in said["problem"] and here == "\t":
+        return SourceError(line, column, _tab(text, index))
     if "cannot start any token" in said["problem"]:
-        if here == "\t" and not text[text.rfind("\n", 0, index) + 1 : index].strip(" \t"):
-            return SourceError(line, column, "a tab: indent with spaces (YAML does not allow tabs for indentation)")
-        if here == "\t":
-            return SourceError(
-                line, column, "a tab between values: write spaces (a tab is text only inside quotes or a '|' block)"
-            )
         return SourceError(line, column, f"{here!r} cannot start a value here: put the value in quotes")
     if "could not determine a constructor for the tag" in said["problem"]:
         tag = said["problem"].rsplit(" ", 1)[-1]
@@ -355,6 +363,20 @@ def _plain_words(err: yaml.MarkedYAMLError, text: str) -> SourceError:
                 continue
             return SourceError(line, column, message)
     return SourceError(line, column, f"not valid YAML: {said['problem'] or said['context'] or err}")
+
+
+def _tab(text: str, index: int) -> str:
+    """What to do about the tab at ``text[index]``, which the YAML parser refused, by where it stands on its line."""
+    start = _line_start(text, index)
+    end = min((at for at in (text.find("\n", index), text.find("\r", index)) if at >= 0), default=len(text))
+    before, after = text[start:index].strip(" \t\ufeff"), text[index:end].strip(" \t")
+    if not before and not after:
+        return "a tab on a line of nothing else: remove it (YAML does not allow tabs for indentation)"
+    if not after:
+        return "a tab at the end of the line: remove it (YAML takes a tab only inside quotes or a | or > block)"
+    if not before:
+        return "a tab: indent with spaces (YAML does not allow tabs for indentation)"
+    return "a tab outside quotes: use spaces (YAML takes a tab only inside quotes or a | or > block)"
 
 
 #: An escape in a double-quoted text: ``\\uXXXX`` and ``\\UXXXXXXXX`` give their code, any other one character.
@@ -506,7 +528,8 @@ class _Composer:
             self.errors.append(
                 SourceError(
                     *where,
-                    "an escape for a code that is not a character (\\ud800 to \\udfff are not): write plain text",
+                    "an escape for a code that is not a character (\\ud800 to \\udfff are not): write the "
+                    "character itself, or \\U and its 8 hex digits (\\U0001F600, not \\ud83d\\ude00)",
                 )
             )
             return Located(REFUSED, line, column)
@@ -531,7 +554,7 @@ class _Composer:
         if into.key is None and not into.key_refused:
             if value.value is _MERGE:
                 into.key = ("<<", value.line, value.column)
-            elif value.value is REFUSED:  # its problem is said where it stands
+            elif refused(value):  # its problem is said where it stands
                 into.key_refused = True
             elif not isinstance(value.value, str):
                 self.errors.append(SourceError(value.line, value.column, f"keys must be names, got {value.plain!r}"))

@@ -21,13 +21,13 @@ LOCK = ROOT / "requirements.lock"
 _PIN = re.compile(r"^([A-Za-z0-9][A-Za-z0-9._-]*)==([^\s;\\]+)\s*(?:;\s*([^\\]+?))?\s*\\?$")
 
 
-def locked(path: Path = LOCK) -> dict[str, str]:
-    """The versions the lock pins for this interpreter and platform, by normalised name.
+def every_pin(path: Path = LOCK) -> list[tuple[str, str, Marker | None, int]]:
+    """Every pin of the lock, whatever Python or platform it is for: normalised name, version, marker, line.
 
     Raises:
-        ValueError: a requirement line that is not ``name==version``, or a name pinned twice here.
+        ValueError: a requirement line that is not ``name==version``.
     """
-    pins: dict[str, str] = {}
+    pins = []
     for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
         if not line.strip() or line.startswith((" ", "#")):
             continue  # hashes, "# via" notes and the header
@@ -35,11 +35,23 @@ def locked(path: Path = LOCK) -> dict[str, str]:
         if not match:
             raise ValueError(f"{path.name}:{number}: not a pin of one version: {line!r}")
         name, version, marker = match.groups()
-        if marker and not Marker(marker).evaluate():
+        pins.append((canonicalize_name(name), version, Marker(marker) if marker else None, number))
+    return pins
+
+
+def locked(path: Path = LOCK) -> dict[str, str]:
+    """The versions the lock pins for this interpreter and platform, by normalised name.
+
+    Raises:
+        ValueError: a requirement line that is not ``name==version``, or a name pinned twice here.
+    """
+    pins: dict[str, str] = {}
+    for name, version, marker, number in every_pin(path):
+        if marker and not marker.evaluate():
             continue
-        if canonicalize_name(name) in pins:
+        if name in pins:
             raise ValueError(f"{path.name}:{number}: {name} is pinned twice for this interpreter")
-        pins[canonicalize_name(name)] = version
+        pins[name] = version
     return pins
 
 

@@ -228,7 +228,7 @@ def test_a_remote_emulator_is_told_to_not_get_the_missions_world():
         process.communicate(timeout=10)
 
 
-@pytest.mark.parametrize(("presses", "gap_s"), [(3, 0.03), (10, 0.0), (10, 0.005), (6, 0.05)])
+@pytest.mark.parametrize(("presses", "gap_s"), [(10, 0.0), (6, 0.05)])
 def test_a_second_ctrl_c_does_not_cut_the_final_stop_short(tmp_path, presses, gap_s):
     trace = tmp_path / "run.jsonl"
     slow_link = "emu://?faults=pace,delay=1,delay_s=0.2"  # every reply 0.2 s late: the stop takes a while
