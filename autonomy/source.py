@@ -189,13 +189,29 @@ def read_text(path: str | Path, max_bytes: int = MAX_FILE_BYTES) -> str:
         line = data[: err.start].count(b"\n") + 1
         line_start = data.rfind(b"\n", 0, err.start) + 1
         column = len(data[line_start : err.start].decode("utf-8", "replace")) + 1
-        byte = data[err.start]
-        raise UnreadableFile(
-            f"the byte 0x{byte:02x} here is not UTF-8 text (a file saved as Latin-1 or Windows-1252?): "
-            "save it as UTF-8",
-            line,
-            column,
-        ) from None
+        raise UnreadableFile(_not_utf8(data, err.start), line, column) from None
+
+
+#: Bytes no text file holds: C0 control codes other than tab, line feed and carriage return.
+_BINARY = re.compile(b"[\x00-\x08\x0b\x0c\x0e-\x1f]")
+#: What a byte from 0x80 up stands for in a text saved as Windows-1252 (or Latin-1) besides letters.
+_TEXT_SIGNS = frozenset("\xa0¡¢£¥§©«®°±²³µ¶·¹º»¼½¾¿×÷€‚„…†‡•–—‘’“”‹›™")
+
+
+def _not_utf8(data: bytes, index: int) -> str:
+    """Why ``data`` is not UTF-8 text, where ``data[index]`` is the first byte that is not: a guess at what it is."""
+    here = f"the byte 0x{data[index]:02x} here"
+    if data.startswith((b"\xff\xfe", b"\xfe\xff")):
+        return f"{here} starts a UTF-16 byte-order mark: the file is saved as UTF-16; save it as UTF-8"
+    if _BINARY.search(data):
+        return f"{here} is not text, nor are others in the file: it looks like a picture, an archive or a program"
+    try:
+        upper = [char for char in data.decode("cp1252") if char >= "\x80"]
+    except UnicodeDecodeError:  # five bytes stand for nothing in Windows-1252
+        upper = ["\x81"]
+    if all(char.isalpha() or char in _TEXT_SIGNS for char in upper):
+        return f"{here} is not UTF-8 text (a file saved as Latin-1 or Windows-1252?): save it as UTF-8"
+    return f"{here} is not UTF-8 text: save the file as UTF-8"
 
 
 def shown(number: float) -> str:

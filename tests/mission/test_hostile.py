@@ -148,6 +148,33 @@ def test_a_latin1_file_is_refused_at_the_line_and_column_of_its_first_odd_byte(t
     assert (problem.line, problem.column) == (2, 17) and "0xe9" in problem.message and "UTF-8" in problem.message
 
 
+@pytest.mark.parametrize(
+    ("data", "said"),
+    [
+        (
+            "mission: t\ndescription: “quoted” – 20°\ntree: stop\n".encode("cp1252"),
+            "2:14: the byte 0x93 here is not UTF-8 text (a file saved as Latin-1 or Windows-1252?): save it as UTF-8",
+        ),
+        ("mission: t\ntree: stop\n".encode("utf-16"), "1:1: the byte 0xff here starts a UTF-16 byte-order mark"),
+        (b"\x89PNG\r\n\x1a\n\x00\x00\x00\rIHDR", "1:1: the byte 0x89 here is not text, nor are others in the file"),
+        (
+            b"mission: t\n" + bytes(range(0x80, 0x100)),
+            "2:1: the byte 0x80 here is not UTF-8 text: save the file as UTF-8",
+        ),
+    ],
+)
+def test_bytes_that_are_not_utf8_are_named_for_what_they_look_like(tmp_path, data, said):
+    mission = tmp_path / "m.yaml"
+    mission.write_bytes(data)
+    with pytest.raises(MissionInvalid) as caught:
+        load_mission(mission)
+    [problem] = caught.value.problems
+    assert f"{problem.line}:{problem.column}: {problem.message}".startswith(
+        said.replace(": ", ": cannot read the file: ", 1)
+    )
+    assert ("Latin-1" in problem.message) == ("Latin-1" in said)
+
+
 def test_a_refused_tag_is_the_only_problem_reported():
     assert problems('mission: t\ntree: !!python/object/apply:os.system ["echo hi"]\n') == [
         "m.yaml:2:7: the tag tag:yaml.org,2002:python/object/apply:os.system is not allowed: plain YAML only"
