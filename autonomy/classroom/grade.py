@@ -296,7 +296,7 @@ def _with_requirements(exercise: Exercise, verdicts: list[Verdict]) -> list[Verd
         needed = criterion.requires
         if verdict.held and needed is not None and not held(needed):
             label = exercise.criteria[needed].label
-            verdict = Verdict(False, f"{verdict.line} (counts only with {label}, which did not hold)")
+            verdict = Verdict(False, f"{verdict.line}, but this counts only with {label}, which did not hold")
         out.append(verdict)
     return out
 

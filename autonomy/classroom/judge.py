@@ -143,8 +143,14 @@ def judge(criterion: Criterion, facts: RunFacts, world: World) -> Verdict:
             inside = next((t for t, p in facts.path if zone.contains(p.x_mm, p.y_mm)), None)
             if inside is not None:
                 return Verdict(True, f"{value}: reached at {inside:.1f} s")
-            closest = min(zone.distance_mm(p.x_mm, p.y_mm) for _, p in facts.path)
-            return Verdict(False, f"{value}: never reached (closest {closest:.0f} mm away)")
+            closest, _, pose = min((zone.distance_mm(p.x_mm, p.y_mm), t, p) for t, p in facts.path)
+            x_min, y_min, x_max, y_max = zone.shape.bounds()
+            toward = bearing(pose.x_mm, pose.y_mm, (x_min + x_max) / 2, (y_min + y_max) / 2)
+            return Verdict(
+                False,
+                f"{value}: never reached, {closest:.0f} mm {toward} of where the robot came closest "
+                f"({pose.x_mm:.0f}, {pose.y_mm:.0f} mm)",
+            )
         if kind == "avoid_zone":
             inside = next((t for t, p in facts.path if zone.contains(p.x_mm, p.y_mm)), None)
             if inside is None:
@@ -157,7 +163,8 @@ def judge(criterion: Criterion, facts: RunFacts, world: World) -> Verdict:
             gaps = [(zone.distance_mm(p.x_mm, p.y_mm), t) for t, p in facts.beeps]
             near = next(((g, t) for g, t in gaps if g <= radius), None)
             if near is not None:
-                return Verdict(True, f"beep near {value}: beeped {near[0]:.0f} mm from it at {near[1]:.1f} s")
+                where = "inside it" if near[0] <= 1e-6 else f"{near[0]:.0f} mm from it"
+                return Verdict(True, f"beep near {value}: beeped {where} at {near[1]:.1f} s")
             nearest = min(g for g, _ in gaps)
             return Verdict(
                 False, f"beep near {value}: nearest beep {nearest:.0f} mm from it (needed within {radius:g} mm)"
@@ -195,6 +202,16 @@ def judge(criterion: Criterion, facts: RunFacts, world: World) -> Verdict:
         why = f": {facts.reason}" if facts.reason else ""
         return Verdict(facts.outcome == SUCCEEDED, f"the mission {facts.outcome} after {facts.time_s:.1f} s{why}")
     return Verdict(False, f"unknown criterion {kind}")
+
+
+#: The eight points of the compass, counter-clockwise from east (+x), as the world's headings go.
+_COMPASS = ("east", "north-east", "north", "north-west", "west", "south-west", "south", "south-east")
+
+
+def bearing(from_x_mm: float, from_y_mm: float, to_x_mm: float, to_y_mm: float) -> str:
+    """Which way ``to`` lies from ``from``, as one of the eight points of the compass (north is +y)."""
+    angle_deg = math.degrees(math.atan2(to_y_mm - from_y_mm, to_x_mm - from_x_mm)) % 360.0
+    return _COMPASS[round(angle_deg / 45.0) % 8]
 
 
 def path_points(facts: RunFacts, most: int = 400) -> list[tuple[float, float]]:

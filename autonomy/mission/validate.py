@@ -109,6 +109,7 @@ class _Validator:
         self.registry = registry
         self.check_world = check_world
         self.refuse_plugins = refuse_plugins
+        self.plugins_refused = False  # a plugins list was refused: a node it would have given is not "unknown"
         self.problems: list[Problem] = []
         self.references: list[tuple[str, str, Located, str]] = []  # (owner, subtree name, where, path)
 
@@ -117,6 +118,13 @@ class _Validator:
             return
         line, column = (where.line, where.column) if isinstance(where, Located) else where
         self.problems.append(Problem(self.source, line, column, path, message))
+
+    def unknown(self, type_name: str) -> str:
+        """Why ``type_name`` names no node: a likely typo, or the plugins that might define it not run here."""
+        hint = _suggest(type_name, self.registry.names())
+        if not hint and self.plugins_refused:
+            return f"'{type_name}' is no built-in node: if a plugin of yours defines it, plugins are not run here"
+        return f"unknown node '{type_name}'{hint}"
 
     # ------------------------------------------------------------------ top level
 
@@ -248,6 +256,7 @@ class _Validator:
             return []
         if self.refuse_plugins is not None:  # refused as written, whatever it names: nothing is imported
             self.problem(block, "plugins", self.refuse_plugins)
+            self.plugins_refused = True
             return []
         if not isinstance(block.value, list):
             self.problem(block, "plugins", "plugins is a list of Python module names, e.g. [my_behaviours]")
@@ -305,9 +314,7 @@ class _Validator:
         node_type = self.registry.get(type_name)
         node_path = f"{path}.{type_name}"
         if node_type is None:
-            self.problem(
-                key_where, node_path, f"unknown node '{type_name}'{_suggest(type_name, self.registry.names())}"
-            )
+            self.problem(key_where, node_path, self.unknown(type_name))
             return None
         if node_type.category == "reference":
             return self.reference(node_type, body, node_path, key_where, owner)
@@ -345,7 +352,7 @@ class _Validator:
         node_type = self.registry.get(type_name)
         node_path = f"{path}.{type_name}"
         if node_type is None:
-            self.problem(where, path, f"unknown node '{type_name}'{_suggest(type_name, self.registry.names())}")
+            self.problem(where, path, self.unknown(type_name))
             return None
         if node_type.needs_parameters:
             self.problem(

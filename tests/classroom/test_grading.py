@@ -10,6 +10,7 @@ import pytest
 
 from autonomy.classroom import ExerciseInvalid, find_submissions, grade_class, grade_one, load_exercise
 from autonomy.classroom import grade as grade_module
+from autonomy.classroom.grade import PLUGINS_REFUSED
 from autonomy.classroom.report import feedback, to_csv, to_html, to_json
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -91,6 +92,20 @@ def test_plugins_are_refused_before_anything_of_them_is_imported(tmp_path):
     assert report.total == 0 and "unless the teacher allows them" in report.problems[0]
     assert report.problems[0].startswith(f"{path}:2:10: plugins")
     assert not marker.exists()
+
+
+def test_a_node_of_a_refused_plugin_is_said_to_be_one_and_a_typo_still_gets_its_hint(tmp_path):
+    exercise = load_exercise(EXERCISES / "square.yaml")
+    (tmp_path / "beh.py").write_text("raise SystemExit('imported')\n")
+    path = tmp_path / "eve.yaml"
+    path.write_text("mission: t\nplugins: [beh]\ntree:\n  sequence:\n    - drive_square\n    - sequnce: []\n")
+    report = grade_one(exercise, "eve", path)
+    assert report.problems == [
+        f"{path}:2:10: plugins: {PLUGINS_REFUSED}",
+        f"{path}:5:7: tree.sequence[0]: 'drive_square' is no built-in node: if a plugin of yours defines it, "
+        "plugins are not run here",
+        f"{path}:6:7: tree.sequence[1].sequnce: unknown node 'sequnce' (did you mean 'sequence'?)",
+    ]
 
 
 @pytest.mark.parametrize("name", ["mission.yaml", "mission.xml"])
@@ -240,7 +255,7 @@ def test_a_mission_that_does_nothing_scores_nothing(tmp_path, name):
     exercise = load_exercise(EXERCISES / f"{name}.yaml")
     report = grade_one(exercise, "lazy", lazy)
     assert report.total == 0, [s.verdicts for s in report.seeds]
-    assert any("(counts only with " in line for _, line in report.seeds[0].verdicts)
+    assert any(", but this counts only with " in line for _, line in report.seeds[0].verdicts)
 
 
 def test_grading_never_reads_the_file_a_mission_names_as_its_world(tmp_path):
@@ -309,8 +324,8 @@ def test_a_requirement_holds_only_where_its_own_requirements_held_too(tmp_path):
     exercise = load_exercise(path)
     verdicts = _with_requirements(exercise, [Verdict(True, "a"), Verdict(True, "b"), Verdict(False, "c")])
     assert verdicts == [
-        Verdict(False, "a (counts only with max_collisions 0, which did not hold)"),
-        Verdict(False, "b (counts only with end_in_zone garage, which did not hold)"),
+        Verdict(False, "a, but this counts only with max_collisions 0, which did not hold"),
+        Verdict(False, "b, but this counts only with end_in_zone garage, which did not hold"),
         Verdict(False, "c"),
     ]
 
@@ -426,6 +441,27 @@ def test_verdict_lines_read_as_a_person_would_write_them():
     assert judge(facing, facts, world).line == "ended facing 0 deg, needed 0 ± 10 (off by 0)"  # not 360 deg
     nodes = Criterion("max_nodes", 3, 1.0, {}, "max_nodes 3")
     assert judge(nodes, facts, world).line == "uses 1 node, allowed 3"
+    # the garage is the box x 2650..2900, y 420..780: from (2000, 1100) its nearest edge is
+    # sqrt(650^2 + 320^2) = 724.5 mm away (724.499...), and its centre (2775, 600) lies 33 degrees below east
+    wandered = RunFacts(1, "succeeded", "", 3.0, [(1.0, Pose(500, 500, 0)), (2.0, Pose(2000, 1100, 0))], [], [], 0)
+    reach = Criterion("reach_zone", "garage", 1.0, {}, "reach_zone garage")
+    assert judge(reach, wandered, world).line == (
+        "garage: never reached, 724 mm south-east of where the robot came closest (2000, 1100 mm)"
+    )
+    beeped = RunFacts(1, "succeeded", "", 3.0, [(2.5, Pose(2700, 600, 0))], [(2.5, Pose(2700, 600, 0))], [], 0)
+    beep = Criterion("beep_near", "garage", 1.0, {"within_mm": 150.0}, "beep_near garage")
+    assert judge(beep, beeped, world).line == "beep near garage: beeped inside it at 2.5 s"
+
+
+@pytest.mark.parametrize(
+    ("to_x", "to_y", "said"),
+    [(1, 0, "east"), (1, 1, "north-east"), (0, 1, "north"), (-1, 1, "north-west"), (-1, 0, "west")]
+    + [(-1, -1, "south-west"), (0, -1, "south"), (1, -1, "south-east"), (1, 0.41, "east"), (1, 0.42, "north-east")],
+)
+def test_a_bearing_is_the_nearest_of_eight_points_of_the_compass(to_x, to_y, said):
+    from autonomy.classroom.judge import bearing
+
+    assert bearing(0, 0, to_x, to_y) == said  # tan(22.5 degrees) = 0.414: east up to there
 
 
 def _record_workers(monkeypatch, tmp_path, actions=None):
