@@ -222,6 +222,7 @@ class _InterruptOnce:
 
     def __init__(self) -> None:
         self.raised = False
+        self.held = False  # pressed while it waited: the command ends once the robot is stopped
 
     def install(self) -> None:
         signal.signal(signal.SIGINT, self)
@@ -231,6 +232,7 @@ class _InterruptOnce:
         if not self.raised:
             self.raised = True
             raise Interrupted
+        self.held = True
         print("autonomy: stopping the robot first; one moment", file=sys.stderr, flush=True)
 
 
@@ -447,9 +449,9 @@ def cmd_run(args: argparse.Namespace) -> int:
             client.close()
         output.paragraph(summary.paragraph)
         _print_crash(runner.end, args.debug)
-        if server is not None and not output.closed and summary.outcome != INTERRUPTED:
-            interrupts.raised = False  # the robot is stopped: Ctrl-C now just ends the view
-            _serve_until_interrupted(server, "the run is over")
+        # a Ctrl-C pressed while the robot was stopped or the summary written (as the run ended) ends the view too
+        if server is not None and not output.closed and summary.outcome != INTERRUPTED and not interrupts.held:
+            _serve_until_interrupted(server, "the run is over", interrupts)
     finally:
         if trace is not None:
             if writer is not None:
@@ -516,9 +518,11 @@ def _start_view(args: argparse.Namespace, mode: str = "live") -> tuple[Any, str]
     return server, ""
 
 
-def _serve_until_interrupted(server: Any, why: str) -> None:
-    print(f"{why}; the view stays at {server.url} until Ctrl-C", file=sys.stderr, flush=True)
+def _serve_until_interrupted(server: Any, why: str, interrupts: _InterruptOnce | None = None) -> None:
     try:
+        if interrupts is not None:
+            interrupts.raised = False  # the robot is stopped: Ctrl-C now just ends the view
+        print(f"{why}; the view stays at {server.url} until Ctrl-C", file=sys.stderr, flush=True)
         server.wait()
     except KeyboardInterrupt:
         pass
@@ -688,7 +692,7 @@ def cmd_grade(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from autonomy.classroom import ExerciseInvalid, find_submissions, grade_class, load_exercise
-    from autonomy.classroom.grade import default_wall_s
+    from autonomy.classroom.grade import WALL_PER_CPU, default_cpu_s
     from autonomy.classroom.report import feedback, to_csv, to_html, to_json
     from autonomy.emulator.world import SHIPPED
 
@@ -751,7 +755,8 @@ def cmd_grade(args: argparse.Namespace) -> int:
             exercise,
             submissions,
             workers=args.workers,
-            wall_s=args.wall_seconds or default_wall_s(exercise),
+            cpu_s=(cpu_s := args.cpu_seconds or default_cpu_s(exercise)),
+            wall_s=args.wall_seconds or WALL_PER_CPU * cpu_s,
             memory_mb=args.memory_mb,
             allow_plugins=args.allow_plugins,
             on_report=(lambda _: progress.advance(task)) if progress is not None else None,
@@ -1057,10 +1062,16 @@ def build_parser() -> argparse.ArgumentParser:
     )
     grade.add_argument("--allow-plugins", action="store_true", help="run the Python plugins submissions load")
     grade.add_argument(
-        "--wall-seconds",
+        "--cpu-seconds",
         type=_bounded(float, 1, 86400, "a number of seconds"),
         metavar="S",
-        help="wall time a submission may take, all its seeds (default: 60, more for long exercises)",
+        help="CPU time a submission may take, all its seeds (default: 60, more for long exercises)",
+    )
+    grade.add_argument(
+        "--wall-seconds",
+        type=_bounded(float, 1, 864000, "a number of seconds"),
+        metavar="S",
+        help="wall time a submission may take, for one that waits rather than works (default: 10 times --cpu-seconds)",
     )
     grade.add_argument(
         "--memory-mb",

@@ -8,6 +8,7 @@ costs nothing and runs are exactly repeatable.
 from __future__ import annotations
 
 import datetime
+import signal
 import threading
 import time
 from typing import Protocol
@@ -43,6 +44,16 @@ class RealClock:
         """Sleeps for real."""
         if seconds > 0:
             time.sleep(seconds)
+
+
+def cpu_alarm(cpu_s: float | None, again_s: float = 0.0) -> None:
+    """Has SIGPROF sent to this process once it has used ``cpu_s`` more of CPU time, then every ``again_s``.
+
+    CPU time (user and system), unlike wall time, does not grow while the process waits for a
+    core, so a limit on it ends the same work on a busy machine as on a quiet one. ``None``
+    disarms it. Unix only (``signal.setitimer``), as are the grader's workers that use it.
+    """
+    signal.setitimer(signal.ITIMER_PROF, cpu_s or 0.0, again_s if cpu_s else 0.0)
 
 
 class VirtualClock:

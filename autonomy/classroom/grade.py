@@ -1,8 +1,11 @@
 """Grading: every submission of a class run on every seed of an exercise, judged and marked.
 
-Submissions are graded in worker processes, with a wall-time limit for each submission and a
+Submissions are graded in worker processes, with a CPU-time limit for each submission and a
 memory limit for each worker, so that an endless loop, a crash or a huge file costs that
-student a zero with the reason, never the batch. A worker grades one submission after another
+student a zero with the reason, never the batch. CPU time, not wall time: a submission's work
+costs it the same CPU time however many workers share however few cores, so its marks do not
+depend on the machine's load. Wall time, ten times as long, only ends one that waits without
+working (a plugin that sleeps). A worker grades one submission after another
 while nothing of them could have changed it, and is replaced otherwise (see :func:`_worker`).
 Every run is in virtual time on the in-process emulator, seeded: grading twice gives the same
 marks, byte for byte. Python plugins in a submission are refused (before anything of them is
@@ -12,6 +15,7 @@ imported) unless the teacher allows them.
 from __future__ import annotations
 
 import gc
+import math
 import multiprocessing
 import os
 import resource
@@ -29,14 +33,21 @@ from py_trees.blackboard import Blackboard
 from autonomy.classroom.exercise import Exercise, Seed
 from autonomy.classroom.judge import Gatherer, RunFacts, Verdict, judge, path_points
 from autonomy.client import Client
-from autonomy.clock import RealClock
+from autonomy.clock import RealClock, cpu_alarm
 from autonomy.errors import LinkError
 from autonomy.mission import MissionInvalid, MissionSpec, NodeSpec, Problem, validate_text
 from autonomy.runner import Runner
 from autonomy.source import UnreadableFile, read_text
 
-#: Wall time one submission (all its seeds) may take by default, seconds.
-DEFAULT_WALL_S = 60.0
+#: CPU time one submission (all its seeds) may take by default, seconds.
+DEFAULT_CPU_S = 60.0
+#: Wall time a submission may take by default, as a multiple of its CPU time: only one that waits
+#: without working (a plugin that sleeps) meets it, whatever the number of workers and the load.
+WALL_PER_CPU = 10.0
+#: CPU time a worker gets past the limit to stop the robot and send its report (then it is told again), seconds.
+CPU_GRACE_S = 1.0
+#: How a worker ends whose submission went on after it was told twice that its CPU time was used up.
+CPU_EXIT_CODE = 75
 #: Memory one submission's worker may take by default, MiB.
 DEFAULT_MEMORY_MB = 1024
 #: How much more memory than it started with a worker may hold after a submission and grade the next, MiB.
@@ -95,13 +106,57 @@ class Report:
         return asdict(self)
 
 
-def default_wall_s(exercise: Exercise) -> float:
-    """The wall time a submission gets by default: 60 s, or more when its seeds add up to a long time.
+def default_cpu_s(exercise: Exercise) -> float:
+    """The CPU time a submission gets by default: 60 s, or more when its seeds add up to a long time.
 
     Runs go at 100 times real time or faster on a slow machine; a submission gets twice what
     that needs, so a long exercise does not cost a correct mission its marks.
     """
-    return max(DEFAULT_WALL_S, 2 * len(exercise.seeds) * exercise.time_limit_s / 100)
+    return max(DEFAULT_CPU_S, 2 * len(exercise.seeds) * exercise.time_limit_s / 100)
+
+
+class CpuExhausted(BaseException):
+    """Raised in a worker whose submission has used the CPU time it may (SIGPROF, from :func:`cpu_alarm`).
+
+    A ``BaseException``, so that neither a behaviour's ``except Exception`` nor the runner's ends it
+    as a crash of the run: it ends the submission's grading, the robot stopped on the way.
+    """
+
+
+#: Holds something once the submission being graded has used up its CPU time (set by the signal's handler).
+_cpu_used_up: list[bool] = []
+
+
+def _on_cpu_limit(*_: object) -> None:
+    """SIGPROF: the submission's CPU time is used up (and again every ``CPU_GRACE_S`` while it goes on).
+
+    Told a third time, the submission's code has kept the exception twice: the worker ends at once,
+    with ``CPU_EXIT_CODE``, which the grader reads as this same reason.
+    """
+    _cpu_used_up.append(True)
+    if len(_cpu_used_up) > 2:
+        os._exit(CPU_EXIT_CODE)
+    raise CpuExhausted
+
+
+def _cap_what_it_starts(cpu_s: float) -> None:
+    """Limits each process a plugin starts to about the submission's CPU time: SIGXCPU, then SIGKILL.
+
+    The processes a plugin starts inherit the limit, each counting its own CPU time, which the
+    worker's alarm does not see. The worker (which, plugins allowed, grades one submission) meets
+    its alarm first: its own limit lies two seconds past the alarm's third time.
+    """
+    soft = math.ceil(cpu_s + 2 * CPU_GRACE_S) + 2
+    try:
+        resource.setrlimit(resource.RLIMIT_CPU, (soft, soft + 1))
+    except (ValueError, OSError):
+        pass
+
+
+def _cpu_used_up_why(cpu_s: float) -> str:
+    """Why a submission that used up its CPU time scores nothing."""
+    why = f"used more than {cpu_s:g} s of CPU time: an endless loop, or a tree too big to run in time"
+    return f"{why} (--cpu-seconds gives more)"
 
 
 def find_submissions(paths: Iterable[str | Path]) -> list[tuple[str, Path]]:
@@ -310,20 +365,39 @@ def _address_space_mb() -> float | None:
         return None
 
 
-def _graded(exercise: Exercise, student: str, path: Path, allow_plugins: bool, memory_mb: int) -> Report | str:
-    """One submission's report, or why it could not be graded (this student's zero)."""
+def _graded(
+    exercise: Exercise, student: str, path: Path, allow_plugins: bool, memory_mb: int, cpu_s: float
+) -> tuple[Report | str, bool]:
+    """One submission's report, or why it could not be graded (this student's zero); and whether the worker ends.
+
+    A submission that used up its CPU time gets its report of zero here, whatever became of the
+    exception that told it (code that catches everything may have turned it into another, or
+    kept it): it is not graded again.
+    """
+    _cpu_used_up.clear()
+    result: Report | str
     try:
-        return grade_one(exercise, student, path, allow_plugins)
+        cpu_alarm(cpu_s, again_s=CPU_GRACE_S)  # again, should a plugin's ``except BaseException`` keep it
+        try:
+            result = grade_one(exercise, student, path, allow_plugins)
+        finally:
+            cpu_alarm(None)
     except MemoryError:
-        return f"used more than {memory_mb} MiB of memory"
-    except (Exception, SystemExit, KeyboardInterrupt) as err:  # noqa: BLE001 - any failure is this student's zero
+        result = f"used more than {memory_mb} MiB of memory"
+    except (CpuExhausted, Exception, SystemExit, KeyboardInterrupt) as err:  # noqa: BLE001 - this student's zero
         last = traceback.extract_tb(err.__traceback__)[-1:] if err.__traceback__ else []
         at = f" at {Path(last[0].filename).name}:{last[0].lineno}" if last else ""
-        return f"grading stopped with {type(err).__name__}: {err}{at}"
+        result = f"grading stopped with {type(err).__name__}: {err}{at}"
+    if _cpu_used_up:
+        zero = [0.0] * len(exercise.criteria)
+        return Report(student, str(path), 0.0, exercise.max_points, zero, [_cpu_used_up_why(cpu_s)]), True
+    return result, isinstance(result, str)
 
 
-def _worker(exercise: Exercise, allow_plugins: bool, memory_mb: int, channel: Connection) -> None:
+def _worker(exercise: Exercise, allow_plugins: bool, memory_mb: int, cpu_s: float, channel: Connection) -> None:
     """A worker process's body: limits its memory, then grades the submissions it is sent, one at a time.
+
+    Each submission may use ``cpu_s`` of CPU time, counted by the kernel from where it starts.
 
     It leads a process group of its own, so that whatever a plugin starts goes with it. Each
     submission comes as (student, path) and goes back as (report or why not, whether the
@@ -335,6 +409,7 @@ def _worker(exercise: Exercise, allow_plugins: bool, memory_mb: int, channel: Co
     """
     os.setpgid(0, 0)
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the grader ends its workers; a Ctrl-C is for the grader
+    signal.signal(signal.SIGPROF, _on_cpu_limit)
     # What the worker was forked with (modules, the exercise) lives as long as it does: left out of
     # the garbage collector's passes, which the records of each seed would otherwise repeat over it
     # (and each pass would copy the pages it touches from the grader).
@@ -354,14 +429,16 @@ def _worker(exercise: Exercise, allow_plugins: bool, memory_mb: int, channel: Co
             return
         student, path = job
         Blackboard.clear()  # as a new worker has it: nothing of the last submission's trees
-        report = _graded(exercise, student, path, allow_plugins, memory_mb)
+        if allow_plugins:  # what a plugin starts inherits it
+            _cap_what_it_starts(cpu_s)
+        report, failed = _graded(exercise, student, path, allow_plugins, memory_mb, cpu_s)
         try:
             gc.collect()  # the last submission's trees (cycles of parents and children) let go now
             now_mb = _address_space_mb()
             grown = started_mb is None or now_mb is None or now_mb - started_mb > RETIRE_GROWTH_MB
         except MemoryError:  # no memory left even to look: the report still goes, and this worker ends
             grown = True
-        last = allow_plugins or isinstance(report, str) or grown
+        last = allow_plugins or failed or grown
         try:
             channel.send((report, last))
         except (OSError, MemoryError, ValueError):
@@ -387,7 +464,8 @@ def grade_class(
     submissions: list[tuple[str, Path]],
     *,
     workers: int | None = None,
-    wall_s: float = DEFAULT_WALL_S,
+    cpu_s: float = DEFAULT_CPU_S,
+    wall_s: float | None = None,
     memory_mb: int = DEFAULT_MEMORY_MB,
     allow_plugins: bool = False,
     on_report: Callable[[Report], None] | None = None,
@@ -399,14 +477,16 @@ def grade_class(
     had graded another before is graded again in a new worker, and that result stands: what
     a submission before left behind (memory, above all) never costs a student their marks, and
     the marks are those of a new worker for each, whatever the order or the number of
-    workers. Each submission has ``wall_s`` of wall time; a worker that takes longer is ended,
-    costing that student a zero (not graded again: an endless loop would cost twice the time).
+    workers. Each submission has ``cpu_s`` of CPU time, and ``wall_s`` of wall time for one that
+    waits without working; one that takes longer costs that student a zero (not graded again: an
+    endless loop would cost twice the time).
 
     Args:
         exercise: The exercise.
         submissions: (student, path) pairs, as :func:`find_submissions` gives them.
         workers: Processes at once (default: the machine's cores).
-        wall_s: Wall time a submission may take, all its seeds together.
+        cpu_s: CPU time a submission may take, all its seeds together.
+        wall_s: Wall time a submission may take (default: ``WALL_PER_CPU`` times ``cpu_s``).
         memory_mb: Memory a worker process may take.
         allow_plugins: Whether submissions may load Python plugins.
         on_report: Called with each report as it is ready (for a progress bar).
@@ -415,6 +495,7 @@ def grade_class(
         The reports, in the order of ``submissions``.
     """
     workers = max(1, workers or os.cpu_count() or 1)
+    wall_s = WALL_PER_CPU * cpu_s if wall_s is None else wall_s
     context = multiprocessing.get_context("fork")
     clock = RealClock()
     reports: dict[int, Report] = {}
@@ -447,7 +528,7 @@ def grade_class(
 
     def start(index: int) -> None:
         mine, theirs = context.Pipe(duplex=True)
-        process = context.Process(target=_worker, args=(exercise, allow_plugins, memory_mb, theirs), daemon=True)
+        process = context.Process(target=_worker, args=(exercise, allow_plugins, memory_mb, cpu_s, theirs), daemon=True)
         process.start()
         theirs.close()
         worker = _Running(process, mine)
@@ -475,7 +556,9 @@ def grade_class(
                     result, last = None, True
                 if last or not isinstance(result, Report):
                     end(worker)
-                if not isinstance(result, Report) and worker.used:
+                if result is None and worker.process.exitcode == CPU_EXIT_CODE:  # told thrice: not graded again
+                    finish(index, failed(index, _cpu_used_up_why(cpu_s)))
+                elif not isinstance(result, Report) and worker.used:
                     start(index)  # perhaps what came before was the cause: a new worker, in the place it left
                 elif isinstance(result, Report):
                     finish(index, result)
@@ -490,7 +573,9 @@ def grade_class(
                 if worker.index is not None and now >= worker.deadline_s:
                     index = worker.index
                     end(worker)
-                    why = f"took more than {wall_s:g} s of wall time: an endless loop, or a tree too big to run in time"
+                    why = (
+                        f"took more than {wall_s:g} s of wall time, waiting rather than working (a plugin that sleeps?)"
+                    )
                     finish(index, failed(index, f"{why} (--wall-seconds gives more)"))
     finally:
         # a second Ctrl-C must not cut the clean-up short and leave workers behind

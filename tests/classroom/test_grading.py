@@ -2,6 +2,7 @@
 
 import json
 import os
+import signal
 import time
 from pathlib import Path
 
@@ -149,11 +150,87 @@ def test_an_endless_loop_or_a_crash_costs_that_student_a_zero_never_the_batch(tm
     good = EXERCISES / "solutions" / "garage.yaml"
     submissions = find_submissions([tmp_path / "erin", tmp_path / "frank", good])
     assert [s for s, _ in submissions] == ["erin", "frank", "garage"]
-    reports = grade_class(exercise, submissions, workers=2, wall_s=8, allow_plugins=True)
+    reports = grade_class(exercise, submissions, workers=2, cpu_s=2, allow_plugins=True)
     erin, frank, garage = reports
-    assert erin.total == 0 and "took more than 8 s of wall time: an endless loop" in erin.problems[0]
+    assert erin.total == 0 and erin.problems == [
+        "used more than 2 s of CPU time: an endless loop, or a tree too big to run in time (--cpu-seconds gives more)"
+    ]
     assert frank.total == 0 and "ended without a report (exit code 9)" in frank.problems[0]
     assert garage.total == exercise.max_points
+
+
+def heavy_mission(checks: int) -> str:
+    """The garage's solution behind ``checks`` conditions made again every tick, at 200 Hz: valid, and slow to run."""
+    made_again = "".join("            - invert: {do: collided}\n" for _ in range(checks))
+    return (
+        "mission: heavy\ntick_hz: 200\ntree:\n  sequence:\n    memory: false\n    children:\n"
+        f"      - sequence:\n          memory: false\n          children:\n{made_again}"
+        "      - move: {speed: 2, until_obstacle_mm: 150}\n"
+    )
+
+
+def test_heavy_missions_get_the_same_marks_from_one_worker_as_from_four_on_two_cores(tmp_path):
+    # Each takes about 1 s of CPU time, and 2 s or more of wall time when four workers share two
+    # cores (more on a busy machine): under a limit of 3 s of wall time some would score 0 with
+    # four workers and 10 with one. CPU time does not grow while a worker waits for a core.
+    exercise = load_exercise(EXERCISES / "garage.yaml")
+    for name in ("ann", "ben", "cat", "dan"):
+        (tmp_path / f"{name}.yaml").write_text(heavy_mission(60))
+    submissions = find_submissions(sorted(tmp_path.glob("*.yaml")))
+    one = grade_class(exercise, submissions, workers=1, cpu_s=3)
+    four = grade_class(exercise, submissions, workers=4, cpu_s=3)
+    assert to_json(exercise, one) == to_json(exercise, four)
+    assert [report.total for report in one] == [exercise.max_points] * 4
+
+
+def test_a_plugin_that_keeps_the_end_of_its_cpu_time_to_itself_is_ended_all_the_same(tmp_path):
+    exercise = load_exercise(EXERCISES / "garage.yaml")
+    (tmp_path / "kim").mkdir()
+    (tmp_path / "kim" / "keep.py").write_text(
+        "from autonomy.behaviours import RobotAction\n\n"
+        "class Keep(RobotAction):\n"
+        '    """Swallows whatever it is told, and goes on."""\n\n'
+        "    node_type = 'keep'\n\n"
+        "    def update(self):\n"
+        "        while True:\n"
+        "            try:\n"
+        "                while True:\n"
+        "                    pass\n"
+        "            except BaseException:\n"
+        "                pass\n"
+    )
+    (tmp_path / "kim" / "mission.yaml").write_text("mission: keep\nplugins: [keep]\ntree:\n  keep: {}\n")
+    submissions = find_submissions([tmp_path / "kim", EXERCISES / "solutions" / "garage.yaml"])
+    garage, kim = grade_class(exercise, submissions, workers=2, cpu_s=1, allow_plugins=True)
+    assert kim.total == 0 and kim.problems == [
+        "used more than 1 s of CPU time: an endless loop, or a tree too big to run in time (--cpu-seconds gives more)"
+    ]
+    assert garage.total == exercise.max_points
+
+
+def test_what_a_plugin_starts_has_about_the_same_cpu_time(tmp_path):
+    # A plugin that waits on a busy process of its own uses no CPU time itself: the process it
+    # started has its own limit, inherited, and ends with SIGXCPU (or SIGKILL) when it is used up.
+    (tmp_path / "one_seed.yaml").write_text(
+        "world: garage\ntime_limit_s: 30\nseeds: [1]\ncriteria:\n  - succeed: true\n"
+    )
+    exercise = load_exercise(tmp_path / "one_seed.yaml")
+    (tmp_path / "lou").mkdir()
+    said = tmp_path / "child.txt"
+    (tmp_path / "lou" / "busy.py").write_text(
+        "import subprocess, sys\nfrom autonomy.behaviours import RobotAction\n\n"
+        "class Busy(RobotAction):\n"
+        '    """Waits on a process that never stops working."""\n\n'
+        "    node_type = 'busy'\n\n"
+        "    def update(self):\n"
+        "        ended = subprocess.run([sys.executable, '-c', 'while True: pass'])\n"
+        f"        open({str(said)!r}, 'w').write(str(ended.returncode))\n"
+        "        raise RuntimeError('its process ended')\n"
+    )
+    (tmp_path / "lou" / "mission.yaml").write_text("mission: busy\nplugins: [busy]\ntree:\n  busy: {}\n")
+    [lou] = grade_class(exercise, find_submissions([tmp_path / "lou"]), cpu_s=1, wall_s=60, allow_plugins=True)
+    assert said.read_text() in (str(-signal.SIGXCPU), str(-signal.SIGKILL))
+    assert lou.total == 0 and not lou.problems  # graded: the mission crashed on every seed
 
 
 def test_grading_twice_writes_the_same_bytes():
@@ -544,7 +621,10 @@ def test_a_worker_that_takes_too_long_is_ended_and_the_rest_are_graded_by_a_new_
     seen = pids()
     assert seen["a_first"] == seen["b_endless"] != seen["c_after"]  # not graded again: it would take as long
     assert [report.total for report in reports] == [exercise.max_points, 0.0, exercise.max_points]
-    assert "took more than 3 s of wall time" in reports[1].problems[0]
+    assert reports[1].problems == [
+        "took more than 3 s of wall time, waiting rather than working (a plugin that sleeps?) "
+        "(--wall-seconds gives more)"
+    ]
 
 
 def test_a_submission_that_fails_only_after_another_is_graded_again_in_a_new_worker(monkeypatch, tmp_path):

@@ -177,6 +177,8 @@ def test_grading_options_out_of_range_are_one_line_errors():
         ("--workers", "0"),
         ("--wall-seconds", "nan"),
         ("--wall-seconds", "inf"),
+        ("--cpu-seconds", "nan"),
+        ("--cpu-seconds", "0.5"),
         ("--memory-mb", "5"),
     ):
         result = autonomy("grade", "garage", "missions/square.yaml", option, value)

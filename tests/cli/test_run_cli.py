@@ -259,6 +259,32 @@ def test_a_second_ctrl_c_does_not_cut_the_final_stop_short(tmp_path, presses, ga
     assert end["type"] == "end" and end["stopped"] and end["wire"][-1][:2] == ["X0000", "OK"]
 
 
+def test_a_ctrl_c_as_the_run_ends_ends_the_command_and_its_view(tmp_path):
+    # The run is over (its end record is in the trace), the link is closed, stopping the robot,
+    # over a slow link: a Ctrl-C now waits for the stop, and then ends the command, view included,
+    # rather than be forgotten while the view waits for one more.
+    trace = tmp_path / "run.jsonl"
+    (tmp_path / "beep.yaml").write_text("mission: beep\nworld: box\ntree:\n  sequence:\n    - beep: {}\n")
+    slow_link = "emu://?faults=pace,delay=1,delay_s=0.2"  # every reply 0.2 s late: closing the link takes a while
+    command = ["run", str(tmp_path / "beep.yaml"), "--quiet", "--view", "--view-port", "0", "--port", slow_link]
+    process = subprocess.Popen(
+        [sys.executable, "-m", "autonomy", *command, "--trace", str(trace)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        cwd=ROOT,
+    )
+    deadline = time.monotonic() + 30
+    while time.monotonic() < deadline and process.poll() is None:
+        lines = trace.read_text().splitlines() if trace.exists() else []
+        if lines and json.loads(lines[-1])["type"] == "end":
+            break
+        time.sleep(0.01)
+    process.send_signal(signal.SIGINT)
+    out, err = process.communicate(timeout=20)
+    assert process.returncode == 0 and "Mission 'beep' succeeded" in out and "Traceback" not in err
+
+
 def test_a_trace_that_cannot_be_written_is_said_once_and_the_run_goes_on():
     result = autonomy("run", "missions/square.yaml", "--fast", "--trace", "/dev/full")
     assert result.returncode == 1 and "Traceback" not in result.stderr
