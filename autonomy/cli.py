@@ -522,6 +522,8 @@ def _serve_until_interrupted(server: Any, why: str, interrupts: _InterruptOnce |
     try:
         if interrupts is not None:
             interrupts.raised = False  # the robot is stopped: Ctrl-C now just ends the view
+            if interrupts.held:  # pressed before that: it ends the view now
+                return
         print(f"{why}; the view stays at {server.url} until Ctrl-C", file=sys.stderr, flush=True)
         server.wait()
     except KeyboardInterrupt:

@@ -123,18 +123,28 @@ class CpuExhausted(BaseException):
     """
 
 
-#: Holds something once the submission being graded has used up its CPU time (set by the signal's handler).
-_cpu_used_up: list[bool] = []
+@dataclass
+class _CpuAlarm:
+    """The worker's CPU alarm: whether it is armed for a submission, and how often it has gone off since."""
+
+    armed: bool = False
+    rung: int = 0
+
+
+_cpu = _CpuAlarm()
 
 
 def _on_cpu_limit(*_: object) -> None:
     """SIGPROF: the submission's CPU time is used up (and again every ``CPU_GRACE_S`` while it goes on).
 
     Told a third time, the submission's code has kept the exception twice: the worker ends at once,
-    with ``CPU_EXIT_CODE``, which the grader reads as this same reason.
+    with ``CPU_EXIT_CODE``, which the grader reads as this same reason. A signal that comes once the
+    submission is over (the alarm disarmed) is let go.
     """
-    _cpu_used_up.append(True)
-    if len(_cpu_used_up) > 2:
+    if not _cpu.armed:
+        return
+    _cpu.rung += 1
+    if _cpu.rung > 2:
         os._exit(CPU_EXIT_CODE)
     raise CpuExhausted
 
@@ -351,7 +361,8 @@ def _with_requirements(exercise: Exercise, verdicts: list[Verdict]) -> list[Verd
         needed = criterion.requires
         if verdict.held and needed is not None and not held(needed):
             label = exercise.criteria[needed].label
-            verdict = Verdict(False, f"{verdict.line}, but this counts only with {label}, which did not hold")
+            how = "did not count" if verdicts[needed].held else "did not hold"
+            verdict = Verdict(False, f"{verdict.line}, but this counts only with {label}, which {how}")
         out.append(verdict)
     return out
 
@@ -374,13 +385,15 @@ def _graded(
     exception that told it (code that catches everything may have turned it into another, or
     kept it): it is not graded again.
     """
-    _cpu_used_up.clear()
+    _cpu.rung = 0
     result: Report | str
     try:
+        _cpu.armed = True
         cpu_alarm(cpu_s, again_s=CPU_GRACE_S)  # again, should a plugin's ``except BaseException`` keep it
         try:
             result = grade_one(exercise, student, path, allow_plugins)
         finally:
+            _cpu.armed = False  # first: a signal on its way now is let go
             cpu_alarm(None)
     except MemoryError:
         result = f"used more than {memory_mb} MiB of memory"
@@ -388,7 +401,7 @@ def _graded(
         last = traceback.extract_tb(err.__traceback__)[-1:] if err.__traceback__ else []
         at = f" at {Path(last[0].filename).name}:{last[0].lineno}" if last else ""
         result = f"grading stopped with {type(err).__name__}: {err}{at}"
-    if _cpu_used_up:
+    if _cpu.rung:
         zero = [0.0] * len(exercise.criteria)
         return Report(student, str(path), 0.0, exercise.max_points, zero, [_cpu_used_up_why(cpu_s)]), True
     return result, isinstance(result, str)
@@ -432,6 +445,7 @@ def _worker(exercise: Exercise, allow_plugins: bool, memory_mb: int, cpu_s: floa
         if allow_plugins:  # what a plugin starts inherits it
             _cap_what_it_starts(cpu_s)
         report, failed = _graded(exercise, student, path, allow_plugins, memory_mb, cpu_s)
+        cpu_alarm(None)  # whatever happened in there, nothing goes off between submissions
         try:
             gc.collect()  # the last submission's trees (cycles of parents and children) let go now
             now_mb = _address_space_mb()
@@ -556,7 +570,7 @@ def grade_class(
                     result, last = None, True
                 if last or not isinstance(result, Report):
                     end(worker)
-                if result is None and worker.process.exitcode == CPU_EXIT_CODE:  # told thrice: not graded again
+                if result is None and worker.process.exitcode in (CPU_EXIT_CODE, -signal.SIGXCPU):  # not graded again
                     finish(index, failed(index, _cpu_used_up_why(cpu_s)))
                 elif not isinstance(result, Report) and worker.used:
                     start(index)  # perhaps what came before was the cause: a new worker, in the place it left
@@ -573,8 +587,8 @@ def grade_class(
                 if worker.index is not None and now >= worker.deadline_s:
                     index = worker.index
                     end(worker)
-                    why = (
-                        f"took more than {wall_s:g} s of wall time, waiting rather than working (a plugin that sleeps?)"
+                    why = f"took more than {wall_s:g} s of wall time" + (
+                        ", waiting rather than working (a plugin that sleeps?)" if wall_s >= cpu_s else ""
                     )
                     finish(index, failed(index, f"{why} (--wall-seconds gives more)"))
     finally:

@@ -120,10 +120,10 @@ class _Validator:
         self.problems.append(Problem(self.source, line, column, path, message))
 
     def unknown(self, type_name: str) -> str:
-        """Why ``type_name`` names no node: a likely typo, or the plugins that might define it not run here."""
+        """Why ``type_name`` names no node: a likely typo, and the plugins that may define it when not run."""
         hint = _suggest(type_name, self.registry.names())
-        if not hint and self.plugins_refused:
-            return f"'{type_name}' is no built-in node: if a plugin of yours defines it, plugins are not run here"
+        if self.plugins_refused:
+            return f"'{type_name}' is no built-in node{hint}: if a plugin of yours defines it, plugins are not run here"
         return f"unknown node '{type_name}'{hint}"
 
     # ------------------------------------------------------------------ top level

@@ -274,14 +274,18 @@ def test_a_ctrl_c_as_the_run_ends_ends_the_command_and_its_view(tmp_path):
         text=True,
         cwd=ROOT,
     )
-    deadline = time.monotonic() + 30
-    while time.monotonic() < deadline and process.poll() is None:
-        lines = trace.read_text().splitlines() if trace.exists() else []
-        if lines and json.loads(lines[-1])["type"] == "end":
-            break
-        time.sleep(0.01)
-    process.send_signal(signal.SIGINT)
-    out, err = process.communicate(timeout=20)
+    try:
+        deadline = time.monotonic() + 30
+        while time.monotonic() < deadline and process.poll() is None:
+            lines = trace.read_text().splitlines() if trace.exists() else []
+            if lines and json.loads(lines[-1])["type"] == "end":
+                break
+            time.sleep(0.01)
+        time.sleep(0.05)  # past the end of the run, well within the stop's 0.2 s wait for its reply
+        process.send_signal(signal.SIGINT)
+        out, err = process.communicate(timeout=20)
+    finally:
+        process.kill()
     assert process.returncode == 0 and "Mission 'beep' succeeded" in out and "Traceback" not in err
 
 
