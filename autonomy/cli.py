@@ -449,8 +449,7 @@ def cmd_run(args: argparse.Namespace) -> int:
             client.close()
         output.paragraph(summary.paragraph)
         _print_crash(runner.end, args.debug)
-        # a Ctrl-C pressed while the robot was stopped or the summary written (as the run ended) ends the view too
-        if server is not None and not output.closed and summary.outcome != INTERRUPTED and not interrupts.held:
+        if server is not None and not output.closed and summary.outcome != INTERRUPTED:
             _serve_until_interrupted(server, "the run is over", interrupts)
     finally:
         if trace is not None:
@@ -522,7 +521,7 @@ def _serve_until_interrupted(server: Any, why: str, interrupts: _InterruptOnce |
     try:
         if interrupts is not None:
             interrupts.raised = False  # the robot is stopped: Ctrl-C now just ends the view
-            if interrupts.held:  # pressed before that: it ends the view now
+            if interrupts.held:  # pressed while the robot was stopped or the summary written: it ends the view
                 return
         print(f"{why}; the view stays at {server.url} until Ctrl-C", file=sys.stderr, flush=True)
         server.wait()

@@ -16,7 +16,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 
 from autonomy.classroom.exercise import Criterion
-from autonomy.emulator.world import Box, Circle, World
+from autonomy.emulator.world import World
 from autonomy.protocol import heading_delta_deg
 from autonomy.record import Pose, Record, RunEnd, RunHeader, TickRecord
 from autonomy.runner import plural
@@ -144,7 +144,7 @@ def judge(criterion: Criterion, facts: RunFacts, world: World) -> Verdict:
             if inside is not None:
                 return Verdict(True, f"{value}: reached at {inside:.1f} s")
             closest, _, pose = min((zone.distance_mm(p.x_mm, p.y_mm), t, p) for t, p in facts.path)
-            toward = bearing(pose.x_mm, pose.y_mm, *_nearest_point(zone.shape, pose.x_mm, pose.y_mm))
+            toward = bearing(pose.x_mm, pose.y_mm, *zone.shape.nearest(pose.x_mm, pose.y_mm))
             return Verdict(
                 False,
                 f"{value}: never reached, {_mm(closest)} {toward} of where the robot came closest "
@@ -210,13 +210,6 @@ _COMPASS = ("east", "north-east", "north", "north-west", "west", "south-west", "
 def _mm(distance_mm: float) -> str:
     """A distance as a student reads it: ``35 mm``, or ``less than 1 mm`` (never ``0 mm`` for a miss)."""
     return "less than 1 mm" if distance_mm < 0.5 else f"{distance_mm:.0f} mm"
-
-
-def _nearest_point(shape: Box | Circle, x_mm: float, y_mm: float) -> tuple[float, float]:
-    """The point of ``shape`` nearest to (x, y): on a box, the point clamped into it; on a circle, its centre's way."""
-    if isinstance(shape, Circle):
-        return shape.x_mm, shape.y_mm
-    return min(max(x_mm, shape.x_min_mm), shape.x_max_mm), min(max(y_mm, shape.y_min_mm), shape.y_max_mm)
 
 
 def bearing(from_x_mm: float, from_y_mm: float, to_x_mm: float, to_y_mm: float) -> str:

@@ -133,6 +133,10 @@ class Box:
         cy = y_max if y_max < cy else cy
         return math.hypot(x - cx, y - cy)
 
+    def nearest(self, x: float, y: float) -> tuple[float, float]:
+        """The point of the box nearest to (x, y): (x, y) itself inside it."""
+        return min(max(x, self.x_min_mm), self.x_max_mm), min(max(y, self.y_min_mm), self.y_max_mm)
+
     def rect_gap(self, x_min: float, y_min: float, x_max: float, y_max: float) -> float:
         """Distance from the rectangle [x_min, x_max] x [y_min, y_max] to the box (0 where they meet).
 
@@ -180,6 +184,13 @@ class Circle:
         """Distance from the point (x, y) to the circle's edge (0 inside)."""
         gap = math.hypot(x - self.x_mm, y - self.y_mm) - self.radius_mm
         return gap if gap > 0.0 else 0.0  # max(0.0, gap), NaN included
+
+    def nearest(self, x: float, y: float) -> tuple[float, float]:
+        """The point of the circle nearest to (x, y): on its edge toward (x, y), or (x, y) itself inside it."""
+        away = math.hypot(x - self.x_mm, y - self.y_mm)
+        if away <= self.radius_mm:
+            return x, y
+        return self.x_mm + (x - self.x_mm) * self.radius_mm / away, self.y_mm + (y - self.y_mm) * self.radius_mm / away
 
     def rect_gap(self, x_min: float, y_min: float, x_max: float, y_max: float) -> float:
         """Distance from the rectangle [x_min, x_max] x [y_min, y_max] to the circle's edge (0 or less where they meet).

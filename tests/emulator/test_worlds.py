@@ -410,3 +410,16 @@ def test_a_shipped_world_is_read_once_and_is_the_same_value_as_its_file():
     path = Path(autonomy.emulator.__file__).parent / "worlds" / "obstacles.yaml"
     assert first == parse_world_text(path.read_text(), "obstacles.yaml") == load_world(path)
     assert load_world(path) is not load_world(path)  # a world file is read each time: it may have changed
+
+
+@pytest.mark.parametrize("shape", [Box(100, 200, 400, 300), Circle(250, 250, 80)], ids=["box", "circle"])
+def test_a_shapes_nearest_point_is_as_far_as_its_gap_says(shape):
+    import math
+    import random
+
+    rng = random.Random(7)
+    for _ in range(500):
+        x, y = rng.uniform(-500, 1000), rng.uniform(-500, 1000)
+        near_x, near_y = shape.nearest(x, y)
+        assert math.isclose(math.hypot(x - near_x, y - near_y), shape.gap(x, y), abs_tol=1e-9)
+        assert shape.gap(near_x, near_y) <= 1e-9  # on the shape or in it
