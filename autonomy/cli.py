@@ -704,6 +704,24 @@ def cmd_grade(args: argparse.Namespace) -> int:
         exercise = load_exercise(path)
     except ExerciseInvalid as err:
         return _problems(err.problems)
+    hidden_note = ""
+    if args.secret_file:
+        try:
+            secret = Path(args.secret_file).read_bytes().strip()
+        except OSError as err:
+            return _fail(f"cannot read the secret file {args.secret_file}: {err.strerror or err}", EXIT_USAGE)
+        if len(secret) < 16:
+            return _fail(
+                f"the secret file {args.secret_file} holds {len(secret)} bytes: give it at least 16 that nobody can "
+                "guess, e.g. python3 -c 'import secrets; print(secrets.token_hex(16))' > secret.txt",
+                EXIT_USAGE,
+            )
+        exercise = exercise.with_secret(secret)
+    elif exercise.hidden_seeds:
+        hidden_note = (
+            f"This exercise also has {exercise.hidden_seeds} hidden seeds, which the teacher's marks use "
+            f"(autonomy grade --secret-file): these marks are from its {len(exercise.seeds)} public seeds only."
+        )
     submissions = find_submissions(args.submissions)
     alone = len(submissions) == 1
     targets = [
@@ -728,12 +746,18 @@ def cmd_grade(args: argparse.Namespace) -> int:
         if where.is_dir() or not where.parent.is_dir() or not os.access(where.parent, os.W_OK):
             return _fail(f"cannot write {target}: no such folder, or not writable", EXIT_USAGE)
     if not args.quiet:
-        seeds = ", ".join(str(s.seed) for s in exercise.seeds)
+        public = [s for s in exercise.seeds if not s.hidden]
+        seeds = ", ".join(str(s.seed) for s in public)
+        hidden = len(exercise.seeds) - len(public)
         print(
             f"Grading {len(submissions)} submission{'s' if not alone else ''} for '{exercise.title}' "
-            f"in world '{exercise.world.name}', seeds {seeds}, {exercise.time_limit_s:g} s a run.",
+            f"in world '{exercise.world.name}', seeds {seeds}"
+            + (f" and {hidden} hidden" if hidden else "")
+            + f", {exercise.time_limit_s:g} s a run.",
             flush=True,
         )
+        if hidden_note:
+            print(hidden_note, flush=True)
     for ending in (signal.SIGTERM, signal.SIGHUP):  # a closed terminal ends the workers as Ctrl-C does
         signal.signal(ending, _interrupt)
     progress = None
@@ -1080,6 +1104,11 @@ def build_parser() -> argparse.ArgumentParser:
         default=1024,
         metavar="MB",
         help="memory a submission may take (default 1024)",
+    )
+    grade.add_argument(
+        "--secret-file",
+        metavar="FILE",
+        help="the teacher's secret, which draws the exercise's hidden seeds: they are graded too",
     )
     grade.add_argument("--csv", metavar="FILE", help="write a gradebook: student, total, one column per criterion")
     grade.add_argument("--json", metavar="FILE", help="write every mark, verdict and path as JSON")

@@ -20,6 +20,8 @@ It is read like a mission: every problem at once, as ``FILE:LINE:COL``, with a d
 
 from __future__ import annotations
 
+import hashlib
+import hmac
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -30,7 +32,17 @@ from autonomy.errors import AutonomyError
 from autonomy.mission.registry import BUILTINS
 from autonomy.source import Located, Problem, Reader, UnreadableFile, is_file, parse, read_text, suggest
 
-TOP_LEVEL = ("exercise", "title", "description", "world", "time_limit_s", "seeds", "allowed_nodes", "criteria")
+TOP_LEVEL = (
+    "exercise",
+    "title",
+    "description",
+    "world",
+    "time_limit_s",
+    "seeds",
+    "hidden_seeds",
+    "allowed_nodes",
+    "criteria",
+)
 SEED_KEYS = ("seed", "noise_mm", "faults")
 #: Longest time limit an exercise may set, simulated seconds.
 MAX_TIME_LIMIT_S = 3600.0
@@ -43,29 +55,48 @@ class CriterionKind:
 
     Attributes:
         key: The key that names it in a criteria item (``end_in_zone``).
-        value: ``zone`` (a zone of the world), ``count`` (a whole number >= 0), ``seconds``,
-            ``mm``, ``degrees`` or ``true`` (the value must be true).
+        value: ``zone`` (a zone of the world), ``zones`` (a list of them), ``count`` (a whole
+            number >= 0), ``seconds``, ``mm``, ``degrees`` or ``true`` (the value must be true).
         summary: What it asks, for the docs.
-        options: Further keys it takes, with their defaults.
+        options: Further keys it takes, with their defaults: a number, or a zone's name (a text).
     """
 
     key: str
     value: str
     summary: str
-    options: dict[str, float] = field(default_factory=dict)
+    options: dict[str, float | str] = field(default_factory=dict)
 
 
 CRITERIA = {
     kind.key: kind
     for kind in (
-        CriterionKind("reach_zone", "zone", "the robot is in the zone at some tick"),
-        CriterionKind("end_in_zone", "zone", "the mission ends on its own, the robot stopped inside the zone"),
-        CriterionKind("avoid_zone", "zone", "the robot never enters the zone"),
-        CriterionKind("max_collisions", "count", "at most this many collisions"),
-        CriterionKind("finish_within_s", "seconds", "the mission succeeds within this many seconds"),
-        CriterionKind("max_distance_mm", "mm", "the robot drives at most this far, by its odometer"),
+        CriterionKind("reach_zone", "zone", "the robot's centre is in the zone at some moment"),
         CriterionKind(
-            "beep_near", "zone", "a beep is sent while the robot is within within_mm of the zone", {"within_mm": 150.0}
+            "visit_in_order",
+            "zones",
+            "the robot's centre is in each zone in turn, in the order given; each zone is its share",
+        ),
+        CriterionKind(
+            "rest_in_zone",
+            "zone",
+            "the robot comes to rest for good inside the zone within the time limit (after the zone 'after', if "
+            "set); within near_mm of it, without a collision, earns a part, less the further out",
+            {"after": "", "near_mm": 0.0},
+        ),
+        CriterionKind("end_in_zone", "zone", "the mission ends on its own and the robot comes to rest inside the zone"),
+        CriterionKind("avoid_zone", "zone", "the robot's centre never enters the zone"),
+        CriterionKind("max_collisions", "count", "at most this many collisions"),
+        CriterionKind("min_collisions", "count", "at least this many collisions"),
+        CriterionKind("finish_within_s", "seconds", "the mission succeeds within this many seconds"),
+        CriterionKind("max_distance_mm", "mm", "the robot drives at most this far, forward and back"),
+        CriterionKind(
+            "beeps_in",
+            "zones",
+            "a beep at each zone (each its share), and no more than extra_beeps more, anywhere (else nothing)",
+            {"within_mm": 0.0, "extra_beeps": 0.0},
+        ),
+        CriterionKind(
+            "beep_near", "zone", "a beep while the robot's centre is within within_mm of the zone", {"within_mm": 0.0}
         ),
         CriterionKind(
             "end_heading_deg", "degrees", "the robot ends facing this heading, give or take", {"tolerance_deg": 10.0}
@@ -84,7 +115,7 @@ class Criterion:
         kind: The criterion's key (see :data:`CRITERIA`).
         value: Its value: a zone name, a number, or True.
         points: What it is worth when it holds on every seed.
-        options: Its further settings (``within_mm``, ``tolerance_deg``), defaults filled in.
+        options: Its further settings (``within_mm``, ``tolerance_deg``, ``after``), defaults filled in.
         label: How reports name it (``end_in_zone garage``).
         requires: The index of the criterion that must hold on a seed for this one to count
             there (``requires: end_in_zone`` in the file), or None.
@@ -93,7 +124,7 @@ class Criterion:
     kind: str
     value: Any
     points: float
-    options: dict[str, float]
+    options: dict[str, float | str]
     label: str
     requires: int | None = None
 
@@ -105,10 +136,13 @@ class Seed:
     seed: int
     noise_mm: float = 0.0
     faults: str = ""
+    hidden: int = 0
 
     @property
     def label(self) -> str:
-        """``seed 3``, with its noise and faults when it has them."""
+        """``seed 3``, with its noise and faults when it has them; ``hidden seed 2`` for a hidden one."""
+        if self.hidden:
+            return f"hidden seed {self.hidden}"
         extra = [f"noise {self.noise_mm:g} mm"] if self.noise_mm else []
         extra += [f"faults {self.faults}"] if self.faults else []
         return f"seed {self.seed}" + (f" ({', '.join(extra)})" if extra else "")
@@ -128,11 +162,27 @@ class Exercise:
     allowed_nodes: tuple[str, ...] | None
     criteria: list[Criterion]
     source: str
+    hidden_seeds: int = 0
 
     @property
     def max_points(self) -> float:
         """The most a submission can score."""
         return sum(c.points for c in self.criteria)
+
+    def with_secret(self, secret: bytes) -> Exercise:
+        """The exercise with its hidden seeds added after the public ones, drawn from the teacher's ``secret``.
+
+        The same secret always draws the same seeds for the same exercise; without it, nobody can
+        tell which they are. A student's own grading runs the public seeds only.
+        """
+        hidden = [Seed(hidden_seed(secret, self.name, k), hidden=k) for k in range(1, self.hidden_seeds + 1)]
+        return replace(self, seeds=[*self.seeds, *hidden])
+
+
+def hidden_seed(secret: bytes, exercise: str, index: int) -> int:
+    """The ``index``-th hidden seed of ``exercise`` under ``secret`` (HMAC-SHA-256), 0..2**31-1."""
+    digest = hmac.new(secret, f"{exercise}\n{index}".encode(), hashlib.sha256).digest()
+    return int.from_bytes(digest[:4], "big") & 0x7FFFFFFF
 
 
 class ExerciseInvalid(AutonomyError):
@@ -167,11 +217,26 @@ class _Reader(Reader):
             self.number(doc["time_limit_s"], "time_limit_s", 0.1, MAX_TIME_LIMIT_S) if "time_limit_s" in doc else None
         )
         seeds = self.seeds(doc["seeds"]) if "seeds" in doc else []
+        hidden = (
+            self.number(doc["hidden_seeds"], "hidden_seeds", 0, MAX_SEEDS, whole=True) if "hidden_seeds" in doc else 0
+        )
         allowed = self.allowed(doc["allowed_nodes"]) if "allowed_nodes" in doc else None
         criteria = self.criteria(doc["criteria"], world) if "criteria" in doc else []
         if self.problems or world is None or limit is None or name is None:
             return None
-        return Exercise(name, title, description, world, world_ref, float(limit), seeds, allowed, criteria, self.label)
+        return Exercise(
+            name,
+            title,
+            description,
+            world,
+            world_ref,
+            float(limit),
+            seeds,
+            allowed,
+            criteria,
+            self.label,
+            int(hidden or 0),
+        )
 
     def world(self, located: Located) -> tuple[World | None, str]:
         name = self.text(located, "world")
@@ -295,23 +360,33 @@ class _Reader(Reader):
                 )
         points = self.number(item.value["points"], f"{path}.points", 0, 1000) if "points" in item.value else 1.0
         options = dict(kind.options)
-        for key in kind.options:
-            if key in item.value:
-                got = self.number(item.value[key], f"{path}.{key}", 0, 100_000)
-                if got is not None:
-                    options[key] = float(got)
+        for key, default in kind.options.items():
+            if key not in item.value:
+                continue
+            if isinstance(default, str):  # a zone's name
+                name = self.zone_name(item.value[key], f"{path}.{key}", world)
+                if name is not None:
+                    options[key] = name
+                continue
+            whole = key == "extra_beeps"
+            got = self.number(item.value[key], f"{path}.{key}", 0, 100_000, whole=whole)
+            if got is not None:
+                options[key] = float(got)
         located = item.value[kind.key]
         where = f"{path}.{kind.key}"
         value: Any = None
         if kind.value == "zone":
-            value = self.text(located, where)
-            if value is not None and world is not None and world.zone(value) is None:
-                names = [z.name for z in world.zones]
-                listed = f" (its zones: {', '.join(names)})" if names else " (it has no zones)"
-                self.problem(
-                    located, where, f"world '{world.name}' has no zone '{value}'{suggest(value, names)}{listed}"
-                )
-                value = None
+            value = self.zone_name(located, where, world)
+        elif kind.value == "zones":
+            if not isinstance(located.value, list) or not located.value:
+                self.problem(located, where, f"expected a list of zones, e.g. {kind.key}: [corner_1, corner_2]")
+            else:
+                names = [self.zone_name(item, f"{where}[{i}]", world) for i, item in enumerate(located.value)]
+                if all(name is not None for name in names):
+                    value = tuple(names)
+                    if len(set(names)) != len(names):
+                        self.problem(located, where, "a zone is named twice")
+                        value = None
         elif kind.value == "count":
             value = self.number(located, where, 0, 1_000_000, whole=True)
         elif kind.value in ("seconds", "mm"):
@@ -329,9 +404,21 @@ class _Reader(Reader):
             if value is True
             else f"{kind.key} {value:g}"
             if isinstance(value, (int, float))
+            else f"{kind.key} {' '.join(value)}"
+            if isinstance(value, tuple)
             else f"{kind.key} {value}"
         )
         return Criterion(kind.key, value, float(points), options, label)
+
+    def zone_name(self, located: Located, where: str, world: World | None) -> str | None:
+        """A zone's name, which the world must have."""
+        value = self.text(located, where)
+        if value is not None and world is not None and world.zone(value) is None:
+            names = [z.name for z in world.zones]
+            listed = f" (its zones: {', '.join(names)})" if names else " (it has no zones)"
+            self.problem(located, where, f"world '{world.name}' has no zone '{value}'{suggest(value, names)}{listed}")
+            return None
+        return value
 
     def requirements(self, criteria: list[tuple[Criterion, Located, str]]) -> list[Criterion]:
         """Resolves each ``requires:`` to the criterion it names (by kind, or by label when a kind repeats)."""

@@ -31,7 +31,7 @@ from urllib.parse import urlencode
 from py_trees.blackboard import Blackboard
 
 from autonomy.classroom.exercise import Exercise, Seed
-from autonomy.classroom.judge import Gatherer, RunFacts, Verdict, judge, path_points
+from autonomy.classroom.judge import Gatherer, RunFacts, Verdict, facts_of, judge, path_points
 from autonomy.client import Client
 from autonomy.clock import RealClock, cpu_alarm
 from autonomy.errors import LinkError
@@ -67,16 +67,26 @@ class SeedResult:
         outcome: How the run ended.
         time_s: How long it ran, simulated seconds.
         verdicts: For each criterion, in the exercise's order: (held, the one-line account).
-        path: The true path, at most 400 points (x_mm, y_mm).
-        collisions: Where the collisions happened (x_mm, y_mm).
+        shares: For each criterion, the share of its points this run earns (0..1).
+        path: The true path, at most 400 points (x_mm, y_mm), where the robot came to rest last.
+        collisions: Each collision: (time_s, x_mm, y_mm).
+        beeps: Each beep: (time_s, x_mm, y_mm).
+        turns: Each turn in place: (time_s, x_mm, y_mm, degrees, left positive).
+        rest_s: When the robot came to rest for good (None: it never did).
+        world_seed: The seed the world was drawn with (what it varies, and the start).
     """
 
     seed: str
     outcome: str
     time_s: float
     verdicts: list[tuple[bool, str]]
+    shares: list[float] = field(default_factory=list)
     path: list[tuple[float, float]] = field(default_factory=list)
-    collisions: list[tuple[float, float]] = field(default_factory=list)
+    collisions: list[tuple[float, float, float]] = field(default_factory=list)
+    beeps: list[tuple[float, float, float]] = field(default_factory=list)
+    turns: list[tuple[float, float, float, float]] = field(default_factory=list)
+    rest_s: float | None = None
+    world_seed: int = 0
 
 
 @dataclass
@@ -88,9 +98,10 @@ class Report:
         file: The mission file graded (empty when none was found).
         total: The marks scored.
         max_points: The most that could be scored.
-        marks: Each criterion's mark: its points times the share of seeds where it held.
+        marks: Each criterion's mark: its points times its mean share over the seeds.
         problems: Why it was not graded (``FILE:LINE:COL`` lines, or a reason), else empty.
         seeds: Each seed's run.
+        notes: What the student should know that cost no marks (a ``world:`` of their own, not used).
     """
 
     student: str
@@ -100,6 +111,7 @@ class Report:
     marks: list[float]
     problems: list[str] = field(default_factory=list)
     seeds: list[SeedResult] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
 
     def to_json(self) -> dict[str, Any]:
         """The report as plain JSON (tuples as lists)."""
@@ -297,19 +309,33 @@ def run_seed(exercise: Exercise, spec: MissionSpec, seed: Seed) -> RunFacts:
     try:
         runner = Runner.for_mission(
             spec, client, max_seconds=exercise.time_limit_s, listeners=[gatherer], node_states=False
-        )  # a criterion judges poses, the wire and events: the nodes' states are not looked for
+        )  # the judge reads the emulator's own account: the nodes' states are not looked for
         runner.run()
+        emulator = client.port.emulator  # type: ignore[attr-defined]  # an emu:// link's port has its emulator
+        return facts_of(gatherer, emulator.robot, exercise.time_limit_s)
     finally:
         client.close()
-    return gatherer.facts()
 
 
-def _collision_points(facts: RunFacts) -> list[tuple[float, float]]:
-    points = []
-    for when in facts.collisions:
-        pose = min(facts.path, key=lambda item: abs(item[0] - when))[1]
-        points.append((round(pose.x_mm), round(pose.y_mm)))
-    return points
+def _seed_result(seed: Seed, facts: RunFacts, verdicts: list[Verdict]) -> SeedResult:
+    """One run's result: the verdicts, and the path, collisions, beeps and turns to draw and list."""
+
+    def at(time_s: float, x_mm: float, y_mm: float) -> tuple[float, float, float]:
+        return round(time_s, 2), round(x_mm), round(y_mm)
+
+    return SeedResult(
+        seed.label,
+        facts.outcome,
+        round(facts.time_s, 2),
+        [(v.held, v.line) for v in verdicts],
+        [round(v.share, 4) for v in verdicts],
+        path_points(facts),
+        [at(t, p.x_mm, p.y_mm) for t, p in facts.collisions],
+        [at(t, p.x_mm, p.y_mm) for t, p in facts.beeps],
+        [(*at(turn.time_s, turn.x_mm, turn.y_mm), round(turn.degrees, 1)) for turn in facts.turns],
+        None if facts.rest_s is None else round(facts.rest_s, 2),
+        seed.seed,
+    )
 
 
 def grade_one(exercise: Exercise, student: str, path: Path, allow_plugins: bool = False) -> Report:
@@ -322,31 +348,34 @@ def grade_one(exercise: Exercise, student: str, path: Path, allow_plugins: bool 
     if spec is None:
         return Report(student, _readable(str(mission)), 0.0, exercise.max_points, zero, problems)
     seeds = []
-    held = [0] * len(exercise.criteria)
+    earned = [0.0] * len(exercise.criteria)
     for seed in exercise.seeds:
         try:
             facts = run_seed(exercise, spec, seed)
         except LinkError as err:  # the seed's link faults left no link to start on: that seed alone scores nothing
             why = f"no run: under this seed's faults the link failed before the mission started ({type(err).__name__})"
-            seeds.append(SeedResult(seed.label, "no run", 0.0, [(False, why)] * len(exercise.criteria)))
-            continue
-        verdicts = _with_requirements(exercise, [judge(c, facts, exercise.world) for c in exercise.criteria])
-        for index, verdict in enumerate(verdicts):
-            held[index] += verdict.held
-        seeds.append(
-            SeedResult(
-                seed.label,
-                facts.outcome,
-                round(facts.time_s, 2),
-                [(v.held, v.line) for v in verdicts],
-                path_points(facts),
-                _collision_points(facts),
+            none = len(exercise.criteria)
+            seeds.append(
+                SeedResult(seed.label, "no run", 0.0, [(False, why)] * none, [0.0] * none, world_seed=seed.seed)
             )
-        )
+            continue
+        world = exercise.world.for_seed(seed.seed)  # where this seed put what the world varies
+        verdicts = _with_requirements(exercise, [judge(c, facts, world) for c in exercise.criteria])
+        for index, verdict in enumerate(verdicts):
+            earned[index] += verdict.share
+        seeds.append(_seed_result(seed, facts, verdicts))
     count = len(exercise.seeds)
-    exact = [c.points * held[i] / count for i, c in enumerate(exercise.criteria)]
+    exact = [c.points * earned[i] / count for i, c in enumerate(exercise.criteria)]
     marks = [round(m, 2) for m in exact]
-    return Report(student, _readable(str(mission)), round(sum(exact), 2), exercise.max_points, marks, [], seeds)
+    notes = []
+    if spec.world and spec.world not in (exercise.world_ref, exercise.world.name):
+        shown = spec.world if len(spec.world) <= 60 else spec.world[:60] + "..."
+        notes.append(
+            f"the mission names the world '{shown}', which grading does not use: "
+            f"every run is in the exercise's world '{exercise.world.name}'"
+        )
+    total = round(sum(exact), 2)
+    return Report(student, _readable(str(mission)), total, exercise.max_points, marks, [], seeds, notes)
 
 
 def _with_requirements(exercise: Exercise, verdicts: list[Verdict]) -> list[Verdict]:
@@ -359,7 +388,7 @@ def _with_requirements(exercise: Exercise, verdicts: list[Verdict]) -> list[Verd
     out = []
     for criterion, verdict in zip(exercise.criteria, verdicts, strict=True):
         needed = criterion.requires
-        if verdict.held and needed is not None and not held(needed):
+        if verdict.share > 0 and needed is not None and not held(needed):
             label = exercise.criteria[needed].label
             how = "did not count" if verdicts[needed].held else "did not hold"
             verdict = Verdict(False, f"{verdict.line}, but this counts only with {label}, which {how}")

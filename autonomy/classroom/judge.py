@@ -1,51 +1,88 @@
-"""Judging one run against an exercise's criteria, from its tick records alone.
+"""Judging one run against an exercise's criteria, from what really happened.
 
-Every criterion is decided from what the records say (the emulator's truth pose, the
-collision events, the commands on the wire, the end record), so a trace file can be judged
-again later, with the same verdicts: it holds the run's numbers in full. (A trace of record
-version 1 held times to 0.1 ms and poses to 0.1 mm: a pose within 0.05 mm of a zone's edge
-could be judged the other way.)
-Each verdict says in one line what happened, with numbers: ``garage: ended 35 mm outside
-(needed inside)``, ``collisions: 3, allowed 0``.
+Every criterion is decided from the emulator's own account of the run, never from what the
+mission happened to read: the robot's true path (where it was whenever its motion changed,
+so the straight drives and turns in place between are known exactly, however often the
+mission looked), each impact the emulator recorded, and where the robot was at each beep.
+The run is judged where the robot came to rest: once the mission has ended and the robot has
+been told to stop, the emulator runs on until it stands still, so a robot that ends at full
+speed rolls on, and whatever it then hits counts. The mission's tick rate, and how it saw two
+impacts close together, change nothing of this.
+
+Each verdict says in one line what happened, with numbers: ``garage: came to rest 35 mm
+outside it (needed inside)``, ``collisions: 3, allowed 0``. A criterion over several zones
+(``visit_in_order``, ``beeps_in``) holds in part: each zone is its share.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
 from dataclasses import dataclass
+from itertools import pairwise
 
 from autonomy.classroom.exercise import Criterion
-from autonomy.emulator.world import World
+from autonomy.emulator.robot import Robot
+from autonomy.emulator.world import World, Zone
 from autonomy.protocol import heading_delta_deg
-from autonomy.record import Pose, Record, RunEnd, RunHeader, TickRecord
+from autonomy.record import Pose, Record, RunEnd, RunHeader
 from autonomy.runner import plural
 
 SUCCEEDED = "succeeded"
 FAILED = "failed"
+#: How long the emulator runs on after a mission's end for the robot to come to rest, simulated seconds.
+SETTLE_MOST_S = 30.0
+#: An impact is a new collision once the robot has been this far from where the last one was, mm;
+#: pushing on against the same wall is one collision, backing off and bumping again is two.
+NEW_COLLISION_MM = 30.0
 
 
 @dataclass(frozen=True)
 class Verdict:
-    """Whether a criterion held on one run, and what happened, in one line."""
+    """How far a criterion held on one run, and what happened, in one line.
+
+    Attributes:
+        held: Whether it held in full.
+        line: What happened.
+        share: The share of its points it earns on this run, 0..1 (1 when it held).
+    """
 
     held: bool
     line: str
+    share: float = -1.0
+
+    def __post_init__(self) -> None:
+        if self.share < 0.0:
+            object.__setattr__(self, "share", 1.0 if self.held else 0.0)
+
+
+@dataclass(frozen=True)
+class Turn:
+    """A turn in place: when, where, and by how much (left positive)."""
+
+    time_s: float
+    x_mm: float
+    y_mm: float
+    degrees: float
 
 
 @dataclass
 class RunFacts:
-    """What the judge needs of one run, gathered from its records.
+    """What the judge needs of one run, from the emulator's own account and the run's end record.
+
+    Times are the mission's: seconds from the start of its run.
 
     Attributes:
         nodes: How many nodes the tree has.
         outcome: The end record's outcome (``succeeded``, ``failed``...).
         reason: The end record's reason.
-        time_s: How long the run took.
-        path: The true pose at every tick, then at the end (time, pose).
-        beeps: The true pose whenever a beep was accepted (time, pose).
-        collisions: The times of the collisions.
-        distance_mm: How far the robot drove, by its odometer.
+        time_s: When the mission ended.
+        path: The true path: the pose at the start, wherever the motion changed, and where the robot
+            came to rest; it drove straight or turned in place between two of them.
+        beeps: Where the robot was at each beep the robot sounded (time, pose).
+        impacts: Each impact the emulator recorded (time, pose).
+        collisions: The impacts that were new collisions (see ``NEW_COLLISION_MM``).
+        rest_s: When the robot last moved, having come to rest for good; None if it never did.
+        time_limit_s: The exercise's time limit.
     """
 
     nodes: int
@@ -54,132 +91,174 @@ class RunFacts:
     time_s: float
     path: list[tuple[float, Pose]]
     beeps: list[tuple[float, Pose]]
-    collisions: list[float]
-    distance_mm: float
+    impacts: list[tuple[float, Pose]]
+    collisions: list[tuple[float, Pose]]
+    rest_s: float | None
+    time_limit_s: float = math.inf
+
+    @property
+    def distance_mm(self) -> float:
+        """How far the robot truly drove, forward and back."""
+        return sum(math.hypot(b.x_mm - a.x_mm, b.y_mm - a.y_mm) for (_, a), (_, b) in pairwise(self.path))
+
+    @property
+    def turns(self) -> list[Turn]:
+        """Every turn in place, where the path changed heading."""
+        out = []
+        for (_, before), (time_s, pose) in pairwise(self.path):
+            delta = pose.heading_deg - before.heading_deg
+            if abs(delta) >= 0.5:
+                out.append(Turn(time_s, pose.x_mm, pose.y_mm, delta))
+        return out
 
 
 class Gatherer:
-    """A listener that gathers a run's facts as its records come (a live run's, or a trace's).
-
-    Nothing of a record is kept but what the judge needs, so grading a long run does not hold
-    all its records. :meth:`facts` gives what was gathered once the run has ended.
-    """
+    """A listener that keeps a run's header and end record (the judge reads the rest from the emulator)."""
 
     def __init__(self) -> None:
-        self._header: RunHeader | None = None
-        self._end: RunEnd | None = None
-        self._no_truth = False
-        self._path: list[tuple[float, Pose]] = []
-        self._beeps: list[tuple[float, Pose]] = []
-        self._collisions: list[float] = []
+        self.header: RunHeader | None = None
+        self.end: RunEnd | None = None
 
     def __call__(self, record: Record) -> None:
         """Takes one record."""
-        if not isinstance(record, TickRecord):
-            if isinstance(record, RunHeader) and self._header is None:
-                self._header = record
-            elif isinstance(record, RunEnd) and self._end is None:
-                self._end = record
-            return
-        truth, time_s = record.truth, record.time_s
-        if truth is None:
-            self._no_truth = True
-            return
-        self._path.append((time_s, truth))
-        for exchange in record.wire:
-            if exchange.reply == "OK" and exchange.sent.startswith("S"):
-                self._beeps.append((time_s, truth))
-                break
-        if record.events:
-            self._collisions += [time_s for e in record.events if e.kind == "collision"]
-
-    def facts(self) -> RunFacts:
-        """The run's facts.
-
-        Raises:
-            ValueError: the records held no header or end, or no truth pose (the run was not on
-                the built-in emulator, so nothing can be judged).
-        """
-        header, end = self._header, self._end
-        if header is None or end is None:
-            raise ValueError("a run to judge needs its header and its end record")
-        if self._no_truth or (end.truth is None and not self._path):
-            raise ValueError("the run has no truth pose: only runs on the built-in emulator can be judged")
-        path = self._path + ([(end.time_s, end.truth)] if end.truth is not None else [])
-        return RunFacts(
-            nodes=len(header.nodes),
-            outcome=end.outcome,
-            reason=end.reason,
-            time_s=end.time_s,
-            path=path,
-            beeps=list(self._beeps),
-            collisions=list(self._collisions),
-            distance_mm=float(end.summary.get("distance_mm", 0)),
-        )
+        if isinstance(record, RunHeader) and self.header is None:
+            self.header = record
+        elif isinstance(record, RunEnd) and self.end is None:
+            self.end = record
 
 
-def gather(records: Iterable[Record]) -> RunFacts:
-    """Collects a run's facts from its records (a live run's, or a trace's): see :class:`Gatherer`.
+def settle(robot: Robot, most_s: float = SETTLE_MOST_S) -> None:
+    """Runs the robot's physics on until it stands still (at most ``most_s``): where it comes to rest."""
+    until_s = robot.time_s + most_s
+    while robot.moving and robot.time_s < until_s:
+        robot.advance_to(min(until_s, robot.time_s + 0.1))
+
+
+def facts_of(gathered: Gatherer, robot: Robot, time_limit_s: float = math.inf) -> RunFacts:
+    """A run's facts, once it has ended: its end record, and the robot's own account, let come to rest.
+
+    Args:
+        gathered: The run's header and end record.
+        robot: The emulated robot the run drove, as the run left it.
+        time_limit_s: The exercise's time limit (the robot must have come to rest within it).
 
     Raises:
-        ValueError: the records hold no header or end, or no truth pose (the run was not on
-            the built-in emulator, so nothing can be judged).
+        ValueError: the run has no header or end record.
     """
-    gatherer = Gatherer()
-    for record in records:
-        gatherer(record)
-    return gatherer.facts()
+    header, end = gathered.header, gathered.end
+    if header is None or end is None:
+        raise ValueError("a run to judge needs its header and its end record")
+    offset_s = robot.time_s - end.time_s  # the robot's clock started before the mission's run
+    settle(robot)
+    rest_s = None if robot.moving else robot.moved_s - offset_s
+    robot.stop()  # marks where it came to rest (or was still going) on the trail; it stands already
+    path = [(t - offset_s, pose) for t, pose in robot.trail]
+    impacts = [(i.time_s - offset_s, i.pose) for i in robot.impacts]
+    beeps = [(t - offset_s, pose) for (t, _, _), pose in zip(robot.beeps, robot.beep_poses, strict=True)]
+    return RunFacts(
+        nodes=len(header.nodes),
+        outcome=end.outcome,
+        reason=end.reason,
+        time_s=end.time_s,
+        path=path,
+        beeps=beeps,
+        impacts=impacts,
+        collisions=_collisions(impacts, path),
+        rest_s=rest_s,
+        time_limit_s=time_limit_s,
+    )
+
+
+def _collisions(impacts: list[tuple[float, Pose]], path: list[tuple[float, Pose]]) -> list[tuple[float, Pose]]:
+    """The impacts that begin a collision: the first, and each after the robot got ``NEW_COLLISION_MM`` away."""
+    out: list[tuple[float, Pose]] = []
+    for time_s, pose in impacts:
+        if out:
+            last_s, last = out[-1]
+            points = [p for t, p in path if last_s <= t <= time_s] + [pose]
+            if all(math.hypot(p.x_mm - last.x_mm, p.y_mm - last.y_mm) < NEW_COLLISION_MM for p in points):
+                out[-1] = (time_s, pose)  # still the same push: measured from its latest impact
+                continue
+        out.append((time_s, pose))
+    return out
+
+
+# ---------------------------------------------------------------------------- the path and zones
+
+
+def _first_inside(zone: Zone, path: list[tuple[float, Pose]], after: float = 0.0) -> float | None:
+    """Where along the path (segment index plus fraction) the robot is first in ``zone``, at ``after`` or later."""
+    if not path:
+        return None
+    if len(path) == 1:
+        pose = path[0][1]
+        return 0.0 if zone.contains(pose.x_mm, pose.y_mm) else None
+    first = int(after)
+    for index in range(min(first, len(path) - 2), len(path) - 1):
+        a, b = path[index][1], path[index + 1][1]
+        start = after - index if index == first else 0.0
+        ax, ay = a.x_mm + (b.x_mm - a.x_mm) * start, a.y_mm + (b.y_mm - a.y_mm) * start
+        entered = zone.shape.entry(ax, ay, b.x_mm, b.y_mm)
+        if entered is not None:
+            return index + start + (1.0 - start) * entered
+    return None
+
+
+def _time_at(path: list[tuple[float, Pose]], where: float) -> float:
+    """The time at a place along the path (segment index plus fraction), between its ends' times."""
+    index = min(int(where), len(path) - 1)
+    if index >= len(path) - 1:
+        return path[-1][0]
+    fraction = where - index
+    return path[index][0] + (path[index + 1][0] - path[index][0]) * fraction
+
+
+def _closest(zone: Zone, path: list[tuple[float, Pose]]) -> tuple[float, float, float]:
+    """(gap, x, y): where the path came closest to ``zone``, and how far from it."""
+    if len(path) == 1:
+        pose = path[0][1]
+        return zone.distance_mm(pose.x_mm, pose.y_mm), pose.x_mm, pose.y_mm
+    return min(zone.shape.segment_nearest(a.x_mm, a.y_mm, b.x_mm, b.y_mm) for (_, a), (_, b) in pairwise(path))
+
+
+def _missed(zone: Zone, path: list[tuple[float, Pose]], name: str) -> str:
+    """``corner_2 is 370 mm north-east of where the robot came closest (1130, 880 mm)``."""
+    gap, x, y = _closest(zone, path)
+    toward = bearing(x, y, *zone.shape.nearest(x, y))
+    return f"{name} is {_mm(gap)} {toward} of where the robot came closest ({x:.0f}, {y:.0f} mm)"
+
+
+def _beep_zones(beeps: list[tuple[float, Pose]], zones: list[Zone], within_mm: float) -> list[list[int]]:
+    """For each beep, the indexes of the zones it was at (within ``within_mm`` of)."""
+    return [
+        [i for i, zone in enumerate(zones) if zone.distance_mm(pose.x_mm, pose.y_mm) <= within_mm + 1e-6]
+        for _, pose in beeps
+    ]
+
+
+# ---------------------------------------------------------------------------- the criteria
 
 
 def judge(criterion: Criterion, facts: RunFacts, world: World) -> Verdict:
-    """Whether ``criterion`` held on the run ``facts`` describe, in ``world``."""
+    """How far ``criterion`` held on the run ``facts`` describe, in ``world``."""
     kind, value = criterion.kind, criterion.value
-    end_time, end_pose = facts.path[-1]
-    if kind in ("reach_zone", "end_in_zone", "avoid_zone", "beep_near"):
+    if kind in ("visit_in_order", "beeps_in"):
+        zones = [world.zone(name) for name in value]
+        if any(zone is None for zone in zones):
+            return Verdict(False, f"{', '.join(value)}: the world lacks one of these zones")
+        return (_visits if kind == "visit_in_order" else _beeps_in)(criterion, facts, [z for z in zones if z])
+    if kind in ("reach_zone", "end_in_zone", "rest_in_zone", "avoid_zone", "beep_near"):
         zone = world.zone(value)
         if zone is None:
             return Verdict(False, f"{value}: the world has no such zone")
-        if kind == "reach_zone":
-            inside = next((t for t, p in facts.path if zone.contains(p.x_mm, p.y_mm)), None)
-            if inside is not None:
-                return Verdict(True, f"{value}: reached at {inside:.1f} s")
-            closest, _, pose = min((zone.distance_mm(p.x_mm, p.y_mm), t, p) for t, p in facts.path)
-            toward = bearing(pose.x_mm, pose.y_mm, *zone.shape.nearest(pose.x_mm, pose.y_mm))
-            return Verdict(
-                False,
-                f"{value}: never reached, {_mm(closest)} {toward} of where the robot came closest "
-                f"({pose.x_mm:.0f}, {pose.y_mm:.0f} mm)",
-            )
-        if kind == "avoid_zone":
-            inside = next((t for t, p in facts.path if zone.contains(p.x_mm, p.y_mm)), None)
-            if inside is None:
-                return Verdict(True, f"{value}: never entered")
-            return Verdict(False, f"{value}: entered at {inside:.1f} s (needed never)")
-        if kind == "beep_near":
-            radius = criterion.options["within_mm"]
-            if not facts.beeps:
-                return Verdict(False, f"beep near {value}: no beep at all")
-            gaps = [(zone.distance_mm(p.x_mm, p.y_mm), t) for t, p in facts.beeps]
-            near = next(((g, t) for g, t in gaps if g <= radius), None)
-            if near is not None:
-                where = "inside it" if near[0] <= 1e-6 else f"{_mm(near[0])} from it"
-                return Verdict(True, f"beep near {value}: beeped {where} at {near[1]:.1f} s")
-            nearest = min(g for g, _ in gaps)
-            return Verdict(
-                False, f"beep near {value}: nearest beep {nearest:.0f} mm from it (needed within {radius:g} mm)"
-            )
-        # end_in_zone
-        gap = zone.distance_mm(end_pose.x_mm, end_pose.y_mm)
-        if facts.outcome not in (SUCCEEDED, FAILED):
-            where = "inside" if gap <= 0 else f"{gap:.0f} mm outside"
-            return Verdict(False, f"{value}: the mission did not end on its own ({facts.outcome}), {where}")
-        if gap <= 1e-6:
-            return Verdict(True, f"{value}: ended inside")
-        return Verdict(False, f"{value}: ended {gap:.0f} mm outside (needed inside)")
-    if kind == "max_collisions":
+        return _zone_verdict(criterion, facts, zone, world)
+    end_pose = facts.path[-1][1]
+    if kind in ("max_collisions", "min_collisions"):
         count = len(facts.collisions)
-        first = f", the first at {facts.collisions[0]:.1f} s" if facts.collisions else ""
-        return Verdict(count <= value, f"collisions: {count}, allowed {value}{first}")
+        first = f", the first at {facts.collisions[0][0]:.1f} s" if facts.collisions else ""
+        if kind == "max_collisions":
+            return Verdict(count <= value, f"collisions: {count}, allowed {value}{first}")
+        return Verdict(count >= value, f"collisions: {count}, needed at least {value}{first}")
     if kind == "finish_within_s":
         if facts.outcome != SUCCEEDED:
             why = f": {facts.reason}" if facts.reason else ""
@@ -201,6 +280,152 @@ def judge(criterion: Criterion, facts: RunFacts, world: World) -> Verdict:
         why = f": {facts.reason}" if facts.reason else ""
         return Verdict(facts.outcome == SUCCEEDED, f"the mission {facts.outcome} after {facts.time_s:.1f} s{why}")
     return Verdict(False, f"unknown criterion {kind}")
+
+
+def _zone_verdict(criterion: Criterion, facts: RunFacts, zone: Zone, world: World) -> Verdict:
+    kind, name, path = criterion.kind, zone.name, facts.path
+    end_time, end_pose = path[-1]
+    if kind == "reach_zone":
+        inside = _first_inside(zone, path)
+        if inside is not None:
+            return Verdict(True, f"{name}: reached at {_time_at(path, inside):.1f} s")
+        return Verdict(False, f"{name}: never reached; {_missed(zone, path, name)}")
+    if kind == "avoid_zone":
+        inside = _first_inside(zone, path)
+        if inside is None:
+            return Verdict(True, f"{name}: never entered")
+        return Verdict(False, f"{name}: entered at {_time_at(path, inside):.1f} s (needed never)")
+    if kind == "beep_near":
+        radius = float(criterion.options["within_mm"])
+        if not facts.beeps:
+            return Verdict(False, f"beep at {name}: no beep at all")
+        gaps = [(zone.distance_mm(p.x_mm, p.y_mm), t) for t, p in facts.beeps]
+        near = next(((g, t) for g, t in gaps if g <= radius + 1e-6), None)
+        if near is not None:
+            where = "inside it" if near[0] <= 1e-6 else f"{_mm(near[0])} from it"
+            return Verdict(True, f"beep at {name}: beeped {where} at {near[1]:.1f} s")
+        nearest = min(g for g, _ in gaps)
+        needed = "inside it" if radius <= 0 else f"within {radius:g} mm"
+        return Verdict(False, f"beep at {name}: nearest beep {_mm(nearest)} from it (needed {needed})")
+    gap = zone.distance_mm(end_pose.x_mm, end_pose.y_mm)
+    where = "inside it" if gap <= 1e-6 else f"{_mm(gap)} outside it"
+    if kind == "end_in_zone":
+        if facts.outcome not in (SUCCEEDED, FAILED):
+            return Verdict(False, f"{name}: the mission did not end on its own ({facts.outcome}); it stopped {where}")
+        if gap <= 1e-6:
+            return Verdict(True, f"{name}: ended inside it")
+        return Verdict(False, f"{name}: ended {where} (needed inside)")
+    # rest_in_zone
+    if facts.rest_s is None:
+        return Verdict(False, f"{name}: the robot never came to rest (it was still moving {SETTLE_MOST_S:g} s after)")
+    if facts.rest_s > facts.time_limit_s + 1e-9:
+        return Verdict(
+            False, f"{name}: came to rest only at {facts.rest_s:.1f} s, after the {facts.time_limit_s:g} s allowed"
+        )
+    after = str(criterion.options.get("after") or "")
+    if gap > 1e-6:
+        toward = bearing(end_pose.x_mm, end_pose.y_mm, *zone.shape.nearest(end_pose.x_mm, end_pose.y_mm))
+        line = f"{name}: came to rest {_mm(gap)} outside it (it lies {toward}; needed inside)"
+        near_mm = float(criterion.options.get("near_mm") or 0.0)
+        share = max(0.0, 1.0 - gap / near_mm) if near_mm > 0 else 0.0
+        if share > 0 and after:
+            earlier = world.zone(after)
+            share = share if earlier is not None and _first_inside(earlier, path) is not None else 0.0
+        if share > 0 and facts.collisions:  # a near miss earns a part for a careful robot, not for one against a wall
+            line = line[:-1] + "; a near miss earns a part only without a collision)"
+            share = 0.0
+        if share > 0:
+            line += f": {share:.0%} of its points, for resting within {near_mm:g} mm of it untouched"
+        return Verdict(False, line, share)
+    if after:
+        earlier = world.zone(after)
+        if earlier is None or _first_inside(earlier, path) is None:
+            return Verdict(False, f"{name}: came to rest inside it, but never after {after} (needed after it)")
+    return Verdict(True, f"{name}: came to rest inside it at {facts.rest_s:.1f} s")
+
+
+def _entries(zone: Zone, path: list[tuple[float, Pose]]) -> list[float]:
+    """Every place along the path (segment index plus fraction) where the robot comes into ``zone``."""
+    first = path[0][1]
+    found = [0.0] if zone.contains(first.x_mm, first.y_mm) else []
+    for index, ((_, a), (_, b)) in enumerate(pairwise(path)):
+        if zone.contains(a.x_mm, a.y_mm):
+            continue  # inside already (a straight segment leaves a convex zone once, and comes back in no more)
+        entered = zone.shape.entry(a.x_mm, a.y_mm, b.x_mm, b.y_mm)
+        if entered is not None:
+            found.append(index + entered)
+    return found
+
+
+def _visits(criterion: Criterion, facts: RunFacts, zones: list[Zone]) -> Verdict:
+    """The most zones visited in the order given (each missed or out-of-order zone costs its share).
+
+    The zones' visits, in the order they happened, are matched against the order asked for: the
+    longest run of visits in that order counts (visiting corner 3 first does not spoil corners 1 and 2).
+    """
+    path = facts.path
+    visits = sorted((at, index) for index, zone in enumerate(zones) for at in _entries(zone, path))
+    # longest run of visits whose zones come in the order given: best[k] ends with visits[k]
+    best: list[tuple[int, int]] = []  # (length, the visit before it, or -1)
+    for k, (_, zone) in enumerate(visits):
+        before = [(best[j][0], j) for j in range(k) if visits[j][1] < zone]
+        length, previous = max(before) if before else (0, -1)
+        best.append((length + 1, previous))
+    counted: dict[int, float] = {}
+    if best:
+        k = max(range(len(best)), key=lambda j: (best[j][0], -j))
+        while k >= 0:
+            at, zone = visits[k]
+            counted[zone] = at
+            k = best[k][1]
+    parts = []
+    for index, zone in enumerate(zones):
+        if index in counted:
+            parts.append(f"{zone.name} at {_time_at(path, counted[index]):.1f} s")
+        elif any(z == index for _, z in visits):
+            at = next(a for a, z in visits if z == index)
+            parts.append(f"{zone.name} only out of order, at {_time_at(path, at):.1f} s")
+        else:
+            parts.append(f"{zone.name} never: {_missed(zone, path, zone.name)}")
+    hit = len(counted)
+    return Verdict(hit == len(zones), f"in order, {hit} of {len(zones)}: " + "; ".join(parts), hit / len(zones))
+
+
+def _beeps_in(criterion: Criterion, facts: RunFacts, zones: list[Zone]) -> Verdict:
+    """A beep at each zone, and at most ``extra_beeps`` more: a beep counts for the zone it is at, the first there.
+
+    Any other beep is an extra one: elsewhere, or again at a zone that had its beep.
+    """
+    within = float(criterion.options["within_mm"])
+    allowed = int(criterion.options["extra_beeps"])
+    at = _beep_zones(facts.beeps, zones, within)
+    beeped: list[int] = []
+    extra = 0
+    for found in at:
+        new = [i for i in found if i not in beeped]
+        if new:
+            beeped.append(new[0])  # zones do not overlap in a sensible exercise; if they do, the first
+        else:
+            extra += 1
+    beeped.sort()
+    names = [zones[i].name for i in beeped]
+    missing = [zone for i, zone in enumerate(zones) if i not in beeped]
+    parts = [f"beeped at {_listed(names)}" if names else "no beep at any of them"]
+    for zone in missing:
+        if facts.beeps:
+            gap, pose = min((zone.distance_mm(p.x_mm, p.y_mm), p) for _, p in facts.beeps)
+            toward = bearing(pose.x_mm, pose.y_mm, *zone.shape.nearest(pose.x_mm, pose.y_mm))
+            parts.append(f"none at {zone.name} (it is {_mm(gap)} {toward} of the nearest beep)")
+        else:
+            parts.append(f"none at {zone.name}")
+    over = extra > allowed
+    parts.append(f"{plural(extra, 'extra beep')}, allowed {allowed}" + (": no points for beeps" if over else ""))
+    share = 0.0 if over else len(beeped) / len(zones)
+    return Verdict(share >= 1.0, "; ".join(parts), share)
+
+
+def _listed(names: list[str]) -> str:
+    return names[0] if len(names) == 1 else ", ".join(names[:-1]) + " and " + names[-1]
 
 
 #: The eight points of the compass, counter-clockwise from east (+x), as the world's headings go.

@@ -10,10 +10,9 @@ import csv
 import io
 import json
 from html import escape
-from typing import Any
 
 from autonomy.classroom.exercise import Exercise
-from autonomy.classroom.grade import Report
+from autonomy.classroom.grade import Report, SeedResult
 from autonomy.views.lines import printable
 from autonomy.views.mapsvg import world_svg
 
@@ -71,6 +70,7 @@ def feedback(exercise: Exercise, report: Report) -> list[str]:
         lines.append("  Not graded, and the mark is 0:")
         lines += [f"  {printable(p)}" for p in report.problems]
         return lines
+    lines += [f"  Note: {printable(note)}" for note in report.notes]
     for index, criterion in enumerate(exercise.criteria):
         verdicts = [seed.verdicts[index] for seed in report.seeds]
         mark = "ok  " if all(held for held, _ in verdicts) else "MISS"
@@ -102,17 +102,35 @@ def _cell(mark: float, points: float) -> str:
     return f'<td class="{kind}">{_number(mark)}</td>'
 
 
-def _seed_svg(exercise: Exercise, path: list[Any], collisions: list[Any], title: str) -> str:
-    svg = world_svg(exercise.world.as_dict(), title)
-    points = " ".join(f"{x:g},{y:g}" for x, y in path)
-    marks = "".join(
-        f'<path d="M{x - 50:g},{y - 50:g}L{x + 50:g},{y + 50:g}M{x - 50:g},{y + 50:g}L{x + 50:g},{y - 50:g}" '
-        'stroke="#e03131" stroke-width="3" vector-effect="non-scaling-stroke" class="collision"/>'
-        for x, y in collisions
-    )
+def _seed_svg(exercise: Exercise, seed: SeedResult, title: str) -> str:
+    """The seed's world (as that seed drew it), the true path, and a mark at each collision, beep and turn.
+
+    Each mark has a title (what happened, when): a browser shows it when the pointer rests on it.
+    """
+    svg = world_svg(exercise.world.for_seed(seed.world_seed).as_dict(), title)
+    points = " ".join(f"{x:g},{y:g}" for x, y in seed.path)
+    marks = []
+    for time_s, x, y, degrees in seed.turns:
+        side = "left" if degrees > 0 else "right"
+        marks.append(
+            f'<circle cx="{x:g}" cy="{y:g}" r="22" fill="none" stroke="#1971c2" stroke-width="2" '
+            f'vector-effect="non-scaling-stroke" class="turn"><title>turned {side} {abs(degrees):g} deg '
+            f"at {time_s:g} s</title></circle>"
+        )
+    for time_s, x, y in seed.beeps:
+        marks.append(
+            f'<circle cx="{x:g}" cy="{y:g}" r="14" fill="#f59f00" stroke="#e67700" stroke-width="1" '
+            f'vector-effect="non-scaling-stroke" class="beep"><title>beep at {time_s:g} s</title></circle>'
+        )
+    for time_s, x, y in seed.collisions:
+        marks.append(
+            f'<path d="M{x - 50:g},{y - 50:g}L{x + 50:g},{y + 50:g}M{x - 50:g},{y + 50:g}L{x + 50:g},{y - 50:g}" '
+            'stroke="#e03131" stroke-width="3" vector-effect="non-scaling-stroke" class="collision">'
+            f"<title>collision at {time_s:g} s</title></path>"
+        )
     drawn = (
         f'<polyline points="{points}" fill="none" stroke="#2b8a3e" stroke-width="2.5" '
-        f'vector-effect="non-scaling-stroke" class="path"/>{marks}'
+        f'vector-effect="non-scaling-stroke" class="path"/>{"".join(marks)}'
     )
     return svg.replace('<g id="paths"></g>', f'<g id="paths">{drawn}</g>')
 
@@ -137,7 +155,8 @@ def to_html(exercise: Exercise, reports: list[Report]) -> str:
         f"<p>{escape(printable(exercise.description))}</p>",
         f"<p>World <b>{escape(printable(exercise.world.name))}</b>, {exercise.time_limit_s:g} s a run, "
         f"{len(exercise.seeds)} seeds: {escape(', '.join(s.label for s in exercise.seeds))}. "
-        f"A criterion's mark is its points times the share of seeds where it held.</p>",
+        "A criterion's mark is its points times its mean share over the seeds: one that holds on a run earns "
+        "it all there, one over several zones each zone's part.</p>",
         f"<table><tr><th>student</th><th>total<br>({_number(exercise.max_points)})</th>{head}</tr>",
         *rows,
         "</table>",
@@ -148,6 +167,7 @@ def to_html(exercise: Exercise, reports: list[Report]) -> str:
             f"<h2>{escape(printable(report.student))}: {_number(report.total)} / {_number(report.max_points)}</h2>"
         )
         parts.append(f"<p>{escape(printable(report.file))}</p>")
+        parts += [f'<p class="note">Note: {escape(printable(note))}</p>' for note in report.notes]
         if report.problems:
             text = "\n".join(printable(p) for p in report.problems)
             parts.append(f'<p>Not graded:</p><pre class="problems">{escape(text)}</pre></section>')
@@ -158,7 +178,7 @@ def to_html(exercise: Exercise, reports: list[Report]) -> str:
                 f'<li class="{"yes" if held else "no"}">{"✓" if held else "✗"} {escape(printable(line))}</li>'
                 for held, line in seed.verdicts
             )
-            picture = _seed_svg(exercise, seed.path, seed.collisions, f"{report.student}, {seed.seed}")
+            picture = _seed_svg(exercise, seed, f"{report.student}, {seed.seed}")
             parts.append(
                 f'<div class="seed"><h3>{escape(seed.seed)}: {escape(seed.outcome)} after {seed.time_s:g} s</h3>'
                 f"{picture}<ul>{verdicts}</ul></div>"

@@ -56,7 +56,8 @@ class Emulator:
         world: A :class:`World`, a shipped world's name or a path to a world file.
         params: The robot's settings.
         faults: What to inject on the wire, as a :class:`FaultSpec` or its text form.
-        seed: Seeds faults and sensor noise, so a run can be repeated exactly.
+        seed: Seeds faults, sensor noise, the start's jitter and what the world varies, so a run can
+            be repeated exactly.
         clock: The clock it runs on; real time by default.
         baud: The baud rate the robot is set to. Bytes sent at another rate turn into
             noise both ways, as they do on a real serial line.
@@ -75,7 +76,8 @@ class Emulator:
         baud: int = DEFAULT_EMULATOR_BAUD,
         boot_s: float = 0.0,
     ) -> None:
-        self.world = world if isinstance(world, World) else load_world(world)
+        # the world as this seed has it: what its file varies from seed to seed, moved by the seed's draw
+        self.world = (world if isinstance(world, World) else load_world(world)).for_seed(seed)
         self.clock: Clock = clock or RealClock()
         self.robot = Robot(self.world, params or RobotParams(), seed)
         self.firmware = Firmware(self.robot)

@@ -116,6 +116,15 @@ class Robot:
         self.collided_until_s = -math.inf
         self.impacts: list[Impact] = []
         self.beeps: list[tuple[float, tuple[int, int, int], int]] = []
+        #: Where the robot was at each beep, in the order of :attr:`beeps`.
+        self.beep_poses: list[Pose] = []
+        #: The robot's own record of where it went: (time_s, pose) at the start and whenever its motion
+        #: changed (a command, an impact). Between two of them it drove straight along its heading, or
+        #: turned where it stood, so the segments between them are its path, whatever read it how often.
+        #: Points on one straight drive are kept as its two ends, and turns in one place as one point.
+        self.trail: list[tuple[float, Pose]] = [(0.0, start)]
+        #: The last time the wheels turned or the robot turned in place, simulated seconds.
+        self.moved_s = 0.0
         self._accel_mm_s2 = 0.0
         self._rng = random.Random(self.seed)
         # Where the clearance was last measured, and how far the body could move from there
@@ -202,18 +211,21 @@ class Robot:
 
     def move(self, setting: int, backward: bool = False) -> None:
         """Drives at speed setting 1..4; replaces a turn in progress."""
+        self._mark()
         self.turn_remaining_deg = 0.0
         speed = self.params.speed_mm_s(setting)
         self.target_speed_mm_s = -speed if backward else speed
 
     def turn(self, angle_deg: float) -> None:
         """Turns in place by ``angle_deg`` (left positive); replaces a move in progress."""
+        self._mark()
         self.target_speed_mm_s = 0.0
         self.speed_mm_s = 0.0
         self.turn_remaining_deg = float(angle_deg)
 
     def stop(self) -> None:
         """Cancels every movement; the wheels slow down at the acceleration limit."""
+        self._mark()
         self.target_speed_mm_s = 0.0
         self.turn_remaining_deg = 0.0
 
@@ -226,12 +238,35 @@ class Robot:
         self.servo_to(servo_id, self.servo_deg[servo_id] + delta_deg)
 
     def beep(self, tones: tuple[int, int, int], volume: int) -> None:
-        """Records a beep."""
+        """Records a beep, and where the robot was."""
         self.beeps.append((self.time_s, tones, volume))
+        self.beep_poses.append(self.pose)
+
+    def _mark(self) -> None:
+        """Adds where the robot is now to :attr:`trail`, as its motion is about to change.
+
+        A point on the straight line the last two run along, in the same direction, replaces the
+        last (the drive goes on); a point where the last one stands replaces it (a turn in place).
+        """
+        trail = self.trail
+        x, y, heading = self.x_mm, self.y_mm, self.heading_deg
+        point = (self.time_s, Pose(x, y, heading))
+        _, last = trail[-1]
+        if last.x_mm == x and last.y_mm == y and len(trail) > 1:  # the start is kept as it was
+            trail[-1] = point
+            return
+        if len(trail) >= 2:
+            _, before = trail[-2]
+            same_line = before.heading_deg == last.heading_deg == heading
+            onward = (last.x_mm - before.x_mm) * (x - last.x_mm) + (last.y_mm - before.y_mm) * (y - last.y_mm) > 0.0
+            if same_line and onward:
+                trail[-1] = point
+                return
+        trail.append(point)
 
     def knock_over(self) -> None:
         """The robot falls: everything stops, motion is refused until :meth:`stand_up`."""
-        self.stop()
+        self.stop()  # marks the trail
         self.speed_mm_s = 0.0
         self.fallen = True
         self.tilt_deg = 90.0
@@ -323,6 +358,7 @@ class Robot:
                 time_s, x, y, odometer, tilt, battery
             )  # fmt: skip
             self._accel_mm_s2 = 0.0
+            self.moved_s = time_s
         return steps
 
     def _stand(self, dt: float, until_s: float) -> int:
@@ -350,9 +386,11 @@ class Robot:
         )  # fmt: skip
         end_s = until_s + 1e-12
         steps = 0
+        moved_s = self.moved_s
         while time_s + dt <= end_s:
             time_s += dt
             if turning:
+                moved_s = time_s
                 left = abs(turning)
                 turn = math.copysign(most if most < left else left, turning)  # min(left, most)
                 heading += turn
@@ -370,6 +408,7 @@ class Robot:
                 time_s, heading, turning, tilt, battery
             )  # fmt: skip
             self._accel_mm_s2 = 0.0
+            self.moved_s = moved_s
         return steps
 
     def _step(self, dt: float) -> None:
@@ -377,6 +416,7 @@ class Robot:
         p = self.params
         self.time_s += dt
         speed = previous_speed = self.speed_mm_s
+        previous_heading = self.heading_deg
         turning = self.turn_remaining_deg
         if turning:
             most, left = p.turn_rate_deg_s * dt, abs(turning)
@@ -392,6 +432,8 @@ class Robot:
             change = delta_v if delta_v < max_dv else max_dv  # max(-max_dv, min(max_dv, delta_v)), NaN included
             speed += change if change > -max_dv else -max_dv
             self.speed_mm_s = speed
+        if speed or self.heading_deg != previous_heading:
+            self.moved_s = self.time_s
         if speed:
             impacts = len(self.impacts)
             self._drive(speed * dt)
@@ -450,6 +492,7 @@ class Robot:
     def _impact(self) -> None:
         p = self.params
         speed = self.speed_mm_s
+        self._mark()
         self.impacts.append(Impact(self.time_s, self.pose, abs(speed)))
         self.collided_until_s = self.time_s + p.collision_hold_s
         self.tilt_deg += speed * p.impact_tilt_deg_per_mm_s  # the body pitches on, the wheels stop

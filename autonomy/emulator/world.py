@@ -137,6 +137,42 @@ class Box:
         """The point of the box nearest to (x, y): (x, y) itself inside it."""
         return min(max(x, self.x_min_mm), self.x_max_mm), min(max(y, self.y_min_mm), self.y_max_mm)
 
+    def entry(self, ax: float, ay: float, bx: float, by: float) -> float | None:
+        """How far along the segment from (ax, ay) to (bx, by) it first is in the box (0..1), None if never.
+
+        The edge counts as in (within ``EPSILON_MM``), as :meth:`Zone.contains` has it.
+        """
+        low, high = 0.0, 1.0
+        for start, delta, lo, hi in (
+            (ax, bx - ax, self.x_min_mm - EPSILON_MM, self.x_max_mm + EPSILON_MM),
+            (ay, by - ay, self.y_min_mm - EPSILON_MM, self.y_max_mm + EPSILON_MM),
+        ):
+            if delta == 0.0:
+                if not lo <= start <= hi:
+                    return None
+                continue
+            t1, t2 = (lo - start) / delta, (hi - start) / delta
+            if t1 > t2:
+                t1, t2 = t2, t1
+            low, high = max(low, t1), min(high, t2)
+            if low > high:
+                return None
+        return low
+
+    def segment_nearest(self, ax: float, ay: float, bx: float, by: float) -> tuple[float, float, float]:
+        """(gap, x, y): the point of the segment from (ax, ay) to (bx, by) nearest the box, and its gap (0 inside)."""
+        entered = self.entry(ax, ay, bx, by)
+        if entered is not None:
+            return 0.0, ax + (bx - ax) * entered, ay + (by - ay) * entered
+        # outside all along: nearest at an end, or across from one of the box's corners
+        candidates = [(ax, ay), (bx, by)]
+        candidates += [
+            _on_segment(ax, ay, bx, by, cx, cy)
+            for cx in (self.x_min_mm, self.x_max_mm)
+            for cy in (self.y_min_mm, self.y_max_mm)
+        ]
+        return min((self.gap(x, y), x, y) for x, y in candidates)
+
     def rect_gap(self, x_min: float, y_min: float, x_max: float, y_max: float) -> float:
         """Distance from the rectangle [x_min, x_max] x [y_min, y_max] to the box (0 where they meet).
 
@@ -192,6 +228,31 @@ class Circle:
             return x, y
         return self.x_mm + (x - self.x_mm) * self.radius_mm / away, self.y_mm + (y - self.y_mm) * self.radius_mm / away
 
+    def entry(self, ax: float, ay: float, bx: float, by: float) -> float | None:
+        """How far along the segment from (ax, ay) to (bx, by) it first is in the disc (0..1), None if never."""
+        if self.gap(ax, ay) <= EPSILON_MM:
+            return 0.0
+        dx, dy = bx - ax, by - ay
+        fx, fy = ax - self.x_mm, ay - self.y_mm
+        a = dx * dx + dy * dy
+        if a == 0.0:
+            return None
+        b = fx * dx + fy * dy
+        c = fx * fx + fy * fy - (self.radius_mm + EPSILON_MM) ** 2
+        disc = b * b - a * c
+        if disc < 0.0:
+            return None
+        t = (-b - math.sqrt(disc)) / a
+        return t if 0.0 <= t <= 1.0 else None
+
+    def segment_nearest(self, ax: float, ay: float, bx: float, by: float) -> tuple[float, float, float]:
+        """(gap, x, y): the point of the segment from (ax, ay) to (bx, by) nearest the disc, and its gap (0 inside)."""
+        entered = self.entry(ax, ay, bx, by)
+        if entered is not None:
+            return 0.0, ax + (bx - ax) * entered, ay + (by - ay) * entered
+        x, y = _on_segment(ax, ay, bx, by, self.x_mm, self.y_mm)
+        return self.gap(x, y), x, y
+
     def rect_gap(self, x_min: float, y_min: float, x_max: float, y_max: float) -> float:
         """Distance from the rectangle [x_min, x_max] x [y_min, y_max] to the circle's edge (0 or less where they meet).
 
@@ -213,6 +274,18 @@ class Circle:
 
 Obstacle = Box | Circle
 Shape = Box | Circle
+
+
+def _on_segment(ax: float, ay: float, bx: float, by: float, px: float, py: float) -> tuple[float, float]:
+    """The point of the segment from (ax, ay) to (bx, by) nearest to (px, py)."""
+    dx, dy = bx - ax, by - ay
+    length2 = dx * dx + dy * dy
+    if length2 == 0.0:
+        return ax, ay
+    t = max(0.0, min(1.0, ((px - ax) * dx + (py - ay) * dy) / length2))
+    return ax + dx * t, ay + dy * t
+
+
 #: An obstacle's bounds (x_min, y_min, x_max, y_max, in mm), and the obstacle.
 _Bounded = tuple[float, float, float, float, Obstacle]
 #: A reach's cells: their side in mm, and for each cell (by row, then column) the obstacles `World._near` looks at.
@@ -264,6 +337,33 @@ class Zone:
     def as_dict(self) -> dict[str, Any]:
         """The zone's shape as a world file writes it."""
         return self.shape.as_dict()
+
+
+@dataclass(frozen=True)
+class Vary:
+    """Named obstacles and zones that move together, by up to ``x_mm`` and ``y_mm`` either way, drawn per seed."""
+
+    names: tuple[str, ...]
+    x_mm: float = 0.0
+    y_mm: float = 0.0
+
+
+def _moved(shape: Shape, dx: float, dy: float, width_mm: float, height_mm: float) -> Shape | None:
+    """``shape`` moved by (dx, dy), or None when nothing of it is left in the arena.
+
+    A box's side that lies against a wall stays there (the box grows or shrinks: a wall across the
+    arena, in two parts, keeps meeting the walls as its opening moves), and a box is cut at a wall
+    it is moved past.
+    """
+    if isinstance(shape, Circle):
+        return Circle(shape.x_mm + dx, shape.y_mm + dy, shape.radius_mm)
+
+    def side(edge: float, delta: float, wall: float) -> float:
+        return edge if edge in (0.0, wall) else min(wall, max(0.0, edge + delta))
+
+    x0, x1 = side(shape.x_min_mm, dx, width_mm), side(shape.x_max_mm, dx, width_mm)
+    y0, y1 = side(shape.y_min_mm, dy, height_mm), side(shape.y_max_mm, dy, height_mm)
+    return Box(x0, y0, x1, y1) if x0 < x1 and y0 < y1 else None
 
 
 @dataclass(frozen=True)
@@ -339,6 +439,10 @@ class World:
     zones: tuple[Zone, ...] = field(default_factory=tuple)
     jitter: Jitter = field(default_factory=Jitter)
     description: str = ""
+    #: A name for each obstacle ("" for none), in the order of ``obstacles``: what ``vary`` moves.
+    obstacle_names: tuple[str, ...] = ()
+    #: What moves from seed to seed (see :meth:`for_seed`).
+    vary: tuple[Vary, ...] = ()
     # What the sensor's search keeps (see _near and _index_cells): each obstacle's bounds, and by reach
     # the cells. Set at once with the fields, not on first use: an attribute set later would cost
     # every read of the world's fields (Python would give up the instance's compact form). Each
@@ -510,6 +614,47 @@ class World:
         """The zone called ``name``, or None."""
         return next((zone for zone in self.zones if zone.name == name), None)
 
+    def for_seed(self, seed: int) -> World:
+        """The world as a run with ``seed`` has it: each group of :attr:`vary` moved by the seed's draw.
+
+        The same seed always draws the same world.
+
+        A box moved past a wall is cut there (a wall across the arena with an opening that moves is
+        two boxes that reach the walls). The world given back varies no more.
+        """
+        if not self.vary:
+            return self
+        rng = random.Random(f"vary {seed}")
+        return self.moved([(rng.uniform(-v.x_mm, v.x_mm), rng.uniform(-v.y_mm, v.y_mm)) for v in self.vary])
+
+    def moved(self, offsets: list[tuple[float, float]]) -> World:
+        """The world with each group of :attr:`vary` moved by its (dx, dy); it varies no more."""
+        by_name = {name: offset for group, offset in zip(self.vary, offsets, strict=True) for name in group.names}
+        obstacles, names = [], []
+        for obstacle, name in zip(self.obstacles, self.obstacle_names or ("",) * len(self.obstacles), strict=True):
+            dx, dy = by_name.get(name, (0.0, 0.0)) if name else (0.0, 0.0)
+            shape = _moved(obstacle, dx, dy, self.width_mm, self.height_mm)
+            if shape is not None:
+                obstacles.append(shape)
+                names.append(name)
+        zones = []
+        for zone in self.zones:
+            dx, dy = by_name.get(zone.name, (0.0, 0.0))
+            shape = _moved(zone.shape, dx, dy, self.width_mm, self.height_mm)
+            if shape is not None:
+                zones.append(Zone(zone.name, shape))
+        return World(
+            self.name,
+            self.width_mm,
+            self.height_mm,
+            self.start,
+            tuple(obstacles),
+            tuple(zones),
+            self.jitter,
+            self.description,
+            tuple(names),
+        )
+
     def start_pose(self, seed: int) -> Pose:
         """The start for a run with ``seed``: the world's start moved by its jitter, the same for the same seed."""
         if not self.jitter:
@@ -535,23 +680,48 @@ class World:
                 "y_mm": self.jitter.y_mm,
                 "heading_deg": self.jitter.heading_deg,
             }
+        names = self.obstacle_names or ("",) * len(self.obstacles)
         out: dict[str, Any] = {
             "name": self.name,
             "arena_mm": [self.width_mm, self.height_mm],
             "start": start,
-            "obstacles": [item.as_dict() for item in self.obstacles],
+            "obstacles": [
+                {**item.as_dict(), "name": name} if name else item.as_dict()
+                for item, name in zip(self.obstacles, names, strict=True)
+            ],
         }
         if self.zones:
             out["zones"] = {zone.name: zone.as_dict() for zone in self.zones}
+        if self.vary:
+            out["vary"] = [{"move": list(v.names), "x_mm": v.x_mm, "y_mm": v.y_mm} for v in self.vary]
         if self.description:
             out["description"] = self.description
         return out
 
 
+def _extremes(world: World, vary: list[tuple[Vary, Located]]) -> list[tuple[list[tuple[float, float]], Located]]:
+    """The layouts a world's checks look at besides its own, and where to report a problem of theirs.
+
+    Each group moved to each of its extremes alone, then every group to its least and to its most at once.
+    """
+    zero = [(0.0, 0.0)] * len(vary)
+    out = []
+    for index, (group, where) in enumerate(vary):
+        for sx, sy in ((-1, -1), (-1, 1), (1, -1), (1, 1)):
+            offsets = list(zero)
+            offsets[index] = (sx * group.x_mm, sy * group.y_mm)
+            out.append((offsets, where))
+    if len(vary) > 1:
+        for sign in (-1, 1):
+            out.append(([(sign * g.x_mm, sign * g.y_mm) for g, _ in vary], vary[0][1]))
+    return out
+
+
 # --------------------------------------------------------------------------- reading
 
 SHIPPED = ("box", "empty", "corridor", "obstacles", "square", "garage", "slalom", "bump", "opening")
-TOP_LEVEL = ("name", "description", "arena_mm", "start", "obstacles", "zones")
+TOP_LEVEL = ("name", "description", "arena_mm", "start", "obstacles", "zones", "vary")
+VARY_KEYS = ("move", "x_mm", "y_mm")
 START_KEYS = ("x_mm", "y_mm", "heading_deg", "jitter")
 JITTER_KEYS = ("x_mm", "y_mm", "heading_deg")
 SHAPE_KEYS = {"box": ("from_mm", "to_mm"), "circle": ("center_mm", "radius_mm")}
@@ -633,7 +803,7 @@ class _Reader(Reader):
             self.problem(root, "", "'arena_mm' is missing: the arena's [width, height] in mm")
         else:
             arena = self.pair(doc["arena_mm"], "arena_mm", 1.0, MAX_ARENA_MM)
-        obstacles: list[tuple[Obstacle, Located, str]] = []
+        obstacles: list[tuple[Obstacle, Located, str, str]] = []
         if "obstacles" in doc and doc["obstacles"].value is not None:
             items = doc["obstacles"]
             if not isinstance(items.value, list):
@@ -642,9 +812,16 @@ class _Reader(Reader):
                 self.problem(items, "obstacles", f"at most {MAX_OBSTACLES} obstacles, got {len(items.value)}")
             else:
                 for index, item in enumerate(items.value):
+                    called = ""
+                    if isinstance(item.value, dict) and "name" in item.value:
+                        called = self.text(item.value["name"], f"obstacles[{index}].name") or ""
+                        rest = {k: v for k, v in item.value.items() if k != "name"}
+                        item = Located(rest, item.line, item.column, {k: item.keys[k] for k in rest})
+                        if called and called in [n for _, _, _, n in obstacles]:
+                            self.problem(item, f"obstacles[{index}].name", f"another obstacle is named '{called}'")
                     shape = self.shape(item, f"obstacles[{index}]")
                     if shape is not None:
-                        obstacles.append((shape, item, f"obstacles[{index}]"))
+                        obstacles.append((shape, item, f"obstacles[{index}]", called))
         zones: list[tuple[Zone, Located, str]] = []
         if "zones" in doc and doc["zones"].value is not None:
             block = doc["zones"]
@@ -659,6 +836,8 @@ class _Reader(Reader):
                     if shape is not None:
                         zones.append((Zone(zone_name, shape), item, f"zones.{zone_name}"))
         start, jitter, start_at = self.start(doc.get("start"), arena, root)
+        named = {n for _, _, _, n in obstacles if n} | {z.name for z, _, _ in zones}
+        vary = self.vary(doc["vary"], named) if "vary" in doc and doc["vary"].value is not None else []
         if name is None or arena is None or start is None or jitter is None:
             return None
         world = World(
@@ -666,13 +845,65 @@ class _Reader(Reader):
             arena[0],
             arena[1],
             start,
-            tuple(o for o, _, _ in obstacles),
+            tuple(o for o, _, _, _ in obstacles),
             tuple(z for z, _, _ in zones),
             jitter,
             description,
+            tuple(n for _, _, _, n in obstacles) if any(n for _, _, _, n in obstacles) else (),
+            tuple(v for v, _ in vary),
         )
-        self.check_layout(world, obstacles, zones, start_at)
+        self.check_layout(world, [(o, w, p) for o, w, p, _ in obstacles], zones, start_at)
+        if not self.problems:
+            for offsets, where in _extremes(world, vary):
+                moved = world.moved(offsets)
+                found = _Reader(self.label)
+                found.check_layout(
+                    moved,
+                    [(o, where, "vary") for o in moved.obstacles],
+                    [(z, where, "vary") for z in moved.zones],
+                    where,
+                )
+                for problem in found.problems[:1]:
+                    shown = ", ".join(f"({dx + 0.0:+g}, {dy + 0.0:+g} mm)" for dx, dy in offsets)  # no -0
+                    self.problem(where, "vary", f"moved as far as it may go [{shown}], {problem.message}")
+                if found.problems:
+                    break
         return world
+
+    def vary(self, located: Located, named: set[str]) -> list[tuple[Vary, Located]]:
+        if not isinstance(located.value, list):
+            self.problem(located, "vary", "expected a list of {move: [names], x_mm: mm, y_mm: mm}")
+            return []
+        out: list[tuple[Vary, Located]] = []
+        seen: set[str] = set()
+        for index, item in enumerate(located.value):
+            path = f"vary[{index}]"
+            fields = self.keys(item, path, VARY_KEYS)
+            if fields is None:
+                continue
+            if "move" not in fields or not isinstance(fields["move"].value, list) or not fields["move"].value:
+                self.problem(item, f"{path}.move", "expected move: a list of the names of obstacles and zones")
+                continue
+            names = []
+            for k, entry in enumerate(fields["move"].value):
+                word = self.text(entry, f"{path}.move[{k}]")
+                if word is None:
+                    continue
+                if word not in named:
+                    hint = suggest(word, sorted(named))
+                    self.problem(entry, f"{path}.move[{k}]", f"no obstacle or zone is named '{word}'{hint}")
+                elif word in seen:
+                    self.problem(entry, f"{path}.move[{k}]", f"'{word}' is moved by another group already")
+                else:
+                    seen.add(word)
+                    names.append(word)
+            amounts = [
+                self.number(fields[key], f"{path}.{key}", 0.0, MAX_JITTER_MM) if key in fields else 0.0
+                for key in ("x_mm", "y_mm")
+            ]
+            if len(names) == len(fields["move"].value) and None not in amounts:
+                out.append((Vary(tuple(names), float(amounts[0]), float(amounts[1])), item))
+        return out
 
     def start(
         self, located: Located | None, arena: tuple[float, float] | None, root: Located

@@ -52,18 +52,52 @@ def test_a_world_with_zones_is_drawn_with_them():
 
 def test_a_student_grades_their_own_mission_and_reads_what_to_fix(tmp_path):
     mission = tmp_path / "alice.yaml"
-    mission.write_text("mission: alice\nworld: garage\ntree:\n  move: {speed: 2, distance_mm: 2400}\n")
+    mission.write_text("mission: alice\nworld: box\ntree:\n  move: {speed: 2, distance_mm: 2400}\n")
     result = autonomy("grade", "exercises/garage.yaml", str(mission))
     assert result.returncode == 0, result.stderr
     lines = result.stdout.splitlines()
+    assert lines[:4] == [
+        "Grading 1 submission for '2. Park in the garage' in world 'garage', seeds 8, 52, 56, 80, 30 s a run.",
+        "This exercise also has 12 hidden seeds, which the teacher's marks use (autonomy grade --secret-file): "
+        "these marks are from its 4 public seeds only.",
+        "alice: 2.5 / 10 in '2. Park in the garage'",
+        "  Note: the mission names the world 'box', which grading does not use: every run is in the exercise's "
+        "world 'garage'",
+    ]
+    # a fixed 2.4 m is right where the hall is that long (seed 52), into the end wall where it is shorter
+    assert lines[4:6] == [
+        "  MISS rest_in_zone garage: 1.25 / 5 points",
+        "         seed 8: no  garage: came to rest 40 mm outside it (it lies west; needed inside; a near miss earns "
+        "a part only without a collision)",
+    ]
+    assert "         seed 52: yes garage: came to rest inside it at 11.5 s" in lines
+    assert "         seed 8: no  collisions: 1, allowed 0, the first at 9.0 s" in lines
+
+
+def test_the_teacher_s_secret_adds_the_hidden_seeds(tmp_path):
+    secret = tmp_path / "secret.txt"
+    secret.write_text("0123456789abcdef0123456789abcdef\n")
+    result = autonomy("grade", "exercises/garage.yaml", "exercises/solutions/garage.yaml", "--secret-file", str(secret))
+    assert result.returncode == 0, result.stderr
+    lines = result.stdout.splitlines()
     assert (
-        lines[0] == "Grading 1 submission for '2. Park in the garage' in world 'garage', seeds 1, 2, 3, 4, 30 s a run."
+        lines[0].endswith("seeds 8, 52, 56, 80 and 12 hidden, 30 s a run.")
+        and "hidden seeds, which" not in result.stdout
     )
-    assert lines[1] == "alice: 7.5 / 10 in '2. Park in the garage'"
-    assert lines[2:4] == ["  MISS end_in_zone garage: 3.75 / 5 points", "         seed 1: yes garage: ended inside"]
-    # seed 2 starts further east: the fixed 2.4 m reaches the wall
-    assert "         seed 2: no  garage: ended 40 mm outside (needed inside)" in lines
-    assert "         seed 2: no  collisions: 1, allowed 0, the first at 11.1 s" in lines
+    assert lines[1] == "garage: 10 / 10 in '2. Park in the garage'"
+    hidden = [line for line in lines if line.startswith("         hidden seed ")]
+    assert len(hidden) == 12 * 3 and all(": yes " in line for line in hidden)  # three criteria, twelve seeds
+    assert "         hidden seed 12: yes garage: came to rest inside it" in "\n".join(lines)
+    short = tmp_path / "short.txt"
+    short.write_text("guessable\n")
+    refused = autonomy("grade", "exercises/garage.yaml", "exercises/solutions/garage.yaml", "--secret-file", str(short))
+    assert refused.returncode == 2 and "Traceback" not in refused.stderr
+    assert refused.stderr.strip().endswith(
+        f"the secret file {short} holds 9 bytes: give it at least 16 that nobody can guess, "
+        "e.g. python3 -c 'import secrets; print(secrets.token_hex(16))' > secret.txt"
+    )
+    gone = autonomy("grade", "exercises/garage.yaml", "exercises/solutions/garage.yaml", "--secret-file", "nowhere")
+    assert gone.returncode == 2 and "cannot read the secret file nowhere: No such file or directory" in gone.stderr
 
 
 def test_a_teacher_grades_a_class_into_a_gradebook_json_and_a_page(tmp_path):
@@ -252,7 +286,7 @@ def test_a_file_name_that_is_not_utf8_is_graded_and_every_output_written(tmp_pat
     result = grade_in(tmp_path, "garage", name, "--csv", "m.csv", "--json", "m.json", "--html", "m.html")
     assert result.returncode == 0 and "Traceback" not in result.stderr, result.stderr
     shown = "lat\\xe9in"  # the byte that is not UTF-8 written out: lat\xe9in and lat\xe8in stay two students
-    assert result.stdout.splitlines()[1] == f"{shown}: 10 / 10 in '2. Park in the garage'"
+    assert result.stdout.splitlines()[2] == f"{shown}: 10 / 10 in '2. Park in the garage'"
     assert next(csv.DictReader((tmp_path / "m.csv").open()))["student"] == shown
     student = json.loads((tmp_path / "m.json").read_text())["students"][0]
     assert (student["student"], student["file"], student["total"]) == (shown, f"{shown}.yaml", 10)
@@ -300,11 +334,11 @@ def graded_at_width(columns: str, *files: str) -> str:
         (
             "200",
             [
-                "┃ student           ┃ total ┃ end_in_zone garage (5) ┃ max_collisions 0 (3) ┃ "
+                "┃ student           ┃ total ┃ rest_in_zone garage (5) ┃ max_collisions 0 (3) ┃ "
                 "finish_within_s 30 (2) ┃",
-                "│ garage            │    10 │                      5 │                    3 │                      2 "
+                "│ garage            │    10 │                       5 │                    3 │                      2 "
                 "│",
-                "│ garage_until_bump │     0 │                      0 │                    0 │                      0 "
+                "│ garage_until_bump │     0 │                       0 │                    0 │                      0 "
                 "│",
             ],
         ),
@@ -313,7 +347,7 @@ def graded_at_width(columns: str, *files: str) -> str:
             [
                 "┃ student           ┃ total ┃ #1 ┃ #2 ┃ #3 ┃",
                 "│ garage            │    10 │  5 │  3 │  2 │",
-                "  #1 end_in_zone garage (5)",
+                "  #1 rest_in_zone garage (5)",
                 "  #3 finish_within_s 30 (2)",
             ],
         ),

@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 import autonomy.emulator
 from autonomy.client import Client
 from autonomy.emulator import Box, Circle, Jitter, WorldError, WorldInvalid, load_world, world_from_dict
-from autonomy.emulator.world import SENSOR_CONE_DEG, SENSOR_RAYS, SHIPPED, Pose, World, parse_world_text
+from autonomy.emulator.world import SENSOR_CONE_DEG, SENSOR_RAYS, SHIPPED, Pose, Vary, World, parse_world_text
 
 
 @pytest.mark.parametrize("name", SHIPPED)
@@ -136,10 +136,80 @@ def test_a_file_too_big_or_not_utf8_is_refused_without_reading_it_all(tmp_path):
 
 def test_zones_and_jitter_are_read_and_written_back():
     world = load_world("garage")
-    assert world.zone("garage").shape == Box(2650, 420, 2900, 780)
+    assert world.zone("garage").shape == Box(2240, 420, 2400, 780)
     assert world.jitter == Jitter(200, 0, 1)
+    assert world.obstacle_names == ("end_wall",) and world.vary == (Vary(("end_wall", "garage"), 500.0, 0.0),)
     again = world_from_dict(world.as_dict())
     assert again == world
+
+
+@pytest.mark.parametrize("name", ["garage", "bump", "opening"])
+def test_what_a_world_varies_moves_together_by_the_seed_s_draw_within_its_bounds(name):
+    world = load_world(name)
+    drawn = [world.for_seed(seed) for seed in range(200)]
+    assert drawn[7] == world.for_seed(7) and drawn[7] is not drawn[8]  # the same seed, the same world
+    assert all(not w.vary for w in drawn)  # a seed's world varies no more
+    group = world.vary[0]
+    moved = {name: index for index, name in enumerate(world.obstacle_names)}
+    offsets = set()
+    for w in drawn:
+        for zone in w.zones:
+            if zone.name in group.names:  # a zone moves as a whole: its size stays
+                before, after = world.zone(zone.name).shape, zone.shape
+                dx, dy = after.x_min_mm - before.x_min_mm, after.y_min_mm - before.y_min_mm
+                assert (after.x_max_mm - before.x_max_mm, after.y_max_mm - before.y_max_mm) == pytest.approx((dx, dy))
+                assert abs(dx) <= group.x_mm and abs(dy) <= group.y_mm
+                offsets.add((round(dx, 6), round(dy, 6)))
+        for obstacle in w.obstacles:  # inside the arena, whatever the draw
+            x0, y0, x1, y1 = obstacle.bounds()
+            assert 0 <= x0 < x1 <= w.width_mm and 0 <= y0 < y1 <= w.height_mm
+    assert len(offsets) == 200 or not offsets  # every seed its own place (opening moves only walls)
+    if name == "opening":  # the opening keeps its 30 cm wherever it goes, against the north wall at the most
+        for w in drawn:
+            south = w.obstacles[0]
+            north_edge = w.obstacles[1].y_min_mm if len(w.obstacles) > 1 else w.height_mm
+            assert south.y_min_mm == 0 and north_edge - south.y_max_mm == pytest.approx(300)
+            assert 600 - 1e-6 <= south.y_max_mm <= 1600 + 1e-6
+    assert moved  # something named moves
+
+
+def test_the_emulator_and_the_grader_see_the_same_world_for_a_seed():
+    from autonomy.emulator import Emulator
+
+    emulator = Emulator("garage", seed=52)
+    assert emulator.world == load_world("garage").for_seed(52) != load_world("garage").for_seed(53)
+    assert emulator.world.obstacles[0] != load_world("garage").obstacles[0]
+
+
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [
+        (
+            "vary:\n  - move: [wal]\n    x_mm: 100\n",
+            "9:12: vary[0].move[0]: no obstacle or zone is named 'wal' (did you mean 'wall'?)",
+        ),
+        (
+            "vary:\n  - move: [wall]\n    x_mm: 100\n  - move: [wall]\n",
+            "11:12: vary[1].move[0]: 'wall' is moved by another group already",
+        ),
+        ("vary:\n  - move: [wall]\n    x_mm: 5000\n", "10:11: vary[0].x_mm: must be from 0 to 1,000, got 5000"),
+        ("vary:\n  - x_mm: 10\n", "9:5: vary[0].move: expected move: a list of the names of obstacles and zones"),
+        (
+            "vary:\n  - move: [wall]\n    x_mm: 900\n",  # moved 900 mm west, the wall would stand on the start
+            "9:5: vary: moved as far as it may go [(-900, +0 mm)], the start is inside an obstacle",
+        ),
+    ],
+)
+def test_what_a_world_varies_is_checked_at_its_place(tmp_path, text, expected):
+    path = tmp_path / "lab.yaml"
+    path.write_text(
+        "arena_mm: [3000, 1200]\nstart: {x_mm: 400, y_mm: 600}\nobstacles:\n"
+        "  - box: {from_mm: [1300, 0], to_mm: [1350, 1200]}\n    name: wall\n"
+        "zones:\n  goal: {box: {from_mm: [1000, 400], to_mm: [1200, 800]}}\n" + text
+    )
+    with pytest.raises(WorldInvalid) as caught:
+        load_world(str(path))
+    assert f"{path}:{expected}" in str(caught.value).splitlines(), str(caught.value)
 
 
 @pytest.mark.parametrize("name", ["garage", "opening", "square"])
@@ -397,7 +467,8 @@ def test_what_the_sensor_keeps_is_no_part_of_a_world_s_value():
     assert used is not fresh and used.cone_distance(1300.0, 1100.0, 90.0, reach_mm=256.0) < 256.0 and used._near_cells
     assert used == fresh and repr(used) == repr(fresh) and "_near" not in repr(used)
     assert [f.name for f in dataclasses.fields(used)] == [
-        "name", "width_mm", "height_mm", "start", "obstacles", "zones", "jitter", "description"
+        "name", "width_mm", "height_mm", "start", "obstacles", "zones", "jitter", "description",
+        "obstacle_names", "vary",
     ]  # fmt: skip
     moved = dataclasses.replace(used, obstacles=used.obstacles[:1])  # its own bounds and cells, from scratch
     assert not moved._near_cells and len(moved._obstacle_bounds) == 1

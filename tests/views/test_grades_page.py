@@ -18,22 +18,32 @@ def test_the_class_page_shows_the_table_and_every_path_on_its_map(page, tmp_path
     page.goto(path.as_uri())
     assert fetched == [path.as_uri()]  # the page is whole in one file
     rows = page.locator("table tr").all_inner_texts()
-    assert rows[1].split("\t")[:2] == ["bump", "10"] and rows[2].split("\t")[:2] == ["bump_no_return", "0"]
-    assert page.locator("table tr").nth(2).locator("td").nth(2).get_attribute("class") == "none"  # goal: no marks
+    assert rows[1].split("\t")[:2] == ["bump", "10"] and rows[2].split("\t")[:2] == ["bump_no_return", "3"]
+    cells = page.locator("table tr").nth(2).locator("td")
+    assert cells.nth(2).get_attribute("class") == "full"  # it bumped
+    assert cells.nth(3).get_attribute("class") == "none"  # never at rest in the goal
     maps = page.locator(".seed svg")
-    assert maps.count() == 6
+    assert maps.count() == 8
     # each path lies on its map, and the wrong solution's ends north of the goal, where it stopped
-    for index in range(6):
+    for index in range(8):
         box = maps.nth(index).bounding_box()
         line = maps.nth(index).locator("polyline.path").bounding_box()
-        assert line["width"] > 0.4 * box["width"]
+        assert line["width"] > 0.3 * box["width"]
         assert box["x"] <= line["x"] and line["x"] + line["width"] <= box["x"] + box["width"] + 1
-    goal = maps.nth(3).locator(".zone rect").bounding_box()
+    goal = maps.nth(4).locator(".zone rect").bounding_box()
     last = page.evaluate(
-        "(() => { const l = document.querySelectorAll('.seed svg polyline.path')[3];"
+        "(() => { const l = document.querySelectorAll('.seed svg polyline.path')[4];"
         " const p = l.points[l.points.numberOfItems - 1]; const m = l.getScreenCTM();"
         " return [p.x * m.a + p.y * m.c + m.e, p.x * m.b + p.y * m.d + m.f]; })()"
     )
     assert last[1] < goal["y"]  # above the goal on the screen: y grows downward
-    assert page.locator(".seed li.no").first.inner_text().startswith("✗ goal: ended")
+    assert page.locator(".seed li.no").first.inner_text().startswith("✗ goal: came to rest")
+    # the bump, and the four turns round the box, are drawn where they happened, each saying what it was
+    first = maps.nth(0)
+    assert first.locator(".collision").count() == 1 and first.locator(".turn").count() == 4
+    assert first.locator(".collision title").text_content().startswith("collision at ")
+    assert first.locator(".turn title").first.text_content().startswith("turned left 90 deg at ")
+    bump = first.locator(".collision").bounding_box()
+    box_drawn = first.locator("rect.obstacle").first.bounding_box()
+    assert abs((bump["x"] + bump["width"] / 2) - box_drawn["x"]) < 0.1 * first.bounding_box()["width"]
     page.screenshot(path=str(tmp_path / "marks.png"), full_page=True)

@@ -220,9 +220,9 @@ def test_grading_a_class_in_a_terminal_shows_a_progress_bar_then_the_marks_table
     assert "grading ━" not in text  # the bar is gone once the table is there
     rows = [[cell.strip() for cell in line.split("│")[1:-1]] for line in screen if line.startswith("│ opening")]
     assert rows == [
-        ["opening", "10", "6", "2", "2"],
-        ["opening_fixed", "6", "3.6", "1.2", "1.2"],
-        ["opening_straight", "0", "0", "0", "0"],
+        ["opening", "10", "2", "4", "2", "2"],
+        ["opening_fixed", "1.67", "0.33", "0.67", "0.33", "0.33"],
+        ["opening_straight", "0", "0", "0", "0", "0"],
     ], screen
     assert all(len(line) <= 80 for line in screen)
 
