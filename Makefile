@@ -86,6 +86,7 @@ bench: $(STAMP)
 	$(BIN)/python benchmarks/hostile.py
 	$(BIN)/python benchmarks/groot.py
 	$(BIN)/python benchmarks/grading.py
+	$(BIN)/python benchmarks/fixed_plans.py
 	$(BIN)/python benchmarks/work.py
 
 ## docs: make the node reference in docs/missions.md anew from the registry

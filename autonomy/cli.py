@@ -7,6 +7,7 @@ This is the only module that prints or exits. Exit codes: 0 success, 1 mission f
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import math
 import os
@@ -628,12 +629,15 @@ def cmd_plot(args: argparse.Namespace) -> int:
 def cmd_world_show(args: argparse.Namespace) -> int:
     """Draws a world (a built-in name or a file) with its start pose, as SVG."""
     from autonomy.emulator import load_world
+    from autonomy.emulator.world import Jitter
     from autonomy.views.mapsvg import world_svg
 
     try:
         world = load_world(args.world)
     except WorldError as err:
         return _world_failed(err)
+    if args.seed is not None:  # as a run with that seed has it: what the world varies, and where it starts
+        world = dataclasses.replace(world.for_seed(args.seed), start=world.start_pose(args.seed), jitter=Jitter())
     svg = world_svg(world.as_dict())
     if args.output in (None, "-"):
         sys.stdout.write(svg)
@@ -1068,6 +1072,12 @@ def build_parser() -> argparse.ArgumentParser:
     world_show = world_sub.add_parser("show", help="draw a world with its start pose as SVG")
     world_show.add_argument("world", metavar="WORLD", help="a built-in world's name or a world file")
     world_show.add_argument("-o", "--output", metavar="FILE.svg", help="where to write it (default: standard output)")
+    world_show.add_argument(
+        "--seed",
+        type=_bounded(int, 0, 2**31 - 1, "a seed"),
+        metavar="N",
+        help="draw it as a run with seed N has it: what it varies moved, its start jittered",
+    )
     world_show.set_defaults(func=cmd_world_show)
 
     check = sub.add_parser("check", help="validate mission files, reporting every problem")

@@ -8,7 +8,7 @@ Measures:
     median: this 2-core machine is a shared virtual one whose speed moves by a fifth from
     one minute to the next, and one run of a few seconds lands anywhere in that. Each run's
     figure is printed too, the slowest included;
-  - one student's `autonomy grade` (a fresh process, the bump exercise, 3 seeds of its
+  - one student's `autonomy grade` (a fresh process, the bump exercise, 4 public seeds of its
     reference solution): wall time, median of 5 (target: under 1 s).
 
 Usage: python benchmarks/grading.py [--classes N]
@@ -106,7 +106,7 @@ def main() -> None:
         )
         times.append(time.perf_counter() - started)
     print(
-        "one student's autonomy grade, bump (3 seeds of about 20 s; a fresh process): "
+        "one student's autonomy grade, bump (4 public seeds of about 20 s; a fresh process): "
         f"median {statistics.median(times):.2f} s (target < 1 s)"
     )
 

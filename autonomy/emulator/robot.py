@@ -252,9 +252,12 @@ class Robot:
         x, y, heading = self.x_mm, self.y_mm, self.heading_deg
         point = (self.time_s, Pose(x, y, heading))
         _, last = trail[-1]
-        if last.x_mm == x and last.y_mm == y and len(trail) > 1:  # the start is kept as it was
-            trail[-1] = point
-            return
+        if last.x_mm == x and last.y_mm == y:
+            if len(trail) > 1:
+                trail[-1] = point
+                return
+            if last.heading_deg == heading:  # at the start still, as it was
+                return
         if len(trail) >= 2:
             _, before = trail[-2]
             same_line = before.heading_deg == last.heading_deg == heading
@@ -432,11 +435,16 @@ class Robot:
             change = delta_v if delta_v < max_dv else max_dv  # max(-max_dv, min(max_dv, delta_v)), NaN included
             speed += change if change > -max_dv else -max_dv
             self.speed_mm_s = speed
-        if speed or self.heading_deg != previous_heading:
+        if self.heading_deg != previous_heading:
             self.moved_s = self.time_s
+        if previous_speed > 0.0 >= speed or previous_speed < 0.0 <= speed:
+            self._mark()  # stopped, or about to drive back: the end of a drive, where the trail must have it
         if speed:
             impacts = len(self.impacts)
+            x_mm, y_mm = self.x_mm, self.y_mm
             self._drive(speed * dt)
+            if self.x_mm != x_mm or self.y_mm != y_mm:  # not when pushing against something
+                self.moved_s = self.time_s
             speed = self.speed_mm_s
             # An impact is not braking: the body pitches forward (the kick), it does not lean back.
             accel = 0.0 if len(self.impacts) > impacts else (speed - previous_speed) / dt

@@ -1,6 +1,7 @@
 """Exercises graded on the emulator: references score full marks, wrong solutions lose marks for the right reason."""
 
 import json
+import dataclasses
 import os
 import signal
 import time
@@ -352,6 +353,20 @@ def test_grading_twice_writes_the_same_bytes():
     assert rows[2].startswith("garage_fixed_distance,2.5,10,1.25,0.75,0.5,")
     document = json.loads(to_json(exercise, first))
     assert [s["student"] for s in document["students"]] == ["garage", "garage_fixed_distance"]
+
+
+def test_the_json_lists_every_collision_beep_and_turn_with_its_time_and_place():
+    exercise = load_exercise(EXERCISES / "bump.yaml")
+    report = grade_one(exercise, "bump", EXERCISES / "solutions" / "bump.yaml")
+    seed = json.loads(to_json(exercise, [report]))["students"][0]["seeds"][0]
+    assert len(seed["collisions"]) == 1 and len(seed["turns"]) == 4 and seed["beeps"] == []
+    (time_s, x, y), box = seed["collisions"][0], exercise.world.for_seed(exercise.seeds[0].seed).obstacles[0]
+    assert 0 < time_s < seed["time_s"] and box.gap(x, y) == pytest.approx(60, abs=1)  # touching the box's west face
+    assert [turn[3] for turn in seed["turns"]] == pytest.approx([90, -90, -90, 90], abs=3)  # left, right, right, left
+    assert seed["world_seed"] == exercise.seeds[0].seed and seed["rest_s"] <= exercise.time_limit_s
+    square = load_exercise(EXERCISES / "square.yaml")
+    beeps = json.loads(to_json(square, [grade_one(square, "s", EXERCISES / "solutions" / "square.yaml")]))
+    assert len(beeps["students"][0]["seeds"][0]["beeps"]) == 4
 
 
 @pytest.mark.parametrize(
@@ -892,3 +907,65 @@ def test_a_submission_that_fails_only_after_another_is_graded_again_in_a_new_wor
         assert [report.total for report in reports] == [exercise.max_points] * 3, [r.problems for r in reports]
         if workers == 1:  # it failed after a_first, and was graded again in a new worker
             assert pids()["b_fragile"][0] == pids()["a_first"][0] != pids()["b_fragile"][1]
+
+
+def test_hidden_seeds_are_drawn_from_the_teacher_s_secret():
+    from autonomy.classroom.exercise import hidden_seed
+
+    exercise = load_exercise(EXERCISES / "garage.yaml")
+    assert exercise.hidden_seeds == 12 and len(exercise.seeds) == 4  # a student's grading: the public ones only
+    mine, again, theirs = (exercise.with_secret(s) for s in (b"one secret of sixteen", b"one secret of sixteen", b"x" * 16))
+    assert [s.seed for s in mine.seeds] == [s.seed for s in again.seeds]  # the same secret, the same seeds
+    hidden = [s for s in mine.seeds if s.hidden]
+    assert mine.seeds[:4] == exercise.seeds and len(hidden) == 12
+    assert [s.label for s in hidden] == [f"hidden seed {k}" for k in range(1, 13)]  # never their numbers
+    assert {s.seed for s in hidden}.isdisjoint(s.seed for s in theirs.seeds if s.hidden)
+    assert hidden[0].seed == hidden_seed(b"one secret of sixteen", "garage", 1) < 2**31
+    assert hidden_seed(b"one secret of sixteen", "opening", 1) != hidden[0].seed  # each exercise its own
+
+
+@pytest.mark.parametrize("name", SHIPPED)
+def test_the_reference_solution_scores_full_marks_on_hidden_seeds_too(name):
+    exercise = load_exercise(EXERCISES / f"{name}.yaml")
+    if not exercise.hidden_seeds:
+        exercise = dataclasses.replace(exercise, hidden_seeds=12)
+    graded = exercise.with_secret(b"a teacher's secret, for the test")
+    report = grade_one(graded, name, EXERCISES / "solutions" / f"{name}.yaml")
+    failing = [(s.seed, line) for s in report.seeds for held, line in s.verdicts if not held]
+    assert failing == [] and report.total == exercise.max_points
+
+
+FIXED_PLANS = {
+    # a fixed distance east
+    "garage": ("mission: fixed\ntree:\n  move: {{speed: 2, distance_mm: {d}}}\n", range(1300, 2800, 50)),
+    # north a fixed distance, then east through where the opening might be
+    "opening": (
+        "mission: fixed\ntree:\n  sequence:\n    - turn: {{left: 90}}\n    - move: {{speed: 2, distance_mm: {d}}}\n"
+        "    - turn: {{right: 90}}\n    - move: {{speed: 2, distance_mm: 1900}}\n",
+        range(100, 1700, 50),
+    ),
+    # round the north side of where the box might be, a fixed distance, and back into line: never a bump
+    "bump": (
+        "mission: fixed\ntree:\n  sequence:\n    - turn: {{left: 90}}\n    - move: {{speed: 2, distance_mm: 400}}\n"
+        "    - turn: {{right: 90}}\n    - move: {{speed: 2, distance_mm: {d}}}\n    - turn: {{right: 90}}\n"
+        "    - move: {{speed: 2, distance_mm: 400}}\n",
+        range(1100, 2600, 50),
+    ),
+}
+
+
+@pytest.mark.parametrize("name", sorted(FIXED_PLANS))
+def test_a_fixed_plan_tuned_to_the_public_seeds_earns_at_most_40_percent(tmp_path, name):
+    """A student tunes a fixed plan by grading it on the public seeds again and again; the best one
+    still earns at most 40% there, and at most 40% of the teacher's marks, hidden seeds included."""
+    exercise = load_exercise(EXERCISES / f"{name}.yaml")
+    text, distances = FIXED_PLANS[name]
+    tried = []
+    for distance in distances:
+        plan = tmp_path / f"plan_{distance}.yaml"
+        plan.write_text(text.format(d=distance))
+        tried.append((grade_one(exercise, plan.stem, plan).total, distance))
+    best, distance = max(tried)
+    assert 0 < best <= 4.0, tried  # some distance is right somewhere, none nearly everywhere
+    teacher = exercise.with_secret(b"a teacher's secret, for the test")
+    assert grade_one(teacher, "tuned", tmp_path / f"plan_{distance}.yaml").total <= 4.0

@@ -50,6 +50,19 @@ def test_a_world_with_zones_is_drawn_with_them():
     assert result.stdout.count('class="zone"') == 1 and 'data-zone="goal"' in result.stdout
 
 
+def test_a_world_is_drawn_as_a_seed_draws_it():
+    import re
+
+    def walls(seed):
+        shown = autonomy("world", "show", "garage", *(["--seed", str(seed)] if seed is not None else []))
+        assert shown.returncode == 0, shown.stderr
+        return re.findall(r'<rect x="([0-9.]+)"[^>]*class="obstacle"', shown.stdout)
+
+    assert walls(None) == ["2500"]  # as the file has it
+    assert walls(8) == walls(8) != walls(52)  # the end wall where each seed puts it
+    assert 2000 <= float(walls(8)[0]) <= 3000
+
+
 def test_a_student_grades_their_own_mission_and_reads_what_to_fix(tmp_path):
     mission = tmp_path / "alice.yaml"
     mission.write_text("mission: alice\nworld: box\ntree:\n  move: {speed: 2, distance_mm: 2400}\n")

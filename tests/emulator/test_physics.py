@@ -340,3 +340,59 @@ def _close(a: object, b: object) -> bool:
     if hasattr(a, "__dataclass_fields__") and type(a) is type(b):
         return _close(vars(a), vars(b))
     return a == b
+
+
+@settings(max_examples=100, deadline=None)
+@given(
+    st.sampled_from(["obstacles", "box", "corridor"]),
+    st.lists(st.tuples(commands, st.floats(0.0, 3.0)), min_size=1, max_size=12),
+)
+def test_the_robot_s_own_trail_is_its_path_between_any_two_moments(name, script):
+    """Each pose the robot passes through lies on the trail's segment for that moment, so a judge reading the
+    trail sees every place the robot was, however seldom anything asked; and it last moved at ``moved_s``."""
+    robot = Robot(load_world(name))
+    seen = [(robot.time_s, robot.pose)]
+    last_move_s = 0.0
+    for (command, *arguments), seconds in script:
+        getattr(robot, command)(*arguments)
+        until_s = robot.time_s + seconds
+        while robot.time_s + robot.params.step_s <= until_s + 1e-12:
+            before = robot.pose
+            robot.advance_to(robot.time_s + robot.params.step_s)
+            if robot.pose != before:
+                last_move_s = robot.time_s
+            seen.append((robot.time_s, robot.pose))
+    robot.stop()  # marks where it is now
+    trail = robot.trail
+    assert trail[0] == (0.0, seen[0][1]) and trail[-1][1] == robot.pose
+    assert all(a[0] <= b[0] for a, b in zip(trail, trail[1:], strict=False))  # in time order
+    for time_s, pose in seen:
+        # the segment between the last trail point at or before this moment and the next one
+        index = max(i for i, (t, _) in enumerate(trail) if t <= time_s + 1e-9)
+        a = trail[index][1]
+        b = trail[min(index + 1, len(trail) - 1)][1]
+        dx, dy = b.x_mm - a.x_mm, b.y_mm - a.y_mm
+        length2 = dx * dx + dy * dy
+        t = 0.0 if length2 == 0 else max(0.0, min(1.0, ((pose.x_mm - a.x_mm) * dx + (pose.y_mm - a.y_mm) * dy) / length2))
+        assert math.hypot(pose.x_mm - (a.x_mm + dx * t), pose.y_mm - (a.y_mm + dy * t)) < 1e-6
+    assert robot.moved_s == pytest.approx(last_move_s, abs=1e-9) or (robot.moved_s == 0.0 and last_move_s == 0.0)
+
+
+def test_a_straight_drive_is_kept_as_its_two_ends_and_turns_in_place_as_one_point():
+    robot = Robot(load_world("empty"))
+    start = robot.pose
+    for _ in range(20):  # the same command again and again: the drive goes on
+        robot.move(2)
+        robot.advance_to(robot.time_s + 0.1)
+    robot.turn(90)
+    robot.advance_to(robot.time_s + 2.0)
+    robot.turn(-45)  # another turn where it stands
+    robot.advance_to(robot.time_s + 2.0)
+    robot.move(2)
+    robot.advance_to(robot.time_s + 0.5)
+    robot.stop()
+    points = [pose for _, pose in robot.trail]
+    assert points[0] == start and len(points) == 3  # the start, the corner (as it left it), the end
+    assert points[1].y_mm == start.y_mm and points[1].x_mm > start.x_mm + 300  # the first drive went east
+    assert points[1].heading_deg == points[2].heading_deg == pytest.approx(start.heading_deg + 45)  # the net turn
+    assert points[2].x_mm > points[1].x_mm and points[2].y_mm > points[1].y_mm  # then north-east
