@@ -1,7 +1,7 @@
 """Exercises graded on the emulator: references score full marks, wrong solutions lose marks for the right reason."""
 
-import json
 import dataclasses
+import json
 import os
 import signal
 import time
@@ -914,7 +914,9 @@ def test_hidden_seeds_are_drawn_from_the_teacher_s_secret():
 
     exercise = load_exercise(EXERCISES / "garage.yaml")
     assert exercise.hidden_seeds == 12 and len(exercise.seeds) == 4  # a student's grading: the public ones only
-    mine, again, theirs = (exercise.with_secret(s) for s in (b"one secret of sixteen", b"one secret of sixteen", b"x" * 16))
+    mine, again, theirs = (
+        exercise.with_secret(s) for s in (b"one secret of sixteen", b"one secret of sixteen", b"x" * 16)
+    )
     assert [s.seed for s in mine.seeds] == [s.seed for s in again.seeds]  # the same secret, the same seeds
     hidden = [s for s in mine.seeds if s.hidden]
     assert mine.seeds[:4] == exercise.seeds and len(hidden) == 12

@@ -373,7 +373,11 @@ def test_the_robot_s_own_trail_is_its_path_between_any_two_moments(name, script)
         b = trail[min(index + 1, len(trail) - 1)][1]
         dx, dy = b.x_mm - a.x_mm, b.y_mm - a.y_mm
         length2 = dx * dx + dy * dy
-        t = 0.0 if length2 == 0 else max(0.0, min(1.0, ((pose.x_mm - a.x_mm) * dx + (pose.y_mm - a.y_mm) * dy) / length2))
+        t = (
+            0.0
+            if length2 == 0
+            else max(0.0, min(1.0, ((pose.x_mm - a.x_mm) * dx + (pose.y_mm - a.y_mm) * dy) / length2))
+        )
         assert math.hypot(pose.x_mm - (a.x_mm + dx * t), pose.y_mm - (a.y_mm + dy * t)) < 1e-6
     assert robot.moved_s == pytest.approx(last_move_s, abs=1e-9) or (robot.moved_s == 0.0 and last_move_s == 0.0)
 
