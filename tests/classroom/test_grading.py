@@ -42,8 +42,9 @@ WRONG = {
     "garage_until_bump": ({"rest_in_zone garage", "max_collisions 0"}, set()),
     "garage_full_speed": ({"rest_in_zone garage", "max_collisions 0"}, set()),
     "garage_park_then_beep": ({"finish_within_s 30"}, {"rest_in_zone garage", "max_collisions 0"}),
-    "slalom_straight": ({"rest_in_zone exit"}, set()),
+    "slalom_straight": ({"rest_in_zone exit", "reach_zone past_post"}, set()),
     "slalom_blind": ({"rest_in_zone exit", "max_collisions 0"}, set()),
+    "slalom_stops_short": ({"rest_in_zone exit"}, {"reach_zone past_post", "max_collisions 0"}),
     "bump_push": ({"rest_in_zone goal", "finish_within_s 60"}, {"min_collisions 1"}),
     "bump_no_return": ({"rest_in_zone goal"}, {"min_collisions 1"}),
     "opening_straight": ({"rest_in_zone goal"}, set()),
@@ -75,6 +76,10 @@ FAIR = {
     # opening: through the opening 2, at rest in the goal 4, no collision 2 and ending on its own 2 once through
     "opening_fixed": 2,  # a fixed distance north: through the opening on the odd seed, into the wall on the rest
     "opening_straight": 0,  # straight ahead into the wall
+    # slalom: past the post 2, at rest in the exit 4, no collision 2 and ending on its own 2 once past
+    "slalom_stops_short": 6,  # past the post untouched, then stops 70 cm before the exit
+    "slalom_straight": 0.5,  # stops safely in front of the post: never past it
+    "slalom_blind": 0,  # straight into the post
 }
 
 
