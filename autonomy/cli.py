@@ -692,6 +692,10 @@ def _exercise_path(text: str) -> tuple[str, str]:
     )
 
 
+#: The longest secret file ``autonomy grade --secret-file`` reads, bytes.
+SECRET_MOST_BYTES = 4096
+
+
 def cmd_grade(args: argparse.Namespace) -> int:
     """Grades mission files against an exercise: marks, feedback, a gradebook."""
     from pathlib import Path
@@ -710,16 +714,28 @@ def cmd_grade(args: argparse.Namespace) -> int:
         return _problems(err.problems)
     hidden_note = ""
     if args.secret_file:
+        given = Path(args.secret_file)
         try:
-            secret = Path(args.secret_file).read_bytes().strip()
+            if not given.exists():
+                return _fail(f"cannot read the secret file {args.secret_file}: no such file", EXIT_USAGE)
+            if not given.is_file():  # not a folder, a pipe or a device that never ends
+                return _fail(f"the secret file {args.secret_file} is not a file: give a small text file", EXIT_USAGE)
+            with given.open("rb") as stream:
+                secret = stream.read(SECRET_MOST_BYTES + 1).strip()
         except OSError as err:
             return _fail(f"cannot read the secret file {args.secret_file}: {err.strerror or err}", EXIT_USAGE)
+        if len(secret) > SECRET_MOST_BYTES:
+            return _fail(
+                f"the secret file {args.secret_file} is over {SECRET_MOST_BYTES} bytes: give a short secret", EXIT_USAGE
+            )
         if len(secret) < 16:
             return _fail(
                 f"the secret file {args.secret_file} holds {len(secret)} bytes: give it at least 16 that nobody can "
                 "guess, e.g. python3 -c 'import secrets; print(secrets.token_hex(16))' > secret.txt",
                 EXIT_USAGE,
             )
+        if not exercise.hidden_seeds:
+            hidden_note = "This exercise has no hidden seeds: the secret changes nothing."
         exercise = exercise.with_secret(secret)
     elif exercise.hidden_seeds:
         hidden_note = (

@@ -85,8 +85,18 @@ CRITERIA = {
         ),
         CriterionKind("end_in_zone", "zone", "the mission ends on its own and the robot comes to rest inside the zone"),
         CriterionKind("avoid_zone", "zone", "the robot's centre never enters the zone"),
-        CriterionKind("max_collisions", "count", "at most this many collisions"),
-        CriterionKind("min_collisions", "count", "at least this many collisions"),
+        CriterionKind(
+            "max_collisions",
+            "count",
+            "at most this many collisions (with the named obstacle only, if with:)",
+            {"with": ""},
+        ),
+        CriterionKind(
+            "min_collisions",
+            "count",
+            "at least this many collisions (with the named obstacle only, if with:)",
+            {"with": ""},
+        ),
         CriterionKind("finish_within_s", "seconds", "the mission succeeds within this many seconds"),
         CriterionKind("max_distance_mm", "mm", "the robot drives at most this far, forward and back"),
         CriterionKind(
@@ -100,6 +110,12 @@ CRITERIA = {
         ),
         CriterionKind(
             "end_heading_deg", "degrees", "the robot ends facing this heading, give or take", {"tolerance_deg": 10.0}
+        ),
+        CriterionKind(
+            "turns",
+            "degrees",
+            "the robot turns in place by this much (left positive, as a heading changes), at least count times",
+            {"count": 1.0, "tolerance_deg": 10.0},
         ),
         CriterionKind("max_nodes", "count", "the mission's tree has at most this many nodes"),
         CriterionKind("succeed", "true", "the mission succeeds (does not fail, crash or run out of time)"),
@@ -363,12 +379,19 @@ class _Reader(Reader):
         for key, default in kind.options.items():
             if key not in item.value:
                 continue
-            if isinstance(default, str):  # a zone's name
-                name = self.zone_name(item.value[key], f"{path}.{key}", world)
+            if isinstance(default, str) and key == "with":  # an obstacle's name
+                name = self.obstacle_name(item.value[key], f"{path}.{key}", world)
                 if name is not None:
                     options[key] = name
                 continue
-            whole = key == "extra_beeps"
+            if isinstance(default, str):  # a zone's name
+                name = self.zone_name(item.value[key], f"{path}.{key}", world)
+                if name is not None:
+                    if kind.value == "zone" and item.value[kind.key].value == name:
+                        self.problem(item.value[key], f"{path}.{key}", f"'{name}' is the zone itself: name another")
+                    options[key] = name
+                continue
+            whole = key in ("extra_beeps", "count")
             got = self.number(item.value[key], f"{path}.{key}", 0, 100_000, whole=whole)
             if got is not None:
                 options[key] = float(got)
@@ -409,6 +432,18 @@ class _Reader(Reader):
             else f"{kind.key} {value}"
         )
         return Criterion(kind.key, value, float(points), options, label)
+
+    def obstacle_name(self, located: Located, where: str, world: World | None) -> str | None:
+        """An obstacle's name (``name:`` in the world file), which the world must have."""
+        value = self.text(located, where)
+        names = [n for n in (world.obstacle_names if world is not None else ()) if n]
+        if value is not None and world is not None and value not in names:
+            listed = f" (its named obstacles: {', '.join(names)})" if names else " (it names none of its obstacles)"
+            self.problem(
+                located, where, f"world '{world.name}' has no obstacle named '{value}'{suggest(value, names)}{listed}"
+            )
+            return None
+        return value
 
     def zone_name(self, located: Located, where: str, world: World | None) -> str | None:
         """A zone's name, which the world must have."""

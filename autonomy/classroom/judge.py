@@ -170,17 +170,35 @@ def facts_of(gathered: Gatherer, robot: Robot, time_limit_s: float = math.inf) -
 
 
 def _collisions(impacts: list[tuple[float, Pose]], path: list[tuple[float, Pose]]) -> list[tuple[float, Pose]]:
-    """The impacts that begin a collision: the first, and each after the robot got ``NEW_COLLISION_MM`` away."""
+    """The impacts that begin a collision: the first, and each once the robot has got ``NEW_COLLISION_MM`` from
+    where the collision before began (since its last impact), however many impacts that collision had.
+    """
     out: list[tuple[float, Pose]] = []
+    last_s = 0.0
     for time_s, pose in impacts:
         if out:
-            last_s, last = out[-1]
+            _, first = out[-1]
             points = [p for t, p in path if last_s <= t <= time_s] + [pose]
-            if all(math.hypot(p.x_mm - last.x_mm, p.y_mm - last.y_mm) < NEW_COLLISION_MM for p in points):
-                out[-1] = (time_s, pose)  # still the same push: measured from its latest impact
+            if all(math.hypot(p.x_mm - first.x_mm, p.y_mm - first.y_mm) < NEW_COLLISION_MM for p in points):
+                last_s = time_s  # still the same push
                 continue
         out.append((time_s, pose))
+        last_s = time_s
     return out
+
+
+def hit(world: World, pose: Pose) -> str:
+    """What the robot touches at ``pose``: an obstacle's name (``obstacle 2`` for one without), or ``a wall``."""
+    names = world.obstacle_names or ("",) * len(world.obstacles)
+    wall = min(pose.x_mm, pose.y_mm, world.width_mm - pose.x_mm, world.height_mm - pose.y_mm)
+    nearest = min(
+        (
+            (obstacle.gap(pose.x_mm, pose.y_mm), name or f"obstacle {index + 1}")
+            for index, (obstacle, name) in enumerate(zip(world.obstacles, names, strict=True))
+        ),
+        default=(math.inf, ""),
+    )
+    return nearest[1] if nearest[0] < wall else "a wall"
 
 
 # ---------------------------------------------------------------------------- the path and zones
@@ -254,11 +272,17 @@ def judge(criterion: Criterion, facts: RunFacts, world: World) -> Verdict:
         return _zone_verdict(criterion, facts, zone, world)
     end_pose = facts.path[-1][1]
     if kind in ("max_collisions", "min_collisions"):
-        count = len(facts.collisions)
-        first = f", the first at {facts.collisions[0][0]:.1f} s" if facts.collisions else ""
+        wanted = str(criterion.options.get("with") or "")
+        collisions = [(t, p) for t, p in facts.collisions if not wanted or hit(world, p) == wanted]
+        count = len(collisions)
+        what = f"collisions with {wanted}" if wanted else "collisions"
+        first = f", the first at {collisions[0][0]:.1f} s" if collisions else ""
+        others = sorted({hit(world, p) for _, p in facts.collisions} - {wanted}) if wanted else []
+        if others:
+            first += f" (and {plural(len(facts.collisions) - count, 'collision')} with {_listed(others)})"
         if kind == "max_collisions":
-            return Verdict(count <= value, f"collisions: {count}, allowed {value}{first}")
-        return Verdict(count >= value, f"collisions: {count}, needed at least {value}{first}")
+            return Verdict(count <= value, f"{what}: {count}, allowed {value}{first}")
+        return Verdict(count >= value, f"{what}: {count}, needed at least {value}{first}")
     if kind == "finish_within_s":
         if facts.outcome != SUCCEEDED:
             why = f": {facts.reason}" if facts.reason else ""
@@ -274,6 +298,8 @@ def judge(criterion: Criterion, facts: RunFacts, world: World) -> Verdict:
         return Verdict(
             error <= tolerance, f"ended facing {shown} deg, needed {value:g} ± {tolerance:g} (off by {error:.0f})"
         )
+    if kind == "turns":
+        return _turns(criterion, facts)
     if kind == "max_nodes":
         return Verdict(facts.nodes <= value, f"uses {plural(facts.nodes, 'node')}, allowed {value}")
     if kind == "succeed":
@@ -318,9 +344,11 @@ def _zone_verdict(criterion: Criterion, facts: RunFacts, zone: Zone, world: Worl
     # rest_in_zone
     if facts.rest_s is None:
         return Verdict(False, f"{name}: the robot never came to rest (it was still moving {SETTLE_MOST_S:g} s after)")
+    if facts.outcome not in (SUCCEEDED, FAILED) and facts.rest_s >= facts.time_s - 1e-6:
+        return Verdict(False, f"{name}: the robot was still moving when its time ran out ({facts.time_s:g} s)")
     if facts.rest_s > facts.time_limit_s + 1e-9:
         return Verdict(
-            False, f"{name}: came to rest only at {facts.rest_s:.1f} s, after the {facts.time_limit_s:g} s allowed"
+            False, f"{name}: came to rest only at {facts.rest_s:.2f} s, after the {facts.time_limit_s:g} s allowed"
         )
     after = str(criterion.options.get("after") or "")
     if gap > 1e-6:
@@ -422,6 +450,33 @@ def _beeps_in(criterion: Criterion, facts: RunFacts, zones: list[Zone]) -> Verdi
     parts.append(f"{plural(extra, 'extra beep')}, allowed {allowed}" + (": no points for beeps" if over else ""))
     share = 0.0 if over else len(beeped) / len(zones)
     return Verdict(share >= 1.0, "; ".join(parts), share)
+
+
+def _turn_text(degrees: float) -> str:
+    """``left 90``, ``right 45``: a turn as a heading's change, within a half-turn either way."""
+    wrapped = (degrees + 180.0) % 360.0 - 180.0
+    return f"{'left' if wrapped >= 0 else 'right'} {abs(wrapped):.0f}"
+
+
+def _turns(criterion: Criterion, facts: RunFacts) -> Verdict:
+    """Turns in place by the criterion's degrees, give or take its tolerance, as a change of heading.
+
+    A turn is the change of heading at one place (turns there one after another add up), taken
+    within a half-turn either way: 450 degrees left is a quarter-turn left, as the path sees it.
+    """
+    wanted, tolerance = float(criterion.value), float(criterion.options["tolerance_deg"])
+    count = int(criterion.options["count"])
+    turns = facts.turns
+    matching = [t for t in turns if abs(heading_delta_deg(wanted, t.degrees)) <= tolerance]
+    asked = f"{_turn_text(wanted)} ± {tolerance:g} degrees"
+    found = f"turned {asked} {plural(len(matching), 'time')}, needed {count}"
+    others = [t for t in turns if t not in matching]
+    if others:
+        found += f" (its other turns: {', '.join(_turn_text(t.degrees) for t in others[:6])}" + (
+            ", ...)" if len(others) > 6 else ")"
+        )
+    share = min(1.0, len(matching) / count) if count else 1.0
+    return Verdict(share >= 1.0, found, share)
 
 
 def _listed(names: list[str]) -> str:

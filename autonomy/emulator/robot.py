@@ -119,9 +119,10 @@ class Robot:
         #: Where the robot was at each beep, in the order of :attr:`beeps`.
         self.beep_poses: list[Pose] = []
         #: The robot's own record of where it went: (time_s, pose) at the start and whenever its motion
-        #: changed (a command, an impact). Between two of them it drove straight along its heading, or
-        #: turned where it stood, so the segments between them are its path, whatever read it how often.
-        #: Points on one straight drive are kept as its two ends, and turns in one place as one point.
+        #: changed (a command, an impact, the end of a drive). Between two of them it drove straight
+        #: along its heading, or turned where it stood, so the segments between them are its path,
+        #: whatever read it how often. One straight drive is kept as its two ends, and a stay in one
+        #: place as two points (when it came and when it left, its turns there between them).
         self.trail: list[tuple[float, Pose]] = [(0.0, start)]
         #: The last time the wheels turned or the robot turned in place, simulated seconds.
         self.moved_s = 0.0
@@ -246,18 +247,21 @@ class Robot:
         """Adds where the robot is now to :attr:`trail`, as its motion is about to change.
 
         A point on the straight line the last two run along, in the same direction, replaces the
-        last (the drive goes on); a point where the last one stands replaces it (a turn in place).
+        last (the drive goes on). Where the robot stands, the trail keeps two points: when it got
+        there and when it last was told anything there (a turn in place between them, or a pause),
+        so that the times along the path stay right.
         """
         trail = self.trail
         x, y, heading = self.x_mm, self.y_mm, self.heading_deg
         point = (self.time_s, Pose(x, y, heading))
         _, last = trail[-1]
         if last.x_mm == x and last.y_mm == y:
-            if len(trail) > 1:
-                trail[-1] = point
-                return
-            if last.heading_deg == heading:  # at the start still, as it was
-                return
+            _, before = trail[-2] if len(trail) > 1 else (0.0, None)
+            if before is not None and before.x_mm == x and before.y_mm == y:
+                trail[-1] = point  # arrived before: this is the latest moment there
+            elif len(trail) > 1 or last.heading_deg != heading:
+                trail.append(point)
+            return
         if len(trail) >= 2:
             _, before = trail[-2]
             same_line = before.heading_deg == last.heading_deg == heading

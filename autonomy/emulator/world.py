@@ -853,22 +853,87 @@ class _Reader(Reader):
             tuple(v for v, _ in vary),
         )
         self.check_layout(world, [(o, w, p) for o, w, p, _ in obstacles], zones, start_at)
+        if not self.problems and vary:
+            self.check_vary(world, vary, [(o, p, n) for o, _, p, n in obstacles], zones)
         if not self.problems:
             for offsets, where in _extremes(world, vary):
                 moved = world.moved(offsets)
                 found = _Reader(self.label)
+                names = world.obstacle_names or ("",) * len(world.obstacles)
+                paths = {n: p for _, _, p, n in obstacles if n}
                 found.check_layout(
                     moved,
-                    [(o, where, "vary") for o in moved.obstacles],
-                    [(z, where, "vary") for z in moved.zones],
+                    [(o, where, paths.get(n, "obstacles")) for o, n in zip(moved.obstacles, names, strict=False)],
+                    [(z, where, f"zones.{z.name}") for z in moved.zones],
                     where,
                 )
                 for problem in found.problems[:1]:
                     shown = ", ".join(f"({dx + 0.0:+g}, {dy + 0.0:+g} mm)" for dx, dy in offsets)  # no -0
-                    self.problem(where, "vary", f"moved as far as it may go [{shown}], {problem.message}")
+                    self.problem(
+                        where, "vary", f"moved as far as it may go [{shown}], {problem.path}: {problem.message}"
+                    )
                 if found.problems:
                     break
         return world
+
+    def check_vary(
+        self,
+        world: World,
+        vary: list[tuple[Vary, Located]],
+        obstacles: list[tuple[Obstacle, str, str]],
+        zones: list[tuple[Zone, Located, str]],
+    ) -> None:
+        """Checks every place what varies may take, not only the ends of its ranges.
+
+        The start (with its jitter) must leave the robot clear of every obstacle wherever the
+        obstacle and the start may be; a zone must stay inside the arena wherever it goes, and
+        never lie wholly inside a box obstacle.
+        """
+        ranges: dict[str, tuple[float, float, Located]] = {}
+        for group, where in vary:
+            for name in group.names:
+                ranges[name] = (group.x_mm, group.y_mm, where)
+        group_of = {name: id(where) for name, (_, _, where) in ranges.items()}
+        start, jitter = world.start, world.jitter
+        for obstacle, path, name in obstacles:
+            if name not in ranges:
+                continue
+            vx, vy, where = ranges[name]
+            reach_x, reach_y = jitter.x_mm + vx, jitter.y_mm + vy
+            gap = obstacle.rect_gap(
+                start.x_mm - reach_x, start.y_mm - reach_y, start.x_mm + reach_x, start.y_mm + reach_y
+            )
+            if not gap >= ROBOT_RADIUS_MM - EPSILON_MM:
+                self.problem(
+                    where,
+                    "vary",
+                    f"{path} ('{name}') may come to touch the robot at the start (radius {ROBOT_RADIUS_MM:g} mm): "
+                    "keep what moves further from it, or move it less",
+                )
+                return
+        for zone, located, path in zones:
+            vx, vy, where = ranges.get(zone.name, (0.0, 0.0, located))
+            x0, y0, x1, y1 = zone.shape.bounds()
+            if zone.name in ranges and (
+                x0 - vx < 0 or y0 - vy < 0 or x1 + vx > world.width_mm or y1 + vy > world.height_mm
+            ):
+                self.problem(where, "vary", f"{path} may be moved outside the arena: move it less, or make room")
+                continue
+            for obstacle, obstacle_path, name in obstacles:
+                if not isinstance(obstacle, Box) or (zone.name not in ranges and name not in ranges):
+                    continue
+                if name in ranges and zone.name in ranges and group_of[name] == group_of[zone.name]:
+                    continue  # they move together: as they stand is checked already
+                ox, oy, _ = ranges.get(name, (0.0, 0.0, where))
+                rx, ry = vx + ox, vy + oy  # how far one may move from the other, either way
+                fits_x = max(obstacle.x_min_mm - x0, -rx) <= min(obstacle.x_max_mm - x1, rx)
+                fits_y = max(obstacle.y_min_mm - y0, -ry) <= min(obstacle.y_max_mm - y1, ry)
+                if fits_x and fits_y:
+                    self.problem(
+                        where,
+                        "vary",
+                        f"{path} may come to lie wholly inside {obstacle_path}: the robot could not enter it",
+                    )
 
     def vary(self, located: Located, named: set[str]) -> list[tuple[Vary, Located]]:
         if not isinstance(located.value, list):
@@ -986,6 +1051,19 @@ class _Reader(Reader):
                 why = f"leaves the robot (radius {ROBOT_RADIUS_MM:g} mm) touching a wall or an obstacle"
             self.problem(start_at, "start", f"{what} {why}")
             break
+        else:  # the corners are clear: so must be every start between them
+            if jitter:
+                x0, y0 = start.x_mm - jitter.x_mm, start.y_mm - jitter.y_mm
+                x1, y1 = start.x_mm + jitter.x_mm, start.y_mm + jitter.y_mm
+                for shape, _, path in obstacles:
+                    if not shape.rect_gap(x0, y0, x1, y1) >= ROBOT_RADIUS_MM - EPSILON_MM:
+                        self.problem(
+                            start_at,
+                            "start",
+                            f"the start moved by its jitter may leave the robot (radius {ROBOT_RADIUS_MM:g} mm) "
+                            f"touching {path}: keep it further away, or jitter the start less",
+                        )
+                        break
 
 
 def _read_text(text: str, label: str, default_name: str) -> World:

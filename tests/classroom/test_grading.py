@@ -54,8 +54,8 @@ WRONG = {
 #: A class of tricks, graded by hand first: what a fair teacher gives each out of 10, and why. The tool
 #: must give each within one point of it (on the exercise's public seeds, with default options).
 FAIR = {
-    # square: the corners in order 3, a beep at each corner and home 2, home for good after corner 3
-    # 3, no collision 1, ending on its own 1 (the last two only for a robot that drove the square).
+    # square: the corners in order 3, a beep at each corner and home 2, home for good having made the
+    # square's left turns 3, no collision 1, ending on its own 1 (these two only with every corner).
     "square_mid_side_beeps": 7,  # the square and home are right; no beep is where it was asked
     "square_beep_spam": 7,  # 20 beeps, one every 10 cm, "so one is at a corner": the beeps say nothing
     "square_triangle": 4.5,  # two corners of three and their beeps; a triangle is not the square asked for
@@ -65,14 +65,19 @@ FAIR = {
     "square_back_and_forth": 4,  # corners 1 and 2, then back home the way it came: corner 3 never
     "square_beeps_at_home": 0.5,  # beeps four times where it starts and never moves
     "square_no_beeps": 8,  # the square right, no beep at all
+    "square_one_spoke": 2,  # out to corner 3 and back, beeping at both: no square, so nothing for home
+    "square_two_spokes": 3,  # out to corner 1 and back, out to corner 3 and back: two corners, no square
+    "square_then_spin": 6.5,  # the square right, then spins at home until the time runs out
     # garage: parked for good 5, no collision 3, ending on its own 2 (the last two only for one that parked)
     "garage_fixed_distance": 3,  # right only on the seeds whose hall happens to be that long
     "garage_park_then_beep": 7,  # parks perfectly and stays, then beeps once a second: it never ends
     "garage_full_speed": 1,  # reached the garage but rolled on into the wall after the mission ended
     "garage_until_bump": 0.5,  # drives into the wall every time
-    # bump: a bump 2, at rest in the goal 5, exactly one bump 1, ending on its own 2 (for one in the goal)
+    # bump: a bump into the box 2, at rest in the goal 5, exactly one bump 1, ending on its own 2 (in the goal)
     "bump_push": 3,  # bumps and goes on pushing the box: the bump, nothing else
     "bump_no_return": 3,  # bumps, backs off, goes round, but never comes back to the goal
+    "bump_wall_behind": 7,  # backs into the wall for its bump, then goes round the box it never touched
+    "bump_feel_along": 8.5,  # feels along the box's face, bumping it every 2 cm, then goes round: five collisions
     # opening: through the opening 2, at rest in the goal 4, no collision 2 and ending on its own 2 once through
     "opening_fixed": 2,  # a fixed distance north: through the opening on the odd seed, into the wall on the rest
     "opening_straight": 0,  # straight ahead into the wall
@@ -577,6 +582,68 @@ def test_collisions_are_counted_from_the_emulator_the_same_at_any_tick_rate(tmp_
     assert seen[1] == 0 and seen[20] == 2  # what the mission read: not the same at every rate
 
 
+def test_a_collision_is_measured_from_its_first_impact_however_many_follow():
+    from autonomy.classroom.judge import _collisions
+    from autonomy.record import Pose
+
+    # feeling along a face, 20 mm between impacts: each impact is near the last, but the third is
+    # 40 mm from where the collision began
+    impacts = [(1.0 + k, Pose(1400.0, 700.0 + 20.0 * k, 0.0)) for k in range(5)]
+    path = [(0.0, Pose(400.0, 700.0, 0.0)), *impacts]
+    assert [t for t, _ in _collisions(impacts, path)] == [1.0, 3.0, 5.0]
+
+
+def test_collisions_with_a_named_obstacle_are_told_from_the_rest():
+    from autonomy.classroom.exercise import Criterion
+    from autonomy.classroom.judge import hit, judge
+    from autonomy.record import Pose
+
+    world = load_world_of("bump").for_seed(3)
+    box = world.obstacles[0]
+    at_box = Pose(box.x_min_mm - 60.0, 750.0, 0.0)
+    at_wall = Pose(60.0, 750.0, 180.0)
+    assert hit(world, at_box) == "box" and hit(world, at_wall) == "a wall"
+    bumped = Criterion("min_collisions", 1, 2.0, {"with": "box"}, "min_collisions 1")
+    wall_only = _facts([(0.0, Pose(300, 750, 0)), (1.0, at_wall)], collisions=[(1.0, at_wall)])
+    verdict = judge(bumped, wall_only, world)
+    assert (
+        not verdict.held and verdict.line == "collisions with box: 0, needed at least 1 (and 1 collision with a wall)"
+    )
+    both = _facts([(0.0, Pose(300, 750, 0))], collisions=[(1.0, at_wall), (2.0, at_box)])
+    assert judge(bumped, both, world).line.startswith("collisions with box: 1, needed at least 1, the first at 2.0 s")
+
+
+def test_turns_count_a_heading_s_change_at_one_place():
+    from autonomy.classroom.exercise import Criterion
+    from autonomy.classroom.judge import judge
+    from autonomy.record import Pose
+
+    world = load_world_of("square")
+    lefts = Criterion("turns", 90, 0.0, {"count": 3.0, "tolerance_deg": 10.0}, "turns 90")
+    square = [(0.0, Pose(700, 700, 0)), (2.0, Pose(1200, 700, 0)), (2.5, Pose(1200, 700, 85))]
+    square += [(4.0, Pose(1200, 1200, 85)), (4.5, Pose(1200, 1200, 175 + 360)), (6.0, Pose(700, 1200, 535))]
+    square += [(6.5, Pose(700, 1200, 535 - 180))]  # a half-turn right: not a left quarter
+    verdict = judge(lefts, _facts(square), world)
+    assert verdict.share == pytest.approx(2 / 3) and verdict.line == (
+        "turned left 90 ± 10 degrees 2 times, needed 3 (its other turns: right 180)"
+    )  # 85 is within 10 of 90; 450 left is a quarter-turn left as the path sees it
+
+
+def test_a_robot_still_moving_when_its_time_ran_out_did_not_come_to_rest():
+    from autonomy.classroom.exercise import Criterion
+    from autonomy.classroom.judge import judge
+    from autonomy.record import Pose
+
+    world = load_world_of("square")
+    home = Criterion("rest_in_zone", "home", 3.0, {"after": "", "near_mm": 0.0}, "rest_in_zone home")
+    spinning = _facts([(0.0, Pose(700, 700, 0)), (40.0, Pose(700, 700, 9000))], outcome="time limit", rest_s=40.0)
+    spinning.time_s = 40.0
+    assert judge(home, spinning, world).line == "home: the robot was still moving when its time ran out (40 s)"
+    parked = _facts([(0.0, Pose(700, 700, 0)), (5.0, Pose(700, 700, 90))], outcome="time limit", rest_s=5.0)
+    parked.time_s = 40.0
+    assert judge(home, parked, world).held  # it stood still from 5 s on: the mission's not ending is another matter
+
+
 def test_pushing_on_is_one_collision_and_backing_off_to_bump_again_is_two():
     from autonomy.classroom.judge import NEW_COLLISION_MM, _collisions
     from autonomy.record import Pose
@@ -584,7 +651,7 @@ def test_pushing_on_is_one_collision_and_backing_off_to_bump_again_is_two():
     wall = Pose(2000.0, 600.0, 0.0)
     pushed = [(1.0, wall), (1.2, Pose(2000.5, 600.0, 0.0)), (1.4, wall)]
     path = [(0.0, Pose(400.0, 600.0, 0.0)), (1.0, wall), (1.4, wall)]
-    assert _collisions(pushed, path) == [(1.4, wall)]  # one push, dated by its last impact
+    assert _collisions(pushed, path) == [(1.0, wall)]  # one push, dated by its first impact
     backed = [*path, (2.0, Pose(2000.0 - NEW_COLLISION_MM, 600.0, 0.0)), (3.0, wall)]
     assert len(_collisions([(1.0, wall), (3.0, wall)], backed)) == 2
 
@@ -617,8 +684,8 @@ def test_a_zone_crossed_between_two_ticks_is_reached(tmp_path):
     corner = world.zone("corner_1")
     reach = Criterion("reach_zone", "corner_1", 1.0, {}, "reach_zone corner_1")
     assert judge(reach, facts, world).held
-    # the path is the start and its straight drive's end: no point of it is in the zone, the segment is
-    assert len(facts.path) <= 3 and not any(corner.contains(p.x_mm, p.y_mm) for _, p in facts.path)
+    # the path is the start and its straight drive's ends: no point of it is in the zone, a segment is
+    assert not any(corner.contains(p.x_mm, p.y_mm) for _, p in facts.path)
 
 
 def test_facts_need_a_header_and_an_end():
@@ -714,7 +781,7 @@ def test_verdict_lines_read_as_a_person_would_write_them():
     short = _facts([(0.0, Pose(400, 600, 0)), (2.0, Pose(2200, 600, 0))])
     assert judge(rest, short, world).line == "garage: came to rest 40 mm outside it (it lies east; needed inside)"
     late = _facts([(0.0, Pose(400, 600, 0)), (31.0, Pose(2300, 600, 0))], rest_s=31.0)
-    assert judge(rest, late, world).line == "garage: came to rest only at 31.0 s, after the 30 s allowed"
+    assert judge(rest, late, world).line == "garage: came to rest only at 31.00 s, after the 30 s allowed"
     rolling = _facts([(0.0, Pose(400, 600, 0))], rest_s=None)
     assert judge(rest, rolling, world).line.startswith("garage: the robot never came to rest")
 

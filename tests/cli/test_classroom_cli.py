@@ -110,7 +110,18 @@ def test_the_teacher_s_secret_adds_the_hidden_seeds(tmp_path):
         "e.g. python3 -c 'import secrets; print(secrets.token_hex(16))' > secret.txt"
     )
     gone = autonomy("grade", "exercises/garage.yaml", "exercises/solutions/garage.yaml", "--secret-file", "nowhere")
-    assert gone.returncode == 2 and "cannot read the secret file nowhere: No such file or directory" in gone.stderr
+    assert gone.returncode == 2 and gone.stderr.strip().endswith("cannot read the secret file nowhere: no such file")
+    for odd in ("/dev/zero", str(tmp_path)):  # a device that never ends, a folder: refused before reading
+        refused = autonomy("grade", "exercises/garage.yaml", "exercises/solutions/garage.yaml", "--secret-file", odd)
+        assert refused.returncode == 2 and refused.stderr.strip().endswith(
+            f"the secret file {odd} is not a file: give a small text file"
+        )
+    big = tmp_path / "big.txt"
+    big.write_bytes(b"x" * 5000)
+    refused = autonomy("grade", "exercises/garage.yaml", "exercises/solutions/garage.yaml", "--secret-file", str(big))
+    assert refused.returncode == 2 and "is over 4096 bytes" in refused.stderr
+    plain = autonomy("grade", "exercises/slalom.yaml", "exercises/solutions/slalom.yaml", "--secret-file", str(secret))
+    assert plain.stdout.splitlines()[1] == "This exercise has no hidden seeds: the secret changes nothing."
 
 
 def test_a_teacher_grades_a_class_into_a_gradebook_json_and_a_page(tmp_path):

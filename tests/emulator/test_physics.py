@@ -382,12 +382,14 @@ def test_the_robot_s_own_trail_is_its_path_between_any_two_moments(name, script)
     assert robot.moved_s == pytest.approx(last_move_s, abs=1e-9) or (robot.moved_s == 0.0 and last_move_s == 0.0)
 
 
-def test_a_straight_drive_is_kept_as_its_two_ends_and_turns_in_place_as_one_point():
+def test_a_straight_drive_is_kept_as_its_two_ends_and_a_stay_in_one_place_as_two_points():
     robot = Robot(load_world("empty"))
     start = robot.pose
     for _ in range(20):  # the same command again and again: the drive goes on
         robot.move(2)
         robot.advance_to(robot.time_s + 0.1)
+    robot.stop()
+    robot.advance_to(robot.time_s + 3.0)  # a pause
     robot.turn(90)
     robot.advance_to(robot.time_s + 2.0)
     robot.turn(-45)  # another turn where it stands
@@ -395,8 +397,11 @@ def test_a_straight_drive_is_kept_as_its_two_ends_and_turns_in_place_as_one_poin
     robot.move(2)
     robot.advance_to(robot.time_s + 0.5)
     robot.stop()
+    times = [time_s for time_s, _ in robot.trail]
     points = [pose for _, pose in robot.trail]
-    assert points[0] == start and len(points) == 3  # the start, the corner (as it left it), the end
+    assert points[0] == start and len(points) == 4  # the start, came to the corner, left it, the end
     assert points[1].y_mm == start.y_mm and points[1].x_mm > start.x_mm + 300  # the first drive went east
-    assert points[1].heading_deg == points[2].heading_deg == pytest.approx(start.heading_deg + 45)  # the net turn
-    assert points[2].x_mm > points[1].x_mm and points[2].y_mm > points[1].y_mm  # then north-east
+    assert points[1].heading_deg == start.heading_deg and points[2].heading_deg == pytest.approx(45)  # the net turn
+    assert (points[1].x_mm, points[1].y_mm) == (points[2].x_mm, points[2].y_mm)
+    assert times[1] == pytest.approx(2.0 + 0.2, abs=0.2) and times[2] == pytest.approx(times[1] + 7.0, abs=0.3)
+    assert points[3].x_mm > points[2].x_mm and points[3].y_mm > points[2].y_mm  # then north-east

@@ -196,7 +196,21 @@ def test_the_emulator_and_the_grader_see_the_same_world_for_a_seed():
         ("vary:\n  - x_mm: 10\n", "9:5: vary[0].move: expected move: a list of the names of obstacles and zones"),
         (
             "vary:\n  - move: [wall]\n    x_mm: 900\n",  # moved 900 mm west, the wall would stand on the start
-            "9:5: vary: moved as far as it may go [(-900, +0 mm)], the start is inside an obstacle",
+            "9:5: vary: obstacles[0] ('wall') may come to touch the robot at the start (radius 60 mm): keep what "
+            "moves further from it, or move it less",
+        ),
+        (
+            "vary:\n  - move: [wall]\n    x_mm: 850\n",  # not at the ends of its range: on its way there
+            "9:5: vary: obstacles[0] ('wall') may come to touch the robot at the start (radius 60 mm): keep what "
+            "moves further from it, or move it less",
+        ),
+        (
+            "vary:\n  - move: [goal]\n    y_mm: 500\n",  # 400 mm from the walls: moved 500, out
+            "9:5: vary: zones.goal may be moved outside the arena: move it less, or make room",
+        ),
+        (
+            "vary:\n  - move: [goal]\n    x_mm: 250\n",  # somewhere on the way, inside the wall (if it were wide)
+            None,
         ),
     ],
 )
@@ -207,9 +221,40 @@ def test_what_a_world_varies_is_checked_at_its_place(tmp_path, text, expected):
         "  - box: {from_mm: [1300, 0], to_mm: [1350, 1200]}\n    name: wall\n"
         "zones:\n  goal: {box: {from_mm: [1000, 400], to_mm: [1200, 800]}}\n" + text
     )
+    if expected is None:  # the goal (200 mm wide) cannot lie wholly inside a 50 mm wall: nothing wrong
+        assert load_world(str(path)).vary
+        return
     with pytest.raises(WorldInvalid) as caught:
         load_world(str(path))
     assert f"{path}:{expected}" in str(caught.value).splitlines(), str(caught.value)
+
+
+def test_a_zone_that_may_come_to_lie_inside_a_box_or_a_start_jitter_that_may_touch_one_is_reported(tmp_path):
+    path = tmp_path / "lab.yaml"
+    # the start and the corners of its jitter (x 100 and 700) clear the post by 100 mm; a start on the
+    # way between them, at x 250, leaves the robot 50 mm from its centre, touching it
+    path.write_text(
+        "arena_mm: [3000, 1200]\nstart: {x_mm: 400, y_mm: 600, jitter: {x_mm: 300}}\nobstacles:\n"
+        "  - circle: {center_mm: [250, 670], radius_mm: 20}\n"
+    )
+    with pytest.raises(WorldInvalid) as caught:
+        load_world(str(path))
+    assert str(caught.value) == (
+        f"{path}:2:8: start: the start moved by its jitter may leave the robot (radius 60 mm) touching obstacles[0]: "
+        "keep it further away, or jitter the start less"
+    )
+    # the goal moved 500 to 700 mm west lies wholly inside the block: on the way, not at the ends of its range
+    path.write_text(
+        "arena_mm: [3000, 1200]\nstart: {x_mm: 400, y_mm: 600}\nobstacles:\n"
+        "  - box: {from_mm: [1300, 0], to_mm: [1700, 1200]}\n    name: block\n"
+        "zones:\n  goal: {box: {from_mm: [2000, 400], to_mm: [2200, 800]}}\n"
+        "vary:\n  - move: [goal]\n    x_mm: 750\n"
+    )
+    with pytest.raises(WorldInvalid) as caught:
+        load_world(str(path))
+    assert f"{path}:9:5: vary: zones.goal may come to lie wholly inside obstacles[0]: the robot could not enter it" in (
+        str(caught.value).splitlines()
+    )
 
 
 @pytest.mark.parametrize("name", ["garage", "opening", "square"])
