@@ -170,8 +170,10 @@ def facts_of(gathered: Gatherer, robot: Robot, time_limit_s: float = math.inf) -
 
 
 def _collisions(impacts: list[tuple[float, Pose]], path: list[tuple[float, Pose]]) -> list[tuple[float, Pose]]:
-    """The impacts that begin a collision: the first, and each once the robot has got ``NEW_COLLISION_MM`` from
-    where the collision before began (since its last impact), however many impacts that collision had.
+    """The impacts that begin a collision: the first, and each one after the robot got far from the last collision.
+
+    Far is ``NEW_COLLISION_MM`` from where the collision before began, at some moment since its
+    last impact, however many impacts that collision had.
     """
     out: list[tuple[float, Pose]] = []
     last_s = 0.0
