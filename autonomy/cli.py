@@ -702,6 +702,14 @@ def cmd_grade(args: argparse.Namespace) -> int:
 
     from autonomy.classroom import ExerciseInvalid, find_submissions, grade_class, load_exercise
     from autonomy.classroom.grade import WALL_PER_CPU, default_cpu_s
+    from autonomy.classroom.gradebook import (
+        GradebookError,
+        apply_adjustments,
+        compare,
+        match_roster,
+        read_adjustments,
+        read_roster,
+    )
     from autonomy.classroom.report import feedback, to_csv, to_html, to_json
     from autonomy.emulator.world import SHIPPED
 
@@ -744,11 +752,25 @@ def cmd_grade(args: argparse.Namespace) -> int:
         )
     submissions = find_submissions(args.submissions)
     alone = len(submissions) == 1
+    try:  # the teacher's own files, before any grading: every problem at once, FILE:LINE
+        roster = read_roster(args.roster) if args.roster else None
+        adjustments = read_adjustments(args.adjust) if args.adjust else []
+        known = {student for student, _ in submissions}
+        unknown = [a for a in adjustments if a.student not in known]
+        if unknown:
+            raise GradebookError(
+                [f"{args.adjust}:{a.line}: no student '{a.student}' among the submissions given" for a in unknown]
+            )
+        if args.compare:
+            compare(exercise, [], args.compare)  # that it is an earlier grading
+    except GradebookError as err:
+        return _problems(err.problems)
     targets = [
         (target, write) for target, write in ((args.csv, to_csv), (args.json, to_json), (args.html, to_html)) if target
     ]
     # every file read (the exercise, its world, each submission's mission, a folder's files) is kept from harm
     inputs = {Path(p).resolve() for p in (path, *args.submissions)} | {p.resolve() for _, p in submissions}
+    inputs |= {Path(p).resolve() for p in (args.roster, args.adjust, args.compare) if p}
     inputs |= {Path(exercise.world_ref).resolve()} if exercise.world_ref not in SHIPPED else set()  # a file
     for _, given in submissions:
         try:
@@ -811,17 +833,33 @@ def cmd_grade(args: argparse.Namespace) -> int:
     finally:
         if progress is not None:
             progress.stop()
+    apply_adjustments(reports, adjustments, args.adjust or "")
+    matched = match_roster(roster, reports, Path(args.roster).parent) if roster is not None else None
     if alone and not args.quiet:
         for line in feedback(exercise, reports[0]):
             print(line)
     elif not args.quiet:
         _print_marks(exercise, reports)
+        for report in reports:
+            for points, reason in report.adjustments:
+                print(_shown(f"correction: {report.student} {points:+g} ({reason})"))
+    if matched is not None and not args.quiet:
+        for entry, report in matched.listed:
+            if report is None:
+                print(_shown(f"no submission: {entry.id} {entry.name} (roster line {entry.line})"))
+        for report in matched.unlisted:
+            print(_shown(f"not on the roster: {report.student} ({report.file or 'no file'})"))
+    if args.compare and not args.quiet:
+        print(_shown(f"Since {args.compare}:"))
+        for line in compare(exercise, reports, args.compare):
+            print(_shown(f"  {line}"))
     # a student checking their own mission learns from the exit code too that nothing of it ran
     code = EXIT_USAGE if alone and reports[0].problems else EXIT_OK
     for target, write in targets:  # one that fails does not keep the others from being written
         try:
             # a problem quoting a path that is not UTF-8 (a folder from another system) has '?' for its bytes
-            Path(target).write_text(write(exercise, reports), encoding="utf-8", errors="replace")
+            text = write(exercise, reports, matched) if write in (to_csv, to_json) else write(exercise, reports)
+            Path(target).write_text(text, encoding="utf-8", errors="replace")
         except OSError as err:
             code = _fail(f"cannot write {target}: {err.strerror or err}", EXIT_USAGE)
             continue
@@ -1136,6 +1174,17 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="FILE",
         help="the teacher's secret, which draws the exercise's hidden seeds: they are graded too",
     )
+    grade.add_argument(
+        "--roster",
+        metavar="FILE.csv",
+        help="the class list (columns id,name,submission): ids first in the gradebook, missing students listed",
+    )
+    grade.add_argument(
+        "--adjust",
+        metavar="FILE.csv",
+        help="the teacher's corrections (columns student,points,reason): added to the marks, shown with the reason",
+    )
+    grade.add_argument("--compare", metavar="OLD.json", help="say what changed since an earlier grading's --json")
     grade.add_argument("--csv", metavar="FILE", help="write a gradebook: student, total, one column per criterion")
     grade.add_argument("--json", metavar="FILE", help="write every mark, verdict and path as JSON")
     grade.add_argument("--html", metavar="FILE", help="write one page: the class table, each student's runs on maps")

@@ -102,6 +102,7 @@ class Report:
         problems: Why it was not graded (``FILE:LINE:COL`` lines, or a reason), else empty.
         seeds: Each seed's run.
         notes: What the student should know that cost no marks (a ``world:`` of their own, not used).
+        adjustments: The teacher's corrections, (points, reason), already in ``total``.
     """
 
     student: str
@@ -112,6 +113,7 @@ class Report:
     problems: list[str] = field(default_factory=list)
     seeds: list[SeedResult] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
+    adjustments: list[tuple[float, str]] = field(default_factory=list)
 
     def to_json(self) -> dict[str, Any]:
         """The report as plain JSON (tuples as lists)."""

@@ -13,6 +13,7 @@ from html import escape
 
 from autonomy.classroom.exercise import Exercise
 from autonomy.classroom.grade import Report, SeedResult
+from autonomy.classroom.gradebook import RosterMatch
 from autonomy.views.lines import printable
 from autonomy.views.mapsvg import world_svg
 
@@ -27,26 +28,50 @@ def _cell_text(text: str) -> str:
     return "'" + text if text[:1] in ("=", "+", "-", "@") else text
 
 
-def to_csv(exercise: Exercise, reports: list[Report]) -> str:
-    """The gradebook: student, total, out of, one column per criterion, then why a submission did not run."""
+def to_csv(exercise: Exercise, reports: list[Report], roster: RosterMatch | None = None) -> str:
+    """The gradebook: student, total, out of, one column per criterion, corrections, then why a submission did not run.
+
+    With a roster, the student's id and name come first (as Moodle's grade import maps them: ``id``
+    to the "ID number" field, ``total`` to the assignment), every roster line has its row (``no
+    submission`` for a student who handed in nothing), and a submission on no roster line keeps
+    its row, with no id and ``not on the roster``.
+    """
     out = io.StringIO()
     writer = csv.writer(out, lineterminator="\n")
-    writer.writerow(["student", "total", "out_of", *[c.label for c in exercise.criteria], "problems"])
-    for report in reports:
-        writer.writerow(
-            [
-                _cell_text(report.student),
-                _number(report.total),
-                _number(report.max_points),
-                *[_number(m) for m in report.marks],
-                _cell_text(" | ".join(report.problems)),
-            ]
-        )
+    criteria = [c.label for c in exercise.criteria]
+    tail = ["adjustment", "adjustment_reasons", "problems"]
+    zero = ["0", _number(exercise.max_points), *["0"] * len(criteria), "0", ""]
+
+    def cells(report: Report) -> list[str]:
+        return [
+            _number(report.total),
+            _number(report.max_points),
+            *[_number(m) for m in report.marks],
+            _number(sum(points for points, _ in report.adjustments)),
+            _cell_text(" | ".join(reason for _, reason in report.adjustments)),
+            _cell_text(" | ".join(report.problems)),
+        ]
+
+    if roster is None:
+        writer.writerow(["student", "total", "out_of", *criteria, *tail])
+        for report in reports:
+            writer.writerow([_cell_text(report.student), *cells(report)])
+        return out.getvalue()
+    writer.writerow(["id", "name", "student", "total", "out_of", *criteria, *tail])
+    for entry, report in roster.listed:
+        if report is None:
+            writer.writerow([_cell_text(entry.id), _cell_text(entry.name), "", *zero, "no submission"])
+        else:
+            writer.writerow([_cell_text(entry.id), _cell_text(entry.name), _cell_text(report.student), *cells(report)])
+    for report in roster.unlisted:
+        row = cells(report)
+        row[-1] = _cell_text(" | ".join(["not on the roster", *report.problems]))
+        writer.writerow(["", "", _cell_text(report.student), *row])
     return out.getvalue()
 
 
-def to_json(exercise: Exercise, reports: list[Report]) -> str:
-    """Every mark, every seed's verdicts and path, as one JSON document."""
+def to_json(exercise: Exercise, reports: list[Report], roster: RosterMatch | None = None) -> str:
+    """Every mark, every seed's verdicts and path, as one JSON document (with the roster's ids, if given)."""
     document = {
         "exercise": exercise.name,
         "title": exercise.title,
@@ -57,6 +82,12 @@ def to_json(exercise: Exercise, reports: list[Report]) -> str:
         "max_points": exercise.max_points,
         "students": [r.to_json() for r in reports],
     }
+    if roster is not None:
+        document["roster"] = [
+            {"id": entry.id, "name": entry.name, "student": report.student if report is not None else None}
+            for entry, report in roster.listed
+        ]
+        document["not_on_the_roster"] = [report.student for report in roster.unlisted]
     return json.dumps(document, indent=1, sort_keys=False, ensure_ascii=False) + "\n"
 
 
@@ -66,8 +97,11 @@ def feedback(exercise: Exercise, report: Report) -> list[str]:
         f"{printable(report.student)}: {_number(report.total)} / {_number(report.max_points)} "
         f"in '{printable(exercise.title)}'"
     ]
+    lines += [
+        f"  Correction by the teacher: {points:+g} ({printable(reason)})" for points, reason in report.adjustments
+    ]
     if report.problems:
-        lines.append("  Not graded, and the mark is 0:")
+        lines.append("  Not graded, and the mark is 0" + (" before the correction:" if report.adjustments else ":"))
         lines += [f"  {printable(p)}" for p in report.problems]
         return lines
     lines += [f"  Note: {printable(note)}" for note in report.notes]
@@ -167,6 +201,10 @@ def to_html(exercise: Exercise, reports: list[Report]) -> str:
             f"<h2>{escape(printable(report.student))}: {_number(report.total)} / {_number(report.max_points)}</h2>"
         )
         parts.append(f"<p>{escape(printable(report.file))}</p>")
+        parts += [
+            f'<p class="adjustment">Correction by the teacher: {points:+g} ({escape(printable(reason))})</p>'
+            for points, reason in report.adjustments
+        ]
         parts += [f'<p class="note">Note: {escape(printable(note))}</p>' for note in report.notes]
         if report.problems:
             text = "\n".join(printable(p) for p in report.problems)

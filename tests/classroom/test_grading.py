@@ -358,8 +358,11 @@ def test_grading_twice_writes_the_same_bytes():
     assert to_csv(exercise, first) == to_csv(exercise, second)
     assert to_html(exercise, first) == to_html(exercise, second)
     rows = to_csv(exercise, first).splitlines()
-    assert rows[0] == "student,total,out_of,rest_in_zone garage,max_collisions 0,finish_within_s 30,problems"
-    assert rows[1].startswith("garage,10,10,5,3,2,")
+    assert rows[0] == (
+        "student,total,out_of,rest_in_zone garage,max_collisions 0,finish_within_s 30,adjustment,adjustment_reasons,"
+        "problems"
+    )
+    assert rows[1].startswith("garage,10,10,5,3,2,0,,")
     assert rows[2].startswith("garage_fixed_distance,2.5,10,1.25,0.75,0.5,")
     document = json.loads(to_json(exercise, first))
     assert [s["student"] for s in document["students"]] == ["garage", "garage_fixed_distance"]

@@ -399,3 +399,108 @@ def test_the_marks_table_counts_wide_characters_as_the_terminal_does(tmp_path):
         assert table and all(cell_len(line) <= int(columns) for line in table)
         assert "…" not in shown  # no head nor mark cut
         assert "│ 张伟张伟张伟张伟张伟张伟 │    10 │" in shown
+
+
+def _desk(tmp_path):
+    """A class folder: alice (the reference), bob (a fixed distance), zed (into the wall), and the exercise."""
+    (tmp_path / "exercises").mkdir()
+    (tmp_path / "exercises" / "garage.yaml").write_text((ROOT / "exercises" / "garage.yaml").read_text())
+    (tmp_path / "class").mkdir()
+    for student, source in (
+        ("alice", "solutions/garage.yaml"),
+        ("bob", "wrong/garage_fixed_distance.yaml"),
+        ("zed", "wrong/garage_until_bump.yaml"),
+    ):
+        (tmp_path / "class" / f"{student}.yaml").write_text((ROOT / "exercises" / source).read_text())
+    return ["class/alice.yaml", "class/bob.yaml", "class/zed.yaml"]
+
+
+def test_a_roster_puts_ids_first_lists_who_handed_in_nothing_and_who_is_not_on_it(tmp_path):
+    files = _desk(tmp_path)
+    (tmp_path / "roster.csv").write_text(
+        'id,name,submission\n1001,Alice Smith,alice\n1002,"Jones, Bob",class/bob.yaml\n1003,Carol King,carol\n'
+    )
+    result = grade_in(tmp_path, "garage", *files, "--roster", "roster.csv", "--csv", "marks.csv", "--json", "m.json")
+    assert result.returncode == 0, result.stderr
+    assert "no submission: 1003 Carol King (roster line 4)" in result.stdout
+    assert "not on the roster: zed (class/zed.yaml)" in result.stdout
+    rows = list(csv.reader((tmp_path / "marks.csv").read_text().splitlines()))
+    # Moodle's grade import: an id column to map to "ID number", the total to map to the assignment
+    assert rows[0] == [
+        "id", "name", "student", "total", "out_of", "rest_in_zone garage", "max_collisions 0", "finish_within_s 30",
+        "adjustment", "adjustment_reasons", "problems",
+    ]  # fmt: skip
+    assert [row[:4] for row in rows[1:]] == [
+        ["1001", "Alice Smith", "alice", "10"],
+        ["1002", "Jones, Bob", "bob", "2.5"],
+        ["1003", "Carol King", "", "0"],
+        ["", "", "zed", "0"],
+    ]
+    assert rows[3][-1] == "no submission" and rows[4][-1] == "not on the roster"
+    document = json.loads((tmp_path / "m.json").read_text())
+    assert document["roster"][2] == {"id": "1003", "name": "Carol King", "student": None}
+    assert document["not_on_the_roster"] == ["zed"]
+    (tmp_path / "twice.csv").write_text("id,name,submission\n7,A,alice\n7,B,bob\n")
+    refused = grade_in(tmp_path, "garage", *files, "--roster", "twice.csv")
+    assert refused.returncode == 2 and refused.stderr.strip() == "twice.csv:3: id '7' is on line 2 already"
+    (tmp_path / "headless.csv").write_text("1001,Alice,alice\n")
+    refused = grade_in(tmp_path, "garage", *files, "--roster", "headless.csv")
+    assert refused.returncode == 2 and "headless.csv:1: the roster's first line must name the columns id,name," in (
+        refused.stderr
+    )
+
+
+def test_a_teacher_s_correction_is_added_to_the_mark_and_shown_with_its_reason_everywhere(tmp_path):
+    files = _desk(tmp_path)
+    (tmp_path / "adjust.csv").write_text("student,points,reason\nbob,1.5,the hall's wall stood 2 cm off\n")
+    result = grade_in(
+        tmp_path, "garage", *files, "--adjust", "adjust.csv", "--csv", "m.csv", "--json", "m.json", "--html", "m.html"
+    )
+    assert result.returncode == 0, result.stderr
+    assert "correction: bob +1.5 (the hall's wall stood 2 cm off)" in result.stdout
+    bob = [row for row in csv.reader((tmp_path / "m.csv").read_text().splitlines()) if row[0] == "bob"][0]
+    assert bob[1] == "4" and bob[-3:] == ["1.5", "the hall's wall stood 2 cm off", ""]  # 2.5 graded, 1.5 by hand
+    document = json.loads((tmp_path / "m.json").read_text())
+    assert [s["adjustments"] for s in document["students"]] == [[], [[1.5, "the hall's wall stood 2 cm off"]], []]
+    assert "Correction by the teacher: +1.5 (the hall&#x27;s wall stood 2 cm off)" in (tmp_path / "m.html").read_text()
+    alone = grade_in(tmp_path, "garage", "class/bob.yaml", "--adjust", "adjust.csv")
+    assert "  Correction by the teacher: +1.5 (the hall's wall stood 2 cm off)" in alone.stdout.splitlines()
+    (tmp_path / "wrong.csv").write_text("student,points,reason\nbobby,1,typo\nbob,lots,\n")
+    refused = grade_in(tmp_path, "garage", *files, "--adjust", "wrong.csv")
+    assert refused.returncode == 2 and refused.stderr.splitlines() == [
+        "wrong.csv:3: points must be a number from -1000 to 1000, got 'lots'",
+        "wrong.csv:3: a correction needs its reason, which the student will read",
+    ]
+    (tmp_path / "who.csv").write_text("student,points,reason\nbobby,1,typo\n")
+    refused = grade_in(tmp_path, "garage", *files, "--adjust", "who.csv")
+    assert (
+        refused.returncode == 2
+        and refused.stderr.strip() == "who.csv:2: no student 'bobby' among the submissions given"
+    )
+
+
+def test_a_grading_is_compared_with_an_earlier_one(tmp_path):
+    files = _desk(tmp_path)
+    first = grade_in(tmp_path, "garage", *files, "--json", "before.json")
+    assert first.returncode == 0, first.stderr
+    (tmp_path / "class" / "bob.yaml").write_text((ROOT / "exercises" / "solutions" / "garage.yaml").read_text())
+    (tmp_path / "class" / "dan.yaml").write_text(
+        (ROOT / "exercises" / "wrong" / "garage_park_then_beep.yaml").read_text()
+    )
+    again = grade_in(
+        tmp_path, "garage", "class/bob.yaml", "class/dan.yaml", "class/zed.yaml", "--compare", "before.json"
+    )
+    assert again.returncode == 0, again.stderr
+    lines = again.stdout.splitlines()
+    since = lines[lines.index("Since before.json:") + 1 :]
+    assert since == [
+        "  changed: bob, 2.5 -> 10 (rest_in_zone garage 1.25 -> 5; max_collisions 0 0.75 -> 3; "
+        "finish_within_s 30 0.5 -> 2)",
+        "  new: dan, 8",
+        "  missing: alice, was 10",
+        "  the same: 1 of 3",
+    ]
+    refused = grade_in(tmp_path, "garage", *files, "--compare", "class/bob.yaml")
+    assert refused.returncode == 2 and refused.stderr.startswith(
+        "class/bob.yaml:1: not the JSON of an earlier grading (autonomy grade --json)"
+    )

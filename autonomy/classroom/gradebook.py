@@ -1,0 +1,247 @@
+"""What a teacher does with a class's marks: a roster of student ids, corrections by hand, and what changed.
+
+- A roster (``id,name,submission``) puts each student's id first in the gradebook, lists a
+  student who handed in nothing as such, and reports a submission on no roster line.
+- An adjustment (``student,points,reason``) is a teacher's correction: added to the mark, and
+  shown with its reason wherever the mark is.
+- A comparison says what changed since an earlier grading's JSON: new, missing and changed
+  students, and for each changed mark the criteria that moved.
+
+Files are read like every other input: a problem is ``FILE:LINE: message``, all of them at once.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+from autonomy.classroom.exercise import Exercise
+from autonomy.classroom.grade import Report
+from autonomy.errors import AutonomyError
+from autonomy.source import UnreadableFile, control_character, read_text
+
+ROSTER_COLUMNS = ("id", "name", "submission")
+ADJUST_COLUMNS = ("student", "points", "reason")
+#: How many rows a roster or an adjustment file may have.
+MOST_ROWS = 100_000
+
+
+class GradebookError(AutonomyError):
+    """A roster, adjustment or earlier grading that cannot be used; :attr:`problems` has every one."""
+
+    def __init__(self, problems: list[str]) -> None:
+        self.problems = problems
+        super().__init__("\n".join(problems))
+
+
+@dataclass(frozen=True)
+class RosterEntry:
+    """One student of a roster: their id (as the school's gradebook knows them), name, and submission."""
+
+    id: str
+    name: str
+    submission: str
+    line: int
+
+
+@dataclass(frozen=True)
+class Adjustment:
+    """A teacher's correction of one student's mark, with why."""
+
+    student: str
+    points: float
+    reason: str
+    line: int
+
+
+def _rows(path: str | Path, columns: tuple[str, ...], what: str) -> list[tuple[int, dict[str, str]]]:
+    """The rows of a CSV file with a header naming ``columns`` (others are let be), numbered as in the file."""
+    label = str(path)
+    try:
+        text = read_text(Path(path))
+    except UnreadableFile as err:
+        raise GradebookError([f"{label}:{err.line}: cannot read the {what}: {err.reason}"]) from None
+    lines = text.splitlines()
+    reader = csv.reader(lines)
+    try:
+        header = [cell.strip() for cell in next(reader)]
+    except StopIteration:
+        raise GradebookError(
+            [f"{label}:1: the {what} is empty: its first line names the columns {','.join(columns)}"]
+        ) from None
+    except csv.Error as err:
+        raise GradebookError([f"{label}:1: not a CSV file: {err}"]) from None
+    missing = [column for column in columns if column not in header]
+    if missing:
+        raise GradebookError(
+            [
+                f"{label}:1: the {what}'s first line must name the columns {','.join(columns)}; "
+                f"missing: {', '.join(missing)} (got {','.join(header) or 'nothing'})"
+            ]
+        )
+    rows = []
+    try:
+        for number, cells in enumerate(reader, start=2):
+            if not any(cell.strip() for cell in cells):
+                continue
+            if len(rows) >= MOST_ROWS:
+                raise GradebookError([f"{label}:{number}: more than {MOST_ROWS:,} rows"])
+            rows.append((number, {name: (cells[i].strip() if i < len(cells) else "") for i, name in enumerate(header)}))
+    except csv.Error as err:
+        raise GradebookError([f"{label}:{reader.line_num}: not a CSV file: {err}"]) from None
+    return rows
+
+
+def read_roster(path: str | Path) -> list[RosterEntry]:
+    """Reads a roster: ``id,name,submission`` (the submission: a student as graded, or a path to their file).
+
+    Raises:
+        GradebookError: every problem, ``FILE:LINE: message``.
+    """
+    problems, entries, seen = [], [], {}
+    for number, row in _rows(path, ROSTER_COLUMNS, "roster"):
+        ident, name, submission = row["id"], row["name"], row["submission"]
+        if not ident or control_character(ident):
+            problems.append(f"{path}:{number}: a student needs an id (printable text)")
+        elif ident in seen:
+            problems.append(f"{path}:{number}: id '{ident}' is on line {seen[ident]} already")
+        else:
+            seen[ident] = number
+        entries.append(RosterEntry(ident, name, submission, number))
+    if problems:
+        raise GradebookError(problems)
+    return entries
+
+
+def read_adjustments(path: str | Path) -> list[Adjustment]:
+    """Reads corrections: ``student,points,reason`` (points may be negative; a reason is needed).
+
+    Raises:
+        GradebookError: every problem, ``FILE:LINE: message``.
+    """
+    problems, out = [], []
+    for number, row in _rows(path, ADJUST_COLUMNS, "adjustment file"):
+        student, raw, reason = row["student"], row["points"], row["reason"]
+        try:
+            points = float(raw)
+        except ValueError:
+            points = math.nan
+        if not student:
+            problems.append(f"{path}:{number}: which student? the 'student' column is empty")
+        if not math.isfinite(points) or abs(points) > 1000:
+            problems.append(f"{path}:{number}: points must be a number from -1000 to 1000, got {raw!r}")
+        if not reason:
+            problems.append(f"{path}:{number}: a correction needs its reason, which the student will read")
+        out.append(Adjustment(student, points, reason, number))
+    if problems:
+        raise GradebookError(problems)
+    return out
+
+
+def apply_adjustments(reports: list[Report], adjustments: list[Adjustment], source: str = "") -> list[Report]:
+    """Each report with the corrections for its student added to its total (and listed in it).
+
+    Raises:
+        GradebookError: a correction names no student of the class.
+    """
+    by_student = {report.student: report for report in reports}
+    unknown = [a for a in adjustments if a.student not in by_student]
+    if unknown:
+        known = ", ".join(sorted(by_student)[:10]) + (", ..." if len(by_student) > 10 else "")
+        raise GradebookError(
+            [f"{source}:{a.line}: no student '{a.student}' in this class (students: {known})" for a in unknown]
+        )
+    for adjustment in adjustments:
+        report = by_student[adjustment.student]
+        report.adjustments.append((adjustment.points, adjustment.reason))
+        report.total = round(report.total + adjustment.points, 2)
+    return reports
+
+
+@dataclass(frozen=True)
+class RosterMatch:
+    """The roster and the class matched.
+
+    Attributes:
+        listed: Each roster line with its student's report (None: nothing handed in).
+        unlisted: The reports of submissions on no roster line.
+    """
+
+    listed: list[tuple[RosterEntry, Report | None]]
+    unlisted: list[Report]
+
+
+def match_roster(roster: list[RosterEntry], reports: list[Report], roster_folder: Path) -> RosterMatch:
+    """Pairs each roster line with its student's report: by the student's name as graded, or by the file's path.
+
+    A path is taken as the roster's folder has it, or as given.
+    """
+    by_student = {report.student: report for report in reports}
+    by_path: dict[str, Report] = {}
+    for report in reports:
+        if report.file:
+            by_path[str(Path(report.file).resolve())] = report
+    listed, used = [], set()
+    for entry in roster:
+        found = by_student.get(entry.submission)
+        if found is None and entry.submission:
+            for candidate in (roster_folder / entry.submission, Path(entry.submission)):
+                found = by_path.get(str(candidate.resolve()))
+                if found is None and candidate.is_dir():  # a student's folder: their mission inside it
+                    inside = [r for p, r in by_path.items() if Path(p).parent == candidate.resolve()]
+                    found = inside[0] if len(inside) == 1 else None
+                if found is not None:
+                    break
+        if found is not None and id(found) in used:
+            found = None  # two roster lines for one submission: the first has it
+        if found is not None:
+            used.add(id(found))
+        listed.append((entry, found))
+    return RosterMatch(listed, [report for report in reports if id(report) not in used])
+
+
+def compare(exercise: Exercise, reports: list[Report], earlier: str | Path) -> list[str]:
+    """What changed since an earlier grading (its ``--json``): one line each, then how many stayed the same.
+
+    Raises:
+        GradebookError: the earlier file is not a grading's JSON.
+    """
+    label = str(earlier)
+    try:
+        document = json.loads(read_text(Path(earlier)))
+        students = {s["student"]: s for s in document["students"]}
+        labels = [c["label"] for c in document["criteria"]]
+    except UnreadableFile as err:
+        raise GradebookError([f"{label}:{err.line}: cannot read the earlier grading: {err.reason}"]) from None
+    except (ValueError, KeyError, TypeError) as err:
+        raise GradebookError(
+            [f"{label}:1: not the JSON of an earlier grading (autonomy grade --json): {err}"]
+        ) from None
+    lines, same = [], 0
+    now = {report.student: report for report in reports}
+    for report in reports:
+        before = students.get(report.student)
+        if before is None:
+            lines.append(f"new: {report.student}, {report.total:g}")
+            continue
+        old_total = before.get("total")
+        moved = []
+        old_marks = dict(zip(labels, before.get("marks", []), strict=False))
+        for criterion, mark in zip(exercise.criteria, report.marks, strict=True):
+            was = old_marks.get(criterion.label)
+            if was is None:
+                moved.append(f"{criterion.label} new, {mark:g}")
+            elif was != mark:
+                moved.append(f"{criterion.label} {was:g} -> {mark:g}")
+        moved += [f"{name} gone" for name in old_marks if name not in {c.label for c in exercise.criteria}]
+        if old_total != report.total or moved:
+            why = f" ({'; '.join(moved)})" if moved else " (a correction by hand)"
+            lines.append(f"changed: {report.student}, {old_total:g} -> {report.total:g}{why}")
+        else:
+            same += 1
+    lines += [f"missing: {name}, was {s.get('total', 0):g}" for name, s in students.items() if name not in now]
+    lines.append(f"the same: {same} of {len(reports)}")
+    return lines
