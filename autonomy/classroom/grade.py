@@ -103,6 +103,8 @@ class Report:
         seeds: Each seed's run.
         notes: What the student should know that cost no marks (a ``world:`` of their own, not used).
         adjustments: The teacher's corrections, (points, reason), already in ``total``.
+        shape: The tree's shape, numbers and names left out (what similar submissions are told by;
+            not written out in reports).
     """
 
     student: str
@@ -114,10 +116,13 @@ class Report:
     seeds: list[SeedResult] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
     adjustments: list[tuple[float, str]] = field(default_factory=list)
+    shape: list[str] = field(default_factory=list)
 
     def to_json(self) -> dict[str, Any]:
-        """The report as plain JSON (tuples as lists)."""
-        return asdict(self)
+        """The report as plain JSON (tuples as lists), its tree's shape left out."""
+        out = asdict(self)
+        del out["shape"]
+        return out
 
 
 def default_cpu_s(exercise: Exercise) -> float:
@@ -258,6 +263,36 @@ def _nodes(spec: MissionSpec) -> Iterable[NodeSpec]:
         stack.extend(node.children)
 
 
+def tree_shape(spec: MissionSpec) -> tuple[str, ...]:
+    """The mission's tree as a sequence of tokens, subtrees written out, numbers and names left out.
+
+    Each node is its type with the arguments that are words (``move direction=backward``), then
+    ``(`` its children ``)``: two trees with the same tokens are the same but for numbers and names.
+    """
+    tokens: list[str] = []
+
+    def walk(node: NodeSpec, depth: int) -> None:
+        if node.type.name == "subtree" and depth < 20:
+            inner = spec.subtrees.get(str(node.args.get("subtree", "")))
+            if inner is not None:
+                walk(inner, depth + 1)
+                return
+        words = [
+            f"{key}={value}"
+            for key, value in sorted(node.args.items())
+            if isinstance(value, (str, bool)) and key not in ("subtree", "name", "message", "text")
+        ]
+        tokens.append(" ".join([node.type.name, *words]))
+        if node.children:
+            tokens.append("(")
+            for child in node.children:
+                walk(child, depth)
+            tokens.append(")")
+
+    walk(spec.tree, 0)
+    return tuple(tokens)
+
+
 def check_submission(exercise: Exercise, path: Path, allow_plugins: bool) -> tuple[MissionSpec | None, list[str]]:
     """Validates a submission for ``exercise`` without running any of its Python.
 
@@ -377,7 +412,9 @@ def grade_one(exercise: Exercise, student: str, path: Path, allow_plugins: bool 
             f"every run is in the exercise's world '{exercise.world.name}'"
         )
     total = round(sum(exact), 2)
-    return Report(student, _readable(str(mission)), total, exercise.max_points, marks, [], seeds, notes)
+    report = Report(student, _readable(str(mission)), total, exercise.max_points, marks, [], seeds, notes)
+    report.shape = list(tree_shape(spec))
+    return report
 
 
 def _with_requirements(exercise: Exercise, verdicts: list[Verdict]) -> list[Verdict]:

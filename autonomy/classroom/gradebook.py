@@ -6,6 +6,8 @@
   shown with its reason wherever the mark is.
 - A comparison says what changed since an earlier grading's JSON: new, missing and changed
   students, and for each changed mark the criteria that moved.
+- Similar submissions: pairs whose trees are the same but for numbers and names, or differ by
+  a node or two, listed as a hint for the teacher to look at (never a verdict).
 
 Files are read like every other input: a problem is ``FILE:LINE: message``, all of them at once.
 """
@@ -21,6 +23,7 @@ from pathlib import Path
 from autonomy.classroom.exercise import Exercise
 from autonomy.classroom.grade import Report
 from autonomy.errors import AutonomyError
+from autonomy.runner import plural
 from autonomy.source import UnreadableFile, control_character, read_text
 
 ROSTER_COLUMNS = ("id", "name", "submission")
@@ -245,3 +248,48 @@ def compare(exercise: Exercise, reports: list[Report], earlier: str | Path) -> l
     lines += [f"missing: {name}, was {s.get('total', 0):g}" for name, s in students.items() if name not in now]
     lines.append(f"the same: {same} of {len(reports)}")
     return lines
+
+
+#: Trees whose shapes (:func:`autonomy.classroom.grade.tree_shape`) differ by at most this many nodes are similar.
+SIMILAR_NODES = 2
+#: Trees of fewer nodes than this are too small to say anything by being alike (a lone move).
+SIMILAR_MOST_NODES_LEAST = 5
+
+
+def _nodes_apart(a: tuple[str, ...], b: tuple[str, ...], most: int) -> int:
+    """How many tokens must change, go or come to make ``a`` into ``b`` (more than ``most``: ``most + 1``)."""
+    if abs(len(a) - len(b)) > most:
+        return most + 1
+    previous = list(range(len(b) + 1))
+    for i, token in enumerate(a, start=1):
+        current = [i] + [0] * len(b)
+        low, high = max(1, i - most), min(len(b), i + most)
+        for j in range(1, len(b) + 1):
+            if j < low or j > high:
+                current[j] = most + 1
+                continue
+            current[j] = min(previous[j] + 1, current[j - 1] + 1, previous[j - 1] + (token != b[j - 1]))
+        if min(current) > most:
+            return most + 1
+        previous = current
+    return min(previous[-1], most + 1)
+
+
+def similar(reports: list[Report]) -> list[tuple[str, str, str]]:
+    """Pairs of students whose trees look alike: (one, other, how), sorted. A hint to look at, not a verdict."""
+    shaped = [
+        (r.student, tuple(r.shape))
+        for r in reports
+        if len([t for t in r.shape if t not in "()"]) >= SIMILAR_MOST_NODES_LEAST
+    ]
+    out = []
+    for index, (one, mine) in enumerate(shaped):
+        for other, theirs in shaped[index + 1 :]:
+            first, second = sorted((one, other))
+            if mine == theirs:
+                out.append((first, second, "the same tree but for numbers and names"))
+                continue
+            apart = _nodes_apart(mine, theirs, SIMILAR_NODES)
+            if apart <= SIMILAR_NODES:
+                out.append((first, second, f"trees {plural(apart, 'node')} apart, numbers and names aside"))
+    return sorted(out)

@@ -13,7 +13,7 @@ from html import escape
 
 from autonomy.classroom.exercise import Exercise
 from autonomy.classroom.grade import Report, SeedResult
-from autonomy.classroom.gradebook import RosterMatch
+from autonomy.classroom.gradebook import RosterMatch, similar
 from autonomy.views.lines import printable
 from autonomy.views.mapsvg import world_svg
 
@@ -81,6 +81,7 @@ def to_json(exercise: Exercise, reports: list[Report], roster: RosterMatch | Non
         "criteria": [{"label": c.label, "points": c.points} for c in exercise.criteria],
         "max_points": exercise.max_points,
         "students": [r.to_json() for r in reports],
+        "similar": [{"students": [one, other], "how": how} for one, other, how in similar(reports)],
     }
     if roster is not None:
         document["roster"] = [
@@ -122,6 +123,9 @@ table { border-collapse: collapse; margin: .5em 0 1.5em; }
 th, td { border: 1px solid #dee2e6; padding: .25em .6em; text-align: right; }
 th:first-child, td:first-child { text-align: left; }
 td.full { background: #d3f9d8; } td.part { background: #fff3bf; } td.none { background: #ffe3e3; }
+td.notgraded { background: #e9ecef; color: #495057; font-style: italic; }
+th button { font: inherit; font-weight: bold; border: none; background: none; cursor: pointer; padding: 0; }
+th[aria-sort="ascending"] button::after { content: " ▲"; } th[aria-sort="descending"] button::after { content: " ▼"; }
 section.student { border-top: 2px solid #343a40; margin-top: 1.5em; }
 .seeds { display: flex; flex-wrap: wrap; gap: 1em; }
 .seed { border: 1px solid #dee2e6; padding: .4em; max-width: 420px; }
@@ -133,7 +137,28 @@ pre.problems { background: #fff5f5; padding: .5em; white-space: pre-wrap; }
 
 def _cell(mark: float, points: float) -> str:
     kind = "full" if mark >= points else "none" if mark <= 0 else "part"
-    return f'<td class="{kind}">{_number(mark)}</td>'
+    return f'<td class="{kind}" data-sort="{mark:g}">{_number(mark)}</td>'
+
+
+#: Sorts the class table by the column whose head is clicked (again: the other way), by number where it can.
+_SORTING = """
+document.querySelectorAll("table.marks th button").forEach((button) => {
+  button.addEventListener("click", () => {
+    const table = button.closest("table"), column = Number(button.dataset.column);
+    const head = button.parentElement, up = head.getAttribute("aria-sort") !== "ascending";
+    table.querySelectorAll("th").forEach((th) => th.setAttribute("aria-sort", "none"));
+    head.setAttribute("aria-sort", up ? "ascending" : "descending");
+    const body = table.tBodies[0], rows = Array.from(body.rows);
+    const key = (row) => row.cells[column].dataset.sort;
+    rows.sort((a, b) => {
+      const x = key(a), y = key(b), nx = Number(x), ny = Number(y);
+      const order = !isNaN(nx) && !isNaN(ny) ? nx - ny : x.localeCompare(y);
+      return up ? order : -order;
+    });
+    rows.forEach((row) => body.appendChild(row));
+  });
+});
+"""
 
 
 def _seed_svg(exercise: Exercise, seed: SeedResult, title: str) -> str:
@@ -172,18 +197,42 @@ def _seed_svg(exercise: Exercise, seed: SeedResult, title: str) -> str:
 def to_html(exercise: Exercise, reports: list[Report]) -> str:
     """One page with nothing to fetch: the class table, then each student's seeds, maps and verdicts."""
     title = escape(printable(exercise.title))
-    head = "".join(f"<th>{escape(printable(c.label))}<br>({_number(c.points)})</th>" for c in exercise.criteria)
+    heads = ["student", f"total<br>({_number(exercise.max_points)})"]
+    heads += [f"{escape(printable(c.label))}<br>({_number(c.points)})" for c in exercise.criteria]
+    head = "".join(
+        f'<th aria-sort="none"><button type="button" data-column="{k}">{text}</button></th>'
+        for k, text in enumerate(heads)
+    )
     rows = []
-    for report in reports:
-        cells = "".join(_cell(m, c.points) for m, c in zip(report.marks, exercise.criteria, strict=True))
-        anchor = f"s-{reports.index(report)}"
-        rows.append(
-            f'<tr><td><a href="#{anchor}">{escape(printable(report.student))}</a></td>'
-            f"{_cell(report.total, report.max_points)}{cells}</tr>"
-        )
+    for index, report in enumerate(reports):
+        name = escape(printable(report.student))
+        if report.problems:  # not graded: told apart from a graded zero, with why
+            why = escape(printable(report.problems[0]))
+            extra = sum(points for points, _ in report.adjustments)
+            shown = "not graded" + (f" ({extra:+g} by hand)" if extra else "")
+            cells = f'<td class="notgraded" data-sort="{report.total - 1000:g}" title="{why}">{shown}</td>'
+            cells += '<td class="notgraded" data-sort="-1">–</td>' * len(exercise.criteria)
+        else:
+            cells = _cell(report.total, report.max_points) + "".join(
+                _cell(m, c.points) for m, c in zip(report.marks, exercise.criteria, strict=True)
+            )
+        rows.append(f'<tr><td data-sort="{name}"><a href="#s-{index}">{name}</a></td>{cells}</tr>')
+    pairs = similar(reports)
+    alike = []
+    if pairs:
+        alike = ["<h2>Similar submissions</h2><p>Trees that look alike: a hint to look at, not a verdict.</p>"]
+        alike.append('<ul class="similar">')
+        alike += [
+            f"<li>{escape(printable(one))} and {escape(printable(other))}: {escape(how)}</li>"
+            for one, other, how in pairs
+        ]
+        alike.append("</ul>")
     parts = [
         "<!doctype html>",
         '<html lang="en"><head><meta charset="utf-8">',
+        # nothing is fetched, and only the page's own script and style run
+        '<meta http-equiv="Content-Security-Policy" content="default-src \'none\'; '
+        "style-src 'unsafe-inline'; script-src 'unsafe-inline'\">",
         f"<title>autonomy grades: {title}</title><style>{_STYLE}</style></head><body>",
         f"<h1>{title}</h1>",
         f"<p>{escape(printable(exercise.description))}</p>",
@@ -191,9 +240,11 @@ def to_html(exercise: Exercise, reports: list[Report]) -> str:
         f"{len(exercise.seeds)} seeds: {escape(', '.join(s.label for s in exercise.seeds))}. "
         "A criterion's mark is its points times its mean share over the seeds: one that holds on a run earns "
         "it all there, one over several zones each zone's part.</p>",
-        f"<table><tr><th>student</th><th>total<br>({_number(exercise.max_points)})</th>{head}</tr>",
+        f'<table class="marks"><thead><tr>{head}</tr></thead><tbody>',
         *rows,
-        "</table>",
+        "</tbody></table>",
+        *alike,
+        f"<script>{_SORTING}</script>",
     ]
     for index, report in enumerate(reports):
         parts.append(f'<section class="student" id="s-{index}">')

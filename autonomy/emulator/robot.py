@@ -22,6 +22,10 @@ MODE_FALLEN = 3
 GRAVITY_MM_S2 = 9810.0
 #: How far inside the clearance a cruise's steps go unchecked: far more than the rounding of their sums.
 CRUISE_MARGIN_MM = 0.001
+#: Two places closer than this (each way) are one place to the robot's trail, mm: far less than a step
+#: at the slowest speed, far more than the rounding of a position (which differs in the last digits
+#: between a drive taken a step at a time and one taken at once).
+SAME_PLACE_MM = 1e-6
 
 
 @dataclass(frozen=True)
@@ -255,9 +259,9 @@ class Robot:
         x, y, heading = self.x_mm, self.y_mm, self.heading_deg
         point = (self.time_s, Pose(x, y, heading))
         _, last = trail[-1]
-        if last.x_mm == x and last.y_mm == y:
+        if abs(last.x_mm - x) <= SAME_PLACE_MM and abs(last.y_mm - y) <= SAME_PLACE_MM:
             _, before = trail[-2] if len(trail) > 1 else (0.0, None)
-            if before is not None and before.x_mm == x and before.y_mm == y:
+            if before is not None and abs(before.x_mm - x) <= SAME_PLACE_MM and abs(before.y_mm - y) <= SAME_PLACE_MM:
                 trail[-1] = point  # arrived before: this is the latest moment there
             elif len(trail) > 1 or last.heading_deg != heading:
                 trail.append(point)
@@ -447,7 +451,7 @@ class Robot:
             impacts = len(self.impacts)
             x_mm, y_mm = self.x_mm, self.y_mm
             self._drive(speed * dt)
-            if self.x_mm != x_mm or self.y_mm != y_mm:  # not when pushing against something
+            if abs(self.x_mm - x_mm) > SAME_PLACE_MM or abs(self.y_mm - y_mm) > SAME_PLACE_MM:  # not pushing on
                 self.moved_s = self.time_s
             speed = self.speed_mm_s
             # An impact is not braking: the body pitches forward (the kick), it does not lean back.

@@ -1046,3 +1046,39 @@ def test_a_fixed_plan_tuned_to_the_public_seeds_earns_at_most_40_percent(tmp_pat
     assert 0 < best <= 4.0, tried  # some distance is right somewhere, none nearly everywhere
     teacher = exercise.with_secret(b"a teacher's secret, for the test")
     assert grade_one(teacher, "tuned", tmp_path / f"plan_{distance}.yaml").total <= 4.0
+
+
+def test_similar_submissions_are_trees_alike_but_for_numbers_names_or_a_node_or_two(tmp_path):
+    from autonomy.classroom.gradebook import _nodes_apart, similar
+
+    exercise = load_exercise(EXERCISES / "square.yaml")
+    renamed = tmp_path / "renamed.yaml"  # the reference, its subtree renamed and its numbers changed
+    renamed.write_text(
+        "mission: mine\nsubtrees:\n  edge:\n    sequence:\n      - move: {speed: 3, distance_mm: 480}\n"
+        "      - beep: {tones: [1, 2, 3]}\n      - turn: {left: 88}\n"
+        "tree:\n  repeat:\n    times: 4\n    do: {subtree: edge}\n"
+    )
+    extra = tmp_path / "extra.yaml"  # and one more node
+    extra.write_text(
+        renamed.read_text().replace("      - turn: {left: 88}\n", "      - turn: {left: 88}\n      - beep: {}\n")
+    )
+    other = tmp_path / "other.yaml"  # another way altogether
+    other.write_text(
+        "mission: other\ntree:\n  sequence:\n"
+        + "".join(
+            "    - move: {speed: 2, distance_mm: 500}\n    - beep: {}\n    - turn: {left: 90}\n" for _ in range(4)
+        )
+    )
+    reports = [
+        grade_one(exercise, "ref", EXERCISES / "solutions" / "square.yaml"),
+        grade_one(exercise, "renamed", renamed),
+        grade_one(exercise, "extra", extra),
+        grade_one(exercise, "other", other),
+    ]
+    assert similar(reports) == [
+        ("extra", "ref", "trees 1 node apart, numbers and names aside"),
+        ("extra", "renamed", "trees 1 node apart, numbers and names aside"),
+        ("ref", "renamed", "the same tree but for numbers and names"),
+    ]
+    assert "shape" not in reports[0].to_json()  # a hint's material, not part of the marks
+    assert _nodes_apart(("a", "b", "c"), ("a", "c"), 2) == 1 and _nodes_apart(("a",) * 9, ("b",) * 9, 2) == 3

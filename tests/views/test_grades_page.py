@@ -47,3 +47,40 @@ def test_the_class_page_shows_the_table_and_every_path_on_its_map(page, tmp_path
     box_drawn = first.locator("rect.obstacle").first.bounding_box()
     assert abs((bump["x"] + bump["width"] / 2) - box_drawn["x"]) < 0.1 * first.bounding_box()["width"]
     page.screenshot(path=str(tmp_path / "marks.png"), full_page=True)
+
+
+def test_the_class_table_sorts_by_a_column_and_tells_a_file_not_graded_from_a_zero(page, tmp_path):
+    exercise = load_exercise(ROOT / "exercises" / "square.yaml")
+    broken = tmp_path / "broken.yaml"
+    broken.write_text("mission: broken\ntree:\n  mvoe: {}\n")
+    files = [
+        ROOT / "exercises" / "solutions" / "square.yaml",
+        ROOT / "exercises" / "wrong" / "square_turns_85.yaml",
+        ROOT / "exercises" / "wrong" / "square_beeps_at_home.yaml",
+        broken,
+    ]
+    reports = grade_class(exercise, find_submissions(files), workers=2)
+    path = tmp_path / "marks.html"
+    path.write_text(to_html(exercise, reports))
+    fetched: list[str] = []
+    page.on("request", lambda request: fetched.append(request.url))
+    page.goto(path.as_uri())
+    assert fetched == [path.as_uri()]
+
+    def column(k):
+        return [row.split("\t")[k] for row in page.locator("table.marks tbody tr").all_inner_texts()]
+
+    assert column(0) == ["broken", "square", "square_beeps_at_home", "square_turns_85"]  # as graded: by name
+    assert column(1) == ["not graded", "10", "0", "6.5"]  # a file that did not run is not a graded zero
+    assert "unknown node 'mvoe'" in page.locator("td.notgraded").first.get_attribute("title")
+    page.locator("th button", has_text="total").click()
+    assert column(0) == ["broken", "square_beeps_at_home", "square_turns_85", "square"]  # lowest first
+    assert page.locator("th").nth(1).get_attribute("aria-sort") == "ascending"
+    page.locator("th button", has_text="total").click()
+    assert column(1) == ["10", "6.5", "0", "not graded"]
+    page.locator("th button", has_text="student").click()
+    assert column(0)[0] == "broken"
+    # the reference and the 85-degree square differ only in a number: a hint for the teacher
+    assert page.locator("ul.similar li").all_inner_texts() == [
+        "square and square_turns_85: the same tree but for numbers and names"
+    ]
