@@ -752,6 +752,8 @@ def cmd_grade(args: argparse.Namespace) -> int:
         )
     submissions = find_submissions(args.submissions)
     alone = len(submissions) == 1
+    if args.gradescope and not alone:
+        return _fail("--gradescope writes one submission's results: give one submission", EXIT_USAGE)
     try:  # the teacher's own files, before any grading: every problem at once, FILE:LINE
         roster = read_roster(args.roster) if args.roster else None
         adjustments = read_adjustments(args.adjust) if args.adjust else []
@@ -765,9 +767,8 @@ def cmd_grade(args: argparse.Namespace) -> int:
             compare(exercise, [], args.compare)  # that it is an earlier grading
     except GradebookError as err:
         return _problems(err.problems)
-    targets = [
-        (target, write) for target, write in ((args.csv, to_csv), (args.json, to_json), (args.html, to_html)) if target
-    ]
+    writers = ((args.csv, to_csv), (args.json, to_json), (args.html, to_html), (args.gradescope, _gradescope))
+    targets = [(target, write) for target, write in writers if target]
     # every file read (the exercise, its world, each submission's mission, a folder's files) is kept from harm
     inputs = {Path(p).resolve() for p in (path, *args.submissions)} | {p.resolve() for _, p in submissions}
     inputs |= {Path(p).resolve() for p in (args.roster, args.adjust, args.compare) if p}
@@ -858,7 +859,7 @@ def cmd_grade(args: argparse.Namespace) -> int:
     for target, write in targets:  # one that fails does not keep the others from being written
         try:
             # a problem quoting a path that is not UTF-8 (a folder from another system) has '?' for its bytes
-            text = write(exercise, reports, matched) if write in (to_csv, to_json) else write(exercise, reports)
+            text = write(exercise, reports, matched) if write in (to_csv, to_json) else write(exercise, reports)  # type: ignore[operator]
             Path(target).write_text(text, encoding="utf-8", errors="replace")
         except OSError as err:
             code = _fail(f"cannot write {target}: {err.strerror or err}", EXIT_USAGE)
@@ -866,6 +867,48 @@ def cmd_grade(args: argparse.Namespace) -> int:
         if not args.quiet:
             print(f"wrote {target}")
     return code
+
+
+def _gradescope(exercise: Any, reports: list[Any]) -> str:
+    """The one submission's results as Gradescope's autograder takes them."""
+    from autonomy.classroom.report import to_gradescope
+
+    return to_gradescope(exercise, reports[0])
+
+
+def cmd_gradescope(args: argparse.Namespace) -> int:
+    """Packs an exercise, with this package, as the autograder zip Gradescope takes."""
+    from pathlib import Path
+
+    from autonomy.classroom import ExerciseInvalid, load_exercise
+    from autonomy.classroom.gradescope import AutograderError, build_autograder
+
+    path, missing = _exercise_path(args.exercise)
+    if missing:
+        return _fail(missing, EXIT_USAGE)
+    try:
+        exercise = load_exercise(path)
+    except ExerciseInvalid as err:
+        return _problems(err.problems)
+    secret = None
+    if args.secret_file:
+        given = Path(args.secret_file)
+        if not given.is_file():
+            return _fail(f"the secret file {args.secret_file} is not a file: give a small text file", EXIT_USAGE)
+        secret = given.read_bytes()[: SECRET_MOST_BYTES + 1].strip()
+        if not 16 <= len(secret) <= SECRET_MOST_BYTES:
+            return _fail(f"the secret file {args.secret_file} must hold 16 to {SECRET_MOST_BYTES} bytes", EXIT_USAGE)
+    try:
+        data = build_autograder(exercise, Path(path), secret)
+    except AutograderError as err:
+        return _fail(str(err), EXIT_USAGE)
+    try:
+        Path(args.output).write_bytes(data)
+    except OSError as err:
+        return _fail(f"cannot write {args.output}: {err.strerror or err}", EXIT_USAGE)
+    hidden = f", {exercise.hidden_seeds} hidden seeds from the secret" if secret and exercise.hidden_seeds else ""
+    print(_shown(f"wrote {args.output}: the autograder for '{exercise.title}' ({len(data):,} bytes{hidden})"))
+    return EXIT_OK
 
 
 def _print_marks(exercise: Any, reports: list[Any]) -> None:
@@ -1188,8 +1231,17 @@ def build_parser() -> argparse.ArgumentParser:
     grade.add_argument("--csv", metavar="FILE", help="write a gradebook: student, total, one column per criterion")
     grade.add_argument("--json", metavar="FILE", help="write every mark, verdict and path as JSON")
     grade.add_argument("--html", metavar="FILE", help="write one page: the class table, each student's runs on maps")
+    grade.add_argument(
+        "--gradescope", metavar="FILE", help="write one submission's results as Gradescope's autograder results.json"
+    )
     grade.add_argument("--quiet", action="store_true", help="print nothing but errors (write the files)")
     grade.set_defaults(func=cmd_grade)
+
+    scope = sub.add_parser("gradescope", help="pack an exercise as the autograder zip Gradescope takes")
+    scope.add_argument("exercise", metavar="EXERCISE", help="an exercise file, or a name from ./exercises/")
+    scope.add_argument("-o", "--output", metavar="FILE.zip", default="autograder.zip", help="default autograder.zip")
+    scope.add_argument("--secret-file", metavar="FILE", help="the teacher's secret, for the exercise's hidden seeds")
+    scope.set_defaults(func=cmd_gradescope)
 
     show = sub.add_parser("show", help="print a mission's tree")
     show.add_argument("mission", metavar="MISSION")

@@ -10,6 +10,7 @@ import csv
 import io
 import json
 from html import escape
+from typing import Any
 
 from autonomy.classroom.exercise import Exercise
 from autonomy.classroom.grade import Report, SeedResult
@@ -275,3 +276,48 @@ def to_html(exercise: Exercise, reports: list[Report]) -> str:
         parts.append("</div></section>")
     parts.append("</body></html>")
     return "\n".join(parts) + "\n"
+
+
+def to_gradescope(exercise: Exercise, report: Report) -> str:
+    """One submission's marks as Gradescope's autograder results (``results.json``).
+
+    Each criterion is a test (``name``, ``score``, ``max_score``, ``output``: each seed's line,
+    ``visibility``); a teacher's correction is a test of its own; the student's whole feedback is
+    the ``output``; the top-level ``score`` is the mark, corrections included.
+    """
+    tests: list[dict[str, Any]] = []
+    for index, criterion in enumerate(exercise.criteria):
+        if report.problems:
+            output = "Not graded: " + " | ".join(printable(p) for p in report.problems)
+        else:
+            output = "\n".join(
+                f"{seed.seed}: {'yes' if seed.verdicts[index][0] else 'no'} {printable(seed.verdicts[index][1])}"
+                for seed in report.seeds
+            )
+        tests.append(
+            {
+                "name": printable(criterion.label),
+                "score": report.marks[index],
+                "max_score": criterion.points,
+                "output": output,
+                "visibility": "visible",
+            }
+        )
+    for points, reason in report.adjustments:
+        tests.append(
+            {
+                "name": "Correction by the teacher",
+                "score": points,
+                "max_score": 0,
+                "output": printable(reason),
+                "visibility": "visible",
+            }
+        )
+    document = {
+        "score": report.total,
+        "output": "\n".join(feedback(exercise, report)),
+        "visibility": "visible",
+        "stdout_visibility": "hidden",
+        "tests": tests,
+    }
+    return json.dumps(document, indent=1, ensure_ascii=False) + "\n"

@@ -7,6 +7,7 @@ import json
 import os
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -505,3 +506,107 @@ def test_a_grading_is_compared_with_an_earlier_one(tmp_path):
     assert refused.returncode == 2 and refused.stderr.startswith(
         "class/bob.yaml:1: not the JSON of an earlier grading (autonomy grade --json)"
     )
+
+
+#: What Gradescope takes as an autograder's results.json (its published format: a score and tests).
+GRADESCOPE_RESULTS = {
+    "type": "object",
+    "required": ["tests"],
+    "properties": {
+        "score": {"type": "number"},
+        "execution_time": {"type": "number"},
+        "output": {"type": "string"},
+        "visibility": {"enum": ["hidden", "after_due_date", "after_published", "visible"]},
+        "stdout_visibility": {"enum": ["hidden", "after_due_date", "after_published", "visible"]},
+        "tests": {
+            "type": "array",
+            "items": {
+                "type": "object",
+                "required": ["name"],
+                "properties": {
+                    "score": {"type": "number"},
+                    "max_score": {"type": "number"},
+                    "name": {"type": "string"},
+                    "number": {"type": "string"},
+                    "output": {"type": "string"},
+                    "tags": {"type": "array", "items": {"type": "string"}},
+                    "visibility": {"enum": ["hidden", "after_due_date", "after_published", "visible"]},
+                },
+                "additionalProperties": False,
+            },
+        },
+    },
+    "additionalProperties": False,
+}
+
+
+@pytest.mark.parametrize(
+    ("source", "score", "first_output"),
+    [
+        ("solutions/garage.yaml", 10, "seed 8: yes garage: came to rest inside it at"),
+        ("wrong/garage_fixed_distance.yaml", 2.5, "seed 8: no garage: came to rest 40 mm outside it"),
+        (None, 0, "Not graded: "),
+    ],
+)
+def test_the_gradescope_autograder_zip_grades_a_submission_into_results_gradescope_takes(
+    tmp_path, source, score, first_output
+):
+    import zipfile
+
+    import jsonschema
+
+    built = autonomy("gradescope", "exercises/garage.yaml", "-o", str(tmp_path / "autograder.zip"))
+    assert built.returncode == 0, built.stderr
+    assert built.stdout.startswith(f"wrote {tmp_path / 'autograder.zip'}: the autograder for '2. Park in the garage'")
+    root = tmp_path / "autograder"  # Gradescope's /autograder, here
+    with zipfile.ZipFile(tmp_path / "autograder.zip") as archive:
+        archive.extractall(root / "source")
+        names = archive.namelist()
+    assert {"setup.sh", "run_autograder", "package/pyproject.toml", "exercise/garage.yaml"} <= set(names)
+    assert "package/autonomy/emulator/worlds/garage.yaml" in names
+    (root / "submission").mkdir()
+    mission = root / "submission" / "my_mission.yaml"
+    if source is None:
+        mission.write_text("mission: oops\ntree:\n  mvoe: {speed: 2}\n")
+    else:
+        mission.write_text((ROOT / "exercises" / source).read_text())
+    run = subprocess.run(
+        ["bash", str(root / "source" / "run_autograder")],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        env={**os.environ, "AUTOGRADER_ROOT": str(root), "AUTONOMY": str(Path(sys.executable).parent / "autonomy")},
+    )
+    assert run.returncode == 0, run.stderr  # Gradescope reads the results, not the exit code
+    results = json.loads((root / "results" / "results.json").read_text())
+    jsonschema.validate(results, GRADESCOPE_RESULTS)
+    assert results["score"] == score and sum(t["max_score"] for t in results["tests"]) == 10
+    assert [t["name"] for t in results["tests"]] == ["rest_in_zone garage", "max_collisions 0", "finish_within_s 30"]
+    assert results["tests"][0]["output"].startswith(first_output)
+    assert results["output"].startswith(f"submission: {score:g} / 10 in '2. Park in the garage'")
+
+
+def test_the_autograder_zip_s_package_builds_and_carries_the_secret_for_hidden_seeds(tmp_path):
+    import zipfile
+
+    secret = tmp_path / "secret.txt"
+    secret.write_text("a secret of the teacher's, long enough\n")
+    built = autonomy(
+        "gradescope", "exercises/garage.yaml", "-o", str(tmp_path / "ag.zip"), "--secret-file", str(secret)
+    )
+    assert built.returncode == 0 and built.stdout.strip().endswith("bytes, 12 hidden seeds from the secret)")
+    with zipfile.ZipFile(tmp_path / "ag.zip") as archive:
+        archive.extractall(tmp_path / "source")
+        assert archive.read("secret.txt") == b"a secret of the teacher's, long enough\n"
+        assert "--secret-file ../secret.txt" in archive.read("run_autograder").decode()
+    wheel = subprocess.run(  # what setup.sh installs: the package as it grades here, worlds and pages included
+        [sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-q", "-w", str(tmp_path / "w"),
+         str(tmp_path / "source" / "package")],
+        capture_output=True, text=True, timeout=120,
+    )  # fmt: skip
+    assert wheel.returncode == 0, wheel.stderr
+    (built_wheel,) = (tmp_path / "w").glob("autonomy-*.whl")
+    with zipfile.ZipFile(built_wheel) as archive:
+        names = archive.namelist()
+    assert "autonomy/emulator/worlds/garage.yaml" in names and "autonomy/views/static/index.html" in names
+    assert "autonomy/classroom/gradescope.py" in names
