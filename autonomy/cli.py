@@ -11,8 +11,10 @@ import dataclasses
 import json
 import math
 import os
+import shutil
 import signal
 import sys
+import tempfile
 from collections.abc import Sequence
 from typing import Any
 from urllib.parse import quote
@@ -819,9 +821,13 @@ def cmd_grade(args: argparse.Namespace) -> int:
         task = progress.add_task("grading", total=len(submissions))
         progress.start()
     try:
+        traces = Path(args.traces) if args.traces else (Path(tempfile.mkdtemp()) if args.feedback else None)
+        if traces is not None:
+            traces.mkdir(parents=True, exist_ok=True)
         reports = grade_class(
             exercise,
             submissions,
+            traces=traces,
             workers=args.workers,
             cpu_s=(cpu_s := args.cpu_seconds or default_cpu_s(exercise)),
             wall_s=args.wall_seconds or WALL_PER_CPU * cpu_s,
@@ -856,10 +862,22 @@ def cmd_grade(args: argparse.Namespace) -> int:
             print(_shown(f"  {line}"))
     # a student checking their own mission learns from the exit code too that nothing of it ran
     code = EXIT_USAGE if alone and reports[0].problems else EXIT_OK
+    pages: dict[str, str] = {}
+    if args.feedback:
+        code = _feedback_pages(exercise, reports, Path(args.feedback), pages, args.quiet) or code
+        if not args.traces and traces is not None:
+            shutil.rmtree(traces, ignore_errors=True)  # kept only to make the pages
     for target, write in targets:  # one that fails does not keep the others from being written
         try:
             # a problem quoting a path that is not UTF-8 (a folder from another system) has '?' for its bytes
-            text = write(exercise, reports, matched) if write in (to_csv, to_json) else write(exercise, reports)  # type: ignore[operator]
+            if write is to_html and pages:  # each student linked to their page, from where the class page is
+                where = Path(target).resolve().parent
+                links = {name: os.path.relpath(page, where) for name, page in pages.items()}
+                text = to_html(exercise, reports, links)
+            elif write in (to_csv, to_json):
+                text = write(exercise, reports, matched)  # type: ignore[operator]
+            else:
+                text = write(exercise, reports)  # type: ignore[operator]
             Path(target).write_text(text, encoding="utf-8", errors="replace")
         except OSError as err:
             code = _fail(f"cannot write {target}: {err.strerror or err}", EXIT_USAGE)
@@ -867,6 +885,44 @@ def cmd_grade(args: argparse.Namespace) -> int:
         if not args.quiet:
             print(f"wrote {target}")
     return code
+
+
+def _feedback_pages(exercise: Any, reports: list[Any], folder: Any, pages: dict[str, str], quiet: bool) -> int:
+    """Writes one page per student into ``folder`` (noting each in ``pages``); exit 2 if one cannot be written."""
+    from pathlib import Path
+
+    from autonomy.classroom.grade import trace_path
+    from autonomy.classroom.report import feedback_page
+    from autonomy.source import UnreadableFile, read_text
+    from autonomy.trace import TraceError, read_trace
+    from autonomy.views.web import standalone_html
+
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        return _fail(f"cannot make {folder}: {err.strerror or err}", EXIT_USAGE)
+    for report in reports:
+        source = None
+        if report.file:
+            try:
+                source = read_text(Path(report.file))
+            except (UnreadableFile, OSError):
+                source = None
+        replays = []
+        for seed in report.seeds:
+            try:
+                replays.append(standalone_html(read_trace(seed.trace), at_end=True) if seed.trace else None)
+            except (TraceError, OSError):
+                replays.append(None)
+        page = trace_path(folder, report.student, exercise.seeds[0]).parent.with_suffix(".html")
+        try:
+            page.write_text(feedback_page(exercise, report, source, replays), encoding="utf-8", errors="replace")
+        except OSError as err:
+            return _fail(f"cannot write {page}: {err.strerror or err}", EXIT_USAGE)
+        pages[report.student] = str(page)
+    if not quiet:
+        print(_shown(f"wrote {len(reports)} feedback pages in {folder}"))
+    return EXIT_OK
 
 
 def _gradescope(exercise: Any, reports: list[Any]) -> str:
@@ -1234,6 +1290,12 @@ def build_parser() -> argparse.ArgumentParser:
     grade.add_argument(
         "--gradescope", metavar="FILE", help="write one submission's results as Gradescope's autograder results.json"
     )
+    grade.add_argument(
+        "--feedback",
+        metavar="DIR",
+        help="write one page per student into DIR, to hand to them: their file, marks, and each run to replay",
+    )
+    grade.add_argument("--traces", metavar="DIR", help="keep each run's trace in DIR/STUDENT/, for autonomy replay")
     grade.add_argument("--quiet", action="store_true", help="print nothing but errors (write the files)")
     grade.set_defaults(func=cmd_grade)
 

@@ -38,6 +38,7 @@ from autonomy.errors import LinkError
 from autonomy.mission import MissionInvalid, MissionSpec, NodeSpec, Problem, validate_text
 from autonomy.runner import Runner
 from autonomy.source import UnreadableFile, read_text
+from autonomy.trace import TraceWriter
 
 #: CPU time one submission (all its seeds) may take by default, seconds.
 DEFAULT_CPU_S = 60.0
@@ -74,6 +75,7 @@ class SeedResult:
         turns: Each turn in place: (time_s, x_mm, y_mm, degrees, left positive).
         rest_s: When the robot came to rest for good (None: it never did).
         world_seed: The seed the world was drawn with (what it varies, and the start).
+        trace: Where the run's trace was kept (``--traces``), else empty.
     """
 
     seed: str
@@ -87,6 +89,7 @@ class SeedResult:
     turns: list[tuple[float, float, float, float]] = field(default_factory=list)
     rest_s: float | None = None
     world_seed: int = 0
+    trace: str = ""
 
 
 @dataclass
@@ -331,11 +334,12 @@ def check_submission(exercise: Exercise, path: Path, allow_plugins: bool) -> tup
     return spec, []
 
 
-def run_seed(exercise: Exercise, spec: MissionSpec, seed: Seed) -> RunFacts:
+def run_seed(exercise: Exercise, spec: MissionSpec, seed: Seed, trace: Path | None = None) -> RunFacts:
     """Runs ``spec`` once on ``seed`` in the exercise's world, in virtual time; returns its facts.
 
     The facts are gathered as the records come, and the records let go: a long run is not
-    held in memory (nor gone over again and again by the garbage collector).
+    held in memory (nor gone over again and again by the garbage collector). With ``trace``,
+    the run is also written there as a trace (nodes' states included), for its replay.
     """
     options = {"world": exercise.world_ref, "seed": seed.seed, "time": "virtual", "noise": seed.noise_mm}
     # a world file's path may hold bytes that are not UTF-8: they go through the URL as they are
@@ -343,15 +347,19 @@ def run_seed(exercise: Exercise, spec: MissionSpec, seed: Seed) -> RunFacts:
     url = "emu://?" + query
     client = Client.open(url)
     gatherer = Gatherer()
+    stream = trace.open("w", encoding="utf-8") if trace is not None else None
     try:
+        listeners: list[Any] = [gatherer] + ([TraceWriter(stream)] if stream is not None else [])
         runner = Runner.for_mission(
-            spec, client, max_seconds=exercise.time_limit_s, listeners=[gatherer], node_states=False
-        )  # the judge reads the emulator's own account: the nodes' states are not looked for
+            spec, client, max_seconds=exercise.time_limit_s, listeners=listeners, node_states=stream is not None
+        )  # the judge reads the emulator's own account: the nodes' states are looked for only for a replay
         runner.run()
         emulator = client.port.emulator  # type: ignore[attr-defined]  # an emu:// link's port has its emulator
         return facts_of(gatherer, emulator.robot, exercise.time_limit_s)
     finally:
         client.close()
+        if stream is not None:
+            stream.close()
 
 
 def _seed_result(seed: Seed, facts: RunFacts, verdicts: list[Verdict]) -> SeedResult:
@@ -375,8 +383,16 @@ def _seed_result(seed: Seed, facts: RunFacts, verdicts: list[Verdict]) -> SeedRe
     )
 
 
-def grade_one(exercise: Exercise, student: str, path: Path, allow_plugins: bool = False) -> Report:
-    """Grades one submission on every seed (in this process)."""
+def trace_path(folder: Path, student: str, seed: Seed) -> Path:
+    """Where ``--traces`` keeps one student's run on one seed: ``FOLDER/STUDENT/seed-8.jsonl``."""
+    safe = "".join(c if c.isalnum() or c in "-_." else "_" for c in student).strip(".") or "student"
+    return folder / safe / (seed.label.split(" (")[0].replace(" ", "-") + ".jsonl")
+
+
+def grade_one(
+    exercise: Exercise, student: str, path: Path, allow_plugins: bool = False, traces: Path | None = None
+) -> Report:
+    """Grades one submission on every seed (in this process); with ``traces``, keeps each run's trace there."""
     zero = [0.0] * len(exercise.criteria)
     mission, why = _mission_file(path)
     if mission is None:
@@ -387,8 +403,12 @@ def grade_one(exercise: Exercise, student: str, path: Path, allow_plugins: bool 
     seeds = []
     earned = [0.0] * len(exercise.criteria)
     for seed in exercise.seeds:
+        kept = None
+        if traces is not None:
+            kept = trace_path(traces, student, seed)
+            kept.parent.mkdir(parents=True, exist_ok=True)
         try:
-            facts = run_seed(exercise, spec, seed)
+            facts = run_seed(exercise, spec, seed, kept)
         except LinkError as err:  # the seed's link faults left no link to start on: that seed alone scores nothing
             why = f"no run: under this seed's faults the link failed before the mission started ({type(err).__name__})"
             none = len(exercise.criteria)
@@ -401,6 +421,7 @@ def grade_one(exercise: Exercise, student: str, path: Path, allow_plugins: bool 
         for index, verdict in enumerate(verdicts):
             earned[index] += verdict.share
         seeds.append(_seed_result(seed, facts, verdicts))
+        seeds[-1].trace = str(kept) if kept is not None else ""
     count = len(exercise.seeds)
     exact = [c.points * earned[i] / count for i, c in enumerate(exercise.criteria)]
     marks = [round(m, 2) for m in exact]
@@ -445,7 +466,13 @@ def _address_space_mb() -> float | None:
 
 
 def _graded(
-    exercise: Exercise, student: str, path: Path, allow_plugins: bool, memory_mb: int, cpu_s: float
+    exercise: Exercise,
+    student: str,
+    path: Path,
+    allow_plugins: bool,
+    memory_mb: int,
+    cpu_s: float,
+    traces: Path | None = None,
 ) -> tuple[Report | str, bool]:
     """One submission's report, or why it could not be graded (this student's zero); and whether the worker ends.
 
@@ -459,7 +486,10 @@ def _graded(
         _cpu.armed = True
         cpu_alarm(cpu_s, again_s=CPU_GRACE_S)  # again, should a plugin's ``except BaseException`` keep it
         try:
-            result = grade_one(exercise, student, path, allow_plugins)
+            if traces is None:
+                result = grade_one(exercise, student, path, allow_plugins)
+            else:
+                result = grade_one(exercise, student, path, allow_plugins, traces=traces)
         finally:
             _cpu.armed = False  # first: a signal on its way now is let go
             cpu_alarm(None)
@@ -475,7 +505,14 @@ def _graded(
     return result, isinstance(result, str)
 
 
-def _worker(exercise: Exercise, allow_plugins: bool, memory_mb: int, cpu_s: float, channel: Connection) -> None:
+def _worker(
+    exercise: Exercise,
+    allow_plugins: bool,
+    memory_mb: int,
+    cpu_s: float,
+    channel: Connection,
+    traces: Path | None = None,
+) -> None:
     """A worker process's body: limits its memory, then grades the submissions it is sent, one at a time.
 
     Each submission may use ``cpu_s`` of CPU time, counted by the kernel from where it starts.
@@ -512,7 +549,7 @@ def _worker(exercise: Exercise, allow_plugins: bool, memory_mb: int, cpu_s: floa
         Blackboard.clear()  # as a new worker has it: nothing of the last submission's trees
         if allow_plugins:  # what a plugin starts inherits it
             _cap_what_it_starts(cpu_s)
-        report, failed = _graded(exercise, student, path, allow_plugins, memory_mb, cpu_s)
+        report, failed = _graded(exercise, student, path, allow_plugins, memory_mb, cpu_s, traces)
         cpu_alarm(None)  # whatever happened in there, nothing goes off between submissions
         try:
             gc.collect()  # the last submission's trees (cycles of parents and children) let go now
@@ -551,6 +588,7 @@ def grade_class(
     memory_mb: int = DEFAULT_MEMORY_MB,
     allow_plugins: bool = False,
     on_report: Callable[[Report], None] | None = None,
+    traces: Path | None = None,
 ) -> list[Report]:
     """Grades every submission in worker processes, at most ``workers`` at once.
 
@@ -572,6 +610,7 @@ def grade_class(
         memory_mb: Memory a worker process may take.
         allow_plugins: Whether submissions may load Python plugins.
         on_report: Called with each report as it is ready (for a progress bar).
+        traces: A folder to keep each run's trace in (see :func:`trace_path`), for its replay.
 
     Returns:
         The reports, in the order of ``submissions``.
@@ -610,7 +649,9 @@ def grade_class(
 
     def start(index: int) -> None:
         mine, theirs = context.Pipe(duplex=True)
-        process = context.Process(target=_worker, args=(exercise, allow_plugins, memory_mb, cpu_s, theirs), daemon=True)
+        process = context.Process(
+            target=_worker, args=(exercise, allow_plugins, memory_mb, cpu_s, theirs, traces), daemon=True
+        )
         process.start()
         theirs.close()
         worker = _Running(process, mine)

@@ -195,8 +195,14 @@ def _seed_svg(exercise: Exercise, seed: SeedResult, title: str) -> str:
     return svg.replace('<g id="paths"></g>', f'<g id="paths">{drawn}</g>')
 
 
-def to_html(exercise: Exercise, reports: list[Report]) -> str:
-    """One page with nothing to fetch: the class table, then each student's seeds, maps and verdicts."""
+def to_html(exercise: Exercise, reports: list[Report], pages: dict[str, str] | None = None) -> str:
+    """One page with nothing to fetch: the class table, then each student's seeds, maps and verdicts.
+
+    Args:
+        exercise: The exercise.
+        reports: The class's reports.
+        pages: Each student's feedback page (``--feedback``), as a link from this page, if any.
+    """
     title = escape(printable(exercise.title))
     heads = ["student", f"total<br>({_number(exercise.max_points)})"]
     heads += [f"{escape(printable(c.label))}<br>({_number(c.points)})" for c in exercise.criteria]
@@ -253,6 +259,8 @@ def to_html(exercise: Exercise, reports: list[Report]) -> str:
             f"<h2>{escape(printable(report.student))}: {_number(report.total)} / {_number(report.max_points)}</h2>"
         )
         parts.append(f"<p>{escape(printable(report.file))}</p>")
+        if pages and report.student in pages:
+            parts.append(f'<p><a class="feedback" href="{escape(pages[report.student])}">their feedback page</a></p>')
         parts += [
             f'<p class="adjustment">Correction by the teacher: {points:+g} ({escape(printable(reason))})</p>'
             for points, reason in report.adjustments
@@ -321,3 +329,81 @@ def to_gradescope(exercise: Exercise, report: Report) -> str:
         "tests": tests,
     }
     return json.dumps(document, indent=1, ensure_ascii=False) + "\n"
+
+
+_FEEDBACK_STYLE = """
+body { font-family: "DejaVu Sans", sans-serif; margin: 1em 2em; color: #212529; }
+pre.source { background: #f8f9fa; padding: .5em 0; border: 1px solid #dee2e6; overflow-x: auto; }
+pre.source span.line { display: block; padding: 0 .6em; }
+pre.source span.line::before { content: attr(data-line); display: inline-block; width: 3em; color: #868e96; }
+pre.source span.problem { background: #ffe3e3; }
+pre.source span.why { display: block; color: #c92a2a; padding-left: 3.6em; }
+.seed { border-top: 1px solid #dee2e6; margin-top: 1em; }
+.seed svg { width: 420px; height: auto; float: left; margin-right: 1em; }
+.seed iframe { width: 100%; height: 640px; border: 1px solid #dee2e6; clear: both; display: block; }
+.yes { color: #2b8a3e; } .no { color: #c92a2a; }
+"""
+
+
+def _problem_lines(report: Report) -> dict[int, list[str]]:
+    """The report's problems by the line of the student's file they stand at (``FILE:LINE:COL: ...``)."""
+    by_line: dict[int, list[str]] = {}
+    prefix = f"{report.file}:"
+    for problem in report.problems:
+        if not problem.startswith(prefix):
+            continue
+        place, _, message = problem[len(prefix) :].partition(": ")
+        line = place.split(":")[0]
+        if line.isdigit():
+            by_line.setdefault(int(line), []).append(message)
+    return by_line
+
+
+def feedback_page(exercise: Exercise, report: Report, source: str | None, replays: list[str | None]) -> str:
+    """One student's page, for them alone, with nothing to fetch.
+
+    Their file with its lines numbered and its problems marked where they stand; their mark,
+    criterion by criterion; then each seed's run: the map of what really happened (collisions,
+    beeps and turns marked), each criterion's line, and the run's replay (the tree coloured by
+    status, the path, play and the slider), opened on its last tick.
+
+    Args:
+        exercise: The exercise.
+        report: The student's report.
+        source: Their mission file's text (None: it could not be read).
+        replays: For each seed, its replay page (:func:`autonomy.views.web.standalone_html`), or None.
+    """
+    name = escape(printable(report.student))
+    parts = [
+        "<!doctype html>",
+        '<html lang="en"><head><meta charset="utf-8">',
+        f"<title>{name}: {escape(printable(exercise.title))}</title><style>{_FEEDBACK_STYLE}</style></head><body>",
+        f"<h1>{name}: {_number(report.total)} / {_number(report.max_points)}</h1>",
+        f"<p>{escape(printable(exercise.title))}: {escape(printable(exercise.description))}</p>",
+        '<h2>Marks</h2><pre class="marks">' + escape("\n".join(feedback(exercise, report)[1:])) + "</pre>",
+        f"<h2>Your file</h2><p>{escape(printable(report.file or 'no file'))}</p>",
+    ]
+    if source is None:
+        parts.append("<p>The file could not be read.</p>")
+    else:
+        problems = _problem_lines(report)
+        lines = []
+        for number, text in enumerate(source.splitlines() or [""], start=1):
+            marked = " problem" if number in problems else ""
+            why = "".join(f'<span class="why">{escape(printable(m))}</span>' for m in problems.get(number, []))
+            lines.append(f'<span class="line{marked}" data-line="{number}">{escape(printable(text))}{why}</span>')
+        parts.append('<pre class="source">' + "".join(lines) + "</pre>")
+    for seed, replay in zip(report.seeds, replays, strict=True):
+        verdicts = "".join(
+            f'<li class="{"yes" if held else "no"}">{"✓" if held else "✗"} {escape(printable(line))}</li>'
+            for held, line in seed.verdicts
+        )
+        parts.append(
+            f'<section class="seed"><h2>{escape(seed.seed)}: {escape(seed.outcome)} after {seed.time_s:g} s</h2>'
+        )
+        parts.append(_seed_svg(exercise, seed, f"{report.student}, {seed.seed}") + f"<ul>{verdicts}</ul>")
+        if replay is not None:
+            parts.append(f'<iframe title="the run on {escape(seed.seed)}" srcdoc="{escape(replay)}"></iframe>')
+        parts.append("</section>")
+    parts.append("</body></html>")
+    return "\n".join(parts) + "\n"

@@ -353,14 +353,22 @@ class ViewServer:
         return socket
 
 
-def standalone_html(trace: Trace) -> str:
-    """The page frozen on a whole recorded run, in one file with nothing to fetch."""
+def standalone_html(trace: Trace, at_end: bool = False) -> str:
+    """The page frozen on a whole recorded run, in one file with nothing to fetch.
+
+    Args:
+        trace: The run.
+        at_end: Open on the run's last tick (where it ended), not its first.
+    """
     hub = RecordHub("replay")
     for record in trace.records():
         hub(record)
+    payload = hub.payload()
+    if at_end:
+        payload = payload[:-1] + ',"open_at_end":true}'
     # No "<" at all inside the script element: "</script>" would end it, and "<!--<script" would keep
     # the real end from ending it. JSON has "<" only inside strings, where \u003c is the same text.
-    data = hub.payload().replace("<", "\\u003c")
+    data = payload.replace("<", "\\u003c")
     page = _static("index.html")
     page = page.replace('<link rel="stylesheet" href="static/app.css">', f"<style>\n{_static('app.css')}</style>")
     script = f'<script id="run-data" type="application/json">{data}</script>\n<script>\n{_static("app.js")}</script>'

@@ -84,3 +84,58 @@ def test_the_class_table_sorts_by_a_column_and_tells_a_file_not_graded_from_a_ze
     assert page.locator("ul.similar li").all_inner_texts() == [
         "square and square_turns_85: the same tree but for numbers and names"
     ]
+
+
+def test_a_student_s_feedback_page_shows_their_file_their_runs_at_their_end_and_plays(page, tmp_path):
+    import os
+    import subprocess
+    import sys
+
+    (tmp_path / "class").mkdir()
+    for student, source in (("alice", "solutions/garage.yaml"), ("zed", "wrong/garage_until_bump.yaml")):
+        (tmp_path / "class" / f"{student}.yaml").write_text((ROOT / "exercises" / source).read_text())
+    (tmp_path / "class" / "oops.yaml").write_text("mission: oops\ntree:\n  mvoe: {speed: 2}\n")
+    result = subprocess.run(
+        [sys.executable, "-m", "autonomy", "grade", str(ROOT / "exercises" / "garage.yaml"), "class/alice.yaml",
+         "class/zed.yaml", "class/oops.yaml", "--feedback", "pages", "--traces", "runs", "--html", "class.html"],
+        capture_output=True, text=True, timeout=120, cwd=tmp_path, env={**os.environ, "PYTHONPATH": str(ROOT)},
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    assert "wrote 3 feedback pages in pages" in result.stdout
+    assert sorted(p.name for p in (tmp_path / "pages").iterdir()) == ["alice.html", "oops.html", "zed.html"]
+    assert sorted(p.name for p in (tmp_path / "runs" / "zed").iterdir()) == [
+        "seed-52.jsonl", "seed-56.jsonl", "seed-8.jsonl", "seed-80.jsonl"
+    ]  # fmt: skip
+    replayed = subprocess.run(  # a kept trace plays back
+        [sys.executable, "-m", "autonomy", "replay", "runs/zed/seed-8.jsonl", "--lines", "--speed", "1000"],
+        capture_output=True, text=True, timeout=60, cwd=tmp_path, env={**os.environ, "PYTHONPATH": str(ROOT)},
+    )  # fmt: skip
+    assert replayed.returncode == 0, replayed.stderr
+    class_page = (tmp_path / "class.html").read_text()
+    assert 'href="pages/zed.html"' in class_page and "alice" in (tmp_path / "pages" / "alice.html").read_text()
+    assert "zed" not in (tmp_path / "pages" / "alice.html").read_text()  # a page tells one student only of themself
+
+    fetched: list[str] = []
+    page.on("request", lambda request: fetched.append(request.url))
+    zed = (tmp_path / "pages" / "zed.html").as_uri()
+    page.goto(zed)
+    assert page.locator("pre.source span.line").count() == 11
+    assert page.locator("pre.source span.line").nth(10).inner_text().strip().endswith("- move: {speed: 2}")
+    frames = [frame for frame in page.frames if frame != page.main_frame]
+    assert len(frames) == 4  # a replay of each seed's run
+    for frame in frames:  # each opens on its last tick: where the run ended
+        frame.wait_for_function("document.querySelector('#slider').max > 0")
+        label = frame.locator("#slider-label").inner_text()
+        ticks = label.split(" / ")
+        assert ticks[0] == f"tick {ticks[1]}" and frame.locator("#state").inner_text() == "succeeded"
+        assert frame.locator("#tree .node").count() >= 3  # the tree, coloured by the nodes' last states
+    first = frames[0]
+    first.evaluate("window.autonomyView.show(0)")
+    first.locator("#play").click()
+    first.wait_for_function("Number(document.querySelector('#slider').value) > 5")  # it plays
+    assert fetched == [zed]  # nothing fetched but the page itself
+    oops = (tmp_path / "pages" / "oops.html").as_uri()
+    page.goto(oops)
+    marked = page.locator("pre.source span.problem")
+    assert marked.count() == 1 and marked.get_attribute("data-line") == "3"
+    assert "unknown node 'mvoe' (did you mean 'move'?)" in marked.inner_text()

@@ -84,7 +84,9 @@ function load(payload) {
   for (const t of payload.ticks || []) addTick(t);
   if (payload.end) addEnd(payload.end);
   $("controls").hidden = view.mode !== "replay";
-  view.index = view.mode === "replay" ? (view.ticks.length ? 0 : -1) : view.ticks.length - 1;
+  // a replay opens on its first tick, or on its last when the page was made to show how a run ended
+  const first = payload.open_at_end ? view.ticks.length - 1 : 0;
+  view.index = view.mode === "replay" ? (view.ticks.length ? first : -1) : view.ticks.length - 1;
   view.playTime = view.index >= 0 ? view.ticks[view.index].time_s : 0;
   render();
 }
