@@ -756,6 +756,8 @@ def cmd_grade(args: argparse.Namespace) -> int:
     alone = len(submissions) == 1
     if args.gradescope and not alone:
         return _fail("--gradescope writes one submission's results: give one submission", EXIT_USAGE)
+    if args.dask and (args.traces or args.feedback):
+        return _fail("--traces and --feedback need the runs here: grade without --dask for them", EXIT_USAGE)
     try:  # the teacher's own files, before any grading: every problem at once, FILE:LINE
         roster = read_roster(args.roster) if args.roster else None
         adjustments = read_adjustments(args.adjust) if args.adjust else []
@@ -824,19 +826,25 @@ def cmd_grade(args: argparse.Namespace) -> int:
         traces = Path(args.traces) if args.traces else (Path(tempfile.mkdtemp()) if args.feedback else None)
         if traces is not None:
             traces.mkdir(parents=True, exist_ok=True)
-        reports = grade_class(
-            exercise,
-            submissions,
-            traces=traces,
-            workers=args.workers,
-            cpu_s=(cpu_s := args.cpu_seconds or default_cpu_s(exercise)),
-            wall_s=args.wall_seconds or WALL_PER_CPU * cpu_s,
-            memory_mb=args.memory_mb,
-            allow_plugins=args.allow_plugins,
-            on_report=(lambda _: progress.advance(task)) if progress is not None else None,
-        )
+        limits = {
+            "cpu_s": (cpu_s := args.cpu_seconds or default_cpu_s(exercise)),
+            "wall_s": args.wall_seconds or WALL_PER_CPU * cpu_s,
+            "memory_mb": args.memory_mb,
+            "allow_plugins": args.allow_plugins,
+            "on_report": (lambda _: progress.advance(task)) if progress is not None else None,
+        }
+        if args.dask:
+            from autonomy.classroom.grade import grade_on_dask
+
+            reports = grade_on_dask(exercise, submissions, args.dask, **limits)
+        else:
+            reports = grade_class(exercise, submissions, traces=traces, workers=args.workers, **limits)
     except KeyboardInterrupt:
         return _fail("grading interrupted", EXIT_INTERRUPTED)
+    except ImportError:
+        return _fail("--dask needs dask.distributed: pip install 'autonomy[cluster]'", EXIT_USAGE)
+    except OSError as err:  # no scheduler there
+        return _fail(f"--dask {args.dask}: no Dask scheduler answers there ({err})", EXIT_USAGE)
     finally:
         if progress is not None:
             progress.stop()
@@ -1296,6 +1304,11 @@ def build_parser() -> argparse.ArgumentParser:
         help="write one page per student into DIR, to hand to them: their file, marks, and each run to replay",
     )
     grade.add_argument("--traces", metavar="DIR", help="keep each run's trace in DIR/STUDENT/, for autonomy replay")
+    grade.add_argument(
+        "--dask",
+        metavar="ADDRESS",
+        help="grade on the Dask cluster with its scheduler at ADDRESS (tcp://host:8786; needs autonomy[cluster])",
+    )
     grade.add_argument("--quiet", action="store_true", help="print nothing but errors (write the files)")
     grade.set_defaults(func=cmd_grade)
 

@@ -721,3 +721,117 @@ def _kill_group(process: Any) -> None:
         process.kill()
     except (OSError, ValueError):
         pass
+
+
+# ------------------------------------------------------------------------------------------ on a Dask cluster
+
+
+def _bundle(path: Path) -> list[tuple[str, bytes]]:
+    """A submission's files as they are given (a file, or a folder's own regular files), to send elsewhere."""
+    if path.is_file() and not path.is_symlink():
+        return [(path.name, path.read_bytes())]
+    if path.is_dir():
+        return [
+            (item.name, item.read_bytes())
+            for item in sorted(path.iterdir())
+            if item.is_file() and not item.is_symlink() and item.stat().st_size <= 4 * 2**20
+        ]
+    return []  # missing, or a link: graded where it lands, which says so
+
+
+def _dask_job(
+    exercise: Exercise, jobs: list[tuple[str, str, list[tuple[str, bytes]], bool]], options: dict[str, Any]
+) -> list[Report]:
+    """The job of some submissions on a Dask worker: the same as a local worker's, in a limited process of their own.
+
+    Each submission's files are put back under a folder of this job's, at the place they were
+    given (a relative path under it, an absolute one too), and the lot are graded there by
+    :func:`grade_class` with one worker (which grades one after another as a local worker does,
+    in a new process when anything of one could change the next); each report then names its
+    files as given, so that its bytes are the same as a local grading's.
+    """
+    import tempfile
+
+    if multiprocessing.current_process().daemon:
+        raise RuntimeError(
+            "the Dask worker runs as a daemon, which may not start the process a submission is graded in: "
+            "start the workers with the Dask setting distributed.worker.daemon: false"
+        )
+    with tempfile.TemporaryDirectory(prefix="autonomy-grade-") as folder:
+        root = Path(folder)
+        placed: list[tuple[str, Path]] = []
+        absolute: list[tuple[str, str]] = []
+        for student, given, files, is_folder in jobs:
+            original = Path(given)
+            place = root / (original.relative_to(original.anchor) if original.is_absolute() else original)
+            if files:
+                if is_folder:
+                    place.mkdir(parents=True, exist_ok=True)
+                    for name, data in files:
+                        (place / name).write_bytes(data)
+                else:
+                    place.parent.mkdir(parents=True, exist_ok=True)
+                    place.write_bytes(files[0][1])
+            placed.append((student, place if original.is_absolute() else original))
+            absolute.append((str(place), given) if original.is_absolute() else ("", ""))
+        here = os.getcwd()
+        os.chdir(root)  # a relative path is graded as it was given
+        try:
+            reports = grade_class(exercise, placed, workers=1, **options)
+        finally:
+            os.chdir(here)
+    for report, (inside, given) in zip(reports, absolute, strict=True):
+        if inside:  # the folder it was put back in is no part of what the student sees
+            report.file = report.file.replace(inside, given)
+            report.problems = [p.replace(inside, given) for p in report.problems]
+    return reports
+
+
+def grade_on_dask(
+    exercise: Exercise,
+    submissions: list[tuple[str, Path]],
+    address: str,
+    *,
+    cpu_s: float = DEFAULT_CPU_S,
+    wall_s: float | None = None,
+    memory_mb: int = DEFAULT_MEMORY_MB,
+    allow_plugins: bool = False,
+    on_report: Callable[[Report], None] | None = None,
+) -> list[Report]:
+    """Grades every submission on the Dask cluster at ``address``: :func:`grade_class`'s job, another executor.
+
+    The submissions go to the workers with their files, a few to a task (four tasks a worker
+    thread, so that a slow one does not hold the rest back), and each task grades its own with
+    :func:`grade_class` in a limited process, with the same limits as here: the marks are those
+    of a local grading, byte for byte.
+
+    Raises:
+        ImportError: ``dask.distributed`` is not installed (``pip install 'autonomy[cluster]'``).
+        OSError: no scheduler answers at ``address``.
+    """
+    from distributed import Client, as_completed
+
+    options = {
+        "cpu_s": cpu_s,
+        "wall_s": WALL_PER_CPU * cpu_s if wall_s is None else wall_s,
+        "memory_mb": memory_mb,
+        "allow_plugins": allow_plugins,
+    }
+    with Client(address, timeout="5s") as client:
+        threads = max(1, sum(client.nthreads().values()))
+        size = max(1, math.ceil(len(submissions) / (4 * threads)))
+        futures = {}
+        for first in range(0, len(submissions), size):
+            jobs = [
+                (student, str(path), _bundle(path), path.is_dir())
+                for student, path in submissions[first : first + size]
+            ]
+            task = client.submit(_dask_job, exercise, jobs, options, key=f"grade-{first}", pure=False)
+            futures[task] = first
+        reports: dict[int, Report] = {}
+        for done in as_completed(futures):
+            for offset, report in enumerate(done.result()):
+                reports[futures[done] + offset] = report
+                if on_report is not None:
+                    on_report(report)
+    return [reports[i] for i in range(len(submissions))]
