@@ -11,10 +11,8 @@ import dataclasses
 import json
 import math
 import os
-import shutil
 import signal
 import sys
-import tempfile
 from collections.abc import Sequence
 from typing import Any
 from urllib.parse import quote
@@ -823,9 +821,11 @@ def cmd_grade(args: argparse.Namespace) -> int:
         task = progress.add_task("grading", total=len(submissions))
         progress.start()
     try:
-        traces = Path(args.traces) if args.traces else (Path(tempfile.mkdtemp()) if args.feedback else None)
-        if traces is not None:
-            traces.mkdir(parents=True, exist_ok=True)
+        traces = Path(args.traces) if args.traces else None
+        feedback_folder = Path(args.feedback) if args.feedback else None
+        for folder in (traces, feedback_folder):
+            if folder is not None:
+                folder.mkdir(parents=True, exist_ok=True)
         limits = {
             "cpu_s": (cpu_s := args.cpu_seconds or default_cpu_s(exercise)),
             "wall_s": args.wall_seconds or WALL_PER_CPU * cpu_s,
@@ -838,7 +838,9 @@ def cmd_grade(args: argparse.Namespace) -> int:
 
             reports = grade_on_dask(exercise, submissions, args.dask, **limits)
         else:
-            reports = grade_class(exercise, submissions, traces=traces, workers=args.workers, **limits)
+            reports = grade_class(
+                exercise, submissions, traces=traces, feedback=feedback_folder, workers=args.workers, **limits
+            )
     except KeyboardInterrupt:
         return _fail("grading interrupted", EXIT_INTERRUPTED)
     except ImportError:
@@ -871,10 +873,13 @@ def cmd_grade(args: argparse.Namespace) -> int:
     # a student checking their own mission learns from the exit code too that nothing of it ran
     code = EXIT_USAGE if alone and reports[0].problems else EXIT_OK
     pages: dict[str, str] = {}
-    if args.feedback:
-        code = _feedback_pages(exercise, reports, Path(args.feedback), pages, args.quiet) or code
-        if not args.traces and traces is not None:
-            shutil.rmtree(traces, ignore_errors=True)  # kept only to make the pages
+    if args.feedback:  # written by the workers, as they graded
+        from autonomy.classroom.grade import page_path
+
+        pages = {r.student: str(page_path(Path(args.feedback), r.student)) for r in reports}
+        pages = {student: page for student, page in pages.items() if Path(page).is_file()}
+        if not args.quiet:
+            print(_shown(f"wrote {len(pages)} feedback pages in {args.feedback}"))
     for target, write in targets:  # one that fails does not keep the others from being written
         try:
             # a problem quoting a path that is not UTF-8 (a folder from another system) has '?' for its bytes
@@ -893,44 +898,6 @@ def cmd_grade(args: argparse.Namespace) -> int:
         if not args.quiet:
             print(f"wrote {target}")
     return code
-
-
-def _feedback_pages(exercise: Any, reports: list[Any], folder: Any, pages: dict[str, str], quiet: bool) -> int:
-    """Writes one page per student into ``folder`` (noting each in ``pages``); exit 2 if one cannot be written."""
-    from pathlib import Path
-
-    from autonomy.classroom.grade import trace_path
-    from autonomy.classroom.report import feedback_page
-    from autonomy.source import UnreadableFile, read_text
-    from autonomy.trace import TraceError, read_trace
-    from autonomy.views.web import standalone_html
-
-    try:
-        folder.mkdir(parents=True, exist_ok=True)
-    except OSError as err:
-        return _fail(f"cannot make {folder}: {err.strerror or err}", EXIT_USAGE)
-    for report in reports:
-        source = None
-        if report.file:
-            try:
-                source = read_text(Path(report.file))
-            except (UnreadableFile, OSError):
-                source = None
-        replays = []
-        for seed in report.seeds:
-            try:
-                replays.append(standalone_html(read_trace(seed.trace), at_end=True) if seed.trace else None)
-            except (TraceError, OSError):
-                replays.append(None)
-        page = trace_path(folder, report.student, exercise.seeds[0]).parent.with_suffix(".html")
-        try:
-            page.write_text(feedback_page(exercise, report, source, replays), encoding="utf-8", errors="replace")
-        except OSError as err:
-            return _fail(f"cannot write {page}: {err.strerror or err}", EXIT_USAGE)
-        pages[report.student] = str(page)
-    if not quiet:
-        print(_shown(f"wrote {len(reports)} feedback pages in {folder}"))
-    return EXIT_OK
 
 
 def _gradescope(exercise: Any, reports: list[Any]) -> str:

@@ -334,12 +334,15 @@ def check_submission(exercise: Exercise, path: Path, allow_plugins: bool) -> tup
     return spec, []
 
 
-def run_seed(exercise: Exercise, spec: MissionSpec, seed: Seed, trace: Path | None = None) -> RunFacts:
+def run_seed(
+    exercise: Exercise, spec: MissionSpec, seed: Seed, trace: Path | None = None, records: list[Any] | None = None
+) -> RunFacts:
     """Runs ``spec`` once on ``seed`` in the exercise's world, in virtual time; returns its facts.
 
     The facts are gathered as the records come, and the records let go: a long run is not
     held in memory (nor gone over again and again by the garbage collector). With ``trace``,
-    the run is also written there as a trace (nodes' states included), for its replay.
+    the run is also written there as a trace, and with ``records`` kept in that list (nodes'
+    states included, either way), for its replay.
     """
     options = {"world": exercise.world_ref, "seed": seed.seed, "time": "virtual", "noise": seed.noise_mm}
     # a world file's path may hold bytes that are not UTF-8: they go through the URL as they are
@@ -350,8 +353,10 @@ def run_seed(exercise: Exercise, spec: MissionSpec, seed: Seed, trace: Path | No
     stream = trace.open("w", encoding="utf-8") if trace is not None else None
     try:
         listeners: list[Any] = [gatherer] + ([TraceWriter(stream)] if stream is not None else [])
+        listeners += [records.append] if records is not None else []
+        replayed = stream is not None or records is not None
         runner = Runner.for_mission(
-            spec, client, max_seconds=exercise.time_limit_s, listeners=listeners, node_states=stream is not None
+            spec, client, max_seconds=exercise.time_limit_s, listeners=listeners, node_states=replayed
         )  # the judge reads the emulator's own account: the nodes' states are looked for only for a replay
         runner.run()
         emulator = client.port.emulator  # type: ignore[attr-defined]  # an emu:// link's port has its emulator
@@ -383,16 +388,34 @@ def _seed_result(seed: Seed, facts: RunFacts, verdicts: list[Verdict]) -> SeedRe
     )
 
 
+def _safe(student: str) -> str:
+    """A student's name as a file's: letters, digits, ``-_.`` kept, the rest ``_``."""
+    return "".join(c if c.isalnum() or c in "-_." else "_" for c in student).strip(".") or "student"
+
+
+def page_path(folder: Path, student: str) -> Path:
+    """Where ``--feedback`` writes one student's page: ``FOLDER/STUDENT.html``."""
+    return folder / f"{_safe(student)}.html"
+
+
 def trace_path(folder: Path, student: str, seed: Seed) -> Path:
     """Where ``--traces`` keeps one student's run on one seed: ``FOLDER/STUDENT/seed-8.jsonl``."""
-    safe = "".join(c if c.isalnum() or c in "-_." else "_" for c in student).strip(".") or "student"
-    return folder / safe / (seed.label.split(" (")[0].replace(" ", "-") + ".jsonl")
+    return folder / _safe(student) / (seed.label.split(" (")[0].replace(" ", "-") + ".jsonl")
 
 
 def grade_one(
-    exercise: Exercise, student: str, path: Path, allow_plugins: bool = False, traces: Path | None = None
+    exercise: Exercise,
+    student: str,
+    path: Path,
+    allow_plugins: bool = False,
+    traces: Path | None = None,
+    runs: list[list[Any]] | None = None,
 ) -> Report:
-    """Grades one submission on every seed (in this process); with ``traces``, keeps each run's trace there."""
+    """Grades one submission on every seed (in this process).
+
+    With ``traces``, each run's trace is kept there; with ``runs``, each run's records are added
+    to that list, a list a seed, for a page to replay them.
+    """
     zero = [0.0] * len(exercise.criteria)
     mission, why = _mission_file(path)
     if mission is None:
@@ -407,8 +430,11 @@ def grade_one(
         if traces is not None:
             kept = trace_path(traces, student, seed)
             kept.parent.mkdir(parents=True, exist_ok=True)
+        records: list[Any] | None = [] if runs is not None else None
+        if runs is not None and records is not None:
+            runs.append(records)
         try:
-            facts = run_seed(exercise, spec, seed, kept)
+            facts = run_seed(exercise, spec, seed, kept, records)
         except LinkError as err:  # the seed's link faults left no link to start on: that seed alone scores nothing
             why = f"no run: under this seed's faults the link failed before the mission started ({type(err).__name__})"
             none = len(exercise.criteria)
@@ -473,6 +499,7 @@ def _graded(
     memory_mb: int,
     cpu_s: float,
     traces: Path | None = None,
+    feedback: Path | None = None,
 ) -> tuple[Report | str, bool]:
     """One submission's report, or why it could not be graded (this student's zero); and whether the worker ends.
 
@@ -486,10 +513,11 @@ def _graded(
         _cpu.armed = True
         cpu_alarm(cpu_s, again_s=CPU_GRACE_S)  # again, should a plugin's ``except BaseException`` keep it
         try:
-            if traces is None:
+            runs: list[list[Any]] | None = [] if feedback is not None else None
+            if traces is None and runs is None:
                 result = grade_one(exercise, student, path, allow_plugins)
             else:
-                result = grade_one(exercise, student, path, allow_plugins, traces=traces)
+                result = grade_one(exercise, student, path, allow_plugins, traces=traces, runs=runs)
         finally:
             _cpu.armed = False  # first: a signal on its way now is let go
             cpu_alarm(None)
@@ -502,6 +530,13 @@ def _graded(
     if _cpu.rung:
         zero = [0.0] * len(exercise.criteria)
         return Report(student, str(path), 0.0, exercise.max_points, zero, [_cpu_used_up_why(cpu_s)]), True
+    if feedback is not None and isinstance(result, Report):
+        from autonomy.classroom.report import write_feedback_page  # the reports' module builds on this one
+
+        try:  # here, in the worker: the class's pages are made as many at once as there are workers
+            write_feedback_page(exercise, result, feedback, runs or [])
+        except (OSError, ValueError) as err:
+            result.notes.append(f"its feedback page could not be written: {err}")
     return result, isinstance(result, str)
 
 
@@ -512,6 +547,7 @@ def _worker(
     cpu_s: float,
     channel: Connection,
     traces: Path | None = None,
+    feedback: Path | None = None,
 ) -> None:
     """A worker process's body: limits its memory, then grades the submissions it is sent, one at a time.
 
@@ -549,7 +585,7 @@ def _worker(
         Blackboard.clear()  # as a new worker has it: nothing of the last submission's trees
         if allow_plugins:  # what a plugin starts inherits it
             _cap_what_it_starts(cpu_s)
-        report, failed = _graded(exercise, student, path, allow_plugins, memory_mb, cpu_s, traces)
+        report, failed = _graded(exercise, student, path, allow_plugins, memory_mb, cpu_s, traces, feedback)
         cpu_alarm(None)  # whatever happened in there, nothing goes off between submissions
         try:
             gc.collect()  # the last submission's trees (cycles of parents and children) let go now
@@ -589,6 +625,7 @@ def grade_class(
     allow_plugins: bool = False,
     on_report: Callable[[Report], None] | None = None,
     traces: Path | None = None,
+    feedback: Path | None = None,
 ) -> list[Report]:
     """Grades every submission in worker processes, at most ``workers`` at once.
 
@@ -611,6 +648,7 @@ def grade_class(
         allow_plugins: Whether submissions may load Python plugins.
         on_report: Called with each report as it is ready (for a progress bar).
         traces: A folder to keep each run's trace in (see :func:`trace_path`), for its replay.
+        feedback: A folder to write each student's feedback page in (see :func:`page_path`), by the workers.
 
     Returns:
         The reports, in the order of ``submissions``.
@@ -650,7 +688,7 @@ def grade_class(
     def start(index: int) -> None:
         mine, theirs = context.Pipe(duplex=True)
         process = context.Process(
-            target=_worker, args=(exercise, allow_plugins, memory_mb, cpu_s, theirs, traces), daemon=True
+            target=_worker, args=(exercise, allow_plugins, memory_mb, cpu_s, theirs, traces, feedback), daemon=True
         )
         process.start()
         theirs.close()

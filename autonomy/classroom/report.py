@@ -10,11 +10,13 @@ import csv
 import io
 import json
 from html import escape
+from pathlib import Path
 from typing import Any
 
 from autonomy.classroom.exercise import Exercise
-from autonomy.classroom.grade import Report, SeedResult
+from autonomy.classroom.grade import Report, SeedResult, page_path
 from autonomy.classroom.gradebook import RosterMatch, similar
+from autonomy.source import UnreadableFile, read_text
 from autonomy.views.lines import printable
 from autonomy.views.mapsvg import world_svg
 
@@ -407,3 +409,26 @@ def feedback_page(exercise: Exercise, report: Report, source: str | None, replay
         parts.append("</section>")
     parts.append("</body></html>")
     return "\n".join(parts) + "\n"
+
+
+def write_feedback_page(exercise: Exercise, report: Report, folder: Path, runs: list[list[Any]]) -> Path:
+    """Writes ``report``'s student's page (:func:`feedback_page`) in ``folder``, each run replayed from its records.
+
+    Returns:
+        The page's path.
+    """
+    from autonomy.views.web import standalone_html  # the browser's page: only what makes a student's page needs it
+
+    source = None
+    if report.file:
+        try:
+            source = read_text(Path(report.file))
+        except (UnreadableFile, OSError):
+            source = None
+    replays: list[str | None] = [standalone_html(records, at_end=True) if records else None for records in runs]
+    replays += [None] * (len(report.seeds) - len(replays))
+    page = page_path(folder, report.student)
+    page.write_text(
+        feedback_page(exercise, report, source, replays[: len(report.seeds)]), encoding="utf-8", errors="replace"
+    )
+    return page

@@ -18,7 +18,7 @@ import asyncio
 import json
 import threading
 import uuid
-from collections.abc import Awaitable, Callable
+from collections.abc import Awaitable, Callable, Iterable
 from importlib import resources
 from typing import Any
 
@@ -353,15 +353,15 @@ class ViewServer:
         return socket
 
 
-def standalone_html(trace: Trace, at_end: bool = False) -> str:
+def standalone_html(trace: Trace | Iterable[Record], at_end: bool = False) -> str:
     """The page frozen on a whole recorded run, in one file with nothing to fetch.
 
     Args:
-        trace: The run.
+        trace: The run: a trace, or its records.
         at_end: Open on the run's last tick (where it ended), not its first.
     """
     hub = RecordHub("replay")
-    for record in trace.records():
+    for record in trace.records() if isinstance(trace, Trace) else trace:
         hub(record)
     payload = hub.payload()
     if at_end:
