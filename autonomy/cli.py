@@ -756,19 +756,33 @@ def cmd_grade(args: argparse.Namespace) -> int:
         return _fail("--gradescope writes one submission's results: give one submission", EXIT_USAGE)
     if args.dask and (args.traces or args.feedback):
         return _fail("--traces and --feedback need the runs here: grade without --dask for them", EXIT_USAGE)
-    try:  # the teacher's own files, before any grading: every problem at once, FILE:LINE
+    # the teacher's own files, before any grading: every problem of every one of them at once, FILE:LINE
+    problems: list[str] = []
+    roster, adjustments = None, []
+    try:
         roster = read_roster(args.roster) if args.roster else None
-        adjustments = read_adjustments(args.adjust) if args.adjust else []
-        known = {student for student, _ in submissions}
-        unknown = [a for a in adjustments if a.student not in known]
-        if unknown:
-            raise GradebookError(
-                [f"{args.adjust}:{a.line}: no student '{a.student}' among the submissions given" for a in unknown]
-            )
-        if args.compare:
-            compare(exercise, [], args.compare)  # that it is an earlier grading
     except GradebookError as err:
-        return _problems(err.problems)
+        problems += err.problems
+    try:
+        adjustments = read_adjustments(args.adjust) if args.adjust else []
+    except GradebookError as err:
+        problems += err.problems
+    known = {student for student, _ in submissions}
+    problems += [
+        f"{args.adjust}:{a.line}: no student '{a.student}' among the submissions given"
+        for a in adjustments
+        if a.student not in known
+    ]
+    try:
+        if args.compare:
+            compare(exercise, [], args.compare)  # that it is an earlier grading of this exercise
+    except GradebookError as err:
+        problems += err.problems
+    if problems:
+        return _problems(problems)
+    corrections: dict[str, list[tuple[float, str]]] = {}
+    for adjustment in adjustments:
+        corrections.setdefault(adjustment.student, []).append((adjustment.points, adjustment.reason))
     writers = ((args.csv, to_csv), (args.json, to_json), (args.html, to_html), (args.gradescope, _gradescope))
     targets = [(target, write) for target, write in writers if target]
     # every file read (the exercise, its world, each submission's mission, a folder's files) is kept from harm
@@ -781,12 +795,19 @@ def cmd_grade(args: argparse.Namespace) -> int:
         except OSError:  # a folder that cannot be listed: its student's report says so
             pass
     chosen: set[Path] = set()
+    student_pages: set[Path] = set()
+    if args.feedback:  # each student's page is an output too
+        from autonomy.classroom.grade import file_names, page_path
+
+        student_pages = {page_path(Path(args.feedback), name).resolve() for name in file_names(known).values()}
     for target, _ in targets:  # before hours of grading, not after
         where = Path(target)
         if where.resolve() in inputs:
             return _fail(f"{target} is one of the files to grade: write the marks elsewhere", EXIT_USAGE)
         if where.resolve() in chosen:
             return _fail(f"{target} is given for two outputs: give each its own file", EXIT_USAGE)
+        if where.resolve() in student_pages:
+            return _fail(f"{target} is where a student's feedback page goes: write it elsewhere", EXIT_USAGE)
         chosen.add(where.resolve())
         if where.is_dir() or not where.parent.is_dir() or not os.access(where.parent, os.W_OK):
             return _fail(f"cannot write {target}: no such folder, or not writable", EXIT_USAGE)
@@ -839,7 +860,13 @@ def cmd_grade(args: argparse.Namespace) -> int:
             reports = grade_on_dask(exercise, submissions, args.dask, **limits)
         else:
             reports = grade_class(
-                exercise, submissions, traces=traces, feedback=feedback_folder, workers=args.workers, **limits
+                exercise,
+                submissions,
+                traces=traces,
+                feedback=feedback_folder,
+                corrections=corrections,
+                workers=args.workers,
+                **limits,
             )
     except KeyboardInterrupt:
         return _fail("grading interrupted", EXIT_INTERRUPTED)
@@ -874,9 +901,10 @@ def cmd_grade(args: argparse.Namespace) -> int:
     code = EXIT_USAGE if alone and reports[0].problems else EXIT_OK
     pages: dict[str, str] = {}
     if args.feedback:  # written by the workers, as they graded
-        from autonomy.classroom.grade import page_path
+        from autonomy.classroom.grade import file_names, page_path
 
-        pages = {r.student: str(page_path(Path(args.feedback), r.student)) for r in reports}
+        names = file_names([r.student for r in reports])
+        pages = {r.student: str(page_path(Path(args.feedback), names[r.student])) for r in reports}
         pages = {student: page for student, page in pages.items() if Path(page).is_file()}
         if not args.quiet:
             print(_shown(f"wrote {len(pages)} feedback pages in {args.feedback}"))

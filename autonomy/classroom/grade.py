@@ -22,7 +22,7 @@ import resource
 import signal
 import traceback
 from collections.abc import Callable, Iterable
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from multiprocessing.connection import Connection, wait
 from pathlib import Path
 from typing import Any, cast
@@ -237,6 +237,10 @@ def _readable(text: str) -> str:
     return text.encode("utf-8", "surrogateescape").decode("utf-8", "backslashreplace")
 
 
+#: What a mission file is called: YAML, or BehaviorTree.CPP's XML (any case: ``PARK.YAML``).
+MISSION_SUFFIXES = (".yaml", ".yml", ".xml")
+
+
 def _mission_file(path: Path) -> tuple[Path | None, str]:
     if not path.exists() and not path.is_symlink():
         return None, f"{path}: no such file or folder"
@@ -244,16 +248,28 @@ def _mission_file(path: Path) -> tuple[Path | None, str]:
         return path, ""
     if not path.is_dir():
         return None, f"{path}: not a mission file nor a folder"
-    candidates = sorted(
-        p for p in path.iterdir() if p.suffix in (".yaml", ".yml") and not p.name.startswith(".") and p.is_file()
-    )
+
+    def missions(folder: Path) -> list[Path]:
+        return sorted(
+            p
+            for p in folder.iterdir()
+            if p.suffix.lower() in MISSION_SUFFIXES and not p.name.startswith(".") and p.is_file()
+        )
+
+    candidates = missions(path)
+    if not candidates:  # a zipped folder unpacked: the files one folder down
+        inner = [p for p in path.iterdir() if p.is_dir() and not p.name.startswith((".", "__"))]
+        if len(inner) == 1:
+            candidates = missions(inner[0])
     if len(candidates) == 1:
         return candidates[0], ""
     named = [p for p in candidates if p.stem == "mission"]
     if named:
         return named[0], ""
     if not candidates:
-        return None, f"{path}: no mission file (.yaml) in the folder"
+        found = sorted(p.name for p in path.iterdir() if not p.name.startswith("."))[:5]
+        there = f" (it holds {', '.join(found)})" if found else " (it is empty)"
+        return None, f"{path}: no mission file (.yaml, .yml or .xml) in the folder{there}"
     listed = ", ".join(p.name for p in candidates)
     return None, f"{path}: several mission files ({listed}); name the one to grade mission.yaml"
 
@@ -388,19 +404,33 @@ def _seed_result(seed: Seed, facts: RunFacts, verdicts: list[Verdict]) -> SeedRe
     )
 
 
-def _safe(student: str) -> str:
-    """A student's name as a file's: letters, digits, ``-_.`` kept, the rest ``_``."""
-    return "".join(c if c.isalnum() or c in "-_." else "_" for c in student).strip(".") or "student"
+def file_names(students: Iterable[str]) -> dict[str, str]:
+    """Each student's name as a file's, no two alike even where case is not told apart.
+
+    Letters, digits and ``-_.`` are kept, the rest become ``_``; a name that would then be
+    another's (``frank o'neil`` and ``frank_o_neil``) gets ``-2``, ``-3``... in the students' order.
+    """
+    out: dict[str, str] = {}
+    taken: set[str] = set()
+    for student in sorted(set(students)):
+        base = "".join(c if c.isalnum() or c in "-_." else "_" for c in student).strip(".") or "student"
+        name, count = base, 1
+        while name.lower() in taken:
+            count += 1
+            name = f"{base}-{count}"
+        taken.add(name.lower())
+        out[student] = name
+    return out
 
 
-def page_path(folder: Path, student: str) -> Path:
-    """Where ``--feedback`` writes one student's page: ``FOLDER/STUDENT.html``."""
-    return folder / f"{_safe(student)}.html"
+def page_path(folder: Path, name: str) -> Path:
+    """Where ``--feedback`` writes one student's page: ``FOLDER/NAME.html`` (``NAME`` from :func:`file_names`)."""
+    return folder / f"{name}.html"
 
 
-def trace_path(folder: Path, student: str, seed: Seed) -> Path:
-    """Where ``--traces`` keeps one student's run on one seed: ``FOLDER/STUDENT/seed-8.jsonl``."""
-    return folder / _safe(student) / (seed.label.split(" (")[0].replace(" ", "-") + ".jsonl")
+def trace_path(folder: Path, name: str, seed: Seed) -> Path:
+    """Where ``--traces`` keeps a student's run on one seed: ``FOLDER/NAME/seed-8.jsonl`` (see :func:`file_names`)."""
+    return folder / name / (seed.label.split(" (")[0].replace(" ", "-") + ".jsonl")
 
 
 def grade_one(
@@ -410,11 +440,13 @@ def grade_one(
     allow_plugins: bool = False,
     traces: Path | None = None,
     runs: list[list[Any]] | None = None,
+    name: str = "",
 ) -> Report:
     """Grades one submission on every seed (in this process).
 
-    With ``traces``, each run's trace is kept there; with ``runs``, each run's records are added
-    to that list, a list a seed, for a page to replay them.
+    With ``traces``, each run's trace is kept there (under ``name``, the student's as a file's);
+    with ``runs``, each run's records are added to that list, a list a seed, for a page to replay
+    them.
     """
     zero = [0.0] * len(exercise.criteria)
     mission, why = _mission_file(path)
@@ -428,7 +460,7 @@ def grade_one(
     for seed in exercise.seeds:
         kept = None
         if traces is not None:
-            kept = trace_path(traces, student, seed)
+            kept = trace_path(traces, name or file_names([student])[student], seed)
             kept.parent.mkdir(parents=True, exist_ok=True)
         records: list[Any] | None = [] if runs is not None else None
         if runs is not None and records is not None:
@@ -500,6 +532,8 @@ def _graded(
     cpu_s: float,
     traces: Path | None = None,
     feedback: Path | None = None,
+    name: str = "",
+    corrections: list[tuple[float, str]] | None = None,
 ) -> tuple[Report | str, bool]:
     """One submission's report, or why it could not be graded (this student's zero); and whether the worker ends.
 
@@ -517,7 +551,7 @@ def _graded(
             if traces is None and runs is None:
                 result = grade_one(exercise, student, path, allow_plugins)
             else:
-                result = grade_one(exercise, student, path, allow_plugins, traces=traces, runs=runs)
+                result = grade_one(exercise, student, path, allow_plugins, traces=traces, runs=runs, name=name)
         finally:
             _cpu.armed = False  # first: a signal on its way now is let go
             cpu_alarm(None)
@@ -533,8 +567,12 @@ def _graded(
     if feedback is not None and isinstance(result, Report):
         from autonomy.classroom.report import write_feedback_page  # the reports' module builds on this one
 
+        shown = result  # the page shows the mark the gradebook will, the teacher's corrections in it
+        if corrections:
+            extra = sum(points for points, _ in corrections)
+            shown = replace(result, adjustments=list(corrections), total=round(result.total + extra, 2))
         try:  # here, in the worker: the class's pages are made as many at once as there are workers
-            write_feedback_page(exercise, result, feedback, runs or [])
+            write_feedback_page(exercise, shown, feedback, runs or [], name or file_names([student])[student])
         except (OSError, ValueError) as err:
             result.notes.append(f"its feedback page could not be written: {err}")
     return result, isinstance(result, str)
@@ -548,6 +586,8 @@ def _worker(
     channel: Connection,
     traces: Path | None = None,
     feedback: Path | None = None,
+    names: dict[str, str] | None = None,
+    corrections: dict[str, list[tuple[float, str]]] | None = None,
 ) -> None:
     """A worker process's body: limits its memory, then grades the submissions it is sent, one at a time.
 
@@ -585,7 +625,18 @@ def _worker(
         Blackboard.clear()  # as a new worker has it: nothing of the last submission's trees
         if allow_plugins:  # what a plugin starts inherits it
             _cap_what_it_starts(cpu_s)
-        report, failed = _graded(exercise, student, path, allow_plugins, memory_mb, cpu_s, traces, feedback)
+        report, failed = _graded(
+            exercise,
+            student,
+            path,
+            allow_plugins,
+            memory_mb,
+            cpu_s,
+            traces,
+            feedback,
+            (names or {}).get(student, ""),
+            (corrections or {}).get(student),
+        )
         cpu_alarm(None)  # whatever happened in there, nothing goes off between submissions
         try:
             gc.collect()  # the last submission's trees (cycles of parents and children) let go now
@@ -626,6 +677,7 @@ def grade_class(
     on_report: Callable[[Report], None] | None = None,
     traces: Path | None = None,
     feedback: Path | None = None,
+    corrections: dict[str, list[tuple[float, str]]] | None = None,
 ) -> list[Report]:
     """Grades every submission in worker processes, at most ``workers`` at once.
 
@@ -649,12 +701,15 @@ def grade_class(
         on_report: Called with each report as it is ready (for a progress bar).
         traces: A folder to keep each run's trace in (see :func:`trace_path`), for its replay.
         feedback: A folder to write each student's feedback page in (see :func:`page_path`), by the workers.
+        corrections: The teacher's corrections by student, which their feedback pages show (the
+            reports themselves do not get them: see :func:`autonomy.classroom.gradebook.apply_adjustments`).
 
     Returns:
         The reports, in the order of ``submissions``.
     """
     workers = max(1, workers or os.cpu_count() or 1)
     wall_s = WALL_PER_CPU * cpu_s if wall_s is None else wall_s
+    names = file_names(student for student, _ in submissions) if traces is not None or feedback is not None else {}
     context = multiprocessing.get_context("fork")
     clock = RealClock()
     reports: dict[int, Report] = {}
@@ -688,7 +743,9 @@ def grade_class(
     def start(index: int) -> None:
         mine, theirs = context.Pipe(duplex=True)
         process = context.Process(
-            target=_worker, args=(exercise, allow_plugins, memory_mb, cpu_s, theirs, traces, feedback), daemon=True
+            target=_worker,
+            args=(exercise, allow_plugins, memory_mb, cpu_s, theirs, traces, feedback, names, corrections),
+            daemon=True,
         )
         process.start()
         theirs.close()

@@ -67,7 +67,7 @@ def _rows(path: str | Path, columns: tuple[str, ...], what: str) -> list[tuple[i
         text = read_text(Path(path))
     except UnreadableFile as err:
         raise GradebookError([f"{label}:{err.line}: cannot read the {what}: {err.reason}"]) from None
-    lines = text.splitlines()
+    lines = text.removeprefix("\ufeff").splitlines(keepends=True)  # a byte-order mark first, as in "CSV UTF-8"
     reader = csv.reader(lines)
     try:
         header = [cell.strip() for cell in next(reader)]
@@ -87,7 +87,14 @@ def _rows(path: str | Path, columns: tuple[str, ...], what: str) -> list[tuple[i
         )
     rows = []
     try:
-        for number, cells in enumerate(reader, start=2):
+        while True:
+            number = reader.line_num + 1  # the row's first line
+            try:
+                cells = next(reader)
+            except StopIteration:
+                break
+            if any("\n" in cell.rstrip("\r\n") for cell in cells):  # a quote left open took the lines after it
+                raise GradebookError([f'{label}:{number}: a quote (") is opened and not closed on this line'])
             if not any(cell.strip() for cell in cells):
                 continue
             if len(rows) >= MOST_ROWS:
@@ -104,7 +111,7 @@ def read_roster(path: str | Path) -> list[RosterEntry]:
     Raises:
         GradebookError: every problem, ``FILE:LINE: message``.
     """
-    problems, entries, seen = [], [], {}
+    problems, entries, seen, handed = [], [], {}, {}
     for number, row in _rows(path, ROSTER_COLUMNS, "roster"):
         ident, name, submission = row["id"], row["name"], row["submission"]
         if not ident or control_character(ident):
@@ -113,6 +120,10 @@ def read_roster(path: str | Path) -> list[RosterEntry]:
             problems.append(f"{path}:{number}: id '{ident}' is on line {seen[ident]} already")
         else:
             seen[ident] = number
+        if submission and submission in handed:
+            problems.append(f"{path}:{number}: submission '{submission}' is on line {handed[submission]} already")
+        elif submission:
+            handed[submission] = number
         entries.append(RosterEntry(ident, name, submission, number))
     if problems:
         raise GradebookError(problems)
@@ -217,12 +228,13 @@ def compare(exercise: Exercise, reports: list[Report], earlier: str | Path) -> l
         document = json.loads(read_text(Path(earlier)))
         students = {s["student"]: s for s in document["students"]}
         labels = [c["label"] for c in document["criteria"]]
+        graded = document["exercise"]
     except UnreadableFile as err:
         raise GradebookError([f"{label}:{err.line}: cannot read the earlier grading: {err.reason}"]) from None
-    except (ValueError, KeyError, TypeError) as err:
-        raise GradebookError(
-            [f"{label}:1: not the JSON of an earlier grading (autonomy grade --json): {err}"]
-        ) from None
+    except (ValueError, KeyError, TypeError, AttributeError):
+        raise GradebookError([f"{label}:1: not the JSON of an earlier grading (autonomy grade --json)"]) from None
+    if graded != exercise.name:
+        raise GradebookError([f"{label}:1: it grades exercise '{graded}', not '{exercise.name}'"])
     lines, same = [], 0
     now = {report.student: report for report in reports}
     for report in reports:

@@ -41,6 +41,7 @@ set -uo pipefail
 ROOT="${{AUTOGRADER_ROOT:-/autograder}}"
 AUTONOMY="${{AUTONOMY:-$ROOT/venv/bin/autonomy}}"
 mkdir -p "$ROOT/results"
+rm -f "$ROOT/results/results.json"  # nothing of an earlier run stands for this one
 cd "$ROOT/source/exercise"
 "$AUTONOMY" grade {exercise} "$ROOT/submission" --gradescope "$ROOT/results/results.json" --quiet{secret}
 status=$?

@@ -389,8 +389,11 @@ def feedback_page(exercise: Exercise, report: Report, source: str | None, replay
         parts.append("<p>The file could not be read.</p>")
     else:
         problems = _problem_lines(report)
+        texts = source.splitlines() or [""]
+        for beyond in [n for n in problems if n > len(texts)]:  # at the end of the file: on its last line
+            problems.setdefault(len(texts), []).extend(problems.pop(beyond))
         lines = []
-        for number, text in enumerate(source.splitlines() or [""], start=1):
+        for number, text in enumerate(texts, start=1):
             marked = " problem" if number in problems else ""
             why = "".join(f'<span class="why">{escape(printable(m))}</span>' for m in problems.get(number, []))
             lines.append(f'<span class="line{marked}" data-line="{number}">{escape(printable(text))}{why}</span>')
@@ -411,7 +414,7 @@ def feedback_page(exercise: Exercise, report: Report, source: str | None, replay
     return "\n".join(parts) + "\n"
 
 
-def write_feedback_page(exercise: Exercise, report: Report, folder: Path, runs: list[list[Any]]) -> Path:
+def write_feedback_page(exercise: Exercise, report: Report, folder: Path, runs: list[list[Any]], name: str) -> Path:
     """Writes ``report``'s student's page (:func:`feedback_page`) in ``folder``, each run replayed from its records.
 
     Returns:
@@ -427,7 +430,7 @@ def write_feedback_page(exercise: Exercise, report: Report, folder: Path, runs: 
             source = None
     replays: list[str | None] = [standalone_html(records, at_end=True) if records else None for records in runs]
     replays += [None] * (len(report.seeds) - len(replays))
-    page = page_path(folder, report.student)
+    page = page_path(folder, name)
     page.write_text(
         feedback_page(exercise, report, source, replays[: len(report.seeds)]), encoding="utf-8", errors="replace"
     )

@@ -610,3 +610,73 @@ def test_the_autograder_zip_s_package_builds_and_carries_the_secret_for_hidden_s
         names = archive.namelist()
     assert "autonomy/emulator/worlds/garage.yaml" in names and "autonomy/views/static/index.html" in names
     assert "autonomy/classroom/gradescope.py" in names
+
+
+def test_the_teacher_s_files_are_read_as_spreadsheets_save_them_and_every_problem_is_told_at_once(tmp_path):
+    files = _desk(tmp_path)
+    (tmp_path / "bom.csv").write_bytes(b'\xef\xbb\xbfid,name,submission\r\n1001,"Smith, Alice",alice\r\n')
+    saved = grade_in(tmp_path, "garage", *files, "--roster", "bom.csv", "--csv", "m.csv")  # Excel's "CSV UTF-8"
+    assert saved.returncode == 0, saved.stderr
+    assert (tmp_path / "m.csv").read_text().splitlines()[1].startswith('1001,"Smith, Alice",alice,10,')
+    (tmp_path / "open.csv").write_text('id,name,submission\n1,"Smith, Alice,alice\n2,Bob,bob\n')
+    (tmp_path / "twice.csv").write_text("id,name,submission\n1,A,alice\n2,B,alice\n")
+    (tmp_path / "adjust.csv").write_text("student,points,reason\nnobody,1,typo\nalice,nan,x\n")
+    (tmp_path / "square.json").write_text('{"exercise": "square", "criteria": [], "students": []}')
+    for roster, expected in (
+        ("open.csv", 'open.csv:2: a quote (") is opened and not closed on this line'),
+        ("twice.csv", "twice.csv:3: submission 'alice' is on line 2 already"),
+    ):
+        refused = grade_in(
+            tmp_path, "garage", *files, "--roster", roster, "--adjust", "adjust.csv", "--compare", "square.json"
+        )
+        assert refused.returncode == 2 and refused.stderr.splitlines() == [  # every file's problems, all at once
+            expected,
+            "adjust.csv:3: points must be a number from -1000 to 1000, got 'nan'",
+            "square.json:1: it grades exercise 'square', not 'garage'",
+        ], refused.stderr
+
+
+def test_feedback_pages_show_the_corrections_and_never_share_a_file_or_become_another_output(tmp_path):
+    (tmp_path / "exercises").mkdir()
+    (tmp_path / "exercises" / "garage.yaml").write_text((ROOT / "exercises" / "garage.yaml").read_text())
+    (tmp_path / "c").mkdir()
+    for student in ("frank o'neil", "frank_o_neil", "class"):
+        (tmp_path / "c" / f"{student}.yaml").write_text((ROOT / "exercises" / "solutions" / "garage.yaml").read_text())
+    (tmp_path / "adjust.csv").write_text('student,points,reason\nfrank_o_neil,-2.5,"late, by two days"\n')
+    files = ["c/frank o'neil.yaml", "c/frank_o_neil.yaml", "c/class.yaml"]
+    result = grade_in(tmp_path, "garage", *files, "--adjust", "adjust.csv", "--feedback", "p", "--html", "class.html")
+    assert result.returncode == 0, result.stderr
+    assert "wrote 3 feedback pages in p" in result.stdout
+    assert sorted(p.name for p in (tmp_path / "p").iterdir()) == [
+        "class.html",
+        "frank_o_neil-2.html",
+        "frank_o_neil.html",
+    ]
+    late = (tmp_path / "p" / "frank_o_neil-2.html").read_text()  # the second of the two, in sorted order
+    assert "frank_o_neil: 7.5 / 10" in late and "Correction by the teacher: -2.5 (late, by two days)" in late
+    assert "frank o&#x27;neil: 10 / 10" in (tmp_path / "p" / "frank_o_neil.html").read_text()
+    refused = grade_in(tmp_path, "garage", *files, "--feedback", "p", "--html", "p/class.html")
+    assert refused.returncode == 2 and "p/class.html is where a student's feedback page goes: write it elsewhere" in (
+        refused.stderr
+    )
+
+
+def test_a_submission_folder_may_hold_its_mission_as_xml_in_any_case_or_one_folder_down(tmp_path):
+    (tmp_path / "exercises").mkdir()
+    (tmp_path / "exercises" / "garage.yaml").write_text((ROOT / "exercises" / "garage.yaml").read_text())
+    xml = autonomy("export", str(ROOT / "exercises" / "solutions" / "garage.yaml"), "-o", str(tmp_path / "m.xml"))
+    assert xml.returncode == 0, xml.stderr
+    for folder, name, text in (
+        ("xml", "mission.xml", (tmp_path / "m.xml").read_text()),
+        ("upper", "PARK.YAML", (ROOT / "exercises" / "solutions" / "garage.yaml").read_text()),
+        ("zipped/hw2", "alice.yaml", (ROOT / "exercises" / "solutions" / "garage.yaml").read_text()),
+    ):
+        (tmp_path / folder).mkdir(parents=True)
+        (tmp_path / folder / name).write_text(text)
+    (tmp_path / "odd").mkdir()
+    (tmp_path / "odd" / "notes.txt").write_text("no mission here")
+    result = grade_in(tmp_path, "garage", "xml", "upper", "zipped", "odd", "--csv", "m.csv")
+    assert result.returncode == 0, result.stderr
+    rows = {row["student"]: row for row in csv.DictReader((tmp_path / "m.csv").open())}
+    assert [rows[s]["total"] for s in ("xml", "upper", "zipped")] == ["10", "10", "10"]
+    assert rows["odd"]["problems"] == "odd: no mission file (.yaml, .yml or .xml) in the folder (it holds notes.txt)"
