@@ -692,15 +692,25 @@ def _exercise_path(text: str) -> tuple[str, str]:
     )
 
 
-#: The longest secret file ``autonomy grade --secret-file`` reads, bytes.
-SECRET_MOST_BYTES = 4096
+def _exercise(text: str) -> tuple[Any, str] | int:
+    """The exercise a command names (a file, or a name in ./exercises/) and its path; or, if none, the exit code."""
+    from autonomy.classroom import ExerciseInvalid, load_exercise
+
+    path, missing = _exercise_path(text)
+    if missing:
+        return _fail(missing, EXIT_USAGE)
+    try:
+        return load_exercise(path), path
+    except ExerciseInvalid as err:
+        return _problems(err.problems)
 
 
 def cmd_grade(args: argparse.Namespace) -> int:
     """Grades mission files against an exercise: marks, feedback, a gradebook."""
     from pathlib import Path
 
-    from autonomy.classroom import ExerciseInvalid, find_submissions, grade_class, load_exercise
+    from autonomy.classroom import find_submissions, grade_class
+    from autonomy.classroom.exercise import SecretError, read_secret
     from autonomy.classroom.grade import WALL_PER_CPU, default_cpu_s
     from autonomy.classroom.gradebook import (
         GradebookError,
@@ -708,40 +718,23 @@ def cmd_grade(args: argparse.Namespace) -> int:
         compare,
         match_roster,
         read_adjustments,
+        read_earlier,
         read_roster,
+        unknown_students,
     )
-    from autonomy.classroom.report import feedback, to_csv, to_html, to_json
+    from autonomy.classroom.report import feedback, to_csv, to_gradescope, to_html, to_json
     from autonomy.emulator.world import SHIPPED
 
-    path, missing = _exercise_path(args.exercise)
-    if missing:
-        return _fail(missing, EXIT_USAGE)
-    try:
-        exercise = load_exercise(path)
-    except ExerciseInvalid as err:
-        return _problems(err.problems)
+    found = _exercise(args.exercise)
+    if isinstance(found, int):
+        return found
+    exercise, path = found
     hidden_note = ""
     if args.secret_file:
-        given = Path(args.secret_file)
         try:
-            if not given.exists():
-                return _fail(f"cannot read the secret file {args.secret_file}: no such file", EXIT_USAGE)
-            if not given.is_file():  # not a folder, a pipe or a device that never ends
-                return _fail(f"the secret file {args.secret_file} is not a file: give a small text file", EXIT_USAGE)
-            with given.open("rb") as stream:
-                secret = stream.read(SECRET_MOST_BYTES + 1).strip()
-        except OSError as err:
-            return _fail(f"cannot read the secret file {args.secret_file}: {err.strerror or err}", EXIT_USAGE)
-        if len(secret) > SECRET_MOST_BYTES:
-            return _fail(
-                f"the secret file {args.secret_file} is over {SECRET_MOST_BYTES} bytes: give a short secret", EXIT_USAGE
-            )
-        if len(secret) < 16:
-            return _fail(
-                f"the secret file {args.secret_file} holds {len(secret)} bytes: give it at least 16 that nobody can "
-                "guess, e.g. python3 -c 'import secrets; print(secrets.token_hex(16))' > secret.txt",
-                EXIT_USAGE,
-            )
+            secret = read_secret(args.secret_file)
+        except SecretError as err:
+            return _fail(str(err), EXIT_USAGE)
         if not exercise.hidden_seeds:
             hidden_note = "This exercise has no hidden seeds: the secret changes nothing."
         exercise = exercise.with_secret(secret)
@@ -768,14 +761,10 @@ def cmd_grade(args: argparse.Namespace) -> int:
     except GradebookError as err:
         problems += err.problems
     known = {student for student, _ in submissions}
-    problems += [
-        f"{args.adjust}:{a.line}: no student '{a.student}' among the submissions given"
-        for a in adjustments
-        if a.student not in known
-    ]
+    problems += unknown_students(adjustments, known, args.adjust or "")
+    earlier = None
     try:
-        if args.compare:
-            compare(exercise, [], args.compare)  # that it is an earlier grading of this exercise
+        earlier = read_earlier(args.compare, exercise) if args.compare else None
     except GradebookError as err:
         problems += err.problems
     if problems:
@@ -783,8 +772,8 @@ def cmd_grade(args: argparse.Namespace) -> int:
     corrections: dict[str, list[tuple[float, str]]] = {}
     for adjustment in adjustments:
         corrections.setdefault(adjustment.student, []).append((adjustment.points, adjustment.reason))
-    writers = ((args.csv, to_csv), (args.json, to_json), (args.html, to_html), (args.gradescope, _gradescope))
-    targets = [(target, write) for target, write in writers if target]
+    kinds = (("csv", args.csv), ("json", args.json), ("html", args.html), ("gradescope", args.gradescope))
+    targets = [(target, kind) for kind, target in kinds if target]
     # every file read (the exercise, its world, each submission's mission, a folder's files) is kept from harm
     inputs = {Path(p).resolve() for p in (path, *args.submissions)} | {p.resolve() for _, p in submissions}
     inputs |= {Path(p).resolve() for p in (args.roster, args.adjust, args.compare) if p}
@@ -893,9 +882,9 @@ def cmd_grade(args: argparse.Namespace) -> int:
                 print(_shown(f"no submission: {entry.id} {entry.name} (roster line {entry.line})"))
         for report in matched.unlisted:
             print(_shown(f"not on the roster: {report.student} ({report.file or 'no file'})"))
-    if args.compare and not args.quiet:
+    if earlier is not None and not args.quiet:
         print(_shown(f"Since {args.compare}:"))
-        for line in compare(exercise, reports, args.compare):
+        for line in compare(exercise, reports, earlier):
             print(_shown(f"  {line}"))
     # a student checking their own mission learns from the exit code too that nothing of it ran
     code = EXIT_USAGE if alone and reports[0].problems else EXIT_OK
@@ -908,18 +897,21 @@ def cmd_grade(args: argparse.Namespace) -> int:
         pages = {student: page for student, page in pages.items() if Path(page).is_file()}
         if not args.quiet:
             print(_shown(f"wrote {len(pages)} feedback pages in {args.feedback}"))
-    for target, write in targets:  # one that fails does not keep the others from being written
+
+    def made(kind: str, target: str) -> str:
+        if kind == "csv":
+            return to_csv(exercise, reports, matched)
+        if kind == "json":
+            return to_json(exercise, reports, matched)
+        if kind == "gradescope":
+            return to_gradescope(exercise, reports[0])
+        where = Path(target).resolve().parent  # each student linked to their page, from where the class page is
+        return to_html(exercise, reports, {name: os.path.relpath(page, where) for name, page in pages.items()})
+
+    for target, kind in targets:  # one that fails does not keep the others from being written
         try:
             # a problem quoting a path that is not UTF-8 (a folder from another system) has '?' for its bytes
-            if write is to_html and pages:  # each student linked to their page, from where the class page is
-                where = Path(target).resolve().parent
-                links = {name: os.path.relpath(page, where) for name, page in pages.items()}
-                text = to_html(exercise, reports, links)
-            elif write in (to_csv, to_json):
-                text = write(exercise, reports, matched)  # type: ignore[operator]
-            else:
-                text = write(exercise, reports)  # type: ignore[operator]
-            Path(target).write_text(text, encoding="utf-8", errors="replace")
+            Path(target).write_text(made(kind, target), encoding="utf-8", errors="replace")
         except OSError as err:
             code = _fail(f"cannot write {target}: {err.strerror or err}", EXIT_USAGE)
             continue
@@ -928,35 +920,21 @@ def cmd_grade(args: argparse.Namespace) -> int:
     return code
 
 
-def _gradescope(exercise: Any, reports: list[Any]) -> str:
-    """The one submission's results as Gradescope's autograder takes them."""
-    from autonomy.classroom.report import to_gradescope
-
-    return to_gradescope(exercise, reports[0])
-
-
 def cmd_gradescope(args: argparse.Namespace) -> int:
     """Packs an exercise, with this package, as the autograder zip Gradescope takes."""
     from pathlib import Path
 
-    from autonomy.classroom import ExerciseInvalid, load_exercise
+    from autonomy.classroom.exercise import SecretError, read_secret
     from autonomy.classroom.gradescope import AutograderError, build_autograder
 
-    path, missing = _exercise_path(args.exercise)
-    if missing:
-        return _fail(missing, EXIT_USAGE)
+    found = _exercise(args.exercise)
+    if isinstance(found, int):
+        return found
+    exercise, path = found
     try:
-        exercise = load_exercise(path)
-    except ExerciseInvalid as err:
-        return _problems(err.problems)
-    secret = None
-    if args.secret_file:
-        given = Path(args.secret_file)
-        if not given.is_file():
-            return _fail(f"the secret file {args.secret_file} is not a file: give a small text file", EXIT_USAGE)
-        secret = given.read_bytes()[: SECRET_MOST_BYTES + 1].strip()
-        if not 16 <= len(secret) <= SECRET_MOST_BYTES:
-            return _fail(f"the secret file {args.secret_file} must hold 16 to {SECRET_MOST_BYTES} bytes", EXIT_USAGE)
+        secret = read_secret(args.secret_file) if args.secret_file else None
+    except SecretError as err:
+        return _fail(str(err), EXIT_USAGE)
     try:
         data = build_autograder(exercise, Path(path), secret)
     except AutograderError as err:

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import sys
 import tempfile
 from pathlib import Path
 
@@ -23,21 +24,10 @@ from autonomy.classroom import grade_one, load_exercise
 from autonomy.classroom.exercise import Exercise, Seed
 
 ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+from tests.classroom.fixed_plans import FIXED_PLANS as PLANS  # noqa: E402 - the tests' own plans
+
 SECRETS = (b"first secret of a teacher", b"second secret of another", b"third secret, a long one")
-PLANS = {
-    "garage": ("mission: fixed\ntree:\n  move: {{speed: 2, distance_mm: {d}}}\n", range(1300, 2800, 50)),
-    "opening": (
-        "mission: fixed\ntree:\n  sequence:\n    - turn: {{left: 90}}\n    - move: {{speed: 2, distance_mm: {d}}}\n"
-        "    - turn: {{right: 90}}\n    - move: {{speed: 2, distance_mm: 1900}}\n",
-        range(100, 1700, 50),
-    ),
-    "bump": (
-        "mission: fixed\ntree:\n  sequence:\n    - turn: {{left: 90}}\n    - move: {{speed: 2, distance_mm: 400}}\n"
-        "    - turn: {{right: 90}}\n    - move: {{speed: 2, distance_mm: {d}}}\n    - turn: {{right: 90}}\n"
-        "    - move: {{speed: 2, distance_mm: 400}}\n",
-        range(1100, 2600, 50),
-    ),
-}
 
 
 def best(exercise: Exercise, plans: dict[int, Path]) -> tuple[float, int]:

@@ -383,7 +383,7 @@ def run_seed(
             stream.close()
 
 
-def _seed_result(seed: Seed, facts: RunFacts, verdicts: list[Verdict]) -> SeedResult:
+def _seed_result(seed: Seed, facts: RunFacts, verdicts: list[Verdict], trace: str = "") -> SeedResult:
     """One run's result: the verdicts, and the path, collisions, beeps and turns to draw and list."""
 
     def at(time_s: float, x_mm: float, y_mm: float) -> tuple[float, float, float]:
@@ -401,6 +401,7 @@ def _seed_result(seed: Seed, facts: RunFacts, verdicts: list[Verdict]) -> SeedRe
         [(*at(turn.time_s, turn.x_mm, turn.y_mm), round(turn.degrees, 1)) for turn in facts.turns],
         None if facts.rest_s is None else round(facts.rest_s, 2),
         seed.seed,
+        trace,
     )
 
 
@@ -478,8 +479,7 @@ def grade_one(
         verdicts = _with_requirements(exercise, [judge(c, facts, world) for c in exercise.criteria])
         for index, verdict in enumerate(verdicts):
             earned[index] += verdict.share
-        seeds.append(_seed_result(seed, facts, verdicts))
-        seeds[-1].trace = str(kept) if kept is not None else ""
+        seeds.append(_seed_result(seed, facts, verdicts, str(kept) if kept is not None else ""))
     count = len(exercise.seeds)
     exact = [c.points * earned[i] / count for i, c in enumerate(exercise.criteria)]
     marks = [round(m, 2) for m in exact]
@@ -839,11 +839,11 @@ def _dask_job(
 ) -> list[Report]:
     """The job of some submissions on a Dask worker: the same as a local worker's, in a limited process of their own.
 
-    Each submission's files are put back under a folder of this job's, at the place they were
-    given (a relative path under it, an absolute one too), and the lot are graded there by
-    :func:`grade_class` with one worker (which grades one after another as a local worker does,
-    in a new process when anything of one could change the next); each report then names its
-    files as given, so that its bytes are the same as a local grading's.
+    Each submission's files are put back in a folder of their own, under this job's, and the lot
+    are graded there by :func:`grade_class` with one worker (which grades one after another as a
+    local worker does, in a new process when anything of one could change the next); each report
+    then names its files as they were given, so that its bytes are the same as a local grading's.
+    Nothing of this changes the worker's own folder, which its other threads go on using.
     """
     import tempfile
 
@@ -853,32 +853,28 @@ def _dask_job(
             "start the workers with the Dask setting distributed.worker.daemon: false"
         )
     with tempfile.TemporaryDirectory(prefix="autonomy-grade-") as folder:
-        root = Path(folder)
-        placed: list[tuple[str, Path]] = []
-        absolute: list[tuple[str, str]] = []
-        for student, given, files, is_folder in jobs:
-            original = Path(given)
-            place = root / (original.relative_to(original.anchor) if original.is_absolute() else original)
-            if files:
-                if is_folder:
-                    place.mkdir(parents=True, exist_ok=True)
-                    for name, data in files:
-                        (place / name).write_bytes(data)
-                else:
-                    place.parent.mkdir(parents=True, exist_ok=True)
-                    place.write_bytes(files[0][1])
-            placed.append((student, place if original.is_absolute() else original))
-            absolute.append((str(place), given) if original.is_absolute() else ("", ""))
-        here = os.getcwd()
-        os.chdir(root)  # a relative path is graded as it was given
-        try:
-            reports = grade_class(exercise, placed, workers=1, **options)
-        finally:
-            os.chdir(here)
-    for report, (inside, given) in zip(reports, absolute, strict=True):
-        if inside:  # the folder it was put back in is no part of what the student sees
-            report.file = report.file.replace(inside, given)
-            report.problems = [p.replace(inside, given) for p in report.problems]
+        places: list[Path] = []
+        for index, (_, given, files, is_folder) in enumerate(jobs):
+            place = Path(folder) / str(index) / (Path(given).name or "submission")
+            if files and is_folder:
+                place.mkdir(parents=True)
+                for name, data in files:
+                    (place / name).write_bytes(data)
+            elif files:
+                place.parent.mkdir(parents=True)
+                place.write_bytes(files[0][1])
+            places.append(place)
+        reports = grade_class(
+            exercise, [(job[0], place) for job, place in zip(jobs, places, strict=True)], workers=1, **options
+        )
+    for report, place, (_, given, _, _) in zip(reports, places, jobs, strict=True):
+        # the folder it was put back in is no part of what the student sees: named as given, as here
+        names = [(str(place), given)]
+        if report.file and report.file != str(place) and report.file.startswith(str(place)):
+            names.insert(0, (report.file, str(Path(given) / Path(report.file).relative_to(place))))
+        for inside, shown in names:
+            report.file = report.file.replace(inside, shown)
+            report.problems = [problem.replace(inside, shown) for problem in report.problems]
     return reports
 
 

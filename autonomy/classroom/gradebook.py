@@ -19,6 +19,7 @@ import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from autonomy.classroom.exercise import Exercise
 from autonomy.classroom.grade import Report
@@ -155,6 +156,15 @@ def read_adjustments(path: str | Path) -> list[Adjustment]:
     return out
 
 
+def unknown_students(adjustments: list[Adjustment], students: set[str], source: str) -> list[str]:
+    """A problem (``FILE:LINE: ...``) for each correction that names no student among ``students``."""
+    return [
+        f"{source}:{a.line}: no student '{a.student}' among the submissions given"
+        for a in adjustments
+        if a.student not in students
+    ]
+
+
 def apply_adjustments(reports: list[Report], adjustments: list[Adjustment], source: str = "") -> list[Report]:
     """Each report with the corrections for its student added to its total (and listed in it).
 
@@ -162,12 +172,9 @@ def apply_adjustments(reports: list[Report], adjustments: list[Adjustment], sour
         GradebookError: a correction names no student of the class.
     """
     by_student = {report.student: report for report in reports}
-    unknown = [a for a in adjustments if a.student not in by_student]
+    unknown = unknown_students(adjustments, set(by_student), source)
     if unknown:
-        known = ", ".join(sorted(by_student)[:10]) + (", ..." if len(by_student) > 10 else "")
-        raise GradebookError(
-            [f"{source}:{a.line}: no student '{a.student}' in this class (students: {known})" for a in unknown]
-        )
+        raise GradebookError(unknown)
     for adjustment in adjustments:
         report = by_student[adjustment.student]
         report.adjustments.append((adjustment.points, adjustment.reason))
@@ -217,15 +224,23 @@ def match_roster(roster: list[RosterEntry], reports: list[Report], roster_folder
     return RosterMatch(listed, [report for report in reports if id(report) not in used])
 
 
-def compare(exercise: Exercise, reports: list[Report], earlier: str | Path) -> list[str]:
-    """What changed since an earlier grading (its ``--json``): one line each, then how many stayed the same.
+@dataclass(frozen=True)
+class Earlier:
+    """An earlier grading, as its ``--json`` has it: each student's entry, and the criteria's labels."""
+
+    students: dict[str, dict[str, Any]]
+    labels: list[str]
+
+
+def read_earlier(path: str | Path, exercise: Exercise) -> Earlier:
+    """Reads an earlier grading's ``--json``, which must be of ``exercise``.
 
     Raises:
-        GradebookError: the earlier file is not a grading's JSON.
+        GradebookError: the file cannot be read, is not a grading's JSON, or grades another exercise.
     """
-    label = str(earlier)
+    label = str(path)
     try:
-        document = json.loads(read_text(Path(earlier)))
+        document = json.loads(read_text(Path(path)))
         students = {s["student"]: s for s in document["students"]}
         labels = [c["label"] for c in document["criteria"]]
         graded = document["exercise"]
@@ -235,6 +250,12 @@ def compare(exercise: Exercise, reports: list[Report], earlier: str | Path) -> l
         raise GradebookError([f"{label}:1: not the JSON of an earlier grading (autonomy grade --json)"]) from None
     if graded != exercise.name:
         raise GradebookError([f"{label}:1: it grades exercise '{graded}', not '{exercise.name}'"])
+    return Earlier(students, labels)
+
+
+def compare(exercise: Exercise, reports: list[Report], earlier: Earlier) -> list[str]:
+    """What changed since an earlier grading: one line each, then how many stayed the same."""
+    students, labels = earlier.students, earlier.labels
     lines, same = [], 0
     now = {report.student: report for report in reports}
     for report in reports:

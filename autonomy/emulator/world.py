@@ -138,26 +138,8 @@ class Box:
         return min(max(x, self.x_min_mm), self.x_max_mm), min(max(y, self.y_min_mm), self.y_max_mm)
 
     def entry(self, ax: float, ay: float, bx: float, by: float) -> float | None:
-        """How far along the segment from (ax, ay) to (bx, by) it first is in the box (0..1), None if never.
-
-        The edge counts as in (within ``EPSILON_MM``), as :meth:`Zone.contains` has it.
-        """
-        low, high = 0.0, 1.0
-        for start, delta, lo, hi in (
-            (ax, bx - ax, self.x_min_mm - EPSILON_MM, self.x_max_mm + EPSILON_MM),
-            (ay, by - ay, self.y_min_mm - EPSILON_MM, self.y_max_mm + EPSILON_MM),
-        ):
-            if delta == 0.0:
-                if not lo <= start <= hi:
-                    return None
-                continue
-            t1, t2 = (lo - start) / delta, (hi - start) / delta
-            if t1 > t2:
-                t1, t2 = t2, t1
-            low, high = max(low, t1), min(high, t2)
-            if low > high:
-                return None
-        return low
+        """How far along the segment from (ax, ay) to (bx, by) it first is in the box (0..1), None if never."""
+        return _entry(self, ax, ay, bx, by)
 
     def segment_nearest(self, ax: float, ay: float, bx: float, by: float) -> tuple[float, float, float]:
         """(gap, x, y): the point of the segment from (ax, ay) to (bx, by) nearest the box, and its gap (0 inside)."""
@@ -230,20 +212,7 @@ class Circle:
 
     def entry(self, ax: float, ay: float, bx: float, by: float) -> float | None:
         """How far along the segment from (ax, ay) to (bx, by) it first is in the disc (0..1), None if never."""
-        if self.gap(ax, ay) <= EPSILON_MM:
-            return 0.0
-        dx, dy = bx - ax, by - ay
-        fx, fy = ax - self.x_mm, ay - self.y_mm
-        a = dx * dx + dy * dy
-        if a == 0.0:
-            return None
-        b = fx * dx + fy * dy
-        c = fx * fx + fy * fy - (self.radius_mm + EPSILON_MM) ** 2
-        disc = b * b - a * c
-        if disc < 0.0:
-            return None
-        t = (-b - math.sqrt(disc)) / a
-        return t if 0.0 <= t <= 1.0 else None
+        return _entry(self, ax, ay, bx, by)
 
     def segment_nearest(self, ax: float, ay: float, bx: float, by: float) -> tuple[float, float, float]:
         """(gap, x, y): the point of the segment from (ax, ay) to (bx, by) nearest the disc, and its gap (0 inside)."""
@@ -274,6 +243,20 @@ class Circle:
 
 Obstacle = Box | Circle
 Shape = Box | Circle
+
+
+def _entry(shape: Box | Circle, ax: float, ay: float, bx: float, by: float) -> float | None:
+    """How far along a segment (0..1) it first is in ``shape`` (its edge counts, as :meth:`Zone.contains` has it).
+
+    The shape's own ray test along the segment, with a start inside or on the edge as 0.
+    """
+    if shape.gap(ax, ay) <= EPSILON_MM:
+        return 0.0
+    length = math.hypot(bx - ax, by - ay)
+    if length == 0.0:
+        return None
+    along = shape.ray_distance(ax, ay, (bx - ax) / length, (by - ay) / length)
+    return along / length if along <= length else None
 
 
 def _on_segment(ax: float, ay: float, bx: float, by: float, px: float, py: float) -> tuple[float, float]:

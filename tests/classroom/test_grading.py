@@ -13,6 +13,7 @@ from autonomy.classroom import ExerciseInvalid, find_submissions, grade_class, g
 from autonomy.classroom import grade as grade_module
 from autonomy.classroom.grade import PLUGINS_REFUSED
 from autonomy.classroom.report import feedback, to_csv, to_html, to_json
+from tests.classroom.fixed_plans import FIXED_PLANS
 
 ROOT = Path(__file__).resolve().parents[2]
 EXERCISES = ROOT / "exercises"
@@ -1010,25 +1011,6 @@ def test_the_reference_solution_scores_full_marks_on_hidden_seeds_too(name):
     report = grade_one(graded, name, EXERCISES / "solutions" / f"{name}.yaml")
     failing = [(s.seed, line) for s in report.seeds for held, line in s.verdicts if not held]
     assert failing == [] and report.total == exercise.max_points
-
-
-FIXED_PLANS = {
-    # a fixed distance east
-    "garage": ("mission: fixed\ntree:\n  move: {{speed: 2, distance_mm: {d}}}\n", range(1300, 2800, 50)),
-    # north a fixed distance, then east through where the opening might be
-    "opening": (
-        "mission: fixed\ntree:\n  sequence:\n    - turn: {{left: 90}}\n    - move: {{speed: 2, distance_mm: {d}}}\n"
-        "    - turn: {{right: 90}}\n    - move: {{speed: 2, distance_mm: 1900}}\n",
-        range(100, 1700, 50),
-    ),
-    # round the north side of where the box might be, a fixed distance, and back into line: never a bump
-    "bump": (
-        "mission: fixed\ntree:\n  sequence:\n    - turn: {{left: 90}}\n    - move: {{speed: 2, distance_mm: 400}}\n"
-        "    - turn: {{right: 90}}\n    - move: {{speed: 2, distance_mm: {d}}}\n    - turn: {{right: 90}}\n"
-        "    - move: {{speed: 2, distance_mm: 400}}\n",
-        range(1100, 2600, 50),
-    ),
-}
 
 
 @pytest.mark.parametrize("name", sorted(FIXED_PLANS))
