@@ -88,14 +88,14 @@ CRITERIA = {
         CriterionKind(
             "max_collisions",
             "count",
-            "at most this many collisions (with the named obstacle only, if with:)",
-            {"with": ""},
+            "at most this many collisions (with the obstacle with: names only; with the robot's centre in zone at:)",
+            {"with": "", "at": ""},
         ),
         CriterionKind(
             "min_collisions",
             "count",
-            "at least this many collisions (with the named obstacle only, if with:)",
-            {"with": ""},
+            "at least this many collisions (with the obstacle with: names only; with the robot's centre in zone at:)",
+            {"with": "", "at": ""},
         ),
         CriterionKind("finish_within_s", "seconds", "the mission succeeds within this many seconds"),
         CriterionKind("max_distance_mm", "mm", "the robot drives at most this far, forward and back"),
@@ -114,8 +114,9 @@ CRITERIA = {
         CriterionKind(
             "turns",
             "degrees",
-            "the robot turns in place by this much (left positive, as a heading changes), at least count times",
-            {"count": 1.0, "tolerance_deg": 10.0},
+            "the robot turns in place by this much (left positive, as a heading changes), at least count times "
+            "(only after a drive of after_drive_mm, if set)",
+            {"count": 1.0, "tolerance_deg": 10.0, "after_drive_mm": 0.0},
         ),
         CriterionKind("max_nodes", "count", "the mission's tree has at most this many nodes"),
         CriterionKind("succeed", "true", "the mission succeeds (does not fail, crash or run out of time)"),
@@ -135,6 +136,9 @@ class Criterion:
         label: How reports name it (``end_in_zone garage``).
         requires: The index of the criterion that must hold on a seed for this one to count
             there (``requires: end_in_zone`` in the file), or None.
+        requires_some: That criterion need only earn some of its points there, and this one then
+            earns the same part of its own (``requires_some:`` in the file: a near miss of
+            ``rest_in_zone`` earns a part of "no collision" too).
     """
 
     kind: str
@@ -143,6 +147,7 @@ class Criterion:
     options: dict[str, float | str]
     label: str
     requires: int | None = None
+    requires_some: bool = False
 
 
 @dataclass(frozen=True)
@@ -402,7 +407,7 @@ class _Reader(Reader):
                 self.problem(item, path, f"give exactly one criterion of: {', '.join(CRITERIA)}")
             return None
         kind = CRITERIA[kinds[0]]
-        allowed = (kind.key, "points", "requires", *kind.options)
+        allowed = (kind.key, "points", "requires", "requires_some", *kind.options)
         for key in item.value:
             if key not in allowed:
                 self.problem(
@@ -493,7 +498,12 @@ class _Reader(Reader):
         """Resolves each ``requires:`` to the criterion it names (by kind, or by label when a kind repeats)."""
         out = []
         for index, (criterion, item, path) in enumerate(criteria):
-            wanted = item.value.get("requires")
+            key = "requires_some" if "requires_some" in item.value else "requires"
+            wanted = item.value.get(key)
+            if "requires" in item.value and "requires_some" in item.value:
+                self.problem(
+                    item.keys["requires_some"], f"{path}.requires_some", "give requires or requires_some, not both"
+                )
             if wanted is None:
                 out.append(criterion)
                 continue
@@ -507,10 +517,10 @@ class _Reader(Reader):
                     else "names no other criterion"
                 )
                 hint = suggest(word, labels) if isinstance(wanted.value, str) else ""
-                self.problem(wanted, f"{path}.requires", f"'{word}' {why}{hint} (criteria: {', '.join(labels)})")
+                self.problem(wanted, f"{path}.{key}", f"'{word}' {why}{hint} (criteria: {', '.join(labels)})")
                 out.append(criterion)  # kept in its place, so that the indexes below hold
                 continue
-            out.append(replace(criterion, requires=named[0]))
+            out.append(replace(criterion, requires=named[0], requires_some=key == "requires_some"))
         for index, criterion in enumerate(out):  # a chain of requirements must end somewhere
             seen, at = {index}, criterion.requires
             while at is not None and at not in seen:
@@ -518,7 +528,8 @@ class _Reader(Reader):
                 at = out[at].requires
             if at == index:
                 _, item, path = criteria[index]
-                self.problem(item.value["requires"], f"{path}.requires", "requirements go round in a circle")
+                key = "requires_some" if "requires_some" in item.value else "requires"
+                self.problem(item.value[key], f"{path}.{key}", "requirements go round in a circle")
         return out
 
 

@@ -497,19 +497,30 @@ def grade_one(
 
 
 def _with_requirements(exercise: Exercise, verdicts: list[Verdict]) -> list[Verdict]:
-    """Each criterion that requires another holds only where that one (and what it requires) held."""
+    """Each criterion that requires another holds only where that one (and what it requires) held.
 
-    def held(index: int) -> bool:
-        needed = exercise.criteria[index].requires
-        return verdicts[index].held and (needed is None or held(needed))
+    With ``requires_some``, where that one earned only a part (a near miss), this one earns the
+    same part of what it would have.
+    """
+
+    def held(index: int, some: bool = False) -> bool:
+        criterion = exercise.criteria[index]
+        here = verdicts[index].share > 0 if some else verdicts[index].held
+        return here and (criterion.requires is None or held(criterion.requires, criterion.requires_some))
 
     out = []
     for criterion, verdict in zip(exercise.criteria, verdicts, strict=True):
         needed = criterion.requires
-        if verdict.share > 0 and needed is not None and not held(needed):
+        if verdict.share > 0 and needed is not None and not held(needed, criterion.requires_some):
             label = exercise.criteria[needed].label
-            how = "did not count" if verdicts[needed].held else "did not hold"
+            met = verdicts[needed].share > 0 if criterion.requires_some else verdicts[needed].held
+            how = "did not count" if met else ("earned nothing" if criterion.requires_some else "did not hold")
             verdict = Verdict(False, f"{verdict.line}, but this counts only with {label}, which {how}")
+        elif verdict.share > 0 and needed is not None and criterion.requires_some and verdicts[needed].share < 1:
+            part = verdicts[needed].share  # a near miss: this counts as far as that one did
+            label = exercise.criteria[needed].label
+            line = f"{verdict.line}, counted at {part:.0%} as {label} was"
+            verdict = Verdict(False, line, verdict.share * part)
         out.append(verdict)
     return out
 

@@ -57,12 +57,13 @@ class Verdict:
 
 @dataclass(frozen=True)
 class Turn:
-    """A turn in place: when, where, and by how much (left positive)."""
+    """A turn in place: when, where, by how much (left positive), and how far the robot drove since the turn before."""
 
     time_s: float
     x_mm: float
     y_mm: float
     degrees: float
+    driven_mm: float = 0.0
 
 
 @dataclass
@@ -104,11 +105,13 @@ class RunFacts:
     @property
     def turns(self) -> list[Turn]:
         """Every turn in place, where the path changed heading."""
-        out = []
+        out, driven_mm = [], 0.0
         for (_, before), (time_s, pose) in pairwise(self.path):
+            driven_mm += math.hypot(pose.x_mm - before.x_mm, pose.y_mm - before.y_mm)
             delta = pose.heading_deg - before.heading_deg
             if abs(delta) >= 0.5:
-                out.append(Turn(time_s, pose.x_mm, pose.y_mm, delta))
+                out.append(Turn(time_s, pose.x_mm, pose.y_mm, delta, driven_mm))
+                driven_mm = 0.0
         return out
 
 
@@ -274,17 +277,7 @@ def judge(criterion: Criterion, facts: RunFacts, world: World) -> Verdict:
         return _zone_verdict(criterion, facts, zone, world)
     end_pose = facts.path[-1][1]
     if kind in ("max_collisions", "min_collisions"):
-        wanted = str(criterion.options.get("with") or "")
-        collisions = [(t, p) for t, p in facts.collisions if not wanted or hit(world, p) == wanted]
-        count = len(collisions)
-        what = f"collisions with {wanted}" if wanted else "collisions"
-        first = f", the first at {collisions[0][0]:.1f} s" if collisions else ""
-        others = sorted({hit(world, p) for _, p in facts.collisions} - {wanted}) if wanted else []
-        if others:
-            first += f" (and {plural(len(facts.collisions) - count, 'collision')} with {_listed(others)})"
-        if kind == "max_collisions":
-            return Verdict(count <= value, f"{what}: {count}, allowed {value}{first}")
-        return Verdict(count >= value, f"{what}: {count}, needed at least {value}{first}")
+        return _collision_verdict(criterion, facts, world)
     if kind == "finish_within_s":
         if facts.outcome != SUCCEEDED:
             why = f": {facts.reason}" if facts.reason else ""
@@ -308,6 +301,29 @@ def judge(criterion: Criterion, facts: RunFacts, world: World) -> Verdict:
         why = f": {facts.reason}" if facts.reason else ""
         return Verdict(facts.outcome == SUCCEEDED, f"the mission {facts.outcome} after {facts.time_s:.1f} s{why}")
     return Verdict(False, f"unknown criterion {kind}")
+
+
+def _collision_verdict(criterion: Criterion, facts: RunFacts, world: World) -> Verdict:
+    """How many collisions: with the obstacle ``with`` names only, and only with the robot's centre in zone ``at``."""
+    kind, value = criterion.kind, criterion.value
+    wanted, at = str(criterion.options.get("with") or ""), str(criterion.options.get("at") or "")
+    zone = world.zone(at) if at else None
+    collisions = [
+        (t, p)
+        for t, p in facts.collisions
+        if (not wanted or hit(world, p) == wanted) and (zone is None or zone.contains(p.x_mm, p.y_mm))
+    ]
+    what = "collisions" + (f" with {wanted}" if wanted else "") + (f" at {at}" if at else "")
+    first = f", the first at {collisions[0][0]:.1f} s" if collisions else ""
+    others = len(facts.collisions) - len(collisions)
+    if others:
+        places = sorted({hit(world, p) for t, p in facts.collisions if (t, p) not in collisions})
+        where = " elsewhere" if at else ""
+        first += f" (and {plural(others, 'collision')}{where} with {_listed(places)})"
+    count = len(collisions)
+    if kind == "max_collisions":
+        return Verdict(count <= value, f"{what}: {count}, allowed {value}{first}")
+    return Verdict(count >= value, f"{what}: {count}, needed at least {value}{first}")
 
 
 def _zone_verdict(criterion: Criterion, facts: RunFacts, zone: Zone, world: World) -> Verdict:
@@ -467,10 +483,10 @@ def _turns(criterion: Criterion, facts: RunFacts) -> Verdict:
     within a half-turn either way: 450 degrees left is a quarter-turn left, as the path sees it.
     """
     wanted, tolerance = float(criterion.value), float(criterion.options["tolerance_deg"])
-    count = int(criterion.options["count"])
+    count, after_mm = int(criterion.options["count"]), float(criterion.options.get("after_drive_mm") or 0.0)
     turns = facts.turns
-    matching = [t for t in turns if abs(heading_delta_deg(wanted, t.degrees)) <= tolerance]
-    asked = f"{_turn_text(wanted)} ± {tolerance:g} degrees"
+    matching = [t for t in turns if abs(heading_delta_deg(wanted, t.degrees)) <= tolerance and t.driven_mm >= after_mm]
+    asked = f"{_turn_text(wanted)} ± {tolerance:g} degrees" + (f" after a drive of {after_mm:g} mm" if after_mm else "")
     found = f"turned {asked} {plural(len(matching), 'time')}, needed {count}"
     others = [t for t in turns if t not in matching]
     if others:

@@ -69,15 +69,18 @@ FAIR = {
     "square_one_spoke": 2,  # out to corner 3 and back, beeping at both: no square, so nothing for home
     "square_two_spokes": 3,  # out to corner 1 and back, out to corner 3 and back: two corners, no square
     "square_then_spin": 6.5,  # the square right, then spins at home until the time runs out
+    "square_tiny_turns": 2,  # four quarter-turns nudged in a tiny square at home, then out to corner 3 and back
     # garage: parked for good 5, no collision 3, ending on its own 2 (the last two only for one that parked)
     "garage_fixed_distance": 3,  # right only on the seeds whose hall happens to be that long
     "garage_park_then_beep": 7,  # parks perfectly and stays, then beeps once a second: it never ends
     "garage_full_speed": 1,  # reached the garage but rolled on into the wall after the mission ended
     "garage_until_bump": 0.5,  # drives into the wall every time
+    "garage_stops_short": 7.5,  # stops a centimetre or so before the garage, touching nothing: a near miss
     # bump: a bump into the box 2, at rest in the goal 5, exactly one bump 1, ending on its own 2 (in the goal)
     "bump_push": 3,  # bumps and goes on pushing the box: the bump, nothing else
     "bump_no_return": 3,  # bumps, backs off, goes round, but never comes back to the goal
     "bump_wall_behind": 7,  # backs into the wall for its bump, then goes round the box it never touched
+    "bump_last": 8,  # goes round with the sensor, then bumps the box's far side: the bump found nothing
     "bump_feel_along": 8.5,  # feels along the box's face, bumping it every 2 cm, then goes round: five collisions
     # opening: through the opening 2, at rest in the goal 4, no collision 2 and ending on its own 2 once through
     "opening_fixed": 2,  # a fixed distance north: through the opening on the odd seed, into the wall on the rest
@@ -1064,3 +1067,69 @@ def test_similar_submissions_are_trees_alike_but_for_numbers_names_or_a_node_or_
     ]
     assert "shape" not in reports[0].to_json()  # a hint's material, not part of the marks
     assert _nodes_apart(("a", "b", "c"), ("a", "c"), 2) == 1 and _nodes_apart(("a",) * 9, ("b",) * 9, 2) == 3
+
+
+def test_a_turn_counts_for_a_square_only_after_a_side_was_driven():
+    from autonomy.classroom.exercise import Criterion
+    from autonomy.classroom.judge import judge
+    from autonomy.record import Pose
+
+    world = load_world_of("square")
+    corners = Criterion("turns", 90, 0.0, {"count": 3.0, "tolerance_deg": 10.0, "after_drive_mm": 300.0}, "turns 90")
+    nudged = [(0.0, Pose(700, 700, 0))]  # a tiny square: a quarter-turn after each 10 mm
+    for k in range(1, 5):
+        nudged.append((k * 1.0, Pose(700 + 10 * (k % 2), 700, 90 * k)))
+    verdict = judge(corners, _facts(nudged), world)
+    assert verdict.share == 0 and verdict.line.startswith(
+        "turned left 90 ± 10 degrees after a drive of 300 mm 0 times, needed 3"
+    )
+    sides = [(0.0, Pose(700, 700, 0)), (2.0, Pose(1200, 700, 90)), (4.0, Pose(1200, 1200, 180))]
+    sides += [(6.0, Pose(700, 1200, 270))]
+    assert judge(corners, _facts(sides), world).held
+
+
+def test_a_bump_counts_where_the_exercise_says_the_robot_drives_up_to_the_box():
+    from autonomy.classroom.exercise import Criterion
+    from autonomy.classroom.judge import judge
+    from autonomy.record import Pose
+
+    world = load_world_of("bump").for_seed(3)
+    box = world.obstacles[0]
+    front = Pose(box.x_min_mm - 60.0, 750.0, 0.0)
+    behind = Pose(box.x_max_mm + 60.0, 750.0, 180.0)
+    bump = Criterion("min_collisions", 1, 2.0, {"with": "box", "at": "box_front"}, "min_collisions 1")
+    late = _facts([(0.0, Pose(300, 750, 0))], collisions=[(9.0, behind)])
+    assert judge(bump, late, world).line == (
+        "collisions with box at box_front: 0, needed at least 1 (and 1 collision elsewhere with box)"
+    )
+    assert judge(bump, _facts([(0.0, Pose(300, 750, 0))], collisions=[(3.0, front)]), world).held
+
+
+def test_a_near_miss_earns_its_part_of_what_requires_some_of_it(tmp_path):
+    from autonomy.classroom.grade import _with_requirements
+    from autonomy.classroom.judge import Verdict
+
+    path = tmp_path / "ex.yaml"
+    path.write_text(
+        "world: garage\ntime_limit_s: 30\nseeds: [1]\ncriteria:\n"
+        "  - rest_in_zone: garage\n    near_mm: 50\n    points: 5\n"
+        "  - max_collisions: 0\n    points: 3\n    requires_some: rest_in_zone\n"
+        "  - succeed: true\n    points: 2\n    requires: rest_in_zone\n"
+    )
+    exercise = load_exercise(path)
+    near = Verdict(False, "garage: came to rest 10 mm outside it", 0.8)
+    verdicts = _with_requirements(exercise, [near, Verdict(True, "no collision"), Verdict(True, "succeeded")])
+    assert [v.share for v in verdicts] == [0.8, pytest.approx(0.8), 0.0]  # in part; all or nothing
+    assert verdicts[1].line == "no collision, counted at 80% as rest_in_zone garage was"
+    far = Verdict(False, "garage: came to rest 90 mm outside it")
+    assert _with_requirements(exercise, [far, Verdict(True, "no collision"), Verdict(True, "x")])[1].line == (
+        "no collision, but this counts only with rest_in_zone garage, which earned nothing"
+    )
+    both = tmp_path / "both.yaml"
+    both.write_text(
+        path.read_text().replace(
+            "requires_some: rest_in_zone", "requires_some: rest_in_zone\n    requires: rest_in_zone"
+        )
+    )
+    with pytest.raises(ExerciseInvalid, match="give requires or requires_some, not both"):
+        load_exercise(both)

@@ -30,7 +30,7 @@ def test_the_class_page_shows_the_table_and_every_path_on_its_map(page, tmp_path
         line = maps.nth(index).locator("polyline.path").bounding_box()
         assert line["width"] > 0.3 * box["width"]
         assert box["x"] <= line["x"] and line["x"] + line["width"] <= box["x"] + box["width"] + 1
-    goal = maps.nth(4).locator(".zone rect").bounding_box()
+    goal = maps.nth(4).locator('.zone[data-zone="goal"] rect').bounding_box()
     last = page.evaluate(
         "(() => { const l = document.querySelectorAll('.seed svg polyline.path')[4];"
         " const p = l.points[l.points.numberOfItems - 1]; const m = l.getScreenCTM();"
