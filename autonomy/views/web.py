@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import asyncio
 import json
+import logging
 import threading
 import uuid
 from collections.abc import Awaitable, Callable, Iterable
@@ -50,6 +51,12 @@ def _payload_head(header: RunHeader | None, mode: str, run: str) -> dict[str, An
         "tree_svg": svg_tree(header.nodes, header.mission, legend=False),
         "map_svg": world_svg(header.world) if header.world else None,
     }
+
+
+#: What the server would log of a request it could not handle: nothing (it answers 400, and goes on).
+_QUIET_LOGGER = logging.getLogger("autonomy.views.web.requests")
+_QUIET_LOGGER.addHandler(logging.NullHandler())
+_QUIET_LOGGER.propagate = False
 
 
 class RecordHub:
@@ -193,7 +200,11 @@ class ViewServer:
         app.router.add_get("/api/run", self._run)
         app.router.add_get("/api/stream", self._stream)
         app.router.add_get("/api/next", self._next)
-        self._runner = web.AppRunner(app, handle_signals=False, access_log=None, shutdown_timeout=0.5)
+        # A malformed request (a header of 200 KB, a path of 15 KB) is the client's problem: answered
+        # 400 and let go, never a traceback in the terminal the robot is watched from.
+        self._runner = web.AppRunner(
+            app, handle_signals=False, access_log=None, shutdown_timeout=0.5, logger=_QUIET_LOGGER
+        )
         ready = threading.Event()
         failure: list[OSError] = []
         self._thread = threading.Thread(

@@ -97,3 +97,34 @@ def test_a_page_that_goes_while_its_websocket_opens_leaves_no_error(caplog):
         assert [r.getMessage() for r in caplog.records if r.levelno >= logging.ERROR] == []
     finally:
         server.stop()
+
+
+MALFORMED = """
+import socket
+from autonomy.views.web import ViewServer
+
+server = ViewServer("127.0.0.1", 0)
+server.start()
+port = int(server.url.rstrip("/").rsplit(":", 1)[1])
+for request in (
+    b"GET /api/run HTTP/1.1\\r\\nHost: x\\r\\nX-Big: " + b"a" * 200_000 + b"\\r\\n\\r\\n",  # a header of 200 KB
+    b"GET /static/" + b"../" * 5000 + b" HTTP/1.1\\r\\nHost: x\\r\\n\\r\\n",  # a path of 15 KB
+):
+    with socket.create_connection(("127.0.0.1", port), timeout=5) as client:
+        client.sendall(request)
+        print(client.recv(64).split(b"\\r\\n")[0].decode())
+server.stop()
+"""
+
+
+def test_a_malformed_request_is_answered_400_and_leaves_no_traceback_in_the_terminal():
+    import os
+    import subprocess
+    import sys
+
+    result = subprocess.run(  # a process of its own: its stderr is the terminal's, as in a run
+        [sys.executable, "-c", MALFORMED],
+        capture_output=True, text=True, timeout=60, env={**os.environ, "PYTHONPATH": str(ROOT)},
+    )  # fmt: skip
+    assert result.stdout.splitlines() == ["HTTP/1.0 400 Bad Request"] * 2, result.stderr
+    assert result.stderr == ""
