@@ -87,6 +87,8 @@ bench: $(STAMP)
 	$(BIN)/python benchmarks/groot.py
 	$(BIN)/python benchmarks/grading.py
 	$(BIN)/python benchmarks/fixed_plans.py
+	$(BIN)/python benchmarks/feedback.py
+	$(BIN)/python benchmarks/cluster.py
 	$(BIN)/python benchmarks/work.py
 
 ## docs: make the node reference in docs/missions.md anew from the registry

@@ -612,7 +612,7 @@ def cmd_plot(args: argparse.Namespace) -> int:
         )
     try:
         if suffix == "html":
-            from autonomy.views.web import standalone_html
+            from autonomy.views.page import standalone_html
 
             with open(out, "w", encoding="utf-8") as stream:
                 stream.write(standalone_html(trace))

@@ -23,7 +23,7 @@ import binascii
 import json
 import math
 from collections.abc import Callable, Iterable
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field, fields
 from typing import Any, NamedTuple, Union
 
 import msgspec
@@ -227,9 +227,14 @@ class RunHeader:
     version: int = RECORD_VERSION
 
     def to_json(self) -> dict[str, Any]:
-        """The header as one JSON object."""
+        """The header as one JSON object, to be written: its parameters and world are the record's own, not copies."""
+        out: dict[str, Any] = {"type": "header"}
+        for item in fields(self):
+            out[item.name] = getattr(self, item.name)
+        out["nodes"] = [{item.name: getattr(node, item.name) for item in fields(node)} for node in self.nodes]
         # in this version's form, as the ticks written after it are (a version-1 trace shown again)
-        return {"type": "header", **asdict(self), "version": RECORD_VERSION}
+        out["version"] = RECORD_VERSION
+        return out
 
     def node(self, node_id: int) -> NodeInfo:
         """The node with id ``node_id``."""
@@ -287,16 +292,17 @@ class TickRecord(msgspec.Struct, tag="tick", tag_field="type", omit_defaults=Tru
         try:
             line = _encode(self)
         except UnicodeEncodeError:  # a behaviour's text holding a lone surrogate: escaped, as json does
-            if not self._finite():
+            if not self.finite():
                 raise ValueError(f"tick {self.tick} holds a number that is not finite") from None
             return json.dumps(self.to_json(), separators=(",", ":"))
         # the encoder writes NaN and infinity as null, which no field of a tick holds otherwise
         # (only a behaviour's text can spell it, and then the numbers are looked at)
-        if b"null" in line and not self._finite():
+        if b"null" in line and not self.finite():
             raise ValueError(f"tick {self.tick} holds a number that is not finite")
         return line.decode()
 
-    def _finite(self) -> bool:
+    def finite(self) -> bool:
+        """Whether every number of the tick is finite (JSON holds neither NaN nor infinity)."""
         numbers = (self.time_s, self.speed_mm_s, *self.dead_reckoning, *(self.truth or ()))
         return all(math.isfinite(n) for n in numbers)
 
@@ -430,7 +436,7 @@ def tick_lines(ticks: list[TickRecord]) -> tuple[str, str]:
     except Exception:  # noqa: BLE001 - a lone surrogate in a text, or what no encoder takes: line by line
         data = None
     # NaN and infinity are written as null; a behaviour's text can spell it too
-    if data is not None and (b"null" not in data or all(tick._finite() for tick in ticks)):
+    if data is not None and (b"null" not in data or all(tick.finite() for tick in ticks)):
         return data.decode(), ""
     lines = []
     for tick in ticks:
@@ -443,6 +449,21 @@ def tick_lines(ticks: list[TickRecord]) -> tuple[str, str]:
 
 
 _encode_lines = msgspec.json.Encoder().encode_lines
+
+
+def ticks_json(ticks: list[TickRecord]) -> str:
+    """``ticks`` as one JSON array, made in one call of the encoder: its items are the lines :func:`to_line` makes.
+
+    Raises:
+        ValueError: a number is not finite (NaN or infinity, which JSON cannot hold).
+    """
+    try:
+        data = _encode(ticks)
+    except Exception:  # noqa: BLE001 - a lone surrogate in a text, or what no encoder takes: line by line
+        data = None
+    if data is not None and (b"null" not in data or all(tick.finite() for tick in ticks)):
+        return data.decode()
+    return "[" + ",".join(to_line(tick) for tick in ticks) + "]"
 
 
 def _battery(value: Any) -> int:

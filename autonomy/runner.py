@@ -530,7 +530,9 @@ class Runner:
             status, feedback = node.status, node.feedback_message
             if status is not statuses[index] or feedback != feedbacks[index]:
                 statuses[index], feedbacks[index] = status, feedback
-                changes[index] = NodeState(status.value, clipped(feedback_text(feedback)))
+                # the common case, a plain str, without the calls (a node that counts down says something every tick)
+                text = feedback if type(feedback) is str else feedback_text(feedback)
+                changes[index] = NodeState(status._value_, text if len(text) <= MAX_TEXT_CHARS else clipped(text))
         return changes
 
     def _loop(self) -> str:

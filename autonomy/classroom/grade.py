@@ -39,6 +39,7 @@ from autonomy.mission import MissionInvalid, MissionSpec, NodeSpec, Problem, val
 from autonomy.runner import Runner
 from autonomy.source import UnreadableFile, read_text
 from autonomy.trace import TraceWriter
+from autonomy.views.page import ReplayMaker
 
 #: CPU time one submission (all its seeds) may take by default, seconds.
 DEFAULT_CPU_S = 60.0
@@ -351,14 +352,14 @@ def check_submission(exercise: Exercise, path: Path, allow_plugins: bool) -> tup
 
 
 def run_seed(
-    exercise: Exercise, spec: MissionSpec, seed: Seed, trace: Path | None = None, records: list[Any] | None = None
+    exercise: Exercise, spec: MissionSpec, seed: Seed, trace: Path | None = None, replay: ReplayMaker | None = None
 ) -> RunFacts:
     """Runs ``spec`` once on ``seed`` in the exercise's world, in virtual time; returns its facts.
 
     The facts are gathered as the records come, and the records let go: a long run is not
     held in memory (nor gone over again and again by the garbage collector). With ``trace``,
-    the run is also written there as a trace, and with ``records`` kept in that list (nodes'
-    states included, either way), for its replay.
+    the run is also written there as a trace, and with ``replay`` made into a page's replay (nodes'
+    states included, either way).
     """
     options = {"world": exercise.world_ref, "seed": seed.seed, "time": "virtual", "noise": seed.noise_mm}
     # a world file's path may hold bytes that are not UTF-8: they go through the URL as they are
@@ -369,8 +370,8 @@ def run_seed(
     stream = trace.open("w", encoding="utf-8") if trace is not None else None
     try:
         listeners: list[Any] = [gatherer] + ([TraceWriter(stream)] if stream is not None else [])
-        listeners += [records.append] if records is not None else []
-        replayed = stream is not None or records is not None
+        listeners += [replay] if replay is not None else []
+        replayed = stream is not None or replay is not None
         runner = Runner.for_mission(
             spec, client, max_seconds=exercise.time_limit_s, listeners=listeners, node_states=replayed
         )  # the judge reads the emulator's own account: the nodes' states are looked for only for a replay
@@ -440,14 +441,13 @@ def grade_one(
     path: Path,
     allow_plugins: bool = False,
     traces: Path | None = None,
-    runs: list[list[Any]] | None = None,
+    runs: list[ReplayMaker] | None = None,
     name: str = "",
 ) -> Report:
     """Grades one submission on every seed (in this process).
 
     With ``traces``, each run's trace is kept there (under ``name``, the student's as a file's);
-    with ``runs``, each run's records are added to that list, a list a seed, for a page to replay
-    them.
+    with ``runs``, each seed's run is added to that list as its replay, for a page.
     """
     zero = [0.0] * len(exercise.criteria)
     mission, why = _mission_file(path)
@@ -463,11 +463,11 @@ def grade_one(
         if traces is not None:
             kept = trace_path(traces, name or file_names([student])[student], seed)
             kept.parent.mkdir(parents=True, exist_ok=True)
-        records: list[Any] | None = [] if runs is not None else None
-        if runs is not None and records is not None:
-            runs.append(records)
+        replay = ReplayMaker() if runs is not None else None
+        if runs is not None and replay is not None:
+            runs.append(replay)
         try:
-            facts = run_seed(exercise, spec, seed, kept, records)
+            facts = run_seed(exercise, spec, seed, kept, replay)
         except LinkError as err:  # the seed's link faults left no link to start on: that seed alone scores nothing
             why = f"no run: under this seed's faults the link failed before the mission started ({type(err).__name__})"
             none = len(exercise.criteria)
@@ -558,7 +558,7 @@ def _graded(
         _cpu.armed = True
         cpu_alarm(cpu_s, again_s=CPU_GRACE_S)  # again, should a plugin's ``except BaseException`` keep it
         try:
-            runs: list[list[Any]] | None = [] if feedback is not None else None
+            runs: list[ReplayMaker] | None = [] if feedback is not None else None
             if traces is None and runs is None:
                 result = grade_one(exercise, student, path, allow_plugins)
             else:

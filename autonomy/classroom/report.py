@@ -9,6 +9,7 @@ from __future__ import annotations
 import csv
 import io
 import json
+from collections.abc import Iterator
 from html import escape
 from pathlib import Path
 from typing import Any
@@ -19,6 +20,7 @@ from autonomy.classroom.gradebook import RosterMatch, similar
 from autonomy.source import UnreadableFile, read_text
 from autonomy.views.lines import printable
 from autonomy.views.mapsvg import world_svg
+from autonomy.views.page import ReplayMaker, runs_host_head, script_json
 
 
 def _number(value: float) -> str:
@@ -361,8 +363,10 @@ def _problem_lines(report: Report) -> dict[int, list[str]]:
     return by_line
 
 
-def feedback_page(exercise: Exercise, report: Report, source: str | None, replays: list[str | None]) -> str:
-    """One student's page, for them alone, with nothing to fetch.
+def feedback_page(
+    exercise: Exercise, report: Report, source: str | None, runs: list[ReplayMaker | None]
+) -> Iterator[str]:
+    """One student's page, for them alone, with nothing to fetch: its text, piece by piece.
 
     Their file with its lines numbered and its problems marked where they stand; their mark,
     criterion by criterion; then each seed's run: the map of what really happened (collisions,
@@ -373,20 +377,20 @@ def feedback_page(exercise: Exercise, report: Report, source: str | None, replay
         exercise: The exercise.
         report: The student's report.
         source: Their mission file's text (None: it could not be read).
-        replays: For each seed, its replay page (:func:`autonomy.views.web.standalone_html`), or None.
+        runs: For each seed, its run to replay, or None.
     """
     name = escape(printable(report.student))
-    parts = [
-        "<!doctype html>",
-        '<html lang="en"><head><meta charset="utf-8">',
-        f"<title>{name}: {escape(printable(exercise.title))}</title><style>{_FEEDBACK_STYLE}</style></head><body>",
-        f"<h1>{name}: {_number(report.total)} / {_number(report.max_points)}</h1>",
-        f"<p>{escape(printable(exercise.title))}: {escape(printable(exercise.description))}</p>",
-        '<h2>Marks</h2><pre class="marks">' + escape("\n".join(feedback(exercise, report)[1:])) + "</pre>",
-        f"<h2>Your file</h2><p>{escape(printable(report.file or 'no file'))}</p>",
-    ]
+    yield "<!doctype html>\n"
+    yield '<html lang="en"><head><meta charset="utf-8">\n'
+    yield f"<title>{name}: {escape(printable(exercise.title))}</title><style>{_FEEDBACK_STYLE}</style>\n"
+    yield runs_host_head()  # the viewer, once: each seed's frame gets it, and its run from this page
+    yield "\n</head><body>\n"
+    yield f"<h1>{name}: {_number(report.total)} / {_number(report.max_points)}</h1>\n"
+    yield f"<p>{escape(printable(exercise.title))}: {escape(printable(exercise.description))}</p>\n"
+    yield '<h2>Marks</h2><pre class="marks">' + escape("\n".join(feedback(exercise, report)[1:])) + "</pre>\n"
+    yield f"<h2>Your file</h2><p>{escape(printable(report.file or 'no file'))}</p>\n"
     if source is None:
-        parts.append("<p>The file could not be read.</p>")
+        yield "<p>The file could not be read.</p>\n"
     else:
         problems = _problem_lines(report)
         texts = source.splitlines() or [""]
@@ -397,41 +401,42 @@ def feedback_page(exercise: Exercise, report: Report, source: str | None, replay
             marked = " problem" if number in problems else ""
             why = "".join(f'<span class="why">{escape(printable(m))}</span>' for m in problems.get(number, []))
             lines.append(f'<span class="line{marked}" data-line="{number}">{escape(printable(text))}{why}</span>')
-        parts.append('<pre class="source">' + "".join(lines) + "</pre>")
-    for seed, replay in zip(report.seeds, replays, strict=True):
+        yield '<pre class="source">' + "".join(lines) + "</pre>\n"
+    for number, (seed, run) in enumerate(zip(report.seeds, runs, strict=True), start=1):
         verdicts = "".join(
-            f'<li class="{"yes" if held else "no"}">{"✓" if held else "✗"} {escape(printable(line))}</li>'
+            f'<li class="{"yes" if held else "no"}">{"&#10003;" if held else "&#10007;"} {escape(printable(line))}</li>'
             for held, line in seed.verdicts
         )
-        parts.append(
-            f'<section class="seed"><h2>{escape(seed.seed)}: {escape(seed.outcome)} after {seed.time_s:g} s</h2>'
-        )
-        parts.append(_seed_svg(exercise, seed, f"{report.student}, {seed.seed}") + f"<ul>{verdicts}</ul>")
-        if replay is not None:
-            parts.append(f'<iframe title="the run on {escape(seed.seed)}" srcdoc="{escape(replay)}"></iframe>')
-        parts.append("</section>")
-    parts.append("</body></html>")
-    return "\n".join(parts) + "\n"
+        yield f'<section class="seed"><h2>{escape(seed.seed)}: {escape(seed.outcome)} after {seed.time_s:g} s</h2>\n'
+        yield _seed_svg(exercise, seed, f"{report.student}, {seed.seed}") + f"<ul>{verdicts}</ul>\n"
+        if run is not None and run.header is not None:
+            try:
+                pieces = run.payload_parts(at_end=True)
+            except ValueError as err:  # a number JSON cannot hold: the run is not replayed, the page is made
+                yield f"<p>This run cannot be replayed: {escape(printable(str(err)))}.</p>\n"
+            else:
+                yield f'<script id="run-{number}" type="application/json">'
+                yield from (script_json(piece) for piece in pieces)
+                yield f'</script>\n<iframe title="the run on {escape(seed.seed)}" data-run="run-{number}"></iframe>\n'
+        yield "</section>\n"
+    yield "</body></html>\n"
 
 
-def write_feedback_page(exercise: Exercise, report: Report, folder: Path, runs: list[list[Any]], name: str) -> Path:
-    """Writes ``report``'s student's page (:func:`feedback_page`) in ``folder``, each run replayed from its records.
+def write_feedback_page(exercise: Exercise, report: Report, folder: Path, runs: list[ReplayMaker], name: str) -> Path:
+    """Writes ``report``'s student's page (:func:`feedback_page`) in ``folder``, with each seed's run to replay.
 
     Returns:
         The page's path.
     """
-    from autonomy.views.web import standalone_html  # the browser's page: only what makes a student's page needs it
-
     source = None
     if report.file:
         try:
             source = read_text(Path(report.file))
         except (UnreadableFile, OSError):
             source = None
-    replays: list[str | None] = [standalone_html(records, at_end=True) if records else None for records in runs]
-    replays += [None] * (len(report.seeds) - len(replays))
+    shown: list[ReplayMaker | None] = [*runs[: len(report.seeds)]]
+    shown += [None] * (len(report.seeds) - len(shown))
     page = page_path(folder, name)
-    page.write_text(
-        feedback_page(exercise, report, source, replays[: len(report.seeds)]), encoding="utf-8", errors="replace"
-    )
+    with page.open("w", encoding="utf-8", errors="replace") as stream:  # written as made: never whole in memory
+        stream.writelines(feedback_page(exercise, report, source, shown))
     return page

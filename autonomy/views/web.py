@@ -9,48 +9,26 @@ pictures, and every record so far) and the WebSocket ``api/stream?from=N`` (mess
 ``NAME\nJSON``: ``ticks``, a list of the tick records since the last message, or ``preview``
 for a burst of them in a run in virtual time, then ``end``; a page that had previews asks
 ``api/run`` again at the end). A page on a finished run waits on the WebSocket ``api/next``
-for the next run. :func:`standalone_html` freezes the same page on a whole run, in one file.
+for the next run. :mod:`autonomy.views.page` has the page, and freezes it on a whole run, in one file.
 """
 
 from __future__ import annotations
 
 import asyncio
-import json
 import logging
 import threading
 import uuid
-from collections.abc import Awaitable, Callable, Iterable
-from importlib import resources
-from typing import Any
+from collections.abc import Awaitable, Callable
 
 import msgspec
 from aiohttp import web
 
 from autonomy.clock import Clock, RealClock
 from autonomy.record import NodeState, Record, RunEnd, RunHeader, TickRecord, to_line
-from autonomy.trace import Trace
-from autonomy.views.mapsvg import world_svg
-from autonomy.views.treesvg import svg_tree
+from autonomy.views.page import STATIC_FILES, run_payload, static_text
 
-STATIC_FILES = {"app.js": "text/javascript", "app.css": "text/css"}
 #: Sends one message (``NAME\nJSON``) on a page's WebSocket.
 Put = Callable[[str], Awaitable[None]]
-
-
-def _static(name: str) -> str:
-    return resources.files("autonomy.views").joinpath("static", name).read_text(encoding="utf-8")
-
-
-def _payload_head(header: RunHeader | None, mode: str, run: str) -> dict[str, Any]:
-    if header is None:
-        return {"mode": mode, "run": run, "header": None, "tree_svg": "", "map_svg": None}
-    return {
-        "mode": mode,
-        "run": run,
-        "header": header.to_json(),
-        "tree_svg": svg_tree(header.nodes, header.mission, legend=False),
-        "map_svg": world_svg(header.world) if header.world else None,
-    }
 
 
 #: What the server would log of a request it could not handle: nothing (it answers 400, and goes on).
@@ -140,9 +118,7 @@ class RecordHub:
         """The whole run so far, as the page's ``api/run`` answer."""
         with self._lock:
             header, ticks, end, run = self.header, list(self.ticks), self.end, self.run
-        head = json.dumps(_payload_head(header, self.mode, run))
-        lines = ",".join(to_line(tick) for tick in ticks)
-        return head[:-1] + ',"ticks":[' + lines + '],"end":' + (to_line(end) if end else "null") + "}"
+        return run_payload(header, ticks, end, self.mode, run)
 
     def event(self, ticks: list[TickRecord]) -> str:
         """The message for ``ticks``: all of them, or for a burst a preview.
@@ -267,13 +243,13 @@ class ViewServer:
     # ------------------------------------------------------------------ handlers
 
     async def _index(self, request: web.Request) -> web.Response:
-        return web.Response(text=_static("index.html"), content_type="text/html")
+        return web.Response(text=static_text("index.html"), content_type="text/html")
 
     async def _static(self, request: web.Request) -> web.Response:
         name = request.match_info["name"]
         if name not in STATIC_FILES:
             raise web.HTTPNotFound()
-        return web.Response(text=_static(name), content_type=STATIC_FILES[name])
+        return web.Response(text=static_text(name), content_type=STATIC_FILES[name])
 
     async def _run(self, request: web.Request) -> web.Response:
         return web.Response(text=self.hub.payload(), content_type="application/json")
@@ -362,25 +338,3 @@ class ViewServer:
         if isinstance(failed, Exception) and not isinstance(failed, (ConnectionError, asyncio.CancelledError)):
             raise failed  # not the page going away: a fault of the server's own
         return socket
-
-
-def standalone_html(trace: Trace | Iterable[Record], at_end: bool = False) -> str:
-    """The page frozen on a whole recorded run, in one file with nothing to fetch.
-
-    Args:
-        trace: The run: a trace, or its records.
-        at_end: Open on the run's last tick (where it ended), not its first.
-    """
-    hub = RecordHub("replay")
-    for record in trace.records() if isinstance(trace, Trace) else trace:
-        hub(record)
-    payload = hub.payload()
-    if at_end:
-        payload = payload[:-1] + ',"open_at_end":true}'
-    # No "<" at all inside the script element: "</script>" would end it, and "<!--<script" would keep
-    # the real end from ending it. JSON has "<" only inside strings, where \u003c is the same text.
-    data = payload.replace("<", "\\u003c")
-    page = _static("index.html")
-    page = page.replace('<link rel="stylesheet" href="static/app.css">', f"<style>\n{_static('app.css')}</style>")
-    script = f'<script id="run-data" type="application/json">{data}</script>\n<script>\n{_static("app.js")}</script>'
-    return page.replace('<script src="static/app.js"></script>', script)

@@ -82,6 +82,7 @@ function load(payload) {
   $("map-panel").hidden = noTelemetry;
   $("plots-panel").hidden = noTelemetry;
   for (const t of payload.ticks || []) addTick(t);
+  for (const row of payload.rows || []) addTick(fromRow(payload.row_fields, row));
   if (payload.end) addEnd(payload.end);
   $("controls").hidden = view.mode !== "replay";
   // a replay opens on its first tick, or on its last when the page was made to show how a run ended
@@ -89,6 +90,15 @@ function load(payload) {
   view.index = view.mode === "replay" ? (view.ticks.length ? first : -1) : view.ticks.length - 1;
   view.playTime = view.index >= 0 ? view.ticks[view.index].time_s : 0;
   render();
+}
+
+// A replay's ticks come as rows (autonomy/views/page.py): arrays of what is drawn, named by the
+// payload's row_fields; a row is made a tick record again, with the status's fields in its status.
+const STATUS_FIELDS = new Set(["front_distance_mm", "heading_deg", "tilt_deg"]);
+function fromRow(names, row) {
+  const t = { status: {} };
+  names.forEach((name, i) => { if (STATUS_FIELDS.has(name)) t.status[name] = row[i]; else t[name] = row[i]; });
+  return t;
 }
 
 function addTick(t) {
@@ -428,7 +438,7 @@ function asleep() {
 
 document.addEventListener("visibilitychange", () => {
   // a replay, or a page saved whole, has no stream to let go of: it stays where it is
-  if (document.getElementById("run-data") || view.mode === "replay") return;
+  if (document.getElementById("run-data") || document.getElementById("run-from-page") || view.mode === "replay") return;
   if (document.hidden) {
     if (live.stream) live.stream.end();
     live.stream = null;
@@ -484,4 +494,12 @@ window.autonomyView = {
   streaming: () => !!live.stream && live.stream.readyState <= WebSocket.OPEN,
 };
 const inline = document.getElementById("run-data");
-if (inline) load(JSON.parse(inline.textContent)); else connect();
+if (inline) load(JSON.parse(inline.textContent));
+else if (document.getElementById("run-from-page")) {
+  // one of the runs a page holds (a student's feedback page, autonomy/views/page.py): the page
+  // it is framed in gives it its run when asked; on its own it has none to show
+  addEventListener("message", (event) => {
+    if (event.source === window.parent && typeof event.data === "string") load(JSON.parse(event.data));
+  });
+  if (window.parent !== window) window.parent.postMessage("autonomy-run?", "*");
+} else connect();
