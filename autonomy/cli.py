@@ -615,7 +615,7 @@ def cmd_plot(args: argparse.Namespace) -> int:
             from autonomy.views.page import standalone_html
 
             with open(out, "w", encoding="utf-8") as stream:
-                stream.write(standalone_html(trace))
+                stream.write(standalone_html(trace, at_end=True))  # where the run ended, as it is handed in
         else:
             from autonomy.views.plot import plot_run
 
@@ -638,13 +638,21 @@ def cmd_world_show(args: argparse.Namespace) -> int:
         return _world_failed(err)
     if args.seed is not None:  # as a run with that seed has it: what the world varies, and where it starts
         world = dataclasses.replace(world.for_seed(args.seed), start=world.start_pose(args.seed), jitter=Jitter())
-    svg = world_svg(world.as_dict())
-    if args.output in (None, "-"):
-        sys.stdout.write(svg)
+    out = args.output
+    suffix = out.rsplit(".", 1)[-1].lower() if out not in (None, "-") and "." in out else "svg"
+    if suffix not in ("svg", "png"):
+        return _fail(f"-o must end in .svg or .png, got '{out}'", EXIT_USAGE)
+    if out in (None, "-"):
+        sys.stdout.write(world_svg(world.as_dict()))
         return EXIT_OK
     try:
-        with open(args.output, "w", encoding="utf-8") as stream:
-            stream.write(svg)
+        if suffix == "png":
+            from autonomy.views.plot import plot_world
+
+            plot_world(world.as_dict(), out)
+        else:
+            with open(out, "w", encoding="utf-8") as stream:
+                stream.write(world_svg(world.as_dict()))
     except OSError as err:
         return _fail(f"cannot write {args.output}: {err.strerror or err}", EXIT_USAGE)
     print(_shown(f"{args.output}: world '{world.name}', {world.width_mm:g} x {world.height_mm:g} mm"))
@@ -1014,8 +1022,10 @@ def cmd_show(args: argparse.Namespace) -> int:
         "dot": lambda: dot_tree(nodes, spec.name),
         "svg": lambda: svg_tree(nodes, spec.name),
     }
-    sys.stdout.write(render[args.format]())
-    return EXIT_OK
+    out = args.output if args.output not in (None, "-") else None
+    suffix = out.rsplit(".", 1)[-1].lower() if out and "." in out else ""
+    form = args.format or {"svg": "svg", "dot": "dot"}.get(suffix, "unicode")
+    return _write_out(render[form](), out)
 
 
 def _write_out(text: str, output: str | None) -> int:
@@ -1203,9 +1213,11 @@ def build_parser() -> argparse.ArgumentParser:
 
     world = sub.add_parser("world", help="look at worlds")
     world_sub = world.add_subparsers(dest="world_command", required=True, parser_class=_Parser)
-    world_show = world_sub.add_parser("show", help="draw a world with its start pose as SVG")
+    world_show = world_sub.add_parser("show", help="draw a world with its start pose (SVG, or PNG)")
     world_show.add_argument("world", metavar="WORLD", help="a built-in world's name or a world file")
-    world_show.add_argument("-o", "--output", metavar="FILE.svg", help="where to write it (default: standard output)")
+    world_show.add_argument(
+        "-o", "--output", metavar="FILE", help="FILE.svg or FILE.png (default: SVG on standard output)"
+    )
     world_show.add_argument(
         "--seed",
         type=_bounded(int, 0, 2**31 - 1, "a seed"),
@@ -1291,9 +1303,16 @@ def build_parser() -> argparse.ArgumentParser:
     scope.add_argument("--secret-file", metavar="FILE", help="the teacher's secret, for the exercise's hidden seeds")
     scope.set_defaults(func=cmd_gradescope)
 
-    show = sub.add_parser("show", help="print a mission's tree")
+    show = sub.add_parser("show", help="print a mission's tree (text, Graphviz DOT or an SVG picture)")
     show.add_argument("mission", metavar="MISSION")
-    show.add_argument("--format", choices=("unicode", "dot", "svg"), default="unicode")
+    show.add_argument(
+        "--format",
+        choices=("unicode", "dot", "svg"),
+        default=None,
+        help="unicode (the default): the tree as text; dot: Graphviz's language (dot -Tpng); svg: a picture. "
+        "-o FILE.svg or FILE.dot writes that format without it",
+    )
+    show.add_argument("-o", "--output", metavar="FILE", help="where to write it (default: standard output)")
     show.set_defaults(func=cmd_show)
 
     export = sub.add_parser("export", help="write a mission as BehaviorTree.CPP 4 XML, or the palette for Groot2")

@@ -10,7 +10,14 @@ from typing import Any
 
 from py_trees.common import Status
 
-from autonomy.behaviours.base import MAX_DISTANCE_MM, MAX_SECONDS, Param, RobotAction, returns_status
+from autonomy.behaviours.base import (
+    MAX_DISTANCE_MM,
+    MAX_SECONDS,
+    SENSOR_REACH,
+    Param,
+    RobotAction,
+    returns_status,
+)
 from autonomy.protocol import Status as Packet
 from autonomy.protocol import heading_delta_deg, odometer_delta_mm
 
@@ -96,6 +103,7 @@ class Move(RobotAction):
             unit="mm",
             minimum=1,
             maximum=255,
+            range_why=SENSOR_REACH,
         ),
     )
 

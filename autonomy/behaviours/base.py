@@ -44,6 +44,8 @@ ROBOT_KEYS = (STATUS_KEY, BATTERY_KEY, HEALTHY_KEY)
 
 #: The longest duration a node takes (an hour) and the longest drive (100 m).
 MAX_SECONDS = 3600
+#: Why a distance the front sensor is to read is at most 255 mm (a Param's ``range_why``).
+SENSOR_REACH = "the front sensor reads at most 255 mm"
 MAX_DISTANCE_MM = 100_000
 #: Largest size of any number in a mission, for parameters that declare no maximum of their own.
 MAX_NUMBER = 1_000_000_000
@@ -70,6 +72,8 @@ class Param:
         positive: The value must be above zero (for durations).
         choices: The values a ``choice`` takes.
         example: A value to show in hints and docs.
+        range_why: Why the range is what it is, said with a value out of it (``the front sensor
+            reads at most 255 mm``).
     """
 
     name: str
@@ -83,6 +87,7 @@ class Param:
     positive: bool = False
     choices: tuple[str, ...] = ()
     example: Any = None
+    range_why: str = ""
 
     def __post_init__(self) -> None:
         if self.kind not in KINDS:

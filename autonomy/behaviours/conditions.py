@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from autonomy.behaviours.base import Param, RobotCondition
+from autonomy.behaviours.base import SENSOR_REACH, Param, RobotCondition
 
 
 class ObstacleWithin(RobotCondition):
@@ -10,7 +10,19 @@ class ObstacleWithin(RobotCondition):
 
     node_type = "obstacle_within"
     doc = "Something is in front, closer than mm (front sensor)."
-    params = (Param("mm", "int", "distance", unit="mm", required=True, minimum=1, maximum=255, example=150),)
+    params = (
+        Param(
+            "mm",
+            "int",
+            "distance",
+            unit="mm",
+            required=True,
+            minimum=1,
+            maximum=255,
+            example=150,
+            range_why=SENSOR_REACH,
+        ),
+    )
 
     def check(self) -> bool:
         """Front distance below mm."""

@@ -258,6 +258,14 @@ class _Reader(Reader):
             self.problem(root, "", "an exercise file is a mapping with world:, time_limit_s:, seeds: and criteria:")
             return None
         doc: dict[str, Located] = root.value
+        if "criteria" not in doc and ("tree" in doc or "arena_mm" in doc):  # the files given the other way round
+            why = (
+                "this is a mission file, not an exercise: autonomy grade EXERCISE THIS_FILE"
+                if "tree" in doc
+                else "this is a world file, not an exercise: an exercise names its world with world:"
+            )
+            self.problem(root, "", why)
+            return None
         for key in doc:
             if key not in TOP_LEVEL:
                 self.problem(root.keys[key], key, f"unknown key '{key}'{suggest(key, list(TOP_LEVEL))}")

@@ -500,7 +500,10 @@ class _Validator:
             return _INVALID
         if (low is not None and value < low) or (high is not None and value > high) or (param.positive and value <= 0):
             unit = f" {param.unit}" if param.unit else ""
-            self.problem(located, path, f"{what} must be {param.describe_range()}{unit}, got {value} ({param.doc})")
+            why = f": {param.range_why}" if param.range_why else ""
+            self.problem(
+                located, path, f"{what} must be {param.describe_range()}{unit}, got {value}{why} ({param.doc})"
+            )
             return _INVALID
         return value
 

@@ -25,10 +25,13 @@ TELEMETRY = (
     ("front distance (mm)", lambda t: t.status.front_distance_mm, None),
     ("heading (deg)", lambda t: t.status.heading_deg, 360),
     ("tilt (deg)", lambda t: t.status.tilt_deg, None),
-    ("speed (mm/s)", lambda t: t.speed_mm_s, None),
+    ("speed (mm/s), mean of 0.25 s", lambda t: t.speed_mm_s, None),
     ("battery (/255)", lambda t: t.battery, None),
 )
 MAX_TIMELINE_ROWS = 60
+#: The speed is plotted as its mean over this long: the odometer counts whole millimetres, so at
+#: 20 Hz a steady 210 mm/s reads 200 and 220 in turn, a zig-zag band rather than a line.
+SPEED_WINDOW_S = 0.25
 
 
 def timeline(trace: Trace) -> list[tuple[int, list[tuple[float, float, str]], list[tuple[float, str]]]]:
@@ -73,6 +76,19 @@ def broken_at_wraps(times: list[float], values: list[float], wrap: float | None)
     return xs, ys
 
 
+def mean_over(times: list[float], values: list[float], window_s: float) -> list[float]:
+    """Each value as the mean of those from ``window_s`` before it up to it (times in order)."""
+    out: list[float] = []
+    first, total = 0, 0.0
+    for index, (time_s, value) in enumerate(zip(times, values, strict=True)):
+        total += value
+        while times[first] <= time_s - window_s:
+            total -= values[first]
+            first += 1
+        out.append(total / (index - first + 1))
+    return out
+
+
 def plot_run(trace: Trace, path: str | Path) -> None:
     """Draws the run into ``path`` (.png or .svg)."""
     header, ticks = trace.header, trace.ticks
@@ -86,7 +102,10 @@ def plot_run(trace: Trace, path: str | Path) -> None:
     axes = right.subplots(len(TELEMETRY), 1, sharex=True)
     times = [t.time_s for t in ticks]
     for ax, (label, get, wrap) in zip(axes, TELEMETRY, strict=True):
-        series = broken_at_wraps(times, [get(t) for t in ticks], wrap)
+        values = [get(t) for t in ticks]
+        if label.startswith("speed"):
+            values = mean_over(times, values, SPEED_WINDOW_S)
+        series = broken_at_wraps(times, values, wrap)
         ax.plot(*series, color="#1c7ed6", linewidth=1.2, gid=f"series-{label.split(' (')[0].replace(' ', '-')}")
         ax.set_ylabel(label, fontsize=8)
         ax.tick_params(labelsize=7)
@@ -96,31 +115,61 @@ def plot_run(trace: Trace, path: str | Path) -> None:
     figure.savefig(str(path))
 
 
+def plot_world(world: dict[str, Any], path: str | Path) -> None:
+    """Draws a world (as ``World.as_dict`` gives it) and its start pose into ``path`` (.png)."""
+    width, height = world["arena_mm"]
+    longest = max(width, height)
+    figure = Figure(figsize=(3.5 + 7 * width / longest, 1.5 + 7 * height / longest), layout="constrained")
+    ax = figure.add_subplot()
+    _world(ax, world)
+    start = world.get("start") or {}
+    x_mm, y_mm, heading = float(start.get("x_mm", 0)), float(start.get("y_mm", 0)), float(start.get("heading_deg", 0))
+    reach_mm = 0.06 * max(width, height)
+    ax.scatter([x_mm], [y_mm], marker="o", color="#1971c2", zorder=5, label=f"start, heading {heading:g} deg")
+    ax.annotate(
+        "",
+        (x_mm + reach_mm * math.cos(math.radians(heading)), y_mm + reach_mm * math.sin(math.radians(heading))),
+        (x_mm, y_mm),
+        arrowprops={"arrowstyle": "->", "color": "#1971c2", "linewidth": 2},
+    )
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (mm)")
+    ax.set_ylabel("y (mm)")
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+    figure.savefig(str(path))
+
+
+def _world(ax: Any, world: dict[str, Any]) -> None:
+    """The arena's walls, its obstacles and its zones, named, and the axes fitted to it."""
+    width, height = world["arena_mm"]
+    ax.add_patch(Rectangle((0, 0), width, height, fill=False, linewidth=2, edgecolor="#222"))
+    for item in world.get("obstacles", []):
+        if "box" in item:
+            (x1, y1), (x2, y2) = item["box"]["from_mm"], item["box"]["to_mm"]
+            ax.add_patch(Rectangle((min(x1, x2), min(y1, y2)), abs(x2 - x1), abs(y2 - y1), color="#868e96"))
+        elif "circle" in item:
+            ax.add_patch(Circle(item["circle"]["center_mm"], item["circle"]["radius_mm"], color="#868e96"))
+    zone_style = {"facecolor": (0.98, 0.69, 0.02, 0.12), "edgecolor": "#e67700", "linestyle": "--"}
+    # a zone's name inside it, from its top left corner: not on its edge
+    label_style = {"xytext": (3, -3), "textcoords": "offset points", "va": "top", "color": "#d9480f", "fontsize": 8}
+    for name, item in (world.get("zones") or {}).items():
+        if "box" in item:
+            (x1, y1), (x2, y2) = item["box"]["from_mm"], item["box"]["to_mm"]
+            ax.add_patch(Rectangle((min(x1, x2), min(y1, y2)), abs(x2 - x1), abs(y2 - y1), **zone_style))
+            ax.annotate(printable(str(name)), (min(x1, x2), max(y1, y2)), **label_style)
+        elif "circle" in item:
+            (cx, cy), r = item["circle"]["center_mm"], item["circle"]["radius_mm"]
+            ax.add_patch(Circle((cx, cy), r, **zone_style))
+            ax.annotate(printable(str(name)), (cx - r * 0.7, cy + r * 0.7), **label_style)
+    ax.set_xlim(-50, width + 50)
+    ax.set_ylim(-50, height + 50)
+    ax.set_title(printable(f"world {world.get('name', '?')}"), fontsize=10)
+
+
 def _map(ax: Any, trace: Trace) -> None:
     world, ticks = trace.header.world, trace.ticks
     if world:
-        width, height = world["arena_mm"]
-        ax.add_patch(Rectangle((0, 0), width, height, fill=False, linewidth=2, edgecolor="#222"))
-        for item in world.get("obstacles", []):
-            if "box" in item:
-                (x1, y1), (x2, y2) = item["box"]["from_mm"], item["box"]["to_mm"]
-                ax.add_patch(Rectangle((min(x1, x2), min(y1, y2)), abs(x2 - x1), abs(y2 - y1), color="#868e96"))
-            elif "circle" in item:
-                ax.add_patch(Circle(item["circle"]["center_mm"], item["circle"]["radius_mm"], color="#868e96"))
-        zone_style = {"facecolor": (0.98, 0.69, 0.02, 0.12), "edgecolor": "#e67700", "linestyle": "--"}
-        for name, item in (world.get("zones") or {}).items():
-            if "box" in item:
-                (x1, y1), (x2, y2) = item["box"]["from_mm"], item["box"]["to_mm"]
-                corner = (min(x1, x2), min(y1, y2))
-                ax.add_patch(Rectangle(corner, abs(x2 - x1), abs(y2 - y1), **zone_style))
-                ax.annotate(printable(str(name)), corner, color="#d9480f", fontsize=8)
-            elif "circle" in item:
-                (cx, cy), r = item["circle"]["center_mm"], item["circle"]["radius_mm"]
-                ax.add_patch(Circle((cx, cy), r, **zone_style))
-                ax.annotate(printable(str(name)), (cx - r, cy + r), color="#d9480f", fontsize=8)
-        ax.set_xlim(-50, width + 50)
-        ax.set_ylim(-50, height + 50)
-        ax.set_title(printable(f"world {world.get('name', '?')}"), fontsize=10)
+        _world(ax, world)
     else:
         ax.set_title("world unknown: dead reckoning from the start", fontsize=10)
     ax.plot(
@@ -163,7 +212,7 @@ def _map(ax: Any, trace: Trace) -> None:
     ax.set_aspect("equal")
     ax.set_xlabel("x (mm)")
     ax.set_ylabel("y (mm)")
-    ax.legend(fontsize=8, loc="best")
+    ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.1), ncols=4, frameon=False)  # off the map
 
 
 def _timeline(ax: Any, trace: Trace, rows: int) -> None:

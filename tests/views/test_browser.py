@@ -172,6 +172,11 @@ def test_a_saved_page_works_offline_from_one_file(tmp_path, page):
     page.goto(html.as_uri())
     page.wait_for_selector("#controls:not([hidden])")
     assert [url for url in requests if not url.startswith(("file:", "data:"))] == []
+    # it opens where the run ended, as a student hands it in: the outcome, the whole path
+    assert page.text_content("#slider-label") == "tick 204 / 204" and page.text_content("#state") == "succeeded"
+    assert path_points(page, "truth") > 100 and "Mission 'square' succeeded" in page.text_content("#summary")
+    page.locator("#slider").fill("0")
+    assert page.text_content("#state") == "replay"
     page.locator("#slider").fill("203")
     assert page.text_content("#state") == "succeeded" and fill(page, 0) == GREEN
     assert "Mission 'square' succeeded" in page.text_content("#summary")

@@ -8,9 +8,12 @@ const PLOTS = [
   ["front distance", "mm", (t) => t.status.front_distance_mm, 0],
   ["heading", "deg", (t) => t.status.heading_deg, 360],
   ["tilt", "deg", (t) => t.status.tilt_deg, 0],
-  ["speed", "mm/s", (t) => t.speed_mm_s, 0],
+  ["speed", "mm/s", (t) => t.mean_speed_mm_s, 0, "mean of 0.25 s"],
   ["battery", "/255", (t) => t.battery, 0],
 ];
+// The odometer counts whole millimetres: at 20 Hz a steady 210 mm/s reads 200 and 220 in turn, so
+// the speed is plotted as its mean over this long, a line rather than a zig-zag band.
+const SPEED_WINDOW_S = 0.25;
 const CHECKPOINT_EVERY = 100;
 const RENDER_EVERY_MS = 50;
 const BURST_RENDER_EVERY_MS = 1000;
@@ -110,6 +113,9 @@ function addTick(t) {
   }
   if (i % CHECKPOINT_EVERY === 0) view.checkpoints.push(stateAt(i, true));
   view.times.push(t.time_s);
+  let sum = 0, count = 0;
+  for (let k = i; k >= 0 && t.time_s - view.ticks[k].time_s < SPEED_WINDOW_S; k--) { sum += view.ticks[k].speed_mm_s; count++; }
+  t.mean_speed_mm_s = count ? sum / count : t.speed_mm_s;
   PLOTS.forEach(([, , get, wrap], p) => {
     const v = get(t), values = view.values[p], wraps = view.wraps[p];
     const before = values.length ? values[values.length - 1] : v;
@@ -213,10 +219,10 @@ function renderMap(i) {
 function setupPlots() {
   const box = $("plots");
   box.innerHTML = "";
-  for (const [name, unit] of PLOTS) {
+  for (const [name, unit, , , note] of PLOTS) {
     const svg = svgEl("svg", { viewBox: "0 0 420 64", class: "plot", "data-name": name }, box);
     svgEl("rect", { x: 0, y: 0, width: 420, height: 64, fill: "#fff", stroke: "#dee2e6" }, svg);
-    svgEl("text", { x: 4, y: 11, "font-size": 10 }, svg).textContent = `${name} (${unit})`;
+    svgEl("text", { x: 4, y: 11, "font-size": 10 }, svg).textContent = `${name} (${unit})${note ? ", " + note : ""}`;
     svgEl("text", { x: 416, y: 11, "font-size": 10, "text-anchor": "end", class: "value" }, svg);
     svgEl("text", { x: 210, y: 11, "font-size": 8, fill: "#868e96", "text-anchor": "middle", class: "range" }, svg);
     svgEl("path", { fill: "none", stroke: "#1c7ed6", "stroke-width": 1.5, class: "series" }, svg);

@@ -1,0 +1,63 @@
+"""What got in a newcomer's way in their first hour, each as the command that showed it."""
+
+from __future__ import annotations
+
+from tests.cli.test_cli import assert_one_line_error, autonomy
+
+
+def test_a_mission_given_where_the_exercise_goes_says_which_comes_first():
+    swapped = autonomy("grade", "missions/square.yaml", "exercises/solutions/square.yaml")
+    mission_first = "missions/square.yaml:1:1: this is a mission file, not an exercise"
+    assert_one_line_error(swapped, 2, mission_first, "autonomy grade EXERCISE THIS_FILE")
+    world = autonomy("grade", "autonomy/emulator/worlds/garage.yaml", "exercises/solutions/garage.yaml")
+    assert_one_line_error(world, 2, "garage.yaml:5:1: this is a world file, not an exercise: an exercise names its")
+
+
+def test_world_show_writes_a_png_for_png_and_refuses_what_it_cannot_write(tmp_path):
+    png = tmp_path / "w.png"
+    result = autonomy("world", "show", "opening", "-o", str(png))
+    assert result.returncode == 0, result.stderr
+    assert png.read_bytes().startswith(b"\x89PNG\r\n\x1a\n")  # a picture, not SVG text under a .png name
+    svg = tmp_path / "w.svg"
+    assert autonomy("world", "show", "opening", "-o", str(svg)).returncode == 0
+    assert svg.read_text().startswith("<svg")
+    assert_one_line_error(autonomy("world", "show", "opening", "-o", str(tmp_path / "w.jpg")), 2, ".svg or .png")
+    assert not (tmp_path / "w.jpg").exists()
+
+
+def test_the_speed_is_plotted_as_its_mean_over_a_quarter_second_not_the_odometer_s_zig_zag(tmp_path):
+    from autonomy.trace import read_trace
+    from autonomy.views.plot import SPEED_WINDOW_S, mean_over
+
+    trace = tmp_path / "run.jsonl"
+    assert autonomy("run", "missions/square.yaml", "--fast", "--quiet", "--trace", str(trace)).returncode == 0
+    ticks = read_trace(trace).ticks
+    times, speeds = [t.time_s for t in ticks], [t.speed_mm_s for t in ticks]
+    cruise = range(10, 30)  # the first side, at full speed
+    assert max(speeds[i] for i in cruise) - min(speeds[i] for i in cruise) >= 19  # whole millimetres a tick
+    mean = mean_over(times, speeds, SPEED_WINDOW_S)
+    assert max(mean[i] for i in cruise) - min(mean[i] for i in cruise) < 8
+    assert mean_over([0.0, 0.1, 0.2, 0.3], [1.0, 2.0, 3.0, 4.0], 0.25) == [1.0, 1.5, 2.0, 3.0]
+    svg = tmp_path / "run.svg"
+    assert autonomy("plot", str(trace), "-o", str(svg)).returncode == 0
+    assert "speed (mm/s), mean of 0.25 s" in svg.read_text()
+
+
+def test_a_distance_past_the_sensor_s_reach_says_so(tmp_path):
+    mission = tmp_path / "far.yaml"
+    mission.write_text("mission: far\ntree:\n  sequence:\n    - move: {speed: 2, until_obstacle_mm: 300}\n")
+    result = autonomy("check", str(mission))
+    assert result.returncode == 2
+    assert "until_obstacle_mm must be 1..255 mm, got 300: the front sensor reads at most 255 mm" in result.stderr
+
+
+def test_show_writes_a_picture_with_o_and_says_what_each_format_is(tmp_path):
+    svg, dot = tmp_path / "square.svg", tmp_path / "square.dot"
+    assert autonomy("show", "missions/square.yaml", "-o", str(svg)).returncode == 0
+    assert svg.read_text().startswith("<svg") and "move 300 mm" in svg.read_text()
+    assert autonomy("show", "missions/square.yaml", "--format", "dot", "-o", str(dot)).returncode == 0
+    assert dot.read_text().startswith("digraph")
+    text = autonomy("show", "missions/square.yaml")
+    assert text.returncode == 0 and "repeat x4" in text.stdout
+    shown = autonomy("show", "--help").stdout
+    assert "Graphviz" in shown and "-o FILE" in shown
