@@ -664,7 +664,7 @@ def cmd_check(args: argparse.Namespace) -> int:
     from autonomy.behaviours.tree import preorder
     from autonomy.mission import build_tree
     from autonomy.mission.lint import lint
-    from autonomy.runner import plural
+    from autonomy.words import plural
 
     bad = 0
     for path in args.missions:

@@ -51,6 +51,7 @@ from autonomy.record import (
     RunHeader,
     TickRecord,
 )
+from autonomy.words import plural
 
 #: How often battery and health are polled.
 SLOW_POLL_S = 1.0
@@ -72,11 +73,6 @@ def _short_path(filename: str) -> str:
     """A file's path relative to the working directory when it is under it, else as it is."""
     here = os.getcwd() + os.sep
     return filename[len(here) :] if filename.startswith(here) else filename
-
-
-def plural(count: int, word: str, words: str = "") -> str:
-    """``1 tick``, ``2 ticks`` (``words`` for a plural not made with -s: ``retries``)."""
-    return f"{count} {word if count == 1 else words or word + 's'}"
 
 
 @dataclass

@@ -1,7 +1,8 @@
 """Decorators the mission compiler needs beyond py_trees' own.
 
 py_trees' ``Timeout`` reads ``time.monotonic``; :class:`ClockTimeout` reads the run's
-clock instead, so a time-out works the same in real and in virtual time.
+clock instead, so a time-out works the same in real and in virtual time. :class:`Repeat` and
+:class:`Retry` are py_trees' own, saying where they are in words rather than py_trees' text.
 """
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ from py_trees.common import Status
 
 from autonomy.behaviours.base import RobotContext
 from autonomy.clock import Clock
+from autonomy.words import plural
 
 
 class ClockTimeout(py_trees.decorators.Decorator):
@@ -53,3 +55,47 @@ class ClockTimeout(py_trees.decorators.Decorator):
             self.decorated.stop(Status.INVALID)
             return Status.FAILURE
         return self.decorated.status
+
+
+class Repeat(py_trees.decorators.Repeat):
+    """py_trees' ``Repeat``, saying where it is in our words: ``3 of 4 done``, ``forever, 5 times so far``.
+
+    Args:
+        name: The node's display name.
+        child: The decorated behaviour.
+        num_success: Successes to repeat for; -1: forever.
+    """
+
+    def update(self) -> Status:
+        """As py_trees' ``Repeat``; the feedback counts the child's successes."""
+        status = super().update()
+        done, times = self.success, self.num_success
+        if status == Status.FAILURE:
+            self.feedback_message = f"the child failed after {plural(done, 'success', 'successes')}"
+        elif times < 0:
+            self.feedback_message = f"forever, {plural(done, 'time')} so far"
+        else:
+            self.feedback_message = f"{done} of {times} done"
+        return status
+
+
+class Retry(py_trees.decorators.Retry):
+    """py_trees' ``Retry``, saying where it is in our words: ``attempt 2 of 3``, ``failed 3 times``.
+
+    Args:
+        name: The node's display name.
+        child: The decorated behaviour.
+        num_failures: Attempts in all.
+    """
+
+    def update(self) -> Status:
+        """As py_trees' ``Retry``; the feedback counts the attempts."""
+        status = super().update()
+        failures, attempts = self.failures, self.num_failures
+        if status == Status.SUCCESS:
+            self.feedback_message = f"succeeded on attempt {failures + 1} of {attempts}"
+        elif status == Status.FAILURE:
+            self.feedback_message = f"failed {plural(attempts, 'time')}"
+        else:
+            self.feedback_message = f"attempt {failures + 1} of {attempts}"
+        return status

@@ -24,8 +24,8 @@ from typing import Any
 from autonomy.classroom.exercise import Exercise
 from autonomy.classroom.grade import Report
 from autonomy.errors import AutonomyError
-from autonomy.runner import plural
 from autonomy.source import UnreadableFile, control_character, read_text
+from autonomy.words import plural
 
 ROSTER_COLUMNS = ("id", "name", "submission")
 ADJUST_COLUMNS = ("student", "points", "reason")

@@ -25,7 +25,7 @@ from autonomy.emulator.robot import Robot
 from autonomy.emulator.world import World, Zone
 from autonomy.protocol import heading_delta_deg
 from autonomy.record import Pose, Record, RunEnd, RunHeader
-from autonomy.runner import plural
+from autonomy.words import plural
 
 SUCCEEDED = "succeeded"
 FAILED = "failed"

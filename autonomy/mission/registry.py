@@ -17,6 +17,7 @@ from py_trees.common import OneShotPolicy, ParallelPolicy
 
 from autonomy.behaviours import BUILTIN_ACTIONS, BUILTIN_CONDITIONS, ClockTimeout, Param, RobotBehaviour
 from autonomy.behaviours.base import MAX_SECONDS
+from autonomy.behaviours.decorators import Repeat, Retry
 
 Behaviour = py_trees.behaviour.Behaviour
 #: Builds a node from its display name, validated arguments and built children.
@@ -163,14 +164,14 @@ BUILTIN_STRUCTURE = (
         "repeat",
         "Run the child again each time it succeeds: times times, or forever. Fails when the child fails.",
         (Param("times", "int", "how many successes (forever when left out)", minimum=1, maximum=1_000_000),),
-        lambda n, a, c: py_trees.decorators.Repeat(n, _only(c), num_success=a["times"] or -1),
+        lambda n, a, c: Repeat(n, _only(c), num_success=a["times"] or -1),
         lambda a: f"repeat x{a['times']}" if a.get("times") else "repeat forever",
     ),
     _decorator(
         "retry",
         "Run the child again each time it fails, up to attempts tries in all.",
         (Param("attempts", "int", "tries in all", required=True, minimum=1, maximum=1000),),
-        lambda n, a, c: py_trees.decorators.Retry(n, _only(c), num_failures=a["attempts"]),
+        lambda n, a, c: Retry(n, _only(c), num_failures=a["attempts"]),
         lambda a: f"retry x{a['attempts']}",
     ),
     _decorator(

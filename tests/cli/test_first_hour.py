@@ -61,3 +61,35 @@ def test_show_writes_a_picture_with_o_and_says_what_each_format_is(tmp_path):
     assert text.returncode == 0 and "repeat x4" in text.stdout
     shown = autonomy("show", "--help").stdout
     assert "Graphviz" in shown and "-o FILE" in shown
+
+
+def test_repeat_and_retry_say_where_they_are_in_words_not_py_trees_text(tmp_path):
+    from autonomy.trace import read_trace
+
+    mission = tmp_path / "counted.yaml"
+    mission.write_text(
+        "mission: counted\nworld: box\ntree:\n  sequence:\n"
+        "    - repeat:\n        times: 3\n        do: {wait: {seconds: 0.2}}\n"
+        "    - retry:\n        attempts: 2\n        do: {wait: {seconds: 0.1}}\n"
+        "    - timeout:\n        seconds: 1\n        do:\n          repeat:\n            do: {wait: {seconds: 0.2}}\n"
+    )
+    trace = tmp_path / "run.jsonl"
+    result = autonomy("run", str(mission), "--fast", "--quiet", "--trace", str(trace))
+    assert result.returncode == 1, result.stderr  # the timeout fails the forever repeat, as it should
+    said = {
+        (node, state.feedback)
+        for tick in read_trace(trace).ticks
+        for node, state in tick.nodes.items()
+        if node in (1, 3, 6)
+    }
+    assert {(1, "0 of 3 done"), (1, "2 of 3 done"), (1, "3 of 3 done")} <= said
+    assert (3, "attempt 1 of 2") in said and (3, "succeeded on attempt 1 of 2") in said
+    assert (6, "forever, 0 times so far") in said and (6, "forever, 4 times so far") in said
+    assert not [text for _, text in said if "[status:" in text]
+
+
+def test_the_line_output_puts_the_acting_leaf_first_and_gives_a_beep_a_line():
+    wander = autonomy("run", "missions/wander.yaml", "--fast").stdout.splitlines()
+    assert all("move until" in line.split("bat 230  ")[1][:20] for line in wander[1:3]), wander[:3]
+    square = autonomy("run", "missions/square.yaml", "--fast").stdout.splitlines()
+    assert sum(line.endswith("beep: done") for line in square) == 4, square
