@@ -32,6 +32,7 @@ from py_trees.common import Access, Status
 
 import autonomy
 from autonomy.behaviours import BATTERY_KEY, HEALTHY_KEY, STATUS_KEY, RobotContext, engine
+from autonomy.behaviours.base import NoStatus
 from autonomy.behaviours.engine import tick_tree
 from autonomy.behaviours.tree import describe_tree, preorder
 from autonomy.client import Client
@@ -596,6 +597,8 @@ class Runner:
         # testing the mutation tool's frames are on every stack, so the fallback cannot be told apart.)
         own = [f for f in frames if not f.filename.startswith(_LIBRARY_DIRS)] or list(frames)  # pragma: no mutate
         lines = tuple(f"{_short_path(f.filename)}:{f.lineno} in {f.name}: {(f.line or '').strip()}" for f in own[-3:])
+        if isinstance(err, NoStatus) and err.where:  # the update that returned no status, not the check that saw it
+            lines = (f"{_short_path(err.where)} in update",)
         error = clipped(f"{type(err).__name__}: {err}")
         full = traceback_text(err)
         node_id = self._ids[id(node)]

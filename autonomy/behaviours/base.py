@@ -168,6 +168,18 @@ def returns_status(update: _Update) -> _Update:
     return update
 
 
+class NoStatus(TypeError):
+    """An ``update`` returned something other than a :class:`Status` (a plugin's ``return`` forgotten).
+
+    Attributes:
+        where: ``FILE:LINE`` of that ``update``, which a crash report names rather than the check's.
+    """
+
+    def __init__(self, message: str, where: str) -> None:
+        super().__init__(message)
+        self.where = where
+
+
 class RobotBehaviour(py_trees.behaviour.Behaviour):
     """Base of every leaf: declares its node type and parameters, reaches the robot.
 
@@ -192,11 +204,15 @@ class RobotBehaviour(py_trees.behaviour.Behaviour):
         super().__init_subclass__(**kwargs)
         update = cls.__dict__.get("update")
         if update is not None and not getattr(update, "_checked", False):
+            code = getattr(update, "__code__", None)
+            where = f"{code.co_filename}:{code.co_firstlineno}" if code is not None else ""
 
             def checked(self: RobotBehaviour) -> Status:
                 status = update(self)
                 if not isinstance(status, Status):
-                    raise TypeError(f"update() returned {status!r}; it must return Status.RUNNING, SUCCESS or FAILURE")
+                    raise NoStatus(
+                        f"update() returned {status!r}; it must return Status.RUNNING, SUCCESS or FAILURE", where
+                    )
                 return status
 
             checked._checked = True  # type: ignore[attr-defined]

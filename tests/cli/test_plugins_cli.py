@@ -111,14 +111,14 @@ def test_a_plugin_class_that_cannot_be_built_is_a_problem_of_the_file(tmp_path):
 
 
 @pytest.mark.parametrize(
-    ("body", "said"),
+    ("body", "said", "at"),
     [
-        ("raise KeyboardInterrupt", "raised KeyboardInterrupt"),
-        ("return None", "update() returned None; it must return Status.RUNNING, SUCCESS or FAILURE"),
-        ("return 42", "update() returned 42"),
+        ("raise KeyboardInterrupt", "raised KeyboardInterrupt", "beh.py:7 in update"),
+        ("return None", "update() returned None; it must return Status.RUNNING, SUCCESS or", "beh.py:6 in update"),
+        ("return 42", "update() returned 42", "beh.py:6 in update"),  # the plugin's update, not the check's line
     ],
 )
-def test_a_behaviour_that_raises_ctrl_c_or_returns_no_status_ends_the_run_as_its_error(tmp_path, body, said):
+def test_a_behaviour_that_raises_ctrl_c_or_returns_no_status_ends_the_run_as_its_error(tmp_path, body, said, at):
     (tmp_path / "beh.py").write_text(
         "from py_trees.common import Status\n"
         "from autonomy.behaviours import RobotAction\n\n"
@@ -133,3 +133,4 @@ def test_a_behaviour_that_raises_ctrl_c_or_returns_no_status_ends_the_run_as_its
     assert result.returncode == 1 and "Traceback" not in result.stderr, result.stdout + result.stderr
     assert "stopped by an error" in result.stdout and "node 'odd'" in result.stdout and said in result.stdout
     assert "It was stopped at the end." in result.stdout and "[ERROR]" not in result.stdout
+    assert f"{said}" in result.stdout and f" at {tmp_path / at}" in result.stdout and "base.py" not in result.stdout
