@@ -626,6 +626,26 @@ def cmd_plot(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def cmd_world_list(args: argparse.Namespace) -> int:
+    """Lists the built-in worlds: each one's name, size, obstacles and zones, and its description."""
+    from autonomy.emulator import load_world
+    from autonomy.emulator.world import SHIPPED
+    from autonomy.words import plural
+
+    for name in SHIPPED:
+        world = load_world(name)
+        zones = f", zones {', '.join(zone.name for zone in world.zones)}" if world.zones else ""
+        print(
+            f"{name:10} {world.width_mm / 1000:g} x {world.height_mm / 1000:g} m, "
+            f"{plural(len(world.obstacles), 'obstacle')}{zones}"
+        )
+        if world.description:
+            print(f"{'':11}{_shown(world.description.strip().splitlines()[0])}")
+    print("Use one in a mission (world: NAME), see it with autonomy world show NAME -o NAME.svg, or write your own:")
+    print("docs/worlds.md says how.")
+    return EXIT_OK
+
+
 def cmd_world_show(args: argparse.Namespace) -> int:
     """Draws a world (a built-in name or a file) with its start pose, as SVG."""
     from autonomy.emulator import load_world
@@ -1225,6 +1245,8 @@ def build_parser() -> argparse.ArgumentParser:
         help="draw it as a run with seed N has it: what it varies moved, its start jittered",
     )
     world_show.set_defaults(func=cmd_world_show)
+    world_list = world_sub.add_parser("list", help="the built-in worlds: name, size and what each is for")
+    world_list.set_defaults(func=cmd_world_list)
 
     check = sub.add_parser("check", help="validate mission files, reporting every problem")
     check.add_argument("missions", nargs="+", metavar="MISSION")

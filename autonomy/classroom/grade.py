@@ -554,11 +554,12 @@ def _graded(
     """
     _cpu.rung = 0
     result: Report | str
+    runs: list[ReplayMaker] | None = None
     try:
         _cpu.armed = True
         cpu_alarm(cpu_s, again_s=CPU_GRACE_S)  # again, should a plugin's ``except BaseException`` keep it
         try:
-            runs: list[ReplayMaker] | None = [] if feedback is not None else None
+            runs = [] if feedback is not None else None
             if traces is None and runs is None:
                 result = grade_one(exercise, student, path, allow_plugins)
             else:
@@ -572,21 +573,38 @@ def _graded(
         last = traceback.extract_tb(err.__traceback__)[-1:] if err.__traceback__ else []
         at = f" at {Path(last[0].filename).name}:{last[0].lineno}" if last else ""
         result = f"grading stopped with {type(err).__name__}: {err}{at}"
+    ends = isinstance(result, str)
     if _cpu.rung:
         zero = [0.0] * len(exercise.criteria)
-        return Report(student, str(path), 0.0, exercise.max_points, zero, [_cpu_used_up_why(cpu_s)]), True
-    if feedback is not None and isinstance(result, Report):
-        from autonomy.classroom.report import write_feedback_page  # the reports' module builds on this one
+        result, runs, ends = (
+            Report(student, str(path), 0.0, exercise.max_points, zero, [_cpu_used_up_why(cpu_s)]),
+            [],
+            True,
+        )
+    if feedback is not None and isinstance(result, Report):  # in the worker: as many pages at once as workers
+        _feedback_page(exercise, result, feedback, runs or [], name or file_names([student])[student], corrections)
+    return result, ends
 
-        shown = result  # the page shows the mark the gradebook will, the teacher's corrections in it
-        if corrections:
-            extra = sum(points for points, _ in corrections)
-            shown = replace(result, adjustments=list(corrections), total=round(result.total + extra, 2))
-        try:  # here, in the worker: the class's pages are made as many at once as there are workers
-            write_feedback_page(exercise, shown, feedback, runs or [], name or file_names([student])[student])
-        except (OSError, ValueError) as err:
-            result.notes.append(f"its feedback page could not be written: {err}")
-    return result, isinstance(result, str)
+
+def _feedback_page(
+    exercise: Exercise,
+    report: Report,
+    folder: Path,
+    runs: list[ReplayMaker],
+    name: str,
+    corrections: list[tuple[float, str]] | None,
+) -> None:
+    """Writes the student's feedback page, with the mark the gradebook will show (the teacher's corrections in it)."""
+    from autonomy.classroom.report import write_feedback_page  # the reports' module builds on this one
+
+    shown = report
+    if corrections:
+        extra = sum(points for points, _ in corrections)
+        shown = replace(report, adjustments=list(corrections), total=round(report.total + extra, 2))
+    try:
+        write_feedback_page(exercise, shown, folder, runs, name)
+    except (OSError, ValueError) as err:
+        report.notes.append(f"its feedback page could not be written: {err}")
 
 
 def _worker(
@@ -730,7 +748,11 @@ def grade_class(
 
     def failed(index: int, why: str) -> Report:
         student, path = submissions[index]
-        return Report(student, str(path), 0.0, exercise.max_points, list(zero), [why])
+        report = Report(student, str(path), 0.0, exercise.max_points, list(zero), [why])
+        if feedback is not None:  # its worker made no page (it ran out of time, or ended): the page says why
+            name = names.get(student) or file_names([student])[student]
+            _feedback_page(exercise, report, feedback, [], name, (corrections or {}).get(student))
+        return report
 
     def finish(index: int, report: Report) -> None:
         reports[index] = report

@@ -10,6 +10,7 @@ import csv
 import io
 import json
 from collections.abc import Iterator
+from dataclasses import replace
 from html import escape
 from pathlib import Path
 from typing import Any
@@ -17,6 +18,7 @@ from typing import Any
 from autonomy.classroom.exercise import Exercise
 from autonomy.classroom.grade import Report, SeedResult, page_path
 from autonomy.classroom.gradebook import RosterMatch, similar
+from autonomy.record import RunHeader
 from autonomy.source import UnreadableFile, read_text
 from autonomy.views.lines import printable
 from autonomy.views.mapsvg import world_svg
@@ -382,8 +384,14 @@ def feedback_page(
     name = escape(printable(report.student))
     yield "<!doctype html>\n"
     yield '<html lang="en"><head><meta charset="utf-8">\n'
+    # nothing is fetched, and only the page's own script and style run (in its frames too, which have its policy)
+    yield (
+        '<meta http-equiv="Content-Security-Policy" content="default-src \'none\'; '
+        "style-src 'unsafe-inline'; script-src 'unsafe-inline'; img-src data:\">\n"
+    )
     yield f"<title>{name}: {escape(printable(exercise.title))}</title><style>{_FEEDBACK_STYLE}</style>\n"
-    yield runs_host_head()  # the viewer, once: each seed's frame gets it, and its run from this page
+    if any(run is not None and run.header is not None for run in runs):
+        yield runs_host_head()  # the viewer, once: each seed's frame gets it, and its run from this page
     yield "\n</head><body>\n"
     yield f"<h1>{name}: {_number(report.total)} / {_number(report.max_points)}</h1>\n"
     yield f"<p>{escape(printable(exercise.title))}: {escape(printable(exercise.description))}</p>\n"
@@ -409,9 +417,14 @@ def feedback_page(
         )
         yield f'<section class="seed"><h2>{escape(seed.seed)}: {escape(seed.outcome)} after {seed.time_s:g} s</h2>\n'
         yield _seed_svg(exercise, seed, f"{report.student}, {seed.seed}") + f"<ul>{verdicts}</ul>\n"
+        if seed.rest_s is not None and seed.rest_s > seed.time_s + 0.05:  # it rolled on after the mission's end
+            yield (
+                f"<p>The replay ends where the mission ended, at {seed.time_s:g} s; the robot rolled on and came "
+                f"to rest at {seed.rest_s:g} s, which the marks judge (the map above shows it).</p>\n"
+            )
         if run is not None and run.header is not None:
             try:
-                pieces = run.payload_parts(at_end=True)
+                pieces = run.payload_parts(at_end=True, header=_shown_header(run.header, seed))
             except ValueError as err:  # a number JSON cannot hold: the run is not replayed, the page is made
                 yield f"<p>This run cannot be replayed: {escape(printable(str(err)))}.</p>\n"
             else:
@@ -420,6 +433,17 @@ def feedback_page(
                 yield f'</script>\n<iframe title="the run on {escape(seed.seed)}" data-run="run-{number}"></iframe>\n'
         yield "</section>\n"
     yield "</body></html>\n"
+
+
+def _shown_header(header: RunHeader, seed: SeedResult) -> RunHeader:
+    """A run's header as a student's page shows it.
+
+    No date (grading twice writes the same page), and a hidden seed's number nowhere, neither
+    the seed nor the emulator's address: with it, the run could be made again.
+    """
+    if not seed.seed.startswith("hidden"):
+        return replace(header, date="")
+    return replace(header, date="", seed=None, port=f"the exercise's emulator, {seed.seed}")
 
 
 def write_feedback_page(exercise: Exercise, report: Report, folder: Path, runs: list[ReplayMaker], name: str) -> Path:

@@ -233,6 +233,8 @@ class _Validator:
                 self.problem(where, "world", f"'{name}' is not a world file (a folder, a device or a pipe)")
                 return None
             hint = _suggest(name, list(SHIPPED))
+            if not hint and not path.suffix and is_file(base_dir / path.with_suffix(".yaml")):
+                hint = f" (did you mean '{name}.yaml', the world file beside the mission?)"
             self.problem(
                 where,
                 "world",

@@ -172,15 +172,20 @@ class ReplayMaker:
         """
         return "".join(self.payload_parts(at_end))
 
-    def payload_parts(self, at_end: bool = False) -> list[str]:
+    def payload_parts(self, at_end: bool = False, header: RunHeader | None = None) -> list[str]:
         """:meth:`payload` in pieces, to be written one after another without being joined first.
+
+        Args:
+            at_end: Open on the run's last tick (where it ended), not its first.
+            header: The header to show instead of the run's (one made for whoever reads the page).
 
         Raises:
             ValueError: a record holds a number that is not finite (NaN or infinity).
         """
         if self.why:
             raise ValueError(self.why)
-        head = _head(self.header, "replay", "replay-1" if self.header is not None else "")
+        header = header or self.header
+        head = _head(header, "replay", "replay-1" if header is not None else "")
         head["row_fields"] = list(ROW_FIELDS)
         if at_end:
             head["open_at_end"] = True

@@ -264,13 +264,19 @@ def test_an_endless_loop_or_a_crash_costs_that_student_a_zero_never_the_batch(tm
     good = EXERCISES / "solutions" / "garage.yaml"
     submissions = find_submissions([tmp_path / "erin", tmp_path / "frank", good])
     assert [s for s, _ in submissions] == ["erin", "frank", "garage"]
-    reports = grade_class(exercise, submissions, workers=2, cpu_s=2, allow_plugins=True)
+    pages = tmp_path / "pages"
+    pages.mkdir()
+    reports = grade_class(exercise, submissions, workers=2, cpu_s=2, allow_plugins=True, feedback=pages)
     erin, frank, garage = reports
     assert erin.total == 0 and erin.problems == [
         "used more than 2 s of CPU time: an endless loop, or a tree too big to run in time (--cpu-seconds gives more)"
     ]
     assert frank.total == 0 and "ended without a report (exit code 9)" in frank.problems[0]
     assert garage.total == exercise.max_points
+    # each gets a page: the two whose workers made none are told why by the grader
+    assert sorted(page.name for page in pages.iterdir()) == ["erin.html", "frank.html", "garage.html"]
+    assert "used more than 2 s of CPU time" in (pages / "erin.html").read_text()
+    assert "ended without a report (exit code 9)" in (pages / "frank.html").read_text()
 
 
 def heavy_mission(checks: int) -> str:

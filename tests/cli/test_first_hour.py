@@ -93,3 +93,20 @@ def test_the_line_output_puts_the_acting_leaf_first_and_gives_a_beep_a_line():
     assert all("move until" in line.split("bat 230  ")[1][:20] for line in wander[1:3]), wander[:3]
     square = autonomy("run", "missions/square.yaml", "--fast").stdout.splitlines()
     assert sum(line.endswith("beep: done") for line in square) == 4, square
+
+
+def test_world_list_names_every_built_in_world_and_a_world_file_beside_the_mission_is_suggested(tmp_path):
+    from autonomy.emulator.world import SHIPPED
+
+    listed = autonomy("world", "list")
+    assert listed.returncode == 0
+    names = [line.split()[0] for line in listed.stdout.splitlines() if line[:1].isalpha() and " m, " in line]
+    assert names == list(SHIPPED)
+    assert "garage     3 x 1.2 m, 1 obstacle, zones garage" in listed.stdout
+    (tmp_path / "lab.yaml").write_text("name: lab\narena_mm: [2000, 2000]\n")
+    mission = tmp_path / "m.yaml"
+    mission.write_text("mission: m\nworld: lab\ntree:\n  move: {speed: 1, seconds: 1}\n")
+    checked = autonomy("check", str(mission))
+    assert checked.returncode == 2 and "no world named 'lab' (did you mean 'lab.yaml'" in checked.stderr
+    mission.write_text("mission: m\nworld: lab.yaml\ntree:\n  move: {speed: 1, seconds: 1}\n")
+    assert autonomy("check", str(mission)).returncode == 0

@@ -105,3 +105,36 @@ def test_making_a_student_s_pages_needs_none_of_the_server_s_packages():
     )
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, check=True)
     assert result.stdout.strip() == "[]"
+
+
+def test_a_student_s_page_names_no_hidden_seed_and_is_the_same_bytes_graded_twice(tmp_path):
+    exercise = load_exercise(ROOT / "exercises" / "garage.yaml").with_secret(b"a teacher's secret, long enough")
+    hidden = [seed.seed for seed in exercise.seeds if seed.hidden]
+    assert len(hidden) == 12
+    pages = []
+    for folder in (tmp_path / "one", tmp_path / "two"):
+        folder.mkdir()
+        runs: list[ReplayMaker] = []
+        report = grade_one(exercise, "alice", ROOT / "exercises" / "solutions" / "garage.yaml", runs=runs)
+        pages.append(write_feedback_page(exercise, report, folder, runs, "alice").read_bytes())
+    assert pages[0] == pages[1]  # no date, nothing of the machine or the hour
+    text = pages[0].decode()
+    assert text.count("<iframe") == 16 and "hidden seed 12" in text
+    for number in hidden:  # with a hidden seed's number, its run could be made again before the marks
+        assert str(number) not in text, number
+    headers = [
+        json.loads(text.split(f'<script id="run-{n}" type="application/json">')[1].split("</script>")[0])["header"]
+        for n in range(1, 17)
+    ]
+    assert [h["seed"] for h in headers[:4]] == [s.seed for s in exercise.seeds[:4]]  # the public ones say theirs
+    assert all(h["seed"] is None and h["port"].startswith("the exercise's emulator, hidden seed") for h in headers[4:])
+
+
+def test_a_page_with_nothing_to_replay_holds_no_viewer(tmp_path):
+    exercise = load_exercise(ROOT / "exercises" / "garage.yaml")
+    broken = tmp_path / "broken.yaml"
+    broken.write_text("mission: oops\ntree:\n  mvoe: {speed: 2}\n")
+    runs: list[ReplayMaker] = []
+    report = grade_one(exercise, "bob", broken, runs=runs)
+    text = write_feedback_page(exercise, report, tmp_path, runs, "bob").read_text()
+    assert "unknown node &#x27;mvoe&#x27;" in text and VIEWER_ID not in text and len(text) < 8_000

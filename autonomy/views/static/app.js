@@ -32,6 +32,11 @@ const view = {
 };
 
 const $ = (id) => document.getElementById(id);
+// Text of the run's own (a mission's names, a behaviour's words) with its control and formatting
+// characters shown as \ufffd, as every other view shows it (autonomy/views/lines.py printable): a
+// right-to-left override or a bell in a log message is seen, not obeyed.
+const UNPRINTABLE = /(?![\n ])[\p{C}\p{Zl}\p{Zp}\p{Zs}]/gu;  // a line's end and a space are kept
+const printable = (text) => String(text).replace(UNPRINTABLE, "\ufffd");
 
 function svgEl(name, attrs, parent) {
   const el = document.createElementNS(SVG_NS, name);
@@ -60,8 +65,8 @@ function load(payload) {
   view.dr = [];
   view.truth = [];
   view.bounds = [0, 0, 0, 0];
-  $("mission").textContent = payload.header ? payload.header.mission : "waiting for the run";
-  document.title = "autonomy: " + (payload.header ? payload.header.mission : "a run");
+  $("mission").textContent = payload.header ? printable(payload.header.mission) : "waiting for the run";
+  document.title = "autonomy: " + (payload.header ? printable(payload.header.mission) : "a run");
   $("tree").innerHTML = payload.tree_svg || "";
   view.treeFocus = null;
   fitTree();
@@ -76,9 +81,10 @@ function load(payload) {
   const h = payload.header;
   if (h) {
     const world = h.world ? `world ${h.world.name}` : "world unknown (dead reckoning only)";
-    $("where").textContent = h.telemetry === false
-      ? `a BehaviorTree.CPP log: node statuses only, no telemetry · ${h.date}`
-      : `${world} · ${h.port} · ${h.clock} time · ${h.date}`;
+    const parts = h.telemetry === false
+      ? ["a BehaviorTree.CPP log: node statuses only, no telemetry", h.date]
+      : [world, h.port, `${h.clock} time`, h.date];
+    $("where").textContent = printable(parts.filter(Boolean).join(" · "));
   }
   // A recording without telemetry has no path or plots to show: none are made up.
   const noTelemetry = Boolean(h && h.telemetry === false);
@@ -271,7 +277,7 @@ function renderTree(i) {
     const s = state[g.dataset.node] || ["INVALID"];
     g.setAttribute("data-status", s[0]);
     const fb = g.querySelector(".feedback");
-    fb.textContent = s[0] === "RUNNING" || s[0] === "FAILURE" ? (s[1] || "") : "";
+    fb.textContent = s[0] === "RUNNING" || s[0] === "FAILURE" ? printable(s[1] || "") : "";
     // the highest id that runs: ids go parents before children, so the deepest, the latest of a sequence
     if (s[0] === "RUNNING" && (!running || +g.dataset.node > +running.dataset.node)) running = g;
   }
@@ -302,11 +308,11 @@ function renderLog(i) {
     const t = view.ticks[Math.min(k, view.ticks.length - 1)];
     li.value = k + 1;
     li.className = e.kind;
-    li.textContent = `${t ? t.time_s.toFixed(2) : "end"} s  ${e.kind}: ${e.message}`;
+    li.textContent = `${t ? t.time_s.toFixed(2) : "end"} s  ${e.kind}: ${printable(e.message)}`;
     list.appendChild(li);
   }
   list.scrollTop = list.scrollHeight;
-  $("summary").textContent = atEnd ? view.end.paragraph : "";
+  $("summary").textContent = atEnd ? printable(view.end.paragraph) : "";
 }
 
 function renderHeader(i) {
