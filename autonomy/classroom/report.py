@@ -424,7 +424,8 @@ def feedback_page(
             )
         if run is not None and run.header is not None:
             try:
-                pieces = run.payload_parts(at_end=True, header=_shown_header(run.header, seed))
+                marks = {"beeps": seed.beeps, "turns": seed.turns}  # the replay's map marks them as it plays
+                pieces = run.payload_parts(at_end=True, header=_shown_header(run.header, seed), marks=marks)
             except ValueError as err:  # a number JSON cannot hold: the run is not replayed, the page is made
                 yield f"<p>This run cannot be replayed: {escape(printable(str(err)))}.</p>\n"
             else:

@@ -172,12 +172,16 @@ class ReplayMaker:
         """
         return "".join(self.payload_parts(at_end))
 
-    def payload_parts(self, at_end: bool = False, header: RunHeader | None = None) -> list[str]:
+    def payload_parts(
+        self, at_end: bool = False, header: RunHeader | None = None, marks: dict[str, list[Any]] | None = None
+    ) -> list[str]:
         """:meth:`payload` in pieces, to be written one after another without being joined first.
 
         Args:
             at_end: Open on the run's last tick (where it ended), not its first.
             header: The header to show instead of the run's (one made for whoever reads the page).
+            marks: What a grader judged of the run, drawn on the map as the replay reaches each:
+                ``beeps`` ([time_s, x_mm, y_mm]) and ``turns`` ([time_s, x_mm, y_mm, degrees]).
 
         Raises:
             ValueError: a record holds a number that is not finite (NaN or infinity).
@@ -187,6 +191,8 @@ class ReplayMaker:
         header = header or self.header
         head = _head(header, "replay", "replay-1" if header is not None else "")
         head["row_fields"] = list(ROW_FIELDS)
+        if marks is not None:
+            head["marks"] = marks
         if at_end:
             head["open_at_end"] = True
         end = to_line(self.end) if self.end else "null"

@@ -144,3 +144,22 @@ def test_a_student_s_feedback_page_shows_their_file_their_runs_at_their_end_and_
     marked = page.locator("pre.source span.problem")
     assert marked.count() == 1 and marked.get_attribute("data-line") == "3"
     assert "unknown node 'mvoe' (did you mean 'move'?)" in marked.inner_text()
+
+
+def test_a_feedback_replay_marks_each_beep_and_turn_as_it_reaches_it(page, tmp_path):
+    from autonomy.classroom.grade import grade_one
+    from autonomy.classroom.report import write_feedback_page
+
+    exercise = load_exercise(ROOT / "exercises" / "square.yaml")
+    runs: list = []
+    report = grade_one(exercise, "sam", ROOT / "exercises" / "solutions" / "square.yaml", runs=runs)
+    first = report.seeds[0]
+    assert len(first.beeps) == 4 and len(first.turns) >= 3
+    page.goto(write_feedback_page(exercise, report, tmp_path, runs, "sam").as_uri())
+    frame = [f for f in page.frames if f != page.main_frame][0]
+    expect(frame.locator("#state")).to_have_text("succeeded")  # at the end: every mark
+    assert frame.locator("#judged .beep").count() == 4 and frame.locator("#judged .turn").count() == len(first.turns)
+    assert "beep" in frame.locator("#map-panel .legend").inner_text()
+    frame.locator("#slider").fill("0")  # at the start: none yet
+    expect(frame.locator("#state")).to_have_text("replay")
+    assert frame.locator("#judged .beep").count() == 0 and frame.locator("#judged .turn").count() == 0

@@ -185,6 +185,18 @@ function setupMap(payload) {
   svgEl("polyline", { ...common, id: "path-dr", stroke: "#1c7ed6", "stroke-width": 2.5 }, paths);
   svgEl("polyline", { ...common, id: "path-truth", stroke: "#2b8a3e", "stroke-width": 2, "stroke-dasharray": "6 4" }, paths);
   svgEl("g", { id: "collisions" }, paths);
+  svgEl("g", { id: "judged" }, paths);
+  // What a grader judged of the run beside the records (a student's feedback page): each beep and
+  // each turn in place, [time_s, x_mm, y_mm(, degrees)], drawn once the replay reaches its time.
+  view.marks = payload.marks || null;
+  const legend = document.querySelector("#map-panel .legend .judged");
+  if (legend) legend.remove();
+  if (view.marks) {
+    const note = document.createElement("span");
+    note.className = "judged";
+    note.textContent = " ● beep ○ turn in place";
+    document.querySelector("#map-panel .legend").appendChild(note);
+  }
   const robot = svgEl("g", { id: "robot" }, paths);
   svgEl("circle", { r: 60, fill: "rgba(250,176,5,.35)", stroke: "#e67700", "vector-effect": "non-scaling-stroke" }, robot);
   svgEl("line", { x1: 0, y1: 0, x2: 90, y2: 0, stroke: "#e67700", "stroke-width": 3, "vector-effect": "non-scaling-stroke" }, robot);
@@ -206,6 +218,18 @@ function renderMap(i) {
     const [x, y] = pose(view.ticks[k]);
     svgEl("path", { d: `M${x - 50},${y - 50}L${x + 50},${y + 50}M${x - 50},${y + 50}L${x + 50},${y - 50}`,
       stroke: "#e03131", "stroke-width": 3, "vector-effect": "non-scaling-stroke", class: "collision" }, marks);
+  }
+  const judged = $("judged");
+  judged.innerHTML = "";
+  if (view.marks && i >= 0) {
+    const now = i === view.ticks.length - 1 ? Infinity : view.ticks[i].time_s;
+    const dot = { "vector-effect": "non-scaling-stroke" };
+    for (const [t, x, y] of view.marks.beeps || []) {
+      if (t <= now) svgEl("circle", { ...dot, cx: x, cy: y, r: 14, fill: "#f59f00", stroke: "#e67700", class: "beep" }, judged);
+    }
+    for (const [t, x, y] of view.marks.turns || []) {
+      if (t <= now) svgEl("circle", { ...dot, cx: x, cy: y, r: 22, fill: "none", stroke: "#1971c2", "stroke-width": 2, class: "turn" }, judged);
+    }
   }
   const robot = $("robot");
   if (i < 0) { robot.setAttribute("visibility", "hidden"); return; }
