@@ -28,10 +28,13 @@ import yaml
 from autonomy.behaviours import Param
 from autonomy.mission.registry import NodeType, Registry
 from autonomy.mission.validate import MissionSpec, NodeSpec
-from autonomy.mission.xml_read import BLACKBOARD, EXPLICIT, KNOWN_TAGS
+from autonomy.mission.xml_read import BLACKBOARD, EXPLICIT, KNOWN_TAGS, WHILE_MARK
 
 INDENT = "    "
-#: Our structure types and the BehaviorTree.CPP node each is (``While`` is ours, declared in the model).
+#: Our structure types and the BehaviorTree.CPP node each is. Our ``while`` is exactly a
+#: ``ReactiveSequence`` of its condition and its child, written as one with :data:`WHILE_MARK`
+#: (an attribute BehaviorTree.CPP passes over), so that a stock BehaviorTree.CPP loads it and
+#: ``autonomy import`` gives ``while`` back.
 _COMPOSITE_TAGS = {("sequence", True): "Sequence", ("sequence", False): "ReactiveSequence"}
 _COMPOSITE_TAGS |= {("selector", True): "Fallback", ("selector", False): "ReactiveFallback"}
 _DECORATOR_TAGS = {
@@ -51,12 +54,6 @@ _PORT_TYPES = {
     "choice": "std::string",
     "tones": "std::vector<int>",
 }
-WHILE_MODEL = (
-    '<Control ID="While">',
-    "    <MetadataFields><Metadata description=\"autonomy's while: the first child is checked on every tick "
-    'before the second runs; when it fails, the second is halted and While fails"/></MetadataFields>',
-    "</Control>",
-)
 
 
 class ExportError(ValueError):
@@ -130,7 +127,7 @@ def bt_node(spec: NodeSpec, exact: bool = True) -> BtNode:
         counts = {"failure_count": "1", "success_count": "-1" if args["policy"] == "all" else "1"}
         return BtNode("Parallel", spec.name, counts, kids, spec=spec)
     if name == "while":
-        return BtNode("While", spec.name, {}, kids, spec=spec)
+        return BtNode("ReactiveSequence", spec.name, dict([WHILE_MARK]), kids, spec=spec)
     if name in _DECORATOR_TAGS:
         ports: dict[str, str] = {}
         if name == "repeat":
@@ -206,11 +203,9 @@ def _port_line(param: Param) -> str:
 
 
 def model_lines(types: list[NodeType]) -> list[str]:
-    """``<TreeNodesModel>`` for ``types``: our leaves with their ports and docs, and ``While``."""
+    """``<TreeNodesModel>`` for ``types``: our leaves, their ports and docs (BehaviorTree.CPP knows its own)."""
     lines = ["<TreeNodesModel>"]
     for node_type in types:
-        if node_type.name == "while":
-            lines += [INDENT + line for line in WHILE_MODEL]
         if node_type.category not in ("action", "condition"):
             continue  # BehaviorTree.CPP's own nodes are known to every editor
         tag = "Action" if node_type.category == "action" else "Condition"

@@ -16,7 +16,8 @@ BehaviorTree.CPP 4                         autonomy
 ``Timeout msec``                           ``timeout seconds``
 ``Inverter``, ``ForceSuccess``,            ``invert``, ``force_success``, ``force_failure``,
 ``ForceFailure``, ``RunOnce``              ``once``
-``While`` (ours, in the model)             ``while``: the condition, then the child
+``ReactiveSequence _autonomy="while"``     ``while``: the condition, then the child (``While``,
+                                           as earlier exports wrote it, too)
 ``SubTree ID=``                            ``subtree:``
 ``<move speed="2"/>``, ``<Action ID=..>``  the leaf, its attributes its parameters
 ========================================  ==================================================
@@ -36,7 +37,7 @@ from __future__ import annotations
 
 import bisect
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from xml.parsers import expat
 
 from autonomy.source import MAX_DEPTH, MAX_NODES, REFUSED, Located, SourceError, suggest, text_problems
@@ -98,6 +99,8 @@ BLACKBOARD = re.compile(r"^\s*\{.+\}\s*$", re.DOTALL)
 EXPLICIT = ("Action", "Condition", "Control", "Decorator")
 #: Attributes BehaviorTree.CPP writes for itself, which say nothing about the mission.
 BOOKKEEPING = ("_uid", "_fullpath", "_autoremap")
+#: The attribute that marks a ``ReactiveSequence`` as our ``while`` (its condition, then its child).
+WHILE_MARK = ("_autonomy", "while")
 #: The mission's settings, as attributes of the main ``<BehaviorTree>``.
 SETTINGS = {"_description": "description", "_tick_hz": "tick_hz", "_world": "world", "_plugins": "plugins"}
 
@@ -244,6 +247,9 @@ def _node(element: Element, problems: list[SourceError], main_id: str = "") -> L
     """
     tag, where = element.tag, (element.line, element.column)
     kids = [_node(child, problems, main_id) for child in element.children]
+    if tag == "ReactiveSequence" and element.attributes.get(WHILE_MARK[0]) == WHILE_MARK[1]:
+        tag = "While"  # our while, as BehaviorTree.CPP runs it: the mark is ours, not a port
+        element = replace(element, attributes={k: v for k, v in element.attributes.items() if k != WHILE_MARK[0]})
 
     def refuse() -> Located:
         if not kids:

@@ -1,8 +1,7 @@
 """BehaviorTree.CPP itself (``behaviortreepy``, 4.8.2 inside), as the reference our formats are checked against.
 
 Its Python bindings register leaves without ports, so a copy of our XML with the leaves'
-attributes taken off is what it loads (the ports are checked against the model apart), and
-our ``While`` is given to it as the ``ReactiveSequence`` it is.
+attributes taken off is what it loads (the ports are checked against the model apart).
 """
 
 from __future__ import annotations
@@ -27,13 +26,12 @@ def leaf_names(spec: MissionSpec) -> set[str]:
 
 
 def for_reference(xml: str, leaves: set[str]) -> str:
-    """Our XML as the reference can load it: leaves without attributes, While as ReactiveSequence."""
+    """Our XML as the reference can load it: leaves without attributes (our while is its ReactiveSequence)."""
 
     def strip(match: re.Match) -> str:
         return f"<{match.group(1)}{match.group(3)}" if match.group(1) in leaves else match.group(0)
 
-    out = re.sub(r"<(\w+)((?:\s+\w+=\"[^\"]*\")*)\s*(/?>)", strip, xml)
-    return out.replace("<While", "<ReactiveSequence").replace("</While>", "</ReactiveSequence>")
+    return re.sub(r"<(\w+)((?:\s+\w+=\"[^\"]*\")*)\s*(/?>)", strip, xml)
 
 
 def factory(spec: MissionSpec, script: dict[int, deque] | None = None) -> bt.BehaviorTreeFactory:

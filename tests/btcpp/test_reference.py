@@ -39,11 +39,9 @@ def logged_xml(tree, path: Path) -> str:
 
 
 def leafless(shape: list[tuple], leaves: set[str]) -> list[tuple]:
-    """Leaves without ports (the reference cannot declare them); our While as the reference loads it."""
+    """Leaves without ports (the reference cannot declare them)."""
     out = []
     for uid, tag, name, path, parent, ports in shape:
-        if tag == "While":
-            tag, name = "ReactiveSequence", "ReactiveSequence" if name == "While" else name
         out.append((uid, tag, name, path, parent, () if tag in leaves else ports))
     return out
 

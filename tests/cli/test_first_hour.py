@@ -110,3 +110,19 @@ def test_world_list_names_every_built_in_world_and_a_world_file_beside_the_missi
     assert checked.returncode == 2 and "no world named 'lab' (did you mean 'lab.yaml'" in checked.stderr
     mission.write_text("mission: m\nworld: lab.yaml\ntree:\n  move: {speed: 1, seconds: 1}\n")
     assert autonomy("check", str(mission)).returncode == 0
+
+
+def test_an_exported_while_is_behaviortree_cpp_s_own_reactive_sequence_and_imports_as_while(tmp_path):
+    from autonomy.mission import load_mission
+    from tests.btcpp import reference
+
+    xml, back = tmp_path / "patrol.xml", tmp_path / "patrol.yaml"
+    assert autonomy("export", "missions/patrol.yaml", "-o", str(xml)).returncode == 0
+    text = xml.read_text()
+    assert "<While" not in text and '<ReactiveSequence name="patrol while fit" _autonomy="while">' in text
+    spec = load_mission("missions/patrol.yaml")
+    stock = reference.factory(spec)  # BehaviorTree.CPP itself, our leaves registered as stand-ins
+    stock.register_behavior_tree_from_text(reference.for_reference(text, reference.leaf_names(spec)))
+    assert stock.create_tree("patrol") is not None  # no node of ours to write in C++ first
+    assert autonomy("import", str(xml), "-o", str(back)).returncode == 0
+    assert "  - while:\n      name: patrol while fit" in back.read_text()
