@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import errno
 import json
 import math
 import os
@@ -496,11 +497,40 @@ def _start_groot(args: argparse.Namespace, tree: Any) -> tuple[Any, str]:
     try:
         groot = GrootPublisher(tree, host, args.groot_port).start()
     except OSError as err:
-        return None, f"cannot publish to Groot2 on {host}:{args.groot_port}: {err.strerror or err}"
+        why = _port_busy(err, "--groot-port")
+        return None, f"cannot publish to Groot2 on {host}:{args.groot_port}: {why}"
     _warn_if_public(host, "Groot2 is")
-    shown = "this machine's address" if host in ("0.0.0.0", "::", "") else host
+    shown = " or ".join(_addresses(host))
     print(f"groot2: attach to {shown} port {groot.port}", file=sys.stderr, flush=True)
     return groot, ""
+
+
+def _port_busy(err: OSError, option: str) -> str:
+    """Why a server could not start, and for a port in use, what to do."""
+    if err.errno == errno.EADDRINUSE:
+        return f"the port is in use (another run's view, or another program): {option} 0 takes any free port"
+    return str(err.strerror or err)
+
+
+def _addresses(host: str) -> list[str]:
+    """Where others reach a server on ``host``: for every interface (0.0.0.0), this machine's own addresses."""
+    if host not in ("0.0.0.0", "::", ""):
+        return [host]
+    import socket
+
+    found: list[str] = []
+    try:
+        found += socket.gethostbyname_ex(socket.gethostname())[2]
+    except OSError:
+        pass
+    try:  # the address of the way out: a datagram socket connected to an address for documentation sends nothing
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:
+            probe.connect(("192.0.2.1", 9))
+            found.append(probe.getsockname()[0])
+    except OSError:
+        pass
+    outside = sorted({a for a in found if not a.startswith("127.")})
+    return [*outside, "127.0.0.1"] if outside else ["this machine's address"]
 
 
 def _start_view(args: argparse.Namespace, mode: str = "live") -> tuple[Any, str]:
@@ -512,10 +542,18 @@ def _start_view(args: argparse.Namespace, mode: str = "live") -> tuple[Any, str]
         server = ViewServer(host, args.view_port, mode=mode)
         server.start()
     except OSError as err:
-        return None, f"cannot serve the view on {host}:{args.view_port}: {err.strerror or err}"
+        return None, f"cannot serve the view on {host}:{args.view_port}: {_port_busy(err, '--view-port')}"
     _warn_if_public(host, "the view is")
-    print(f"view: {server.url}", file=sys.stderr, flush=True)
+    print(f"view: {_view_url(server)}", file=sys.stderr, flush=True)
     return server, ""
+
+
+def _view_url(server: Any) -> str:
+    """The page's address as a person opens it: one served on every interface (0.0.0.0) at this machine's addresses."""
+    if server.host not in ("0.0.0.0", "::", ""):
+        return str(server.url)
+    urls = [f"http://{address}:{server.port}/" for address in _addresses(server.host) if address[0].isdigit()]
+    return " or ".join(urls) or str(server.url)
 
 
 def _serve_until_interrupted(server: Any, why: str, interrupts: _InterruptOnce | None = None) -> None:
@@ -524,7 +562,7 @@ def _serve_until_interrupted(server: Any, why: str, interrupts: _InterruptOnce |
             interrupts.raised = False  # the robot is stopped: Ctrl-C now just ends the view
             if interrupts.held:  # pressed while the robot was stopped or the summary written: it ends the view
                 return
-        print(f"{why}; the view stays at {server.url} until Ctrl-C", file=sys.stderr, flush=True)
+        print(f"{why}; the view stays at {_view_url(server)} until Ctrl-C", file=sys.stderr, flush=True)
         server.wait()
     except KeyboardInterrupt:
         pass

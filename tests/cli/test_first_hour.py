@@ -126,3 +126,34 @@ def test_an_exported_while_is_behaviortree_cpp_s_own_reactive_sequence_and_impor
     assert stock.create_tree("patrol") is not None  # no node of ours to write in C++ first
     assert autonomy("import", str(xml), "-o", str(back)).returncode == 0
     assert "  - while:\n      name: patrol while fit" in back.read_text()
+
+
+def test_a_busy_view_port_says_to_take_any_and_every_interface_prints_addresses_one_can_open(tmp_path):
+    import signal
+    import socket
+    import subprocess
+    import sys
+
+    from tests.cli.test_cli import ROOT
+
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = str(taken.getsockname()[1])
+        busy = autonomy("run", "missions/square.yaml", "--fast", "--quiet", "--view", "--view-port", port)
+        assert_one_line_error(busy, 2, f"127.0.0.1:{port}", "the port is in use", "--view-port 0 takes any free port")
+    served = subprocess.Popen(
+        [sys.executable, "-m", "autonomy", "run", "missions/square.yaml", "--fast", "--quiet", "--view"]
+        + ["--view-host", "0.0.0.0", "--view-port", "0"],
+        cwd=ROOT,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        lines = [served.stderr.readline() for _ in range(2)]
+    finally:
+        served.send_signal(signal.SIGINT)
+        served.communicate(timeout=30)
+    view = next(line for line in lines if line.startswith("view: "))
+    assert "0.0.0.0" not in view and "http://127.0.0.1:" in view, lines
