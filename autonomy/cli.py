@@ -740,26 +740,32 @@ def cmd_check(args: argparse.Namespace) -> int:
 
 
 def _exercise_path(text: str) -> tuple[str, str]:
-    """An exercise given by path, or by name from ./exercises/; or empty and why there is none of that name."""
+    """An exercise given by path, or by name: from ./exercises/ (a teacher's own), else those shipped with autonomy.
+
+    Returns:
+        Its path, or empty and why there is none of that name.
+    """
+    from importlib import resources
     from pathlib import Path
 
     from autonomy.source import suggest
 
     if Path(text).is_file() or "/" in text or text.endswith((".yaml", ".yml")):
         return text, ""
-    path = Path("exercises") / f"{text}.yaml"
-    if path.is_file():
-        return str(path), ""
-    names = sorted(found.stem for found in Path("exercises").glob("*.yaml")) if Path("exercises").is_dir() else []
+    shipped = Path(str(resources.files("autonomy").joinpath("exercises")))
+    for folder in (Path("exercises"), shipped):
+        if (folder / f"{text}.yaml").is_file():
+            return str(folder / f"{text}.yaml"), ""
+    names = sorted({found.stem for folder in (Path("exercises"), shipped) for found in folder.glob("*.yaml")})
     shown = text if len(text) <= 40 else text[:40] + "..."  # made printable where it is printed (_fail)
-    here = f"use one of {', '.join(names)}" if names else "there is no exercises folder here"
     return "", (
-        f"no exercise named '{shown}' in ./exercises/{suggest(text, names)}: {here}, or give the exercise file's path"
+        f"no exercise named '{shown}'{suggest(text, names)}: use one of {', '.join(names)} "
+        "(./exercises/ and those shipped with autonomy), or give the exercise file's path"
     )
 
 
 def _exercise(text: str) -> tuple[Any, str] | int:
-    """The exercise a command names (a file, or a name in ./exercises/) and its path; or, if none, the exit code."""
+    """The exercise a command names (a file, or a name) and its path; or, if none, the exit code."""
     from autonomy.classroom import ExerciseInvalid, load_exercise
 
     path, missing = _exercise_path(text)
@@ -1291,7 +1297,7 @@ def build_parser() -> argparse.ArgumentParser:
     check.set_defaults(func=cmd_check)
 
     grade = sub.add_parser("grade", help="run mission files against an exercise and mark them")
-    grade.add_argument("exercise", metavar="EXERCISE", help="an exercise file, or a name from ./exercises/")
+    grade.add_argument("exercise", metavar="EXERCISE", help="an exercise file, or a name (./exercises/, or shipped)")
     grade.add_argument(
         "submissions", nargs="+", metavar="SUBMISSION", help="mission files, or folders of one student's files"
     )
@@ -1358,7 +1364,7 @@ def build_parser() -> argparse.ArgumentParser:
     grade.set_defaults(func=cmd_grade)
 
     scope = sub.add_parser("gradescope", help="pack an exercise as the autograder zip Gradescope takes")
-    scope.add_argument("exercise", metavar="EXERCISE", help="an exercise file, or a name from ./exercises/")
+    scope.add_argument("exercise", metavar="EXERCISE", help="an exercise file, or a name (./exercises/, or shipped)")
     scope.add_argument("-o", "--output", metavar="FILE.zip", default="autograder.zip", help="default autograder.zip")
     scope.add_argument("--secret-file", metavar="FILE", help="the teacher's secret, for the exercise's hidden seeds")
     scope.set_defaults(func=cmd_gradescope)

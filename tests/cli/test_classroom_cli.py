@@ -250,20 +250,25 @@ def test_an_exercise_name_that_is_not_there_is_one_line_with_the_names_that_are(
     result = autonomy("grade", "bmp", "missions/square.yaml")
     assert result.returncode == 2 and "Traceback" not in result.stderr
     assert result.stderr.strip() == (
-        "autonomy: error: no exercise named 'bmp' in ./exercises/ (did you mean 'bump'?): use one of bump, "
-        "garage, opening, slalom, square, or give the exercise file's path"
+        "autonomy: error: no exercise named 'bmp' (did you mean 'bump'?): use one of bump, garage, opening, slalom, "
+        "square (./exercises/ and those shipped with autonomy), or give the exercise file's path"
     )
-    elsewhere = subprocess.run(
-        [sys.executable, "-m", "autonomy", "grade", "bump", str(ROOT / "missions" / "square.yaml")],
-        capture_output=True,
-        text=True,
-        timeout=60,
-        cwd=tmp_path,
-    )
-    assert elsewhere.returncode == 2 and elsewhere.stderr.strip() == (
-        "autonomy: error: no exercise named 'bump' in ./exercises/: there is no exercises folder here, "
-        "or give the exercise file's path"
-    )
+
+
+def test_a_shipped_exercise_is_found_by_name_from_anywhere_and_a_teacher_s_own_comes_first(tmp_path):
+    def grade_here(*args: str) -> subprocess.CompletedProcess:
+        return subprocess.run(
+            [sys.executable, "-m", "autonomy", "grade", *args], capture_output=True, text=True, timeout=60, cwd=tmp_path
+        )
+
+    solution = str(ROOT / "exercises" / "solutions" / "garage.yaml")
+    shipped = grade_here("garage", solution)  # no exercises folder here
+    assert shipped.returncode == 0, shipped.stderr
+    assert "for '2. Park in the garage'" in shipped.stdout and "10 / 10" in shipped.stdout
+    (tmp_path / "exercises").mkdir()
+    own = (ROOT / "exercises" / "garage.yaml").read_text().replace("2. Park in the garage", "Our own garage")
+    (tmp_path / "exercises" / "garage.yaml").write_text(own)
+    assert "for 'Our own garage'" in grade_here("garage", solution).stdout
 
 
 def grade_in(folder, *args: str) -> subprocess.CompletedProcess:
