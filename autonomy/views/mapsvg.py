@@ -31,14 +31,16 @@ def world_svg(world: dict[str, Any], title: str = "") -> str:
         f'<text x="{MARGIN_PX}" y="16">{escape(f"world {name}: {width_mm:g} x {height_mm:g} mm")}</text>',
         f'<g id="world" transform="translate({MARGIN_PX},{MARGIN_PX + 18 + height_mm * scale:.2f}) '
         f'scale({scale:.6f},{-scale:.6f})" data-scale="{scale:.6f}">',
-        f'<rect x="0" y="0" width="{width_mm:g}" height="{height_mm:g}" fill="#fcfcfa" stroke="#222" '
-        f'stroke-width="{3 / scale:.2f}" class="arena"/>',
+        f'<rect x="0" y="0" width="{width_mm:g}" height="{height_mm:g}" fill="#fcfcfa" class="floor"/>',
     ]
     grid_mm = 500.0 if max(width_mm, height_mm) > 1000 else 100.0
-    for i in range(1, int(width_mm // grid_mm) + 1):
-        parts.append(_grid_line(i * grid_mm, 0, i * grid_mm, height_mm, scale))
-    for i in range(1, int(height_mm // grid_mm) + 1):
-        parts.append(_grid_line(0, i * grid_mm, width_mm, i * grid_mm, scale))
+    # the lines inside the arena only, under its walls: none drawn over a wall
+    parts += [_grid_line(x, 0, x, height_mm, scale) for x in _inside(grid_mm, width_mm)]
+    parts += [_grid_line(0, y, width_mm, y, scale) for y in _inside(grid_mm, height_mm)]
+    parts.append(
+        f'<rect x="0" y="0" width="{width_mm:g}" height="{height_mm:g}" fill="none" stroke="#222" '
+        f'stroke-width="{3 / scale:.2f}" class="arena"/>'
+    )
     for item in world.get("obstacles", []):
         if "box" in item:
             (x1, y1), (x2, y2) = item["box"]["from_mm"], item["box"]["to_mm"]
@@ -87,6 +89,11 @@ def _zone(name: str, item: dict[str, Any], scale: float) -> str:
         f'fill="#d9480f">{escape(printable(name))}</text>'
     )
     return f'<g class="zone" data-zone="{escape(printable(name), {chr(34): "&quot;"})}">{shape}{label}</g>'
+
+
+def _inside(step_mm: float, length_mm: float) -> list[float]:
+    """Every multiple of ``step_mm`` strictly between 0 and ``length_mm``."""
+    return [k * step_mm for k in range(1, math.ceil(length_mm / step_mm)) if k * step_mm < length_mm]
 
 
 def _grid_line(x1: float, y1: float, x2: float, y2: float, scale: float) -> str:

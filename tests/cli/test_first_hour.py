@@ -157,3 +157,18 @@ def test_a_busy_view_port_says_to_take_any_and_every_interface_prints_addresses_
         served.communicate(timeout=30)
     view = next(line for line in lines if line.startswith("view: "))
     assert "0.0.0.0" not in view and "http://127.0.0.1:" in view, lines
+
+
+def test_the_world_s_grid_stays_inside_its_walls_and_under_them(tmp_path):
+    import xml.etree.ElementTree as ET
+
+    svg = tmp_path / "box.svg"
+    assert autonomy("world", "show", "box", "-o", str(svg)).returncode == 0
+    ns = "{http://www.w3.org/2000/svg}"
+    world = next(g for g in ET.parse(svg).iter(f"{ns}g") if g.get("id") == "world")
+    shapes = list(world)
+    lines = [e for e in shapes if e.tag == f"{ns}line" and e.get("stroke") == "#e9ecef"]
+    assert len(lines) == 6  # 500, 1000 and 1500 mm each way; none on the walls at 0 and 2000
+    assert {float(e.get("x1")) for e in lines if e.get("x1") == e.get("x2")} == {500.0, 1000.0, 1500.0}
+    walls = next(i for i, e in enumerate(shapes) if e.get("class") == "arena")
+    assert all(shapes.index(line) < walls for line in lines)  # the walls are drawn over the grid
