@@ -39,3 +39,20 @@ def test_a_yaml_block_of_the_docs_is_taken_as_it_stands(page, number, block, tmp
         assert load_world(tmp_path / "world.yaml").width_mm > 0
     else:
         pytest.fail(f"{where} is not a mission, an exercise or a world: say which, so that it can be checked")
+
+
+def test_each_tree_picture_of_the_tutorial_is_the_mission_above_it_as_autonomy_show_draws_it():
+    from autonomy.behaviours.tree import describe_tree
+    from autonomy.mission import build_tree
+    from autonomy.views.treesvg import svg_tree
+
+    page = (ROOT / "docs" / "tutorial.md").read_text(encoding="utf-8")
+    pictures = re.findall(r"\(images/(tutorial-[\w-]+\.svg)\)", page)
+    assert len(pictures) >= 2
+    for picture in pictures:
+        above = re.findall(r"```yaml\n(.*?)```", page[: page.index(f"images/{picture}")], re.S)[-1]
+        named = picture.removeprefix("tutorial-").replace(".svg", ".yaml")  # the file the tutorial saves it as
+        spec = validate_text(above, named)
+        drawn = svg_tree(describe_tree(build_tree(spec)), spec.name)
+        shown = (ROOT / "docs" / "images" / picture).read_text(encoding="utf-8")
+        assert drawn == shown, f"docs/images/{picture} is not the mission above it: autonomy show ... -o it again"
