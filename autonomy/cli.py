@@ -1151,11 +1151,17 @@ def cmd_behaviours(args: argparse.Namespace) -> int:
 
 
 def cmd_schema(args: argparse.Namespace) -> int:
-    """Prints the JSON Schema of mission files."""
+    """Prints the JSON Schema of mission files (with a mission: its plugins' node types too)."""
     from autonomy.mission import BUILTINS
     from autonomy.mission.catalogue import json_schema
 
-    print(json.dumps(json_schema(BUILTINS), indent=2))
+    registry = BUILTINS
+    if args.mission:
+        spec = _load(args.mission)
+        if spec is None:
+            return EXIT_USAGE
+        registry = spec.registry
+    print(json.dumps(json_schema(registry), indent=2))
     return EXIT_OK
 
 
@@ -1398,6 +1404,9 @@ def build_parser() -> argparse.ArgumentParser:
     behaviours.set_defaults(func=cmd_behaviours)
 
     schema = sub.add_parser("schema", help="print the JSON Schema of mission files, for editors")
+    schema.add_argument(
+        "mission", nargs="?", metavar="MISSION", help="also its plugins' node types (an editor then knows them)"
+    )
     schema.set_defaults(func=cmd_schema)
     return parser
 

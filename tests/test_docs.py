@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import re
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -20,6 +22,10 @@ BLOCKS = [
 ]
 
 
+def python_blocks(page: Path) -> list[str]:
+    return re.findall(r"```python\n(.*?)```", page.read_text(encoding="utf-8"), re.S)
+
+
 def test_the_docs_have_yaml_blocks_to_check():
     assert len(BLOCKS) >= 4 and {page.name for page, _, _ in BLOCKS} >= {"README.md", "missions.md"}
 
@@ -29,7 +35,12 @@ def test_a_yaml_block_of_the_docs_is_taken_as_it_stands(page, number, block, tmp
     first = block.lstrip().split(":", 1)[0]
     where = f"{page.name}, YAML block {number}"
     if first == "mission":
-        spec = validate_text(block, where, base_dir=ROOT / "missions")  # raises with every problem
+        base = ROOT / "missions"
+        plugins = re.search(r"^plugins: \[(\w+)\]", block, re.M)
+        if plugins:  # the plugin the page shows, saved beside the mission as the page says
+            (tmp_path / f"{plugins.group(1)}.py").write_text(python_blocks(page)[0])
+            base = tmp_path
+        spec = validate_text(block, where, base_dir=base)  # raises with every problem
         assert spec.name
     elif first == "exercise":
         (tmp_path / "exercise.yaml").write_text(block)
@@ -56,3 +67,55 @@ def test_each_tree_picture_of_the_tutorial_is_the_mission_above_it_as_autonomy_s
         drawn = svg_tree(describe_tree(build_tree(spec)), spec.name)
         shown = (ROOT / "docs" / "images" / picture).read_text(encoding="utf-8")
         assert drawn == shown, f"docs/images/{picture} is not the mission above it: autonomy show ... -o it again"
+
+
+def test_the_readme_s_mistake_is_what_check_says_of_its_mission_with_that_typo(tmp_path):
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    mission = re.findall(r"```yaml\n(.*?)```", readme, re.S)[0]
+    said = next(line for line in readme.splitlines() if "unknown node 'trun'" in line)
+    (tmp_path / "square.yaml").write_text(mission.replace("- turn:", "- trun:"))
+    result = subprocess.run(
+        [sys.executable, "-m", "autonomy", "check", "square.yaml"], capture_output=True, text=True, cwd=tmp_path
+    )
+    assert result.returncode == 2 and result.stderr.strip() == said
+
+
+def test_the_plugin_of_the_docs_runs_its_mission_and_passes_its_own_tests(tmp_path):
+    page = ROOT / "docs" / "plugins.md"
+    plugin, test = python_blocks(page)
+    mission = re.findall(r"```yaml\n(.*?)```", page.read_text(encoding="utf-8"), re.S)[0]
+    (tmp_path / "approach.py").write_text(plugin)
+    (tmp_path / "approach.yaml").write_text(mission)
+    (tmp_path / "test_approach.py").write_text(test)
+    ran = subprocess.run(
+        [sys.executable, "-m", "autonomy", "run", "approach.yaml", "--fast", "--quiet"],
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
+        timeout=60,
+    )
+    assert ran.returncode == 0 and "succeeded" in ran.stdout, ran.stdout + ran.stderr
+    tested = subprocess.run(
+        [sys.executable, "-m", "pytest", "-q", "-p", "no:randomly", "-p", "no:cacheprovider", "test_approach.py"],
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
+        timeout=120,
+    )
+    assert tested.returncode == 0 and "2 passed" in tested.stdout, tested.stdout + tested.stderr
+    schema = subprocess.run(
+        [sys.executable, "-m", "autonomy", "schema", "approach.yaml"], capture_output=True, text=True, cwd=tmp_path
+    )
+    assert schema.returncode == 0 and '"approach"' in schema.stdout and '"facing"' in schema.stdout
+    plain = subprocess.run([sys.executable, "-m", "autonomy", "schema"], capture_output=True, text=True, cwd=tmp_path)
+    assert '"approach"' not in plain.stdout  # an editor knows a mission's plugins only when told the mission
+
+
+def test_a_run_s_nodes_are_asked_for_by_name_or_type_and_a_wrong_one_says_which_there_are():
+    from autonomy.testing import run_mission
+
+    run = run_mission(ROOT / "missions" / "square.yaml", max_seconds=3)
+    assert run.outcome == "stopped at the time limit" and len(run.path) == len(run.ticks) > 50
+    assert run.statuses("move 300 mm")[0] == "RUNNING" and run.statuses("move") == run.statuses("move 300 mm")
+    with pytest.raises(KeyError, match="no node named .mvoe.: the nodes are repeat x4, sequence, move 300 mm"):
+        run.statuses("mvoe")
