@@ -1,0 +1,169 @@
+"""``autonomy check``, ``show``, ``export``, ``import``, ``behaviours`` and ``schema``: mission files."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from typing import Any
+
+from autonomy.cli.common import EXIT_OK, EXIT_USAGE, _fail, _load, _shown
+
+
+def cmd_check(args: argparse.Namespace) -> int:
+    """Validates mission files; every problem of every file, then ok or not."""
+    from autonomy.behaviours.tree import preorder
+    from autonomy.mission import build_tree
+    from autonomy.mission.lint import lint
+    from autonomy.words import plural
+
+    bad = 0
+    for path in args.missions:
+        spec = _load(path)
+        if spec is None:
+            bad += 1
+            continue
+        count = sum(1 for _ in preorder(build_tree(spec)))
+        warnings = lint(spec)
+        noted = f", {plural(len(warnings), 'warning')}" if warnings else ""
+        print(_shown(f"{path}: ok (mission '{spec.name}', {plural(count, 'node')}{noted})"))
+        for warning in warnings:
+            print(_shown(warning))
+    return EXIT_USAGE if bad else EXIT_OK
+
+
+def cmd_show(args: argparse.Namespace) -> int:
+    """Prints a mission's tree as text, DOT or SVG; each node says what it is."""
+    from autonomy.behaviours.tree import describe_tree
+    from autonomy.mission import build_tree
+    from autonomy.mission.render import dot_tree
+    from autonomy.record import RunHeader
+    from autonomy.views.treesvg import svg_tree
+    from autonomy.views.treetext import tree_text
+
+    spec = _load(args.mission)
+    if spec is None:
+        return EXIT_USAGE
+    nodes = describe_tree(build_tree(spec))
+    render = {
+        "unicode": lambda: tree_text(RunHeader(spec.name, nodes, spec.tick_hz)),
+        "dot": lambda: dot_tree(nodes, spec.name),
+        "svg": lambda: svg_tree(nodes, spec.name),
+    }
+    out = args.output if args.output not in (None, "-") else None
+    suffix = out.rsplit(".", 1)[-1].lower() if out and "." in out else ""
+    form = args.format or {"svg": "svg", "dot": "dot"}.get(suffix, "unicode")
+    return _write_out(render[form](), out)
+
+
+def _write_out(text: str, output: str | None) -> int:
+    if not output or output == "-":
+        sys.stdout.write(text)
+        return EXIT_OK
+    try:
+        with open(output, "w", encoding="utf-8") as stream:
+            stream.write(text)
+    except OSError as err:
+        return _fail(f"cannot write {output}: {err.strerror or err}", EXIT_USAGE)
+    print(f"wrote {output}", file=sys.stderr)
+    return EXIT_OK
+
+
+def cmd_export(args: argparse.Namespace) -> int:
+    """Writes a mission as BehaviorTree.CPP 4 XML, or the node palette for Groot2."""
+    from autonomy.mission import BUILTINS
+    from autonomy.mission.btcpp import ExportError, export_xml, palette_xml
+
+    spec = None
+    if args.mission:
+        spec = _load(args.mission)
+        if spec is None:
+            return EXIT_USAGE
+    if args.palette:
+        return _write_out(palette_xml(spec.registry if spec is not None else BUILTINS), args.output)
+    if spec is None:
+        return _fail("export needs a MISSION, or --palette", EXIT_USAGE)
+    try:
+        return _write_out(export_xml(spec), args.output)
+    except ExportError as err:
+        return _fail(f"{args.mission}: {err}", EXIT_USAGE)
+
+
+def cmd_import(args: argparse.Namespace) -> int:
+    """Writes a BehaviorTree.CPP 4 file that uses autonomy's nodes as a YAML mission."""
+    from autonomy.mission.btcpp import to_yaml
+
+    spec = _load(args.tree)
+    if spec is None:
+        return EXIT_USAGE
+    return _write_out(to_yaml(spec), args.output)
+
+
+def cmd_behaviours(args: argparse.Namespace) -> int:
+    """Lists every node type with its parameters (with a mission: its plugins' too)."""
+    from autonomy.mission import BUILTINS
+    from autonomy.mission.catalogue import catalogue_markdown, catalogue_text
+
+    registry = BUILTINS
+    if args.mission:
+        spec = _load(args.mission)
+        if spec is None:
+            return EXIT_USAGE
+        registry = spec.registry
+    sys.stdout.write(catalogue_markdown(registry) if args.markdown else catalogue_text(registry))
+    return EXIT_OK
+
+
+def cmd_schema(args: argparse.Namespace) -> int:
+    """Prints the JSON Schema of mission files (with a mission: its plugins' node types too)."""
+    from autonomy.mission import BUILTINS
+    from autonomy.mission.catalogue import json_schema
+
+    registry = BUILTINS
+    if args.mission:
+        spec = _load(args.mission)
+        if spec is None:
+            return EXIT_USAGE
+        registry = spec.registry
+    print(json.dumps(json_schema(registry), indent=2))
+    return EXIT_OK
+
+
+def add_check(sub: Any) -> None:
+    """Adds ``check`` to the command line's subparsers."""
+    check = sub.add_parser("check", help="validate mission files, reporting every problem")
+    check.add_argument("missions", nargs="+", metavar="MISSION")
+    check.set_defaults(func=cmd_check)
+
+
+def add_parsers(sub: Any) -> None:
+    """Adds this module's other commands to the command line's subparsers."""
+    show = sub.add_parser("show", help="print a mission's tree (text, Graphviz DOT or an SVG picture)")
+    show.add_argument("mission", metavar="MISSION")
+    show.add_argument(
+        "--format",
+        choices=("unicode", "dot", "svg"),
+        default=None,
+        help="unicode (the default): the tree as text; dot: Graphviz's language (dot -Tpng); svg: a picture. "
+        "-o FILE.svg or FILE.dot writes that format without it",
+    )
+    show.add_argument("-o", "--output", metavar="FILE", help="where to write it (default: standard output)")
+    show.set_defaults(func=cmd_show)
+    export = sub.add_parser("export", help="write a mission as BehaviorTree.CPP 4 XML, or the palette for Groot2")
+    export.add_argument("mission", nargs="?", metavar="MISSION", help="the mission (with --palette: add its plugins)")
+    export.add_argument("--palette", action="store_true", help="the model of every node type, for Groot2's editor")
+    export.add_argument("-o", "--output", metavar="FILE", help="where to write it (default: standard output)")
+    export.set_defaults(func=cmd_export)
+    imports = sub.add_parser("import", help="write a BehaviorTree.CPP 4 file of autonomy's nodes as a YAML mission")
+    imports.add_argument("tree", metavar="TREE.xml")
+    imports.add_argument("-o", "--output", metavar="FILE", help="where to write it (default: standard output)")
+    imports.set_defaults(func=cmd_import)
+    behaviours = sub.add_parser("behaviours", help="list every node type and its parameters")
+    behaviours.add_argument("mission", nargs="?", metavar="MISSION", help="also list this mission's plugin behaviours")
+    behaviours.add_argument("--markdown", action="store_true", help="as the reference of docs/missions.md")
+    behaviours.set_defaults(func=cmd_behaviours)
+    schema = sub.add_parser("schema", help="print the JSON Schema of mission files, for editors")
+    schema.add_argument(
+        "mission", nargs="?", metavar="MISSION", help="also its plugins' node types (an editor then knows them)"
+    )
+    schema.set_defaults(func=cmd_schema)
