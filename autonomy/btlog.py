@@ -22,12 +22,13 @@ from __future__ import annotations
 import struct
 from datetime import datetime
 from pathlib import Path
-from typing import BinaryIO
+from typing import Any, BinaryIO
 
 from autonomy.clock import Clock, RealClock
 from autonomy.errors import AutonomyError
 from autonomy.mission.btcpp import Instance
-from autonomy.mission.xml_read import COMPOSITES, DECORATORS, Element, XmlUnreadable, read_elements
+from autonomy.mission.registry import BUILTINS
+from autonomy.mission.xml_read import COMPOSITES, DECORATORS, WHILE_MARK, Element, XmlUnreadable, read_elements
 from autonomy.protocol import Status as Packet
 from autonomy.record import (
     FAILURE,
@@ -137,6 +138,54 @@ def _category(tag: str) -> str:
     return "action"
 
 
+def _port_value(param: Any, text: str) -> Any:
+    """A port's text as the parameter's kind has it (what a mission file would have given)."""
+    try:
+        if param.kind == "int":
+            return int(text)
+        if param.kind == "number":  # a whole number stays one, as YAML reads it
+            return int(text) if text.strip().lstrip("-").isdigit() else float(text)
+        if param.kind == "bool":
+            return text.strip().lower() in ("true", "1")
+        if param.kind == "tones":
+            return [int(part) for part in text.split(";")]
+    except ValueError:
+        return text
+    return text
+
+
+def _ours(tag: str, ports: dict[str, str]) -> tuple[str, str, str] | None:
+    """One of our node types as BehaviorTree.CPP wrote it: (its type, category, name as a trace names it), or None."""
+    args: dict[str, Any] = {}
+    if tag in COMPOSITES:
+        ours, fixed = COMPOSITES[tag]
+        args.update(fixed)
+    elif tag in DECORATORS:
+        ours = DECORATORS[tag]
+        if "num_cycles" in ports:  # BehaviorTree.CPP's ports, as our parameters
+            cycles = ports.pop("num_cycles")
+            args["times"] = None if cycles.strip() == "-1" else _port_value(BUILTINS.get("repeat").params[0], cycles)
+        if "num_attempts" in ports:
+            args["attempts"] = ports.pop("num_attempts")
+        if "msec" in ports:
+            msec = ports.pop("msec")
+            args["seconds"] = float(msec) / 1000 if msec.strip().isdigit() else msec
+    else:
+        ours = tag
+    node_type = BUILTINS.get(ours)
+    if node_type is None:
+        return None
+    for param in node_type.params:
+        if param.name in ports:
+            args[param.name] = _port_value(param, ports[param.name])
+        args.setdefault(param.name, param.default)
+    try:
+        name = node_type.label(args)
+    except Exception:  # noqa: BLE001 - a port our label cannot read: the node keeps BehaviorTree.CPP's name
+        return None
+    return node_type.name, node_type.category, name
+
+
 def _nodes(root: Element, where: str) -> list[NodeInfo]:
     """The tree in the XML as nodes with ids uid - 1, subtrees under their ``SubTree`` nodes."""
     trees = {tree.attributes.get("_fullpath", ""): tree for tree in root.children if tree.tag == "BehaviorTree"}
@@ -155,15 +204,23 @@ def _nodes(root: Element, where: str) -> list[NodeInfo]:
         tag = element.tag
         ports = {k: v for k, v in element.attributes.items() if not k.startswith("_") and k not in ("name", "ID")}
         if tag == "SubTree":
-            name = element.attributes.get("ID", "SubTree")
+            name, category = element.attributes.get("ID", "SubTree"), _category(tag)
             inner = trees.get(element.attributes.get("_fullpath", ""))
             children = inner.children if inner is not None else []
         else:
-            name = element.attributes.get("name") or tag
-            if name == tag and ports:
-                name = f"{tag} " + " ".join(f"{k}={v}" for k, v in ports.items())
+            named = element.attributes.get("name", "")
+            unnamed = not named or named == tag  # BehaviorTree.CPP names a node by its type when it has no name
+            marked = tag == "ReactiveSequence" and element.attributes.get(WHILE_MARK[0]) == WHILE_MARK[1]
+            ours = _ours("While" if marked else tag, dict(ports))
+            if ours is not None:  # one of ours: its type, category and name as a trace of the run has them
+                tag, category, label = ours
+                name = label if unnamed else named
+            else:
+                category, name = _category(tag), named or tag
+                if unnamed and ports:
+                    name = f"{tag} " + " ".join(f"{k}={v}" for k, v in ports.items())
             children = element.children
-        found[uid] = NodeInfo(uid - 1, name, tag, _category(tag), ports, parent)
+        found[uid] = NodeInfo(uid - 1, name, tag, category, ports, parent)
         todo.extend((child, uid - 1) for child in reversed(children))
     if sorted(found) != list(range(1, len(found) + 1)):
         raise BtlogError(f"{where}: its uids are not 1..{len(found)}")

@@ -203,7 +203,9 @@ def test_our_reader_reads_behaviortree_cpps_btlog_and_ours_alike(tmp_path):
     ours = read_btlog(tmp_path / "ours.btlog")
     shape = [(n.id, n.type, n.parent) for n in ours.header.nodes]
     assert shape == [(n.id, n.type, n.parent) for n in theirs.header.nodes]
-    assert [n.type for n in ours.header.nodes] == ["Repeat", "Sequence", "move", "SubTree", "Sequence", "turn", "beep"]
+    # our node types, named as a trace of the run names them; BehaviorTree.CPP's SubTree kept
+    assert [n.type for n in ours.header.nodes] == ["repeat", "sequence", "move", "SubTree", "sequence", "turn", "beep"]
+    assert [n.name for n in ours.header.nodes][:3] == ["repeat x4", "sequence", "move 300 mm"]
     assert not ours.header.telemetry and theirs.end.outcome == ours.end.outcome == "succeeded"
     # Our ticks come back one for one with the status changes each carried (a change of feedback alone is
     # not a change BehaviorTree.CPP logs), the SubTree node mirroring its subtree's root.

@@ -70,7 +70,7 @@ def test_run_writes_a_btlog_that_replays_and_that_behaviortree_cpp_would_read(tm
     assert [t for t, _, _ in records] == sorted(t for t, _, _ in records)
     replay = autonomy("replay", str(log), "--lines", "--speed", "50")
     assert replay.returncode == 0, replay.stderr
-    assert "turn left=90" in replay.stdout and "front" not in replay.stdout  # no telemetry is made up
+    assert "turn left 90 deg" in replay.stdout and "front" not in replay.stdout  # no telemetry is made up
     assert "root SUCCESS" in replay.stdout
     assert_one_line_error(autonomy("replay", str(tmp_path / "none.btlog")), 2, "none.btlog")
     log.write_bytes(log.read_bytes()[:40])

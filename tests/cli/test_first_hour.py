@@ -172,3 +172,17 @@ def test_the_world_s_grid_stays_inside_its_walls_and_under_them(tmp_path):
     assert {float(e.get("x1")) for e in lines if e.get("x1") == e.get("x2")} == {500.0, 1000.0, 1500.0}
     walls = next(i for i, e in enumerate(shapes) if e.get("class") == "arena")
     assert all(shapes.index(line) < walls for line in lines)  # the walls are drawn over the grid
+
+
+def test_a_btlog_replays_with_the_names_and_kinds_a_trace_of_the_run_has(tmp_path):
+    from autonomy.btlog import read_btlog
+    from autonomy.trace import read_trace
+
+    log, trace = tmp_path / "run.btlog", tmp_path / "run.jsonl"
+    ran = autonomy("run", "missions/patrol.yaml", "--fast", "--quiet", "--btlog", str(log), "--trace", str(trace))
+    assert ran.returncode == 0, ran.stderr
+    logged = [(n.name, n.type, n.category) for n in read_btlog(log).header.nodes]
+    traced = [(n.name, n.type, n.category) for n in read_trace(trace).header.nodes]
+    assert logged == traced  # "selector", "patrol while fit" a decorator, "battery above 50" a condition...
+    shown = autonomy("replay", str(log), "--lines", "--speed", "1000")
+    assert "move until < 150 mm" in shown.stdout and "speed=3" not in shown.stdout

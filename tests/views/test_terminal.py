@@ -113,7 +113,7 @@ def test_a_btlog_replays_in_the_terminal_view_with_no_made_up_telemetry(tmp_path
     session = tmux(command("replay", str(log), "--speed", "4"))
     screen = session.wait_for("not recorded")  # where the telemetry would be
     text = "\n".join(screen)
-    assert "replay x4" in text and "Repeat num_cycles=4" in text and "move distance_mm=300 speed=2" in text
+    assert "replay x4" in text and "repeat x4" in text and "move 300 mm" in text  # named as a trace names them
     assert "front" not in text and "battery" not in text
     session.wait_for("root SUCCESS", seconds=20)
 
