@@ -14,6 +14,7 @@ from __future__ import annotations
 import os
 import selectors
 import socket
+import termios
 import threading
 import tty
 from collections.abc import Callable
@@ -215,6 +216,15 @@ class TcpServer(_Server):
         super()._close()
 
 
+#: A terminal's speed constants by baud rate, and back (the rates a client may set).
+_SPEEDS = {
+    rate: getattr(termios, f"B{rate}")
+    for rate in (1200, 2400, 4800, 9600, 19200, 38400, 57600, 115200, 230400)
+    if hasattr(termios, f"B{rate}")
+}
+_BAUDS = {speed: rate for rate, speed in _SPEEDS.items()}
+
+
 class PtyServer(_Server):
     """Serves the emulator on a pseudo-terminal; open :attr:`device` like a serial port.
 
@@ -228,9 +238,24 @@ class PtyServer(_Server):
         self._master, self._slave = os.openpty()
         tty.setraw(self._slave)
         tty.setraw(self._master)
+        # The terminal starts at the robot's rate: a client that sets another (as pyserial does,
+        # with --baud) talks at it, and gets noise both ways, as over a real line and emu://.
+        attributes = termios.tcgetattr(self._slave)
+        speed = _SPEEDS.get(emulator.baud)
+        if speed is not None:
+            attributes[4] = attributes[5] = speed
+            termios.tcsetattr(self._slave, termios.TCSANOW, attributes)
         os.set_blocking(self._master, False)
         self.device = os.ttyname(self._slave)
         self._selector.register(self._master, selectors.EVENT_READ, self._receive)
+
+    def _client_baud(self) -> int | None:
+        """The rate the client set the terminal to (None: one the robot has no name for, or unknown)."""
+        try:
+            speed = termios.tcgetattr(self._slave)[5]
+        except termios.error:
+            return None
+        return _BAUDS.get(speed)
 
     @property
     def url(self) -> str:
@@ -245,7 +270,7 @@ class PtyServer(_Server):
         except OSError:
             return
         if data:
-            self.emulator.receive(data)
+            self.emulator.receive(data, baud=self._client_baud())
 
     def _send(self, data: bytes) -> None:
         view = memoryview(data)

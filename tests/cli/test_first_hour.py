@@ -186,3 +186,23 @@ def test_a_btlog_replays_with_the_names_and_kinds_a_trace_of_the_run_has(tmp_pat
     assert logged == traced  # "selector", "patrol while fit" a decorator, "battery above 50" a condition...
     shown = autonomy("replay", str(log), "--lines", "--speed", "1000")
     assert "move until < 150 mm" in shown.stdout and "speed=3" not in shown.stdout
+
+
+def test_a_client_at_the_wrong_rate_on_the_pty_emulator_gets_noise_as_over_a_real_line():
+    import subprocess
+    import sys
+
+    from tests.cli.test_cli import ROOT
+
+    served = subprocess.Popen(
+        [sys.executable, "-m", "autonomy", "emulator", "--pty"], cwd=ROOT, stdout=subprocess.PIPE, text=True
+    )
+    try:
+        device = served.stdout.readline().strip()
+        wrong = autonomy("probe", "--port", device, "--baud", "115200", "--wait", "2")
+        assert_one_line_error(wrong, 3, "no answer", "at 115200 baud", "is the robot set to 57600 baud?")
+        right = autonomy("probe", "--port", device, "--baud", "57600")
+        assert right.returncode == 0 and "firmware" in right.stdout, right.stderr
+    finally:
+        served.terminate()
+        served.wait(timeout=10)
