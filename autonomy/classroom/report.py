@@ -135,8 +135,8 @@ th button { font: inherit; font-weight: bold; border: none; background: none; cu
 th[aria-sort="ascending"] button::after { content: " ▲"; } th[aria-sort="descending"] button::after { content: " ▼"; }
 section.student { border-top: 2px solid #343a40; margin-top: 1.5em; }
 .seeds { display: flex; flex-wrap: wrap; gap: 1em; }
-.seed { border: 1px solid #dee2e6; padding: .4em; max-width: 420px; }
-.seed svg { width: 400px; height: auto; }
+.seed { border: 1px solid #dee2e6; padding: .4em; max-width: 620px; }
+.seed svg { width: 600px; max-width: 100%; height: auto; }
 .yes { color: #2b8a3e; } .no { color: #c92a2a; }
 pre.problems { background: #fff5f5; padding: .5em; white-space: pre-wrap; }
 """
@@ -345,7 +345,7 @@ pre.source span.line::before { content: attr(data-line); display: inline-block; 
 pre.source span.problem { background: #ffe3e3; }
 pre.source span.why { display: block; color: #c92a2a; padding-left: 3.6em; }
 .seed { border-top: 1px solid #dee2e6; margin-top: 1em; }
-.seed svg { width: 420px; height: auto; float: left; margin-right: 1em; }
+.seed svg { width: 600px; max-width: 100%; height: auto; float: left; margin-right: 1em; }
 .seed iframe { width: 100%; height: 640px; border: 1px solid #dee2e6; clear: both; display: block; }
 .yes { color: #2b8a3e; } .no { color: #c92a2a; }
 """

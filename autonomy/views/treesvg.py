@@ -30,6 +30,13 @@ ROW_PX = 78
 GAP_PX = 14
 BOX_PX = 38
 MAX_LABEL_CHARS = 48
+#: A box's type and parameters are wrapped to lines of at most this many characters, at most two.
+DETAIL_CHARS = 40
+DETAIL_LINES = 2
+LINE_PX = 12
+#: A composite with more children than this lays them out in rows, joined by a rail on their left.
+ROW_CHILDREN = 6
+RAIL_PX = 16
 
 
 @dataclass
@@ -39,11 +46,29 @@ class _Box:
     y: float
     width: float
     title: str
-    detail: str
+    detail: list[str]
+
+    @property
+    def height(self) -> float:
+        """Taller by a line for each line of detail past the first."""
+        return BOX_PX + LINE_PX * max(0, len(self.detail) - 1)
 
 
 def _cut(text: str) -> str:
     return fit(text, MAX_LABEL_CHARS)
+
+
+def _wrapped(text: str) -> list[str]:
+    """``text`` in lines of at most :data:`DETAIL_CHARS` (broken at spaces), at most :data:`DETAIL_LINES`."""
+    lines: list[str] = []
+    for word in printable(text).split(" "):
+        if lines and len(lines[-1]) + 1 + len(word) <= DETAIL_CHARS:
+            lines[-1] += " " + word
+        else:
+            lines.append(word)
+    if len(lines) > DETAIL_LINES:
+        lines = [*lines[: DETAIL_LINES - 1], " ".join(lines[DETAIL_LINES - 1 :])]
+    return [fit(line, DETAIL_CHARS) for line in lines if line]
 
 
 def svg_tree(nodes: list[NodeInfo], title: str = "mission", legend: bool = True) -> str:
@@ -54,20 +79,39 @@ def svg_tree(nodes: list[NodeInfo], title: str = "mission", legend: bool = True)
     boxes: list[_Box] = []
     cursor = [float(GAP_PX)]
 
+    deepest = [0]  # the deepest row used so far by the subtree being placed
+    wrapped: dict[int, list[list[int]]] = {}  # a node whose children go in rows: their ids, row by row
+
     def place(node: NodeInfo, depth: int) -> _Box:
         detail = type_text(node)
         if detail.startswith(node.name):
-            head, detail = _cut(f"{SHAPE_SYMBOLS[shape_of(node)]} {detail}"), ""
+            head, lines = _cut(f"{SHAPE_SYMBOLS[shape_of(node)]} {detail}"), []
         else:
-            head, detail = _cut(f"{SHAPE_SYMBOLS[shape_of(node)]} {node.name}"), _cut(detail)
-        width = max(70.0, CHAR_PX * len(head) + 20, SMALL_CHAR_PX * len(detail) + 20)
+            head, lines = _cut(f"{SHAPE_SYMBOLS[shape_of(node)]} {node.name}"), _wrapped(detail)
+        width = max(70.0, CHAR_PX * len(head) + 20, *(SMALL_CHAR_PX * len(line) + 20 for line in lines))
         y = GAP_PX + depth * ROW_PX
         left, first = cursor[0], len(boxes)
-        kids = [place(child, depth + 1) for child in children.get(node.id, [])]
-        if not kids:
-            box = _Box(node, left, y, width, head, detail)
+        deepest[0] = max(deepest[0], depth)
+        own = children.get(node.id, [])
+        rows = [own[i : i + ROW_CHILDREN] for i in range(0, len(own), ROW_CHILDREN)]
+        kids: list[_Box] = []
+        row_depth = depth + 1
+        if len(rows) > 1:  # a long sequence in rows, read as text is, joined by a rail on their left
+            wrapped[node.id] = [[child.id for child in row] for row in rows]
+            widest = left
+            for number, row in enumerate(rows):
+                cursor[0] = left + RAIL_PX
+                placed = [place(child, row_depth) for child in row]
+                kids = placed if number == 0 else kids  # the parent stands over the first row
+                widest = max(widest, cursor[0])
+                row_depth = deepest[0] + 1
+            cursor[0] = widest
         else:
-            box = _Box(node, (kids[0].x + kids[-1].x + kids[-1].width) / 2 - width / 2, y, width, head, detail)
+            kids = [place(child, depth + 1) for child in own]
+        if not kids:
+            box = _Box(node, left, y, width, head, lines)
+        else:
+            box = _Box(node, (kids[0].x + kids[-1].x + kids[-1].width) / 2 - width / 2, y, width, head, lines)
             if box.x < left:  # a parent wider than its children: move the whole subtree right
                 for placed in boxes[first:]:
                     placed.x += left - box.x
@@ -84,7 +128,7 @@ def svg_tree(nodes: list[NodeInfo], title: str = "mission", legend: bool = True)
     for box in boxes:
         box.x += shift
     width = max(b.x + b.width for b in boxes) + GAP_PX
-    height = max(b.y for b in boxes) + BOX_PX + GAP_PX
+    height = max(b.y + b.height for b in boxes) + GAP_PX
     legend_parts, legend_height = _legend(height) if legend else ([], 0)
     width = max(width, 560.0) if legend else width
     where = {b.node.id: b for b in boxes}
@@ -95,10 +139,13 @@ def svg_tree(nodes: list[NodeInfo], title: str = "mission", legend: bool = True)
         f"<title>{escape(printable(title))}</title>",
     ]
     for box in boxes:
+        if box.node.id in wrapped:
+            parts += _rail(box, [[where[i] for i in row] for row in wrapped[box.node.id]])
+            continue
         for child in children.get(box.node.id, []):
             c = where[child.id]
             parts.append(
-                f'<line x1="{box.x + box.width / 2:.1f}" y1="{box.y + BOX_PX:.1f}" '
+                f'<line x1="{box.x + box.width / 2:.1f}" y1="{box.y + box.height:.1f}" '
                 f'x2="{c.x + c.width / 2:.1f}" y2="{c.y:.1f}" stroke="#666"/>'
             )
     for box in boxes:
@@ -109,22 +156,40 @@ def svg_tree(nodes: list[NodeInfo], title: str = "mission", legend: bool = True)
         parts.append(f'<g class="node" id="node-{node.id}" data-node="{node.id}" data-status="INVALID">')
         parts.append(f"<title>{escape(tip)}</title>")
         parts.append(
-            f'<rect x="{box.x:.1f}" y="{box.y:.1f}" width="{box.width:.1f}" height="{BOX_PX}" rx="{radius}" '
+            f'<rect x="{box.x:.1f}" y="{box.y:.1f}" width="{box.width:.1f}" height="{box.height:g}" rx="{radius}" '
             f'fill="{fill}" stroke="#333"/>'
         )
         middle = box.x + box.width / 2
         if box.detail:
             parts.append(f'<text x="{middle:.1f}" y="{box.y + 15:.1f}" text-anchor="middle">{escape(box.title)}</text>')
-            parts.append(
-                f'<text x="{middle:.1f}" y="{box.y + 30:.1f}" text-anchor="middle" font-size="10" fill="#444" '
-                f'class="detail">{escape(box.detail)}</text>'
-            )
+            for number, line in enumerate(box.detail):
+                parts.append(
+                    f'<text x="{middle:.1f}" y="{box.y + 30 + number * LINE_PX:.1f}" text-anchor="middle" '
+                    f'font-size="10" fill="#444" class="detail">{escape(line)}</text>'
+                )
         else:
             parts.append(f'<text x="{middle:.1f}" y="{box.y + 23:.1f}" text-anchor="middle">{escape(box.title)}</text>')
         parts.append("</g>")
     parts += legend_parts
     parts.append("</svg>")
     return "\n".join(parts) + "\n"
+
+
+def _rail(parent: _Box, rows: list[list[_Box]]) -> list[str]:
+    """A parent joined to children in rows: down from it, along the left of the rows, and over each row."""
+    x = min(row[0].x for row in rows) - RAIL_PX / 2
+    top = parent.y + parent.height
+    middle = parent.x + parent.width / 2
+    buses = [row[0].y - 12 for row in rows]
+    lines = [(middle, top, middle, buses[0]), (x, buses[0], middle, buses[0]), (x, buses[0], x, buses[-1])]
+    for bus, row in zip(buses, rows, strict=True):
+        centres = [child.x + child.width / 2 for child in row]
+        lines.append((x, bus, max(centres), bus))
+        lines += [(centre, bus, centre, child.y) for centre, child in zip(centres, row, strict=True)]
+    return [
+        f'<line x1="{x1:.1f}" y1="{y1:.1f}" x2="{x2:.1f}" y2="{y2:.1f}" stroke="#666" class="rail"/>'
+        for x1, y1, x2, y2 in lines
+    ]
 
 
 def _legend(top: float) -> tuple[list[str], float]:

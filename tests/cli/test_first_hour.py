@@ -206,3 +206,32 @@ def test_a_client_at_the_wrong_rate_on_the_pty_emulator_gets_noise_as_over_a_rea
     finally:
         served.terminate()
         served.wait(timeout=10)
+
+
+def test_a_tree_picture_wraps_a_node_s_parameters_rather_than_cut_them(tmp_path):
+    import xml.etree.ElementTree as ET
+
+    svg = tmp_path / "wander.svg"
+    assert autonomy("show", "missions/wander.yaml", "-o", str(svg)).returncode == 0
+    ns = "{http://www.w3.org/2000/svg}"
+    nodes = [g for g in ET.parse(svg).iter(f"{ns}g") if g.get("class") == "node"]
+    details = [" ".join(t.text for t in g.iter(f"{ns}text") if t.get("class") == "detail") for g in nodes]
+    assert "move speed=2 until_obstacle_mm=150 direction=forward" in details  # was cut at "direction=fo…"
+    assert not [text for text in details if "…" in text]
+    tall = [g for g in nodes if float(next(g.iter(f"{ns}rect")).get("height")) > 38]
+    assert tall  # a box with two lines of parameters is a line taller
+
+
+def test_a_long_sequence_is_drawn_in_rows_joined_by_a_rail_not_as_a_strip(tmp_path):
+    import xml.etree.ElementTree as ET
+
+    svg = tmp_path / "scan.svg"
+    assert autonomy("show", "missions/servo_scan.yaml", "-o", str(svg)).returncode == 0
+    ns = "{http://www.w3.org/2000/svg}"
+    root = ET.parse(svg).getroot()
+    assert float(root.get("width")) < 1300  # it was a strip 2,023 px wide and 340 high
+    nodes = [g for g in root.iter(f"{ns}g") if g.get("class") == "node"]
+    assert len(nodes) == 16  # every node is there
+    tops = sorted({float(next(g.iter(f"{ns}rect")).get("y")) for g in nodes})
+    assert len(tops) >= 4  # the root, two rows of its 12 children, the rest below
+    assert [e for e in root.iter(f"{ns}line") if e.get("class") == "rail"]

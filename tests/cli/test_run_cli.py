@@ -154,7 +154,8 @@ def test_show_formats(fmt):
         texts = [t.text for g in svg.iter(f"{ns}g") if g.get("class") == "node" for t in g.iter(f"{ns}text")]
         assert texts == [
             "• move 300 mm",
-            "move speed=2 distance_mm=300 direction=forward",
+            "move speed=2 distance_mm=300",  # the parameters wrapped, none cut
+            "direction=forward",
             "• turn left 90 deg",
             "turn left=90",
             "• beep tones=[5, 7, 9] volume=3",

@@ -50,6 +50,9 @@ def test_the_class_page_shows_the_table_and_every_path_on_its_map(page, tmp_path
     bump = first.locator(".collision").bounding_box()
     box_drawn = first.locator("rect.obstacle").first.bounding_box()
     assert abs((bump["x"] + bump["width"] / 2) - box_drawn["x"]) < 0.1 * first.bounding_box()["width"]
+    # its captions are read at a glance: 11 px of the picture's own, drawn at 10 px or more
+    shown = first.evaluate("s => s.getBoundingClientRect().width / s.viewBox.baseVal.width")
+    assert 11 * shown >= 10
     page.screenshot(path=str(tmp_path / "marks.png"), full_page=True)
 
 
