@@ -18,13 +18,15 @@ def cmd_emulator(args: argparse.Namespace) -> int:
     """Serves an emulated robot over TCP or a pseudo-terminal until Ctrl-C or SIGTERM."""
     from autonomy.emulator.servers import PtyServer, TcpServer
 
+    if args.pty and args.rfc2217:
+        return _fail("--rfc2217 is for --tcp: a pseudo-terminal carries the client's baud rate itself", EXIT_USAGE)
     options = {"world": args.world, "seed": str(args.seed), "faults": args.faults, "baud": str(args.baud)}
     for key in ("battery", "noise", "mode", "boot"):
         if getattr(args, key) is not None:
             options[key] = str(getattr(args, key))
     try:
         emulator = emulator_from_options(options)
-        server = PtyServer(emulator) if args.pty else TcpServer(emulator, *args.tcp)
+        server = PtyServer(emulator) if args.pty else TcpServer(emulator, *args.tcp, rfc2217=args.rfc2217)
     except WorldError as err:
         return _world_failed(err)
     except ValueError as err:
@@ -105,6 +107,11 @@ def add_parsers(sub: Any) -> None:
         help="listen on TCP (default 127.0.0.1:7777; port 0 picks a free one)",
     )
     where.add_argument("--pty", action="store_true", help="serve on a pseudo-terminal and print its path")
+    emu.add_argument(
+        "--rfc2217",
+        action="store_true",
+        help="on TCP, speak RFC 2217 (rfc2217://HOST:PORT): the client says its baud rate, as on a real line",
+    )
     emu.add_argument("--world", default="box", metavar="NAME|PATH", help="arena (default box)")
     emu.add_argument("--seed", type=int, default=0, help="seed for faults and sensor noise (default 0)")
     emu.add_argument("--faults", type=_faults, default="", metavar="SPEC", help="e.g. drop=0.01,corrupt=0.01,pace")

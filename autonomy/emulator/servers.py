@@ -19,6 +19,8 @@ import threading
 import tty
 from collections.abc import Callable
 
+from serial.rfc2217 import PortManager
+
 from autonomy.emulator.core import Emulator
 
 #: Longest the loop sleeps with nothing due, so the physics keeps up and stop() is seen.
@@ -97,19 +99,64 @@ class _Server:
         self.stop()
 
 
+class _Line:
+    """The serial line's settings as an RFC 2217 client sets them (pyserial's ``PortManager`` reads and sets them)."""
+
+    def __init__(self, baudrate: int) -> None:
+        self.baudrate = baudrate
+        self.bytesize, self.parity, self.stopbits = 8, "N", 1
+        self.xonxoff = self.rtscts = self.break_condition = False
+        self.dtr = self.rts = True
+        self.cts = self.dsr = self.cd = True
+        self.ri = False
+
+    def reset_input_buffer(self) -> None:
+        """Nothing is buffered on this side of the line."""
+
+    def reset_output_buffer(self) -> None:
+        """Nothing is buffered on this side of the line."""
+
+
+class _Sender:
+    """What ``PortManager`` writes its Telnet answers through: the peer's socket."""
+
+    def __init__(self, conn: socket.socket) -> None:
+        self.conn = conn
+
+    def write(self, data: bytes) -> None:
+        try:
+            self.conn.sendall(data)
+        except OSError:
+            pass  # the peer is gone: the next read says so
+
+
 class TcpServer(_Server):
-    """Serves the emulator on a TCP port, for ``socket://HOST:PORT``.
+    """Serves the emulator on a TCP port, for ``socket://HOST:PORT`` (or ``rfc2217://HOST:PORT``).
+
+    ``socket://`` carries bytes only, so its client is taken to be at the robot's rate. With
+    ``rfc2217``, the port speaks RFC 2217 (Telnet's serial-port option, as pyserial's
+    ``rfc2217://`` does): the client says its rate, and one at another rate than the robot's
+    gets noise both ways, as over a real line.
 
     Args:
         emulator: The emulator to serve.
         host: Address to bind; loopback unless told otherwise.
         port: TCP port; 0 picks a free one (see :attr:`address`).
+        rfc2217: Speak RFC 2217, for ``rfc2217://``.
     """
 
     def __init__(
-        self, emulator: Emulator, host: str = "127.0.0.1", port: int = 7777, idle_peer_s: float = IDLE_PEER_S
+        self,
+        emulator: Emulator,
+        host: str = "127.0.0.1",
+        port: int = 7777,
+        idle_peer_s: float = IDLE_PEER_S,
+        rfc2217: bool = False,
     ) -> None:
         super().__init__(emulator)
+        self.rfc2217 = rfc2217
+        self._line: _Line | None = None
+        self._manager: PortManager | None = None
         family = socket.AF_INET6 if ":" in host else socket.AF_INET
         self._listener = socket.create_server((host, port), family=family, reuse_port=False)
         self._listener.setblocking(False)
@@ -127,9 +174,10 @@ class TcpServer(_Server):
 
     @property
     def url(self) -> str:
-        """``socket://HOST:PORT``."""
+        """``socket://HOST:PORT`` (``rfc2217://HOST:PORT`` when it speaks RFC 2217)."""
         host, port = self.address
-        return f"socket://[{host}]:{port}" if ":" in host else f"socket://{host}:{port}"
+        scheme = "rfc2217" if self.rfc2217 else "socket"
+        return f"{scheme}://[{host}]:{port}" if ":" in host else f"{scheme}://{host}:{port}"
 
     @property
     def public(self) -> bool:
@@ -152,6 +200,9 @@ class TcpServer(_Server):
         conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
         self._conn = conn
         self._heard_s = self.emulator.clock.now()
+        if self.rfc2217:  # the line's settings start as the robot's; the client's own come over Telnet
+            self._line = _Line(self.emulator.baud)
+            self._manager = PortManager(self._line, _Sender(conn))
         self._selector.register(conn, selectors.EVENT_READ, self._receive)
 
     def _receive(self) -> bool:
@@ -168,6 +219,11 @@ class TcpServer(_Server):
             self._drop_connection()
             return False
         self._heard_s = self.emulator.clock.now()
+        if self._manager is not None and self._line is not None:  # Telnet's commands taken out, the rate heard
+            data = b"".join(self._manager.filter(data))
+            if data:
+                self.emulator.receive(data, baud=self._line.baudrate)
+            return True
         self.emulator.receive(data)
         return True
 
@@ -195,11 +251,14 @@ class TcpServer(_Server):
             self._selector.unregister(self._conn)
             self._conn.close()
             self._conn = None
+            self._line = self._manager = None
             self.emulator.hang_up()
 
     def _send(self, data: bytes) -> None:
         if self._conn is None:
             return  # nobody listens: the bytes are lost, as on an unplugged cable
+        if self._manager is not None:
+            data = b"".join(self._manager.escape(data))
         try:
             self._conn.sendall(data)
         except OSError:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import pytest
+
 from tests.cli.test_cli import assert_one_line_error, autonomy
 
 
@@ -188,14 +190,15 @@ def test_a_btlog_replays_with_the_names_and_kinds_a_trace_of_the_run_has(tmp_pat
     assert "move until < 150 mm" in shown.stdout and "speed=3" not in shown.stdout
 
 
-def test_a_client_at_the_wrong_rate_on_the_pty_emulator_gets_noise_as_over_a_real_line():
+@pytest.mark.parametrize("how", [["--pty"], ["--tcp", "127.0.0.1:0", "--rfc2217"]], ids=["pty", "rfc2217"])
+def test_a_client_at_the_wrong_rate_on_the_pty_or_rfc2217_emulator_gets_noise_as_over_a_real_line(how):
     import subprocess
     import sys
 
     from tests.cli.test_cli import ROOT
 
     served = subprocess.Popen(
-        [sys.executable, "-m", "autonomy", "emulator", "--pty"], cwd=ROOT, stdout=subprocess.PIPE, text=True
+        [sys.executable, "-m", "autonomy", "emulator", *how], cwd=ROOT, stdout=subprocess.PIPE, text=True
     )
     try:
         device = served.stdout.readline().strip()
