@@ -15,6 +15,7 @@ for the next run. :mod:`autonomy.views.page` has the page, and freezes it on a w
 from __future__ import annotations
 
 import asyncio
+import ipaddress
 import logging
 import threading
 import uuid
@@ -141,6 +142,47 @@ class RecordHub:
         return "preview\n[" + ",".join(t.to_line() for t in merged) + "]"
 
 
+#: What the page may load and run: its own files and its own WebSocket, nothing inline, nothing framed.
+CONTENT_SECURITY_POLICY = (
+    "default-src 'none'; script-src 'self'; style-src 'self'; img-src 'self' data:; connect-src 'self'; "
+    "base-uri 'none'; form-action 'none'; frame-ancestors 'none'"
+)
+
+
+def _own_host(host_header: str) -> bool:
+    """Whether a request's ``Host`` names this machine by address or as ``localhost``.
+
+    A page of another site that got its name resolved to this machine (DNS rebinding) asks with
+    that name: it is refused. A name is never needed here: the page's address is printed as one.
+    """
+    host = host_header.rsplit(":", 1)[0] if host_header.count(":") == 1 else host_header
+    if host.startswith("[") and "]" in host:  # [::1]:8765
+        host = host[1 : host.index("]")]
+    if host.lower() == "localhost":
+        return True
+    try:
+        ipaddress.ip_address(host)
+    except ValueError:
+        return False
+    return True
+
+
+@web.middleware
+async def _checked_origin(request: web.Request, handler: Callable[[web.Request], Awaitable[web.StreamResponse]]):
+    """Serves only requests to this machine by address, and WebSockets opened by the page itself."""
+    host = request.headers.get("Host", "")
+    if not _own_host(host):
+        return web.Response(status=403, text="this page is served by address (127.0.0.1, or this machine's)\n")
+    origin = request.headers.get("Origin")
+    if origin is not None and origin not in (f"http://{host}", f"https://{host}"):
+        return web.Response(status=403, text="a page of another origin may not read this run\n")
+    response = await handler(request)
+    if not response.prepared:  # a WebSocket's answer has gone already
+        response.headers.setdefault("Content-Security-Policy", CONTENT_SECURITY_POLICY)
+        response.headers.setdefault("X-Content-Type-Options", "nosniff")
+    return response
+
+
 class ViewServer:
     """Serves the page in a thread of its own.
 
@@ -170,7 +212,7 @@ class ViewServer:
         Raises:
             OSError: the port cannot be bound.
         """
-        app = web.Application()
+        app = web.Application(middlewares=[_checked_origin])
         app.router.add_get("/", self._index)
         app.router.add_get("/static/{name}", self._static)
         app.router.add_get("/api/run", self._run)

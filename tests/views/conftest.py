@@ -7,6 +7,7 @@ import re
 import signal
 import subprocess
 import sys
+import time
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -45,6 +46,19 @@ def page(browser):
     yield page
     context.close()
     assert errors == [], errors
+
+
+def until(page, expression: str, timeout: float = 10_000) -> None:
+    """Waits until ``expression`` holds in ``page``, asking it from outside the page.
+
+    Playwright's own ``wait_for_function`` evaluates a string inside the page, which the page's
+    content security policy forbids (no ``eval``), as it should.
+    """
+    deadline = time.monotonic() + timeout / 1000
+    while not page.evaluate(expression):
+        if time.monotonic() > deadline:
+            raise AssertionError(f"still not so after {timeout / 1000:g} s: {expression}")
+        page.wait_for_timeout(25)
 
 
 class Served:

@@ -13,7 +13,7 @@ import pytest
 
 from autonomy.record import TreeState
 from autonomy.trace import read_trace
-from tests.views.conftest import ROOT
+from tests.views.conftest import ROOT, until
 
 YELLOW, GREEN, RED, GREY = "rgb(255, 212, 59)", "rgb(140, 233, 154)", "rgb(255, 135, 135)", "rgb(241, 243, 245)"
 FILL_OF = {"RUNNING": YELLOW, "SUCCESS": GREEN, "FAILURE": RED, "INVALID": GREY}
@@ -54,14 +54,14 @@ def test_a_live_run_colours_the_tree_and_draws_the_path(tmp_path, page, serve):
     served = serve("run", str(mission), "--quiet", "--view")
     page.goto(served.url)
     # the page may open before the run's header: until then it has no tree
-    page.wait_for_function("document.querySelector('#node-1')?.dataset.status === 'RUNNING'", timeout=10_000)
+    until(page, "document.querySelector('#node-1')?.dataset.status === 'RUNNING'", timeout=10_000)
     assert fill(page, 1) == YELLOW and fill(page, 2) == GREY  # driving; the turn has not started
     early = path_points(page)
-    page.wait_for_function("document.querySelector('#node-2')?.dataset.status === 'RUNNING'", timeout=10_000)
+    until(page, "document.querySelector('#node-2')?.dataset.status === 'RUNNING'", timeout=10_000)
     assert fill(page, 1) == GREEN and fill(page, 2) == YELLOW
     assert path_points(page) > early > 0  # the path grew
     assert page.text_content("#node-2 .feedback").endswith("deg to go")
-    page.wait_for_function("document.querySelector('#state').textContent === 'succeeded'", timeout=10_000)
+    until(page, "document.querySelector('#state').textContent === 'succeeded'", timeout=10_000)
     assert [fill(page, n) for n in range(4)] == [GREEN] * 4
     assert path_points(page, "truth") == path_points(page)  # on the emulator, the truth is drawn too
     assert "It was stopped at the end." in page.text_content("#summary")
@@ -82,7 +82,7 @@ def test_a_page_left_on_a_finished_run_follows_the_next_run_on_the_same_port(tmp
         (tmp_path / f"{name}.yaml").write_text(f"mission: {name}\nworld: box\ntree:\n  sequence:\n    - {leaf}\n")
     first = serve("run", str(tmp_path / "first.yaml"), "--fast", "--quiet", "--view", port=port)
     page.goto(first.url)
-    page.wait_for_function("document.querySelector('#state').textContent === 'succeeded'", timeout=10_000)
+    until(page, "document.querySelector('#state').textContent === 'succeeded'", timeout=10_000)
     assert page.text_content("#mission") == "first"
     code, _, _ = first.interrupt()  # the first server is gone: the page keeps coming back for a run
     assert code == 0
@@ -94,8 +94,8 @@ def test_a_page_left_on_a_finished_run_follows_the_next_run_on_the_same_port(tmp
         page.evaluate(HIDE, False)
     second = serve("run", str(tmp_path / "second.yaml"), "--fast", "--quiet", "--view", port=port)
     assert second.url == first.url
-    page.wait_for_function("document.querySelector('#mission').textContent === 'second'", timeout=10_000)
-    page.wait_for_function("document.querySelector('#state').textContent === 'succeeded'", timeout=10_000)
+    until(page, "document.querySelector('#mission').textContent === 'second'", timeout=10_000)
+    until(page, "document.querySelector('#state').textContent === 'succeeded'", timeout=10_000)
     assert page.eval_on_selector("#node-1", "el => el.dataset.status") == "SUCCESS"
     assert "turn left 90 deg" in page.text_content("#node-1")
     second.interrupt()
@@ -112,17 +112,17 @@ def test_a_page_on_a_run_stopped_midway_moves_to_the_next_run_without_mixing_the
     )
     first = serve("run", str(tmp_path / "first.yaml"), "--quiet", "--view", port=port)  # in real time
     page.goto(first.url)
-    page.wait_for_function("document.querySelector('#node-1')?.dataset.status === 'RUNNING'", timeout=10_000)
-    page.wait_for_function("window.autonomyView.view.ticks.length > 20", timeout=10_000)
+    until(page, "document.querySelector('#node-1')?.dataset.status === 'RUNNING'", timeout=10_000)
+    until(page, "window.autonomyView.view.ticks.length > 20", timeout=10_000)
     first.process.send_signal(stop)
     first.process.communicate(timeout=20)
     if stop == signal.SIGINT:  # the run's end reaches the page before its server goes
-        page.wait_for_function("document.querySelector('#state').textContent === 'interrupted'", timeout=10_000)
+        until(page, "document.querySelector('#state').textContent === 'interrupted'", timeout=10_000)
     else:  # nobody could tell the page: it still shows the run going
         assert page.text_content("#state") == "running"
     second = serve("run", str(tmp_path / "second.yaml"), "--quiet", "--view", port=port)  # in real time too
-    page.wait_for_function("document.querySelector('#mission').textContent === 'second'", timeout=15_000)
-    page.wait_for_function("window.autonomyView.view.ticks.length > 40", timeout=15_000)
+    until(page, "document.querySelector('#mission').textContent === 'second'", timeout=15_000)
+    until(page, "window.autonomyView.view.ticks.length > 40", timeout=15_000)
     ticks = page.evaluate("window.autonomyView.view.ticks.map(t => t.tick)")
     assert ticks == list(range(1, len(ticks) + 1))  # the second run's ticks alone, from its first
     assert page.text_content("#state") == "running"
@@ -154,7 +154,7 @@ def test_a_replay_slider_shows_the_tree_at_any_tick(tmp_path, page, serve):
     assert page.text_content("#slider-label") == f"tick 8 / {len(trace.ticks)}"
     page.select_option("#speed", "16")
     page.click("#play")
-    page.wait_for_function("+document.querySelector('#slider').value > 60", timeout=10_000)
+    until(page, "+document.querySelector('#slider').value > 60", timeout=10_000)
     assert page.text_content("#play") == "❚❚ pause"
     page.click("#play")
     assert served.interrupt()[0] == 0
@@ -337,16 +337,16 @@ def test_a_hidden_tab_lets_go_of_its_stream_and_takes_the_run_up_again_when_show
     mission.write_text("mission: waits\ntree:\n  sequence:\n    - wait: {seconds: 1.5}\n    - wait: {seconds: 1.5}\n")
     served = serve("run", str(mission), "--quiet", "--view")
     page.goto(served.url)
-    page.wait_for_function("document.querySelector('#node-1')?.dataset.status === 'RUNNING'", timeout=10_000)
+    until(page, "document.querySelector('#node-1')?.dataset.status === 'RUNNING'", timeout=10_000)
     assert page.evaluate("window.autonomyView.streaming()")
     page.evaluate(HIDE, True)
     assert not page.evaluate("window.autonomyView.streaming()")
     page.wait_for_timeout(2_000)  # the second wait has started meanwhile; a hidden tab is not told
     assert fill(page, 2) == GREY
     page.evaluate(HIDE, False)
-    page.wait_for_function("document.querySelector('#node-2')?.dataset.status === 'RUNNING'", timeout=10_000)
+    until(page, "document.querySelector('#node-2')?.dataset.status === 'RUNNING'", timeout=10_000)
     assert page.evaluate("window.autonomyView.streaming()")
-    page.wait_for_function("document.querySelector('#state').textContent === 'succeeded'", timeout=10_000)
+    until(page, "document.querySelector('#state').textContent === 'succeeded'", timeout=10_000)
     assert served.interrupt()[0] == 0
 
 
@@ -361,7 +361,7 @@ def test_eight_pages_in_view_all_load_and_follow_one_run(tmp_path, browser, serv
         for page in pages:
             page.goto(served.url, timeout=10_000)
         for page in pages:
-            page.wait_for_function("document.querySelector('#state').textContent === 'succeeded'", timeout=15_000)
+            until(page, "document.querySelector('#state').textContent === 'succeeded'", timeout=15_000)
             assert page.eval_on_selector("#node-2", "el => el.dataset.status") == "SUCCESS"
     finally:
         context.close()
@@ -394,3 +394,27 @@ def test_a_saved_page_shows_texts_that_look_like_html_as_text(tmp_path, page):
     shown = "<!--<script> a </script> b \ufffd c <b>bold</b> \ufffdXYZ\ufffd"
     assert any(line.endswith(f"log: {shown}") for line in logged), logged
     assert page.eval_on_selector_all("#log li b", "els => els.length") == 0  # text, not markup
+
+
+def test_a_picture_sent_to_the_page_is_drawn_without_anything_that_could_run(tmp_path, page):
+    html = tmp_path / "run.html"
+    made = subprocess.run(
+        [sys.executable, "-m", "autonomy", "plot", record_trace(tmp_path, "missions/square.yaml"), "-o", str(html)],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+    )
+    assert made.returncode == 0, made.stderr
+    page.goto(html.as_uri())
+    page.wait_for_selector("#controls:not([hidden])")
+    hostile = (
+        '<svg xmlns="http://www.w3.org/2000/svg"><script>document.title="owned"</script>'
+        '<rect width="5" onload="document.title=1" style="x"/><a href="javascript:1"><text>t</text></a>'
+        '<foreignObject><div xmlns="http://www.w3.org/1999/xhtml">x</div></foreignObject><g id="paths"/></svg>'
+    )
+    kept = page.evaluate("m => autonomyView.safeSvg(m).map(n => n.outerHTML).join('')", hostile)
+    assert "<rect" in kept and 'width="5"' in kept and 'id="paths"' in kept
+    for gone in ("script", "onload", "style=", "href", "foreignObject", "<a", "div"):
+        assert gone not in kept, gone
+    assert page.evaluate("autonomyView.safeSvg('<p>not a picture</p>').length") == 0
+    assert page.title() != "owned"

@@ -6,6 +6,7 @@ import asyncio
 import json
 import threading
 import urllib.request
+from concurrent.futures import ThreadPoolExecutor
 
 import aiohttp
 
@@ -128,3 +129,43 @@ def test_a_malformed_request_is_answered_400_and_leaves_no_traceback_in_the_term
     )  # fmt: skip
     assert result.stdout.splitlines() == ["HTTP/1.0 400 Bad Request"] * 2, result.stderr
     assert result.stderr == ""
+
+
+def test_the_view_answers_only_by_address_and_only_its_own_page_s_websocket():
+    server = ViewServer("127.0.0.1", 0)
+    server.start()
+    try:
+        port = server.port
+
+        def get(host: str) -> tuple[int, dict]:
+            request = urllib.request.Request(f"http://127.0.0.1:{port}/", headers={"Host": host})
+            try:
+                with urllib.request.urlopen(request, timeout=5) as answer:
+                    return answer.status, dict(answer.headers)
+            except urllib.error.HTTPError as refused:
+                return refused.code, dict(refused.headers)
+
+        status, headers = get(f"127.0.0.1:{port}")
+        assert status == 200 and "script-src 'self'" in headers["Content-Security-Policy"]
+        assert "frame-ancestors 'none'" in headers["Content-Security-Policy"]
+        assert get(f"localhost:{port}")[0] == 200 and get(f"[::1]:{port}")[0] == 200
+        assert get(f"rebind.example:{port}")[0] == 403  # a name resolved to this machine by another site
+        assert get("")[0] in (400, 403)
+
+        async def socket_from(origin: str) -> str:
+            async with aiohttp.ClientSession() as session:
+                try:
+                    url = f"ws://127.0.0.1:{port}/api/next?run="
+                    async with session.ws_connect(url, headers={"Origin": origin}):
+                        return "opened"
+                except aiohttp.WSServerHandshakeError as refused:
+                    return f"refused {refused.status}"
+
+        def in_a_thread(origin: str) -> str:  # a browser test before may have left a loop running in this one
+            with ThreadPoolExecutor(1) as pool:
+                return pool.submit(asyncio.run, socket_from(origin)).result(timeout=30)
+
+        assert in_a_thread("http://evil.example") == "refused 403"
+        assert in_a_thread(f"http://127.0.0.1:{port}") == "opened"
+    finally:
+        server.stop()

@@ -38,6 +38,25 @@ const $ = (id) => document.getElementById(id);
 const UNPRINTABLE = /(?![\n ])[\p{C}\p{Zl}\p{Zp}\p{Zs}]/gu;  // a line's end and a space are kept
 const printable = (text) => String(text).replace(UNPRINTABLE, "\ufffd");
 
+// The tree and map pictures come as SVG text. Only pictures are taken from it: drawing elements
+// and their plain attributes; a script, a link, an event handler or a foreign object is dropped,
+// whatever served this port (a page stays open while another server takes the port).
+const SVG_TAGS = new Set(["svg", "g", "rect", "circle", "ellipse", "line", "polyline", "polygon", "path", "text", "tspan", "title"]);
+function safeSvg(markup) {
+  if (!markup) return [];
+  const parsed = new DOMParser().parseFromString(markup, "image/svg+xml");
+  const root = parsed.documentElement;
+  if (!root || root.localName !== "svg" || root.namespaceURI !== SVG_NS) return [];
+  for (const el of [root, ...root.querySelectorAll("*")]) {
+    if (!SVG_TAGS.has(el.localName) || el.namespaceURI !== SVG_NS) { el.remove(); continue; }
+    for (const attribute of [...el.attributes]) {
+      const name = attribute.name.toLowerCase();
+      if (name.startsWith("on") || name.includes("href") || name === "style") el.removeAttribute(attribute.name);
+    }
+  }
+  return [document.importNode(root, true)];
+}
+
 function svgEl(name, attrs, parent) {
   const el = document.createElementNS(SVG_NS, name);
   for (const [k, v] of Object.entries(attrs || {})) el.setAttribute(k, v);
@@ -67,7 +86,7 @@ function load(payload) {
   view.bounds = [0, 0, 0, 0];
   $("mission").textContent = payload.header ? printable(payload.header.mission) : "waiting for the run";
   document.title = "autonomy: " + (payload.header ? printable(payload.header.mission) : "a run");
-  $("tree").innerHTML = payload.tree_svg || "";
+  $("tree").replaceChildren(...safeSvg(payload.tree_svg));
   view.treeFocus = null;
   fitTree();
   for (const g of document.querySelectorAll("#tree .node")) {
@@ -172,8 +191,9 @@ function stateAt(i, building) {
 
 function setupMap(payload) {
   const box = $("map");
-  if (payload.map_svg) {
-    box.innerHTML = payload.map_svg;
+  const pictured = safeSvg(payload.map_svg);
+  if (pictured.length && pictured[0].querySelector("#paths")) {
+    box.replaceChildren(...pictured);
   } else {
     box.innerHTML = "";
     const svg = svgEl("svg", { viewBox: "-500 -500 1000 1000", class: "map" }, box);
@@ -526,7 +546,7 @@ function connect() {
 }
 
 window.autonomyView = {
-  show, view, stateAt: (i) => stateAt(i, false),
+  show, view, safeSvg, stateAt: (i) => stateAt(i, false),
   streaming: () => !!live.stream && live.stream.readyState <= WebSocket.OPEN,
 };
 const inline = document.getElementById("run-data");
