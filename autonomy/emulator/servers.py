@@ -30,6 +30,9 @@ IDLE_PEER_S = 60.0
 #: What a TCP client that comes while another is served reads before the server closes it.
 #: How long such a client is kept waiting for its first request before it is closed anyway.
 TURN_AWAY_S = 2.0
+#: Most clients held waiting to be told the line is busy; past that, each is told at once and let go,
+#: so that a flood of connections never holds more than a few file descriptors (select() takes < 1024).
+MOST_TURNED_AWAY = 16
 BUSY_LINE = b"BUSY: another client is connected to this emulator; one at a time, as on a serial line\n"
 
 
@@ -193,6 +196,9 @@ class TcpServer(_Server):
             pass  # read what the current peer sent: a peer that has closed is let go now
         if self._conn is not None:  # one peer at a time, like a serial line: say so at its first request
             conn.setblocking(False)
+            if len(self._turned_away) >= MOST_TURNED_AWAY:  # a flood: told at once and let go, never held
+                self._turn_away(conn, registered=False)
+                return
             self._turned_away[conn] = self.emulator.clock.now()
             self._selector.register(conn, selectors.EVENT_READ, lambda: self._turn_away(conn))
             return
@@ -227,13 +233,14 @@ class TcpServer(_Server):
         self.emulator.receive(data)
         return True
 
-    def _turn_away(self, conn: socket.socket) -> None:
+    def _turn_away(self, conn: socket.socket, registered: bool = True) -> None:
         try:
             conn.sendall(BUSY_LINE)
         except OSError:
             pass
-        self._selector.unregister(conn)
-        del self._turned_away[conn]
+        if registered:
+            self._selector.unregister(conn)
+            del self._turned_away[conn]
         conn.close()
 
     def _check_idle(self) -> None:
