@@ -163,8 +163,8 @@ def _ours(tag: str, ports: dict[str, str]) -> tuple[str, str, str] | None:
     elif tag in DECORATORS:
         ours = DECORATORS[tag]
         if "num_cycles" in ports:  # BehaviorTree.CPP's ports, as our parameters
-            cycles = ports.pop("num_cycles")
-            args["times"] = None if cycles.strip() == "-1" else _port_value(BUILTINS.get("repeat").params[0], cycles)
+            cycles = ports.pop("num_cycles").strip()
+            args["times"] = None if cycles == "-1" else int(cycles) if cycles.isdigit() else cycles
         if "num_attempts" in ports:
             args["attempts"] = ports.pop("num_attempts")
         if "msec" in ports:

@@ -573,14 +573,10 @@ def _graded(
         last = traceback.extract_tb(err.__traceback__)[-1:] if err.__traceback__ else []
         at = f" at {Path(last[0].filename).name}:{last[0].lineno}" if last else ""
         result = f"grading stopped with {type(err).__name__}: {err}{at}"
-    ends = isinstance(result, str)
-    if _cpu.rung:
+    if _cpu.rung:  # its runs are not replayed: the page says why it scores nothing
         zero = [0.0] * len(exercise.criteria)
-        result, runs, ends = (
-            Report(student, str(path), 0.0, exercise.max_points, zero, [_cpu_used_up_why(cpu_s)]),
-            [],
-            True,
-        )
+        result, runs = Report(student, str(path), 0.0, exercise.max_points, zero, [_cpu_used_up_why(cpu_s)]), None
+    ends = isinstance(result, str) or bool(_cpu.rung)
     if feedback is not None and isinstance(result, Report):  # in the worker: as many pages at once as workers
         _feedback_page(exercise, result, feedback, runs or [], name or file_names([student])[student], corrections)
     return result, ends

@@ -99,32 +99,34 @@ def cmd_import(args: argparse.Namespace) -> int:
     return _write_out(to_yaml(spec), args.output)
 
 
+def _registry(mission: str | None) -> Any:
+    """The node types a mission may use (its plugins' too), or the built-ins; None when the mission has problems."""
+    from autonomy.mission import BUILTINS
+
+    if not mission:
+        return BUILTINS
+    spec = _load(mission)
+    return spec.registry if spec is not None else None
+
+
 def cmd_behaviours(args: argparse.Namespace) -> int:
     """Lists every node type with its parameters (with a mission: its plugins' too)."""
-    from autonomy.mission import BUILTINS
     from autonomy.mission.catalogue import catalogue_markdown, catalogue_text
 
-    registry = BUILTINS
-    if args.mission:
-        spec = _load(args.mission)
-        if spec is None:
-            return EXIT_USAGE
-        registry = spec.registry
+    registry = _registry(args.mission)
+    if registry is None:
+        return EXIT_USAGE
     sys.stdout.write(catalogue_markdown(registry) if args.markdown else catalogue_text(registry))
     return EXIT_OK
 
 
 def cmd_schema(args: argparse.Namespace) -> int:
     """Prints the JSON Schema of mission files (with a mission: its plugins' node types too)."""
-    from autonomy.mission import BUILTINS
     from autonomy.mission.catalogue import json_schema
 
-    registry = BUILTINS
-    if args.mission:
-        spec = _load(args.mission)
-        if spec is None:
-            return EXIT_USAGE
-        registry = spec.registry
+    registry = _registry(args.mission)
+    if registry is None:
+        return EXIT_USAGE
     print(json.dumps(json_schema(registry), indent=2))
     return EXIT_OK
 

@@ -78,15 +78,16 @@ def run_payload(
         run: The run's name, by which a live page knows the next run from this one.
         open_at_end: A replay opens on the run's last tick (where it ended), not its first.
     """
-    return _joined(_head(header, mode, run), ticks_json(ticks), end, open_at_end)
+    head = _head(header, mode, run)
+    return "".join(_parts(head, "ticks", ticks_json(ticks)[1:-1], end, open_at_end))
 
 
-def _joined(head: dict[str, Any], ticks: str, end: RunEnd | None, open_at_end: bool) -> str:
-    """The payload's JSON: ``head``'s fields, then the ticks (a JSON array) and the end record."""
+def _parts(head: dict[str, Any], key: str, items: str, end: RunEnd | None, open_at_end: bool) -> list[str]:
+    """The payload's JSON in pieces: ``head``'s fields, then ``key``'s items (a JSON array's inside), the end."""
     if open_at_end:
         head["open_at_end"] = True
-    text = json.dumps(head)
-    return text[:-1] + ',"ticks":' + ticks + ',"end":' + (to_line(end) if end else "null") + "}"
+    end_text = to_line(end) if end else "null"
+    return [json.dumps(head)[:-1], f',"{key}":[', items, '],"end":', end_text, "}"]
 
 
 class _Row(msgspec.Struct, array_like=True, gc=False):
@@ -193,11 +194,7 @@ class ReplayMaker:
         head["row_fields"] = list(ROW_FIELDS)
         if marks is not None:
             head["marks"] = marks
-        if at_end:
-            head["open_at_end"] = True
-        end = to_line(self.end) if self.end else "null"
-        rows = b",".join(self._rows).decode()
-        return [json.dumps(head)[:-1], ',"rows":[', rows, '],"end":', end, "}"]
+        return _parts(head, "rows", b",".join(self._rows).decode(), self.end, at_end)
 
 
 def replay_payload(trace: Trace | Iterable[Record], at_end: bool = False) -> str:
