@@ -41,6 +41,7 @@ from autonomy.errors import (
     ReplyTimeout,
 )
 from autonomy.guard import StatusGuard, Verdict
+from autonomy.guardian import Guardian, link_descriptor
 from autonomy.protocol import (
     PARAMETERS,
     STATUS_LENGTH,
@@ -202,6 +203,7 @@ class Client:
         self._closed = False
         self.guard = StatusGuard()
         self._heard = bytearray()
+        self._guardian: Guardian | None = None
         self._waiting_ready = False  # while True, stale input is read into _heard, not discarded
         # An in-process emulator's port can answer a frame at once (a port class's own method, never a mock's).
         self._answer_now: Callable[[bytes], bytes | None] | None = (
@@ -221,11 +223,23 @@ class Client:
         timeout_s: float = DEFAULT_TIMEOUT_S,
         retries: int = DEFAULT_RETRIES,
         ready_timeout_s: float = DEFAULT_READY_TIMEOUT_S,
+        guardian: bool = False,
     ) -> Client:
         """Opens ``url`` and waits until the robot answers.
 
         Boards that reset when the port opens stay silent for up to ~2 s, so this polls
         ``GF000`` until a valid reply comes or ``ready_timeout_s`` has passed.
+
+        Args:
+            url: A device path, ``socket://host:port``, ``rfc2217://host:port`` or ``emu://[?options]``.
+            baud: 57600 or 115200.
+            clock: For ``emu://`` ports, the clock the emulator runs on.
+            timeout_s: How long one attempt waits for its reply.
+            retries: How many more attempts a repeatable command gets.
+            ready_timeout_s: How long to wait for the robot's first answer.
+            guardian: Start a :class:`~autonomy.guardian.Guardian` that stops the robot if this process
+                is killed outright (links of the operating system's only; an ``emu://`` robot ends with
+                the process).
 
         Raises:
             PortError: the port cannot be opened.
@@ -234,6 +248,12 @@ class Client:
         port = open_port(url, baud, clock)
         client = cls(port, clock=clock, timeout_s=timeout_s, retries=retries)  # named by the port: its URL
         try:
+            link_fd = link_descriptor(port) if guardian else None
+            if link_fd is not None:
+                try:
+                    client._guardian = Guardian(link_fd, Stop().encode(), url)
+                except OSError as err:
+                    raise PortError(f"cannot start the process that stops the robot if this one dies: {err}") from err
             client.wait_ready(ready_timeout_s)
         except BaseException:
             client._close_port()
@@ -329,6 +349,8 @@ class Client:
 
     def _close_port(self) -> None:
         self._closed = True
+        if self._guardian is not None:
+            self._guardian.release()  # before the port closes: the guardian holds the same link
         try:
             self.port.close()
         except PORT_ERRORS:

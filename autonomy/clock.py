@@ -8,6 +8,7 @@ costs nothing and runs are exactly repeatable.
 from __future__ import annotations
 
 import datetime
+import select
 import signal
 import threading
 import time
@@ -87,6 +88,17 @@ class VirtualClock:
         with self._lock:
             if when_s > self._now_s:
                 self._now_s = when_s
+
+
+def wait_readable(fd: int, timeout_s: float) -> bool:
+    """Waits, in real time, at most ``timeout_s`` for ``fd`` to have bytes (or an end) to read.
+
+    Returns:
+        True when ``fd`` can be read without waiting.
+    """
+    poller = select.poll()  # poll(), not select(): any descriptor number
+    poller.register(fd, select.POLLIN)
+    return bool(poller.poll(max(0.0, timeout_s) * 1000.0))
 
 
 def make_clock(virtual: bool) -> Clock:

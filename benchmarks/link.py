@@ -6,7 +6,9 @@ Measures, in one run:
     process, real time, a real socket or terminal);
   - one status poll over the baud-paced 57600 emulator against its wire time (15 bytes = 2.6 ms),
     in-process and over a pty;
-  - the emulator's simulated seconds per wall second while driving, in virtual time.
+  - the emulator's simulated seconds per wall second while driving, in virtual time;
+  - what the guardian (the process that stops the robot if the engine is killed) costs: round
+    trips through the TCP emulator with it, and the time it adds to opening the link.
 
 Usage: python benchmarks/link.py [--quick] [--json]
 """
@@ -50,13 +52,24 @@ def emulator_process(*args: str):
         process.wait(timeout=10)
 
 
-def served_round_trips(count: int, *args: str) -> float:
+def served_round_trips(count: int, *args: str, guardian: bool = False) -> float:
     with emulator_process(*args) as url:
-        client = Client.open(url)
+        client = Client.open(url, guardian=guardian)
         try:
             return round_trips_per_s(client, count)
         finally:
             client.close()
+
+
+def open_ms(url: str, guardian: bool, count: int) -> float:
+    """The median time to open the link and close it again, in milliseconds."""
+    samples = []
+    for _ in range(count):
+        start = time.perf_counter()
+        client = Client.open(url, guardian=guardian)
+        samples.append(time.perf_counter() - start)
+        client.close()
+    return statistics.median(samples) * 1000
 
 
 def paced_poll_s(client: Client, count: int) -> float:
@@ -101,6 +114,10 @@ def main() -> None:
     client.close()
     results["tcp_round_trips_per_s"] = served_round_trips(n // 4, "--tcp", "127.0.0.1:0")
     results["pty_round_trips_per_s"] = served_round_trips(n // 4, "--pty")
+    results["tcp_round_trips_guarded_per_s"] = served_round_trips(n // 4, "--tcp", "127.0.0.1:0", guardian=True)
+    with emulator_process("--tcp", "127.0.0.1:0") as url:
+        results["open_ms"] = open_ms(url, False, 10 if args.quick else 50)
+        results["open_guarded_ms"] = open_ms(url, True, 10 if args.quick else 50)
 
     paced = Client.open("emu://?faults=pace")
     results["paced_poll_emu_ms"] = paced_poll_s(paced, 200 if args.quick else 1000) * 1000
@@ -124,6 +141,18 @@ def main() -> None:
         ),
         ("round trips/s, TCP emulator", f"{results['tcp_round_trips_per_s']:,.0f}", "", None),
         ("round trips/s, pty emulator", f"{results['pty_round_trips_per_s']:,.0f}", "", None),
+        (
+            "round trips/s, TCP, guardian waiting",
+            f"{results['tcp_round_trips_guarded_per_s']:,.0f}",
+            "as without",
+            None,
+        ),
+        (
+            "open TCP, guardian: without / with",
+            f"{results['open_ms']:.1f} / {results['open_guarded_ms']:.1f} ms",
+            "",
+            None,
+        ),
         (
             "status poll, paced 57600, emu://",
             f"{results['paced_poll_emu_ms']:.3f} ms",

@@ -220,7 +220,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         else:
             listeners.append(LinePrinter(output, quiet=args.quiet))
         try:
-            client = Client.open(port, baud=args.baud)
+            client = Client.open(port, baud=args.baud, guardian=True)
         except KeyboardInterrupt:
             return _fail("interrupted while connecting", EXIT_INTERRUPTED)
         except AutonomyError as err:
