@@ -40,6 +40,11 @@ DEFAULT_PORT = 1667
 
 #: Largest request taken in (Groot2's are a few bytes; a bigger one is refused by ZeroMQ).
 MAX_REQUEST_BYTES = 65_536
+#: Replies held for one client that does not read them; past this its replies are dropped. Groot2
+#: asks one thing at a time, so it never has more than one waiting.
+REPLIES_HELD = 2
+#: Requests taken in from one client before its connection is read no further until they are answered.
+REQUESTS_HELD = 4
 
 
 def _msgpack_nils(names: list[str]) -> bytes:
@@ -84,6 +89,10 @@ class GrootPublisher:
         self._publish = self._context.socket(zmq.PUB)
         self._reply.setsockopt(zmq.LINGER, 0)
         self._reply.setsockopt(zmq.MAXMSGSIZE, MAX_REQUEST_BYTES)
+        # A client that asks and never reads costs a few replies, each sharing the one buffer of its
+        # answer (sent without a copy), never a queue that grows with every request.
+        self._reply.setsockopt(zmq.SNDHWM, REPLIES_HELD)
+        self._reply.setsockopt(zmq.RCVHWM, REQUESTS_HELD)
         self._publish.setsockopt(zmq.LINGER, 0)
         address = f"[{host}]" if ":" in host else host
         if ":" in host:
@@ -101,6 +110,9 @@ class GrootPublisher:
         self._thread = threading.Thread(target=self._serve, name="groot2", daemon=True)
         #: Requests answered, for the curious.
         self.requests = 0
+        #: Changed by every tick that changed a status: the ``S`` answer is made once per change.
+        self._version = 0
+        self._status_answer: tuple[int, bytes] = (-1, b"")
 
     def _bind(self, address: str, port: int) -> int:
         if port:
@@ -131,14 +143,22 @@ class GrootPublisher:
                     codes[node_id] = previous + 10 if 0 < previous < 10 else previous
                 else:
                     codes[node_id] = CODES.get(state.status, 0)
+            if record.nodes:
+                self._version += 1
 
     def status_bytes(self) -> bytes:
-        """The ``S`` answer: uid and status of every node, in uid order."""
+        """The ``S`` answer: uid and status of every node, in uid order (made again only after a change)."""
+        version = self._version  # read first: a tick that comes while the answer is made makes it again next time
+        made, answer = self._status_answer
+        if made == version:
+            return answer
         codes = self.codes
-        return b"".join(
+        answer = b"".join(
             struct.pack("<HB", uid, codes.get(record_id, 0))
             for uid, record_id in enumerate(self.tree.record_ids, start=1)
         )
+        self._status_answer = (version, answer)
+        return answer
 
     def answer(self, frames: list[bytes]) -> list[bytes]:
         """The reply to one request."""
@@ -175,7 +195,7 @@ class GrootPublisher:
                     reply = self.answer(frames)
                 except Exception as err:  # noqa: BLE001 - a request we cannot answer must not end the publisher
                     reply = [b"error", f"cannot answer: {type(err).__name__}".encode()]
-                self._reply.send_multipart(reply)
+                self._reply.send_multipart(reply, copy=False)  # large answers go out as views of one buffer
                 self.requests += 1
         except zmq.ZMQError:  # ETERM: stop() ended the context
             pass

@@ -17,9 +17,11 @@ from __future__ import annotations
 import asyncio
 import ipaddress
 import logging
+import resource
 import threading
 import uuid
 from collections.abc import Awaitable, Callable
+from typing import Any
 
 import msgspec
 from aiohttp import web
@@ -36,6 +38,43 @@ Put = Callable[[str], Awaitable[None]]
 _QUIET_LOGGER = logging.getLogger("autonomy.views.web.requests")
 _QUIET_LOGGER.addHandler(logging.NullHandler())
 _QUIET_LOGGER.propagate = False
+#: Where a refusal is said: one line (on the terminal, when nothing else is set up), never a traceback.
+REFUSALS = logging.getLogger("autonomy.view")
+#: A refusal of a kind said already is said again, with how many there were, at most this often.
+REFUSAL_REPEAT_S = 10.0
+
+#: Connections served at once; past this a new one is answered 503 and closed. Fewer when the process
+#: may open fewer files: :data:`RESERVED_FILES` are kept for everything else it opens.
+MAX_CONNECTIONS = 4096
+RESERVED_FILES = 256
+#: ``api/run`` answers on their way at once; past this a page is answered 503 and asks again a second
+#: later. Each holds a piece and the socket's buffer, about 200 KB at most: 50 MB in all.
+MAX_ANSWERS_SENDING = 256
+#: An answer is sent in pieces of this size, the next once the page has read the last.
+ANSWER_PIECE_BYTES = 65_536
+#: A page that reads none of its answer for this long is let go.
+ANSWER_STALL_S = 10.0
+_RETRY = {"Retry-After": "1"}
+_BUSY_ANSWER = (
+    b"HTTP/1.1 503 Service Unavailable\r\nContent-Type: text/plain\r\nContent-Length: 30\r\n"
+    b"Retry-After: 1\r\nConnection: close\r\n\r\ntoo many connections at once\r\n"
+)
+
+
+class _Refusing(asyncio.Protocol):
+    """A connection past the limit: told so, and closed."""
+
+    def connection_made(self, transport: asyncio.BaseTransport) -> None:
+        transport.write(_BUSY_ANSWER)  # type: ignore[attr-defined]
+        transport.close()
+
+
+def connection_limit() -> int:
+    """How many connections the view serves at once: :data:`MAX_CONNECTIONS`, or fewer if files are fewer."""
+    soft, _ = resource.getrlimit(resource.RLIMIT_NOFILE)
+    if soft == resource.RLIM_INFINITY:
+        return MAX_CONNECTIONS
+    return max(16, min(MAX_CONNECTIONS, soft - RESERVED_FILES))
 
 
 class RecordHub:
@@ -67,7 +106,12 @@ class RecordHub:
         self.closed = False
         self._lock = threading.Lock()
         self._loop: asyncio.AbstractEventLoop | None = None
+        #: The streams of the run (``api/stream``), woken by its records.
         self._waiters: set[asyncio.Event] = set()
+        #: The pages waiting for the next run (``api/next``), woken only when one starts or the server stops.
+        self._run_waiters: set[asyncio.Event] = set()
+        #: The ``api/run`` answer, encoded once for every page that asks until the run changes.
+        self._payload: tuple[tuple[str, int, bool], bytes] = (("", -1, False), b"")
         self._clock = RealClock()
         self._wake_pending = False
         self._woken_s = -1.0
@@ -97,7 +141,11 @@ class RecordHub:
         now_s = self._clock.now()
         since_tick_s, self._last_record_s = now_s - self._last_record_s, now_s
         loop = self._loop
-        if loop is None or not self._waiters or loop.is_closed() or self._wake_pending:
+        if loop is None or loop.is_closed():
+            return
+        if self._new_header and self._run_waiters:
+            loop.call_soon_threadsafe(self._wake_run_waiters)
+        if not self._waiters or self._wake_pending:
             return
         wait_s = self.BURST_WAKE_S if since_tick_s < self.BURST_S else 0.0
         if now_s - self._woken_s < wait_s and self.end is None and not self._new_header:
@@ -110,6 +158,10 @@ class RecordHub:
         for event in self._waiters:
             event.set()
 
+    def _wake_run_waiters(self) -> None:
+        for event in self._run_waiters:
+            event.set()
+
     @property
     def run(self) -> str:
         """The run's name for the page: this hub's, and which of its runs (empty before any)."""
@@ -117,9 +169,20 @@ class RecordHub:
 
     def payload(self) -> str:
         """The whole run so far, as the page's ``api/run`` answer."""
+        return self.encoded_payload().decode("utf-8")
+
+    def encoded_payload(self) -> bytes:
+        """:meth:`payload` in UTF-8: made once for every page that asks while the run stays as it is."""
         with self._lock:
-            header, ticks, end, run = self.header, list(self.ticks), self.end, self.run
-        return run_payload(header, ticks, end, self.mode, run)
+            header, ticks, end, run = self.header, self.ticks, self.end, self.run
+            count = len(ticks)
+        key = (run, count, end is not None)
+        made, answer = self._payload
+        if made == key:
+            return answer
+        answer = run_payload(header, ticks[:count], end, self.mode, run).encode("utf-8")
+        self._payload = (key, answer)
+        return answer
 
     def event(self, ticks: list[TickRecord]) -> str:
         """The message for ``ticks``: all of them, or for a burst a preview.
@@ -198,7 +261,13 @@ class ViewServer:
         self._loop = asyncio.new_event_loop()
         self._thread: threading.Thread | None = None
         self._runner: web.AppRunner | None = None
+        self._listener: asyncio.AbstractServer | None = None
         self._stopped = threading.Event()
+        self._answers_sending = 0
+        #: Per kind of refusal: when it was last said, and how many since.
+        self._refusals: dict[str, tuple[float, int]] = {}
+        self.max_connections = connection_limit()
+        self.max_answers_sending = MAX_ANSWERS_SENDING
 
     @property
     def url(self) -> str:
@@ -238,17 +307,29 @@ class ViewServer:
     def _serve(self, runner: web.AppRunner, ready: threading.Event, failure: list[OSError]) -> None:
         loop = self._loop
         asyncio.set_event_loop(loop)
+        loop.set_exception_handler(self._loop_fault)
         try:
             loop.run_until_complete(runner.setup())
-            site = web.TCPSite(runner, self.host, self.port)
-            loop.run_until_complete(site.start())
+            handler = runner.server
+            if handler is None:  # setup() made it
+                raise OSError("the view's server was not set up")
+
+            def connection() -> asyncio.BaseProtocol:
+                if len(handler.connections) >= self.max_connections:
+                    self._refused("connections", f"{self.max_connections} connections at once; another was refused")
+                    return _Refusing()
+                return handler()
+
+            self._listener = loop.run_until_complete(
+                loop.create_server(connection, self.host, self.port, reuse_address=True, backlog=128)
+            )
         except OSError as err:
             failure.append(err)
             loop.run_until_complete(runner.cleanup())
             loop.close()
             ready.set()
             return
-        sockets = getattr(site._server, "sockets", None) or []  # noqa: SLF001 - the only way to learn port 0's pick
+        sockets = self._listener.sockets
         if sockets:
             self.port = sockets[0].getsockname()[1]
         self.hub._loop = loop  # noqa: SLF001 - the hub wakes streams on this loop
@@ -272,9 +353,29 @@ class ViewServer:
             self._loop.close()
 
     async def _shutdown(self) -> None:
+        if self._listener is not None:
+            self._listener.close()
         self.hub._wake_all()  # noqa: SLF001
+        self.hub._wake_run_waiters()  # noqa: SLF001
         if self._runner is not None:
             await self._runner.cleanup()
+
+    def _refused(self, kind: str, text: str) -> None:
+        """Says a refusal in one line: the first of its kind at once, then how many, at most every few seconds."""
+        now_s = self.hub._clock.now()  # noqa: SLF001 - the hub's clock: real time
+        said_s, since = self._refusals.get(kind, (-REFUSAL_REPEAT_S, 0))
+        if now_s - said_s < REFUSAL_REPEAT_S:
+            self._refusals[kind] = (said_s, since + 1)
+            return
+        self._refusals[kind] = (now_s, 0)
+        REFUSALS.warning("view: %s%s", text, f" ({since} more since it was last said)" if since else "")
+
+    def _loop_fault(self, loop: asyncio.AbstractEventLoop, context: dict[str, Any]) -> None:
+        """What the event loop could not handle (no file descriptor left to accept with, say): one line."""
+        error = context.get("exception")
+        message = context.get("message", "a fault")
+        why = (error.strerror or str(error)) if isinstance(error, OSError) else type(error).__name__ if error else ""
+        self._refused(f"loop {message}", f"{message}: {why}" if why else message)
 
     def wait(self, clock: Clock | None = None) -> None:
         """Blocks until the server stops (or Ctrl-C), looking twice a second."""
@@ -293,8 +394,38 @@ class ViewServer:
             raise web.HTTPNotFound()
         return web.Response(text=static_text(name), content_type=STATIC_FILES[name])
 
-    async def _run(self, request: web.Request) -> web.Response:
-        return web.Response(text=self.hub.payload(), content_type="application/json")
+    async def _run(self, request: web.Request) -> web.StreamResponse:
+        """The whole run so far: one encoded answer for every page, sent a piece at a time as each page reads it.
+
+        A page that does not read holds a piece of the answer (and the kernel's buffer), never a copy
+        of it; at most :attr:`max_answers_sending` answers are on their way at once, and one not read
+        for :data:`ANSWER_STALL_S` is given up.
+        """
+        if self._answers_sending >= self.max_answers_sending:
+            self._refused("answers", "too many pages are being sent the run at once")
+            return web.Response(status=503, text="too many pages are being sent the run at once\n", headers=_RETRY)
+        self._answers_sending += 1
+        try:
+            body = memoryview(self.hub.encoded_payload())
+            response = web.StreamResponse(headers={"Content-Type": "application/json; charset=utf-8"})
+            response.content_length = len(body)
+            response.headers["Content-Security-Policy"] = CONTENT_SECURITY_POLICY
+            response.headers["X-Content-Type-Options"] = "nosniff"
+            await response.prepare(request)
+            for start in range(0, len(body), ANSWER_PIECE_BYTES):
+                try:
+                    await asyncio.wait_for(response.write(body[start : start + ANSWER_PIECE_BYTES]), ANSWER_STALL_S)
+                except asyncio.TimeoutError:
+                    self._refused("stalled", "a page stopped reading the run; it was let go")
+                    if request.transport is not None:
+                        request.transport.abort()
+                    return response
+            await response.write_eof()
+            return response
+        except ConnectionError:  # the page went
+            return web.Response()
+        finally:
+            self._answers_sending -= 1
 
     async def _stream(self, request: web.Request) -> web.StreamResponse:
         """The run as it goes, for a page: messages ``ticks``, ``preview``, ``end``, or ``header`` (start again)."""
@@ -328,7 +459,7 @@ class ViewServer:
                     return
                 await event.wait()
 
-        return await self._events(request, send)
+        return await self._events(request, send, hub._waiters)  # noqa: SLF001
 
     async def _next(self, request: web.Request) -> web.StreamResponse:
         """For a page on a finished live run: the message ``run`` once a run other than the page's has started.
@@ -347,16 +478,19 @@ class ViewServer:
                     return
                 await event.wait()
 
-        return await self._events(request, send)
+        return await self._events(request, send, hub._run_waiters)  # noqa: SLF001
 
     async def _events(
-        self, request: web.Request, send: Callable[[Put, asyncio.Event], Awaitable[None]]
+        self,
+        request: web.Request,
+        send: Callable[[Put, asyncio.Event], Awaitable[None]],
+        waiters: set[asyncio.Event],
     ) -> web.StreamResponse:
         """A WebSocket on which ``send`` puts its messages (``NAME\\nJSON``), woken by the hub, until it returns.
 
         A WebSocket, not server-sent events: a browser keeps six HTTP connections to one server,
         and a page held one for as long as it was open, so the seventh page of a run never loaded.
-        It ends when ``send`` returns, or when the page goes.
+        It ends when ``send`` returns, or when the page goes. ``waiters`` is the hub's set that wakes it.
         """
         socket = web.WebSocketResponse(timeout=1.0)  # closing waits at most a second for the page's answer
         try:
@@ -364,13 +498,13 @@ class ViewServer:
         except ConnectionError:  # the page went while its socket was being opened (a tab shown and hidden at once)
             return web.Response()  # to nobody: aiohttp lets go of a response to a connection already gone
         event = asyncio.Event()
-        self.hub._waiters.add(event)  # noqa: SLF001
+        waiters.add(event)
         sending = asyncio.ensure_future(send(socket.send_str, event))
         listening = asyncio.ensure_future(socket.receive())  # returns once the page closes its end
         try:
             await asyncio.wait({sending, listening}, return_when=asyncio.FIRST_COMPLETED)
         finally:
-            self.hub._waiters.discard(event)  # noqa: SLF001
+            waiters.discard(event)
             for task in (sending, listening):
                 task.cancel()
             results = await asyncio.gather(sending, listening, return_exceptions=True)

@@ -169,3 +169,159 @@ def test_the_view_answers_only_by_address_and_only_its_own_page_s_websocket():
         assert in_a_thread(f"http://127.0.0.1:{port}") == "opened"
     finally:
         server.stop()
+
+
+def test_pages_that_never_read_a_replay_of_8_mb_hold_pieces_of_one_answer_never_copies(tmp_path):
+    """60 clients ask ``api/run`` of a replayed 9 MB trace, 20 times each, and read nothing."""
+    import subprocess
+    import sys
+    from collections import Counter
+
+    from tests.crowd import memory_mb, non_readers
+
+    mission = tmp_path / "wander.yaml"
+    mission.write_text((ROOT / "missions" / "wander.yaml").read_text().replace("seconds: 60", "seconds: 900"))
+    trace = tmp_path / "long.jsonl"
+    made = subprocess.run(
+        [sys.executable, "-m", "autonomy", "run", str(mission), "--fast", "--quiet", "--trace", str(trace)],
+        cwd=ROOT, capture_output=True, timeout=120,
+    )  # fmt: skip
+    assert made.returncode == 0 and trace.stat().st_size > 8_000_000
+    replay = subprocess.Popen(
+        [sys.executable, "-m", "autonomy", "replay", str(trace), "--view", "--view-port", "0"],
+        cwd=ROOT, stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True,
+    )  # fmt: skip
+    crowd = []
+    try:
+        port = int(replay.stderr.readline().rsplit(":", 1)[1].strip(" /\n"))
+        first = b'"end":null}'
+        while first.endswith(b'"end":null}'):  # until the whole trace is read in, and its answer made
+            first = urllib.request.urlopen(f"http://127.0.0.1:{port}/api/run", timeout=30).read()
+        start_mb = memory_mb(replay.pid)["VmRSS"]
+        crowd = non_readers(port, 60)
+        threading.Event().wait(3.0)  # the server writes what it can, then waits on them
+        held_mb = memory_mb(replay.pid)["VmHWM"] - start_mb
+        again = urllib.request.urlopen(f"http://127.0.0.1:{port}/api/run", timeout=30).read()  # a page still gets it
+        answers = Counter(conn.recv(64).split(b"\r\n")[0] for conn in crowd)
+    finally:
+        for conn in crowd:
+            conn.close()
+        replay.terminate()
+        _, said = replay.communicate(timeout=20)
+    assert again == first and len(first) > 4_000_000
+    assert held_mb < 60, f"{held_mb} MB held for 60 clients that read nothing (a copy each would be 2 x 60 x 4 MB)"
+    assert answers == {b"HTTP/1.1 200 OK": 60}
+    assert "Traceback" not in said
+
+
+def test_answers_past_the_limit_are_refused_503_and_said_once(caplog, tmp_path):
+    import logging
+
+    from autonomy.mission import validate_text
+    from tests.crowd import non_readers
+
+    server = ViewServer("127.0.0.1", 0, mode="replay")
+    server.max_answers_sending = 5
+    text = (ROOT / "missions" / "wander.yaml").read_text().replace("seconds: 60", "seconds: 300")
+    spec = validate_text(text, "wander.yaml", ROOT / "missions")
+    client = Client.open("emu://?time=virtual&world=obstacles")
+    Runner(build_tree(spec), client, mission=spec.name, listeners=[server.hub]).run()  # an answer of 3 MB
+    client.close()
+    server.start()
+    crowd = []
+    try:
+        with caplog.at_level(logging.WARNING, logger="autonomy.view"):
+            crowd = non_readers(server.port, 12, requests=1)
+            threading.Event().wait(0.5)
+            answers = sorted(conn.recv(64).split(b"\r\n")[0] for conn in crowd)
+        assert answers == [b"HTTP/1.1 200 OK"] * 5 + [b"HTTP/1.1 503 Service Unavailable"] * 7
+        said = [record.getMessage() for record in caplog.records if record.name == "autonomy.view"]
+        assert said == ["view: too many pages are being sent the run at once"]
+    finally:
+        for conn in crowd:
+            conn.close()
+        server.stop()
+
+
+def test_connections_past_the_limit_are_told_so_in_one_line_each_kind_and_closed(caplog):
+    import logging
+    import socket
+
+    server = ViewServer("127.0.0.1", 0)
+    server.max_connections = 20
+    server.start()
+    held = []
+    try:
+        with caplog.at_level(logging.WARNING, logger="autonomy.view"):
+            for _ in range(20):
+                held.append(socket.create_connection(("127.0.0.1", server.port), timeout=10))
+            threading.Event().wait(0.3)
+            refused = []
+            for _ in range(30):
+                with socket.create_connection(("127.0.0.1", server.port), timeout=10) as extra:
+                    refused.append(extra.recv(200))
+        assert all(answer.startswith(b"HTTP/1.1 503 Service Unavailable") for answer in refused)
+        assert all(answer.endswith(b"too many connections at once\r\n") for answer in refused)
+        said = [record.getMessage() for record in caplog.records if record.name == "autonomy.view"]
+        assert said == ["view: 20 connections at once; another was refused"]  # once, not 30 times
+        for conn in held:
+            conn.close()
+        held.clear()
+        threading.Event().wait(0.3)
+        page = urllib.request.urlopen(server.url + "api/run", timeout=10).read()  # served again once they went
+        assert json.loads(page)["mode"] == "live"
+    finally:
+        for conn in held:
+            conn.close()
+        server.stop()
+
+
+def test_a_loop_fault_such_as_no_file_left_to_accept_with_is_one_line_not_a_traceback_each_time(caplog):
+    import errno
+    import logging
+
+    server = ViewServer("127.0.0.1", 0)
+    fault = {"message": "socket.accept() out of system resource", "exception": OSError(errno.EMFILE, "Too many")}
+    with caplog.at_level(logging.WARNING, logger="autonomy.view"):
+        for _ in range(1000):
+            server._loop_fault(server._loop, fault)  # noqa: SLF001 - what asyncio calls on each failed accept
+    said = [record.getMessage() for record in caplog.records if record.name == "autonomy.view"]
+    assert said == ["view: socket.accept() out of system resource: Too many"]
+    assert all(record.exc_info is None for record in caplog.records)
+
+
+def test_pages_waiting_for_the_next_run_are_woken_by_a_new_run_only_never_by_ticks():
+    from autonomy.record import TickRecord
+
+    server = ViewServer("127.0.0.1", 0)
+    server.start()
+    hub = server.hub
+    spec = load_mission(ROOT / "missions" / "square.yaml")
+    client = Client.open("emu://?time=virtual&world=square")
+    ticks: list[TickRecord] = []
+    header: list[RunHeader] = []
+    try:
+        Runner(build_tree(spec), client, mission=spec.name, listeners=[lambda r: (
+            header.append(r) if isinstance(r, RunHeader) else ticks.append(r) if isinstance(r, TickRecord) else None
+        )]).run()  # fmt: skip
+        hub(header[0])
+        watched = hub.run
+        received: list[tuple[str, str]] = []
+        reader = threading.Thread(target=lambda: received.extend(messages_of(
+            server.url.replace("http", "ws") + f"api/next?run={watched}"
+        )))  # fmt: skip
+        reader.start()
+        while not hub._run_waiters:  # noqa: SLF001 - until it waits
+            threading.Event().wait(0.01)
+        (waiting,) = hub._run_waiters  # noqa: SLF001
+        for tick in ticks:
+            hub(tick)
+            threading.Event().wait(0.0005)  # ticks apart, each one woken at once
+        threading.Event().wait(0.2)
+        assert not waiting.is_set() and received == []  # no tick woke it
+        hub(header[0])  # a new run
+        reader.join(timeout=10)
+        assert received == [("run", "{}")]
+    finally:
+        client.close()
+        server.stop()

@@ -510,7 +510,12 @@ document.addEventListener("visibilitychange", () => {
 function connect() {
   if (asleep()) return;
   live.waitingAfter = null;
-  fetch("api/run").then((r) => r.json()).then((payload) => {
+  fetch("api/run").then((r) => {
+    // too many pages asked at once (the server says 503): ask again in a second
+    if (r.status === 503) { live.retry = setTimeout(connect, NEXT_RUN_FIRST_WAIT_MS); return null; }
+    return r.json();
+  }).then((payload) => {
+    if (!payload) return;
     load(payload);
     if (payload.mode !== "live") return;
     if (payload.end) { watchForNextRun(payload.run); return; }
