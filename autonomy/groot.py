@@ -31,6 +31,7 @@ import uuid
 import zmq
 
 from autonomy.btlog import CODES
+from autonomy.clock import RealClock
 from autonomy.mission.btcpp import Instance
 from autonomy.record import INVALID, Record, TickRecord
 
@@ -45,6 +46,10 @@ MAX_REQUEST_BYTES = 65_536
 REPLIES_HELD = 2
 #: Requests taken in from one client before its connection is read no further until they are answered.
 REQUESTS_HELD = 4
+#: Answers a second, at most, to everyone together (Groot2 asks 10 a second while it watches), counted
+#: over bursts of :data:`ANSWER_BURST`.
+ANSWERS_PER_S = 500
+ANSWER_BURST = 25
 
 
 def _msgpack_nils(names: list[str]) -> bytes:
@@ -187,10 +192,20 @@ class GrootPublisher:
         return [b"error", b"Request not recognized"]
 
     def _serve(self) -> None:
-        """Answers until :meth:`stop` ends the context, which wakes the waiting receive."""
+        """Answers until :meth:`stop` ends the context, which wakes the waiting receive.
+
+        At most :data:`ANSWERS_PER_S` a second, whoever asks: a crowd of clients costs the run no more
+        than one busy Groot2 would. ZeroMQ queues requests from each client fairly meanwhile.
+        """
+        clock = RealClock()
+        budget_start_s, answered = clock.now(), 0
         try:
             while True:
                 frames = self._reply.recv_multipart()
+                answered += 1
+                if answered >= ANSWER_BURST:
+                    clock.sleep(ANSWER_BURST / ANSWERS_PER_S - (clock.now() - budget_start_s))
+                    budget_start_s, answered = clock.now(), 0
                 try:
                     reply = self.answer(frames)
                 except Exception as err:  # noqa: BLE001 - a request we cannot answer must not end the publisher

@@ -17,10 +17,13 @@ import zmq
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def big_mission(path: Path, conditions: int = 1600, drive_s: float = 8.0) -> Path:
-    """A mission of ``conditions + 5`` nodes: its conditions pass in its first tick, then it drives ``drive_s``."""
+def big_mission(path: Path, conditions: int = 1600, drive_s: float = 8.0, wait_s: float = 0.0) -> Path:
+    """A mission of ``conditions + 5`` nodes (6 with a wait): its conditions pass in its first tick, it waits
+    ``wait_s``, then it drives ``drive_s``."""
     lines = ["mission: big", "world: empty", "tree:", "  sequence:", "    - sequence:"]
     lines += ["        - battery_above: {level: 0}"] * conditions
+    if wait_s:
+        lines.append(f"    - wait: {{seconds: {wait_s:g}}}")
     lines.append(f"    - move: {{speed: 1, seconds: {drive_s:g}}}")
     path.write_text("\n".join(lines) + "\n")
     return path
@@ -172,9 +175,10 @@ class IdleWebSockets:
         self._thread.join(timeout=30)
 
 
-def tick_gaps_ms(trace: Path) -> list[float]:
-    """The gaps between a trace's ticks, in milliseconds."""
+def tick_gaps_ms(trace: Path, from_s: float = 0.0) -> list[float]:
+    """The gaps between a trace's ticks from ``from_s`` into the run on, in milliseconds."""
     import json
 
     times = [json.loads(line)["time_s"] for line in trace.read_text().splitlines() if line.startswith('{"type":"tick"')]
+    times = [time_s for time_s in times if time_s >= from_s]
     return [(later - earlier) * 1000 for earlier, later in zip(times, times[1:], strict=False)]
