@@ -42,7 +42,8 @@ def one_run(folder: Path, case: str, websockets: int) -> dict[str, float]:
     mission = big_mission(folder / "big.yaml", drive_s=12.0, wait_s=WAIT_S)
     trace = folder / f"run-{CASES.index(case)}.jsonl"
     started_s = time.monotonic()
-    run = Run(str(mission), "--view", "--view-port", "0", "--groot", "--groot-port", "0", "--quiet", "--trace", str(trace))
+    serve = ("--view", "--view-port", "0", "--groot", "--groot-port", "0")
+    run = Run(str(mission), *serve, "--quiet", "--trace", str(trace))
     start_mb = run.start["VmRSS"]
     attackers: list = []
     sockets = None
