@@ -43,7 +43,7 @@ from autonomy.record import (
     RunHeader,
     TickRecord,
 )
-from autonomy.trace import FlushTimer, Trace
+from autonomy.trace import FlushTimer, Trace, tree_problem
 
 MAGIC = b"BTCPP4-FileLogger2"
 VERSION = 1
@@ -279,6 +279,9 @@ def read_btlog(path: str | Path) -> Trace:
         clock="recorded",
         telemetry=False,
     )
+    why = tree_problem(header)
+    if why:
+        raise BtlogError(f"{path}: {why}")
     ticks: list[TickRecord] = []
     body = memoryview(data)[xml_end + 8 :]
     whole = len(body) - len(body) % _RECORD.size

@@ -32,6 +32,12 @@ from autonomy.record import (
 
 #: Largest trace line read back (a 200-node tree's first tick is well under 100 kB).
 MAX_LINE_CHARS = 4_000_000
+#: What a trace may hold; a reader refuses more in one line (``autonomy`` exits 2). A run of a mission
+#: has at most 3,000 nodes 50 levels deep, and at most 720,000 ticks (an hour at 200 Hz).
+MAX_TRACE_BYTES = 512_000_000
+MAX_NODES = 10_000
+MAX_DEPTH = 100
+MAX_TICKS = 1_000_000
 
 
 class TraceError(AutonomyError):
@@ -172,9 +178,12 @@ def read_trace(path: str | Path) -> Trace:
     """
     path = Path(path)
     try:
-        data = path.read_bytes()
+        with path.open("rb") as stream:
+            data = stream.read(MAX_TRACE_BYTES + 1)
     except OSError as err:
         raise TraceError(f"{path}: cannot read the trace: {err.strerror or err}") from err
+    if len(data) > MAX_TRACE_BYTES:
+        raise TraceError(f"{path}: larger than {MAX_TRACE_BYTES:,} bytes, more than a trace of any run holds")
     # Whole lines are UTF-8; a trace cut off in the middle of a character is read to its last whole line.
     whole = data.rfind(b"\n") + 1
     try:
@@ -221,6 +230,8 @@ def read_trace(path: str | Path) -> Trace:
         elif isinstance(record, TickRecord):
             if end is not None:
                 raise TraceError(f"{path}:{number}: a tick after the run's end")
+            if len(ticks) >= MAX_TICKS:
+                raise TraceError(f"{path}:{number}: more than {MAX_TICKS:,} ticks, more than a run of an hour holds")
             unknown = [node_id for node_id in record.nodes if not 0 <= node_id < len(header.nodes)]
             if unknown:
                 raise TraceError(f"{path}:{number}: tick {record.tick} names node {unknown[0]}, not in the header")
@@ -238,15 +249,29 @@ def _not_a_number(name: str) -> None:
     raise RecordError(f"{name} is not a number a trace holds")
 
 
-def _header_problem(header: RunHeader) -> str:
-    """Why a header's tree or world cannot be drawn, or empty: the views take both as they are."""
+def tree_problem(header: RunHeader) -> str:
+    """Why a header's tree cannot be drawn (numbering, parents, size, depth), or empty."""
+    if len(header.nodes) > MAX_NODES:
+        return f"the tree has {len(header.nodes):,} nodes; a trace holds at most {MAX_NODES:,}"
+    depth: list[int] = []
     for index, node in enumerate(header.nodes):
         if node.id != index:
             return f"the header's nodes are numbered 0, 1, 2... in order; node {index} is numbered {node.id}"
         if (node.parent is None) != (index == 0) or (node.parent is not None and not 0 <= node.parent < index):
             return f"node {index}'s parent must be a node before it (the root, 0, alone has none); got {node.parent}"
+        depth.append(0 if node.parent is None else depth[node.parent] + 1)
+        if depth[-1] >= MAX_DEPTH:
+            return f"the tree is more than {MAX_DEPTH} levels deep (node {index}); a trace holds at most {MAX_DEPTH}"
     if not header.nodes:
         return "the header has no nodes"
+    return ""
+
+
+def _header_problem(header: RunHeader) -> str:
+    """Why a header's tree or world cannot be drawn, or empty: the views take both as they are."""
+    why = tree_problem(header)
+    if why:
+        return why
     if header.world is not None:
         if not isinstance(header.world, dict):
             return f"the header's world is a world file's content, got {type(header.world).__name__}"

@@ -220,11 +220,23 @@ def _timeline(ax: Any, trace: Trace, rows: int) -> None:
     depth = {}
     for node in header.nodes:
         depth[node.id] = 0 if node.parent is None else depth[node.parent] + 1
+    # One collection per row and colour, and one for all marks of a colour: a node that changes on every
+    # tick costs points in them, never an artist of its own (matplotlib's cost is per artist).
+    marked: dict[str, tuple[list[float], list[float]]] = {}
     for row, (_node_id, spans, marks) in enumerate(timeline(trace)[:rows]):
+        bars: dict[str, list[tuple[float, float]]] = {}
         for start_s, end_s, how in spans:
-            ax.broken_barh([(start_s, max(end_s - start_s, 0.02))], (row - 0.35, 0.7), color=OUTCOME_COLOURS[how])
+            bars.setdefault(how, []).append((start_s, max(end_s - start_s, 0.02)))
+        for how, pieces in bars.items():
+            ax.broken_barh(pieces, (row - 0.35, 0.7), color=OUTCOME_COLOURS[how])
         for when_s, how in marks:
-            ax.plot([when_s, when_s], [row - 0.35, row + 0.35], color=OUTCOME_COLOURS[how], linewidth=1)
+            whens, rows_of = marked.setdefault(how, ([], []))
+            whens.append(when_s)
+            rows_of.append(row)
+    for how, (whens, rows_of) in marked.items():
+        ax.vlines(
+            whens, [r - 0.35 for r in rows_of], [r + 0.35 for r in rows_of], colors=OUTCOME_COLOURS[how], linewidth=1
+        )
     ax.set_yticks(range(rows))
     ax.set_yticklabels(
         [("  " * depth[n.id]) + printable(n.name) for n in header.nodes[:rows]], fontsize=7, family="monospace"

@@ -418,3 +418,23 @@ def test_a_picture_sent_to_the_page_is_drawn_without_anything_that_could_run(tmp
         assert gone not in kept, gone
     assert page.evaluate("autonomyView.safeSvg('<p>not a picture</p>').length") == 0
     assert page.title() != "owned"
+
+
+def test_bidi_controls_in_a_crafted_mission_name_never_reach_the_page_s_title(tmp_path, page):
+    """A right-to-left override in the title would show the tab's text reversed, and hide what follows it."""
+    import dataclasses
+
+    from autonomy.record import to_line
+
+    recorded = read_trace(record_trace(tmp_path, "missions/square.yaml"))
+    header = dataclasses.replace(recorded.header, mission="\u202etxt.exe\u2066 \x1b[31m")
+    trace = tmp_path / "bidi.jsonl"
+    trace.write_text("".join(to_line(r) + "\n" for r in [header, *recorded.ticks, recorded.end]), encoding="utf-8")
+    html = tmp_path / "bidi.html"
+    plot = [sys.executable, "-m", "autonomy", "plot", str(trace), "-o", str(html)]
+    result = subprocess.run(plot, capture_output=True, text=True, cwd=ROOT)
+    assert result.returncode == 0, result.stderr
+    page.goto(html.as_uri())
+    page.wait_for_selector("#controls:not([hidden])")
+    assert page.title() == "autonomy: \ufffdtxt.exe\ufffd \ufffd[31m"
+    assert page.text_content("#mission") == "\ufffdtxt.exe\ufffd \ufffd[31m"

@@ -565,3 +565,95 @@ def test_ticks_made_into_lines_together_are_the_lines_made_one_by_one(tmp_path):
     text, why = tick_lines([*ticks[:2], said, ticks[3], bad, ticks[5]])
     assert text == "".join(to_line(t) + "\n" for t in [*ticks[:2], said, ticks[3]])
     assert why == f"tick {bad.tick} holds a number that is not finite"
+
+
+def chain_trace(path, depth: int, ticks: int = 5, flips: int = 0):
+    """A trace whose tree is a chain ``depth`` levels deep (every node RUNNING), then ``flips`` nodes under the
+    root that change on every tick: a trace made to cost its readers, as an attacker would make one."""
+    packet = Packet(0, True, False, False, 0, 0, 255, 0)
+    nodes = [
+        NodeInfo(i, f"n{i}", "sequence" if i < depth - 1 else "wait", "composite" if i < depth - 1 else "action",
+                 {}, i - 1 if i else None)
+        for i in range(depth)
+    ]  # fmt: skip
+    nodes += [NodeInfo(depth + k, f"f{k}", "wait", "action", {}, 0) for k in range(flips)]
+    header = RunHeader("chain", nodes, 20.0)
+    lines = [to_line(header)]
+    for tick in range(1, ticks + 1):
+        changes = {i: NodeState("RUNNING", "") for i in range(depth)} if tick == 1 else {}
+        status = "RUNNING" if tick % 2 else "SUCCESS"
+        changes.update({depth + k: NodeState(status, "") for k in range(flips)})
+        lines.append(to_line(TickRecord(tick, tick * 0.05, packet, 200, True, 0.0, Pose(0, 0, 0), nodes=changes)))
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def _autonomy(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "autonomy", *args], cwd=ROOT, capture_output=True, text=True)
+
+
+def test_a_tree_deeper_than_a_trace_holds_is_refused_in_one_line_by_every_reader(tmp_path):
+    """600 levels made plot, the page's tree and the terminal replay fail with a RecursionError."""
+    from autonomy.trace import MAX_DEPTH
+
+    deep = chain_trace(tmp_path / "deep.jsonl", 600)
+    said = f"autonomy: error: {deep}:1: the tree is more than {MAX_DEPTH} levels deep (node {MAX_DEPTH}); "
+    for args in (
+        ("plot", str(deep), "-o", str(tmp_path / "x.png")),
+        ("replay", str(deep)),
+        ("replay", "--view", str(deep)),
+    ):
+        result = _autonomy(*args)
+        assert result.returncode == 2 and result.stderr.startswith(said) and result.stderr.count("\n") == 1, args
+
+
+def test_a_tree_as_deep_as_a_trace_holds_is_drawn_by_every_view(tmp_path):
+    from rich.console import Console
+
+    from autonomy.trace import MAX_DEPTH
+    from autonomy.views.page import run_payload
+    from autonomy.views.terminal import LiveView
+
+    deepest = read_trace(chain_trace(tmp_path / "deepest.jsonl", MAX_DEPTH))
+    assert (
+        json.loads(run_payload(deepest.header, deepest.ticks, deepest.end, "replay"))["tree_svg"].count('class="node')
+        == MAX_DEPTH
+    )
+    screen = io.StringIO()
+    live = LiveView(console=Console(file=screen, width=100, height=200, force_terminal=True), title="deep")
+    replay(deepest, live)
+    live.console.print(live.render())  # the terminal's tree: no RecursionError
+    assert "n1" in screen.getvalue()  # drawn, as deep as the screen lets it
+    assert _autonomy("plot", str(tmp_path / "deepest.jsonl"), "-o", str(tmp_path / "deepest.png")).returncode == 0
+
+
+def test_traces_past_their_limits_of_nodes_ticks_and_bytes_are_refused_with_what_the_limit_is(tmp_path, monkeypatch):
+    import autonomy.trace as trace_module
+
+    path = chain_trace(tmp_path / "t.jsonl", 3, ticks=30, flips=10)
+    monkeypatch.setattr(trace_module, "MAX_NODES", 12)
+    with pytest.raises(TraceError, match=re.escape(f"{path}:1: the tree has 13 nodes; a trace holds at most 12")):
+        read_trace(path)
+    monkeypatch.setattr(trace_module, "MAX_NODES", 10_000)
+    monkeypatch.setattr(trace_module, "MAX_TICKS", 20)
+    with pytest.raises(TraceError, match=re.escape(f"{path}:22: more than 20 ticks")):
+        read_trace(path)
+    monkeypatch.setattr(trace_module, "MAX_TICKS", 1_000_000)
+    monkeypatch.setattr(trace_module, "MAX_TRACE_BYTES", path.stat().st_size - 1)
+    with pytest.raises(TraceError, match=re.escape(f"{path}: larger than {path.stat().st_size - 1:,} bytes")):
+        read_trace(path)
+
+
+def test_a_timeline_of_nodes_that_change_every_tick_is_drawn_with_a_few_collections_not_an_artist_a_change(tmp_path):
+    """A 3 MB trace of 60 nodes flipping on each of 2,000 ticks cost `plot` 109 s and 1.5 GB when each span
+    was an artist of its own: matplotlib's cost is per artist, so the count of artists is what is bounded."""
+    from matplotlib.figure import Figure
+
+    from autonomy.views.plot import MAX_TIMELINE_ROWS, OUTCOME_COLOURS, _timeline
+
+    churn = read_trace(chain_trace(tmp_path / "churn.jsonl", 1, ticks=2000, flips=59))
+    ax = Figure().add_subplot()
+    _timeline(ax, churn, min(60, MAX_TIMELINE_ROWS))
+    bars = sum(len(collection.get_paths()) for collection in ax.collections)
+    assert bars >= 59 * 999  # every span is drawn
+    assert len(ax.collections) <= 60 * len(OUTCOME_COLOURS) + len(OUTCOME_COLOURS) and not ax.lines

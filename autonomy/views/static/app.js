@@ -15,6 +15,8 @@ const PLOTS = [
 // the speed is plotted as its mean over this long, a line rather than a zig-zag band.
 const SPEED_WINDOW_S = 0.25;
 const CHECKPOINT_EVERY = 100;
+// the mean speed of a tick is over at most this many ticks before it (0.25 s at 200 Hz is 50)
+const SPEED_WINDOW_TICKS = 400;
 const RENDER_EVERY_MS = 50;
 const BURST_RENDER_EVERY_MS = 1000;
 const BURST_FULL_RENDER_EVERY_MS = 3000;
@@ -73,6 +75,9 @@ function load(payload) {
   view.ticks = [];
   view.end = null;
   view.checkpoints = [];
+  // a checkpoint holds a state of every node: one every as many ticks as there are nodes (100 at least)
+  // keeps them all together no larger than the ticks themselves
+  view.checkpointEvery = Math.max(CHECKPOINT_EVERY, payload.header ? payload.header.nodes.length : 0);
   view.events = [];
   view.logKey = null;
   view.collisions = [];
@@ -136,10 +141,13 @@ function addTick(t) {
     view.events.push([i, e]);
     if (e.kind === "collision") view.collisions.push(i);
   }
-  if (i % CHECKPOINT_EVERY === 0) view.checkpoints.push(stateAt(i, true));
+  if (i % view.checkpointEvery === 0) view.checkpoints.push(stateAt(i, true));
   view.times.push(t.time_s);
   let sum = 0, count = 0;
-  for (let k = i; k >= 0 && t.time_s - view.ticks[k].time_s < SPEED_WINDOW_S; k--) { sum += view.ticks[k].speed_mm_s; count++; }
+  // at most SPEED_WINDOW_TICKS back: a recording whose times stand still costs no more than one that moves
+  for (let k = i; k >= 0 && i - k < SPEED_WINDOW_TICKS && t.time_s - view.ticks[k].time_s < SPEED_WINDOW_S; k--) {
+    sum += view.ticks[k].speed_mm_s; count++;
+  }
   t.mean_speed_mm_s = count ? sum / count : t.speed_mm_s;
   PLOTS.forEach(([, , get, wrap], p) => {
     const v = get(t), values = view.values[p], wraps = view.wraps[p];
@@ -171,14 +179,14 @@ function addEnd(end) {
 
 // Every node's [status, feedback] after tick i.
 function stateAt(i, building) {
-  const cp = Math.floor(i / CHECKPOINT_EVERY);
+  const cp = Math.floor(i / view.checkpointEvery);
   let state, from;
   if (!building && cp < view.checkpoints.length) {
     state = Object.assign({}, view.checkpoints[cp]);
-    from = cp * CHECKPOINT_EVERY + 1;
+    from = cp * view.checkpointEvery + 1;
   } else if (building && cp > 0) {
     state = Object.assign({}, view.checkpoints[cp - 1]);
-    from = (cp - 1) * CHECKPOINT_EVERY + 1;
+    from = (cp - 1) * view.checkpointEvery + 1;
   } else {
     state = {};
     from = 0;
