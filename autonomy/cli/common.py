@@ -160,7 +160,13 @@ def _silence_stdout() -> None:
 
 def _warn_if_public(host: str, what: str) -> None:
     """Warns when ``what`` is served on an interface other machines can reach."""
-    if host not in ("127.0.0.1", "localhost", "::1"):
+    import ipaddress
+
+    try:
+        loopback = host.lower() == "localhost" or ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        loopback = False
+    if not loopback:
         print(f"warning: {what} served on {host}: anyone who can reach this machine can watch the run", file=sys.stderr)
 
 

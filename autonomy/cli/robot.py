@@ -35,8 +35,9 @@ def cmd_emulator(args: argparse.Namespace) -> int:
         return _fail(f"cannot serve on {args.tcp[0]}:{args.tcp[1]}: {err.strerror or err}", EXIT_LINK)
     print(server.url, flush=True)
     if getattr(server, "public", False):
+        where = "every network address" if args.tcp[0] in ("0.0.0.0", "::", "") else "a network address"
         print(
-            f"autonomy: warning: serving on every network address ({args.tcp[0]}): anyone who can reach this "
+            f"autonomy: warning: serving on {where} ({args.tcp[0]}): anyone who can reach this "
             "machine can drive the robot; use 127.0.0.1 unless you mean it",
             file=sys.stderr,
             flush=True,

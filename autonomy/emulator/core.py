@@ -26,6 +26,9 @@ from autonomy.protocol import FRAME_LENGTH, NEWLINE, NO, Command
 DEFAULT_EMULATOR_BAUD = 57600
 #: Received frames kept in :attr:`Emulator.log`; older ones are dropped.
 LOG_LIMIT = 100_000
+#: With ``pace``, bytes on their way each way at most (0.7 s of wire at 57600 baud), as a UART's buffer
+#: holds so many: past it, bytes a client sends faster than the wire carries are lost (an overrun).
+WIRE_BUFFER_BYTES = 4096
 
 
 class Exchange(NamedTuple):
@@ -150,6 +153,7 @@ class Emulator:
                 return
             byte_s = self.byte_time_s()
             if byte_s:
+                data = data[: max(0, WIRE_BUFFER_BYTES - len(self._inbox))]  # past the UART's buffer: overrun, lost
                 start = max(now, self._in_free_s)
                 for i, byte in enumerate(data):
                     self._inbox.append((start + (i + 1) * byte_s, bytes([byte])))
@@ -254,6 +258,7 @@ class Emulator:
         if not byte_s:
             self._outbox.append((when, data))
         else:
+            data = data[: max(0, WIRE_BUFFER_BYTES - len(self._outbox))]  # a reader that never reads: lost
             start = max(when, self._out_free_s)
             for i, byte in enumerate(data):
                 self._outbox.append((start + (i + 1) * byte_s, bytes([byte])))

@@ -11,6 +11,7 @@ for :data:`IDLE_PEER_S` is dropped, so a forgotten connection cannot hold the ro
 
 from __future__ import annotations
 
+import ipaddress
 import os
 import selectors
 import socket
@@ -184,8 +185,11 @@ class TcpServer(_Server):
 
     @property
     def public(self) -> bool:
-        """True when bound to every address (0.0.0.0 or ::), not only this machine's."""
-        return self.address[0] in ("0.0.0.0", "::")
+        """True when other machines can reach it: bound to every address (0.0.0.0 or ::) or to a network's."""
+        try:
+            return not ipaddress.ip_address(self.address[0].split("%")[0]).is_loopback
+        except ValueError:
+            return True
 
     def _accept(self) -> None:
         try:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import os
 import signal
+import socket
 import subprocess
 import sys
 from pathlib import Path
@@ -161,6 +162,38 @@ def test_emulator_serving_every_address_warns_of_the_risk(served):
     assert url.startswith("socket://0.0.0.0:")
     warning = process.stderr.readline()
     assert warning.startswith("autonomy: warning: serving on every network address") and "anyone" in warning
+
+
+def _network_address() -> str:
+    """This machine's address on its network (the way out's), found without sending anything."""
+    try:
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:
+            probe.connect(("192.0.2.1", 9))  # an address for documentation: a datagram socket sends nothing
+            return probe.getsockname()[0]
+    except OSError:
+        return ""
+
+
+def test_emulator_serving_a_network_address_warns_and_a_loopback_one_does_not():
+    from autonomy.emulator import Emulator
+    from autonomy.emulator.servers import TcpServer
+
+    with TcpServer(Emulator("box"), "127.0.0.2", 0) as loopback:  # any of 127/8 is this machine only
+        assert not loopback.public
+    address = _network_address()
+    if not address or address.startswith("127."):
+        pytest.skip("this machine has no network address to serve on")
+    process = subprocess.Popen(
+        [sys.executable, "-m", "autonomy", "emulator", "--tcp", f"{address}:0"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT,
+    )  # fmt: skip
+    try:
+        assert process.stdout.readline().startswith(f"socket://{address}:")
+        warning = process.stderr.readline()
+    finally:
+        process.kill()
+        process.wait()
+    assert warning.startswith(f"autonomy: warning: serving on a network address ({address}): anyone who can reach")
 
 
 @pytest.mark.parametrize("served", [["--tcp", "127.0.0.1:0"]], indirect=True)

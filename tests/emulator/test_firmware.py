@@ -114,6 +114,27 @@ def test_pacing_spreads_bytes_over_their_wire_time():
     assert len(emu.read_ready()) == 5
 
 
+def test_a_paced_line_flooded_faster_than_its_wire_holds_a_uart_s_buffer_and_loses_the_rest():
+    """18 MB sent at once used to cost 1.3 GB: an entry per byte, none ever dropped."""
+    from autonomy.emulator.core import WIRE_BUFFER_BYTES
+
+    clock = VirtualClock()
+    emu = Emulator("box", clock=clock, faults="pace")
+    for _ in range(100):
+        emu.receive(b"GF000\n" * 10_000)  # 6 MB, far faster than 57600 baud carries it
+    assert len(emu._inbox) == WIRE_BUFFER_BYTES  # noqa: SLF001
+    clock.sleep(WIRE_BUFFER_BYTES * 10 / 57600 * 3)  # the buffer's wire time, and its replies'
+    replies = b""
+    while chunk := emu.read_ready():
+        replies += chunk
+        clock.sleep(1.0)
+    assert replies == b"FE10\n" * (WIRE_BUFFER_BYTES // 6)  # what the buffer held was answered, the rest lost
+    assert len(emu._outbox) == 0  # noqa: SLF001
+    emu.receive(b"GF000\nGF000\n")  # and the line goes on: the frame the overrun cut costs one NO
+    clock.sleep(1.0)
+    assert emu.read_ready() == b"NO\nFE10\n"
+
+
 def test_random_no_does_not_execute():
     emu = Emulator("box", clock=VirtualClock(), faults="no=1")
     assert exchange(emu, b"F+100\n") == b"NO\n"
