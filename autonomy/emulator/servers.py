@@ -34,6 +34,9 @@ TURN_AWAY_S = 2.0
 #: Most clients held waiting to be told the line is busy; past that, each is told at once and let go,
 #: so that a flood of connections never holds more than a few file descriptors (select() takes < 1024).
 MOST_TURNED_AWAY = 16
+#: select() watches descriptors below this; a connection numbered past it (a process holding a thousand
+#: files already) is turned away at once rather than end the loop with a ValueError.
+SELECT_FD_LIMIT = 1024
 BUSY_LINE = b"BUSY: another client is connected to this emulator; one at a time, as on a serial line\n"
 
 
@@ -195,6 +198,9 @@ class TcpServer(_Server):
         try:
             conn, _ = self._listener.accept()
         except OSError:
+            return
+        if conn.fileno() >= SELECT_FD_LIMIT:
+            self._turn_away(conn, registered=False)
             return
         while self._conn is not None and self._receive():
             pass  # read what the current peer sent: a peer that has closed is let go now

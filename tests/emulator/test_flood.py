@@ -49,3 +49,33 @@ def test_1500_connections_at_once_leave_the_served_client_its_line_and_the_emula
         _, errors = served.communicate(timeout=10)
         resource.setrlimit(resource.RLIMIT_NOFILE, (soft, hard))
     assert "Traceback" not in errors, errors
+
+
+def test_a_connection_numbered_past_select_s_limit_is_turned_away_and_the_server_goes_on():
+    import os
+
+    from autonomy.emulator import Emulator
+    from autonomy.emulator.servers import SELECT_FD_LIMIT, TcpServer
+
+    soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
+    resource.setrlimit(resource.RLIMIT_NOFILE, (min(max(soft, 4096), hard), hard))
+    fillers: list[int] = []
+    try:
+        with TcpServer(Emulator("box"), port=0) as server:
+            host, port = server.address
+            while not fillers or fillers[-1] < SELECT_FD_LIMIT:  # this process holds a thousand files
+                fillers.append(os.open(os.devnull, os.O_RDONLY))
+            with socket.create_connection((host, port), timeout=10) as late:
+                assert (
+                    late.recv(200)
+                    == b"BUSY: another client is connected to this emulator; one at a time, as on a serial line\n"
+                )
+            for fd in fillers:
+                os.close(fd)
+            fillers.clear()
+            with Client.open(server.url) as robot:  # it went on serving
+                assert robot.firmware() == "E10"
+    finally:
+        for fd in fillers:
+            os.close(fd)
+        resource.setrlimit(resource.RLIMIT_NOFILE, (soft, hard))
