@@ -85,6 +85,7 @@ bench: $(STAMP)
 	$(BIN)/python benchmarks/views.py
 	$(BIN)/python benchmarks/hostile.py
 	$(BIN)/python benchmarks/groot.py
+	$(BIN)/python benchmarks/crowd.py
 	$(BIN)/python benchmarks/grading.py
 	$(BIN)/python benchmarks/fixed_plans.py
 	$(BIN)/python benchmarks/feedback.py

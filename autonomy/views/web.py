@@ -212,16 +212,17 @@ CONTENT_SECURITY_POLICY = (
 )
 
 
-def _own_host(host_header: str) -> bool:
-    """Whether a request's ``Host`` names this machine by address or as ``localhost``.
+def _own_host(host_header: str, served_as: str = "") -> bool:
+    """Whether a request's ``Host`` names this machine by address, as ``localhost``, or as ``served_as``.
 
     A page of another site that got its name resolved to this machine (DNS rebinding) asks with
-    that name: it is refused. A name is never needed here: the page's address is printed as one.
+    that name: it is refused. A name is never needed here: the page's address is printed as one,
+    unless the server was told to serve on a name (``--view-host robot-lab.local``): that one is taken.
     """
     host = host_header.rsplit(":", 1)[0] if host_header.count(":") == 1 else host_header
     if host.startswith("[") and "]" in host:  # [::1]:8765
         host = host[1 : host.index("]")]
-    if host.lower() == "localhost":
+    if host.lower() in ("localhost", served_as.lower()):
         return True
     try:
         ipaddress.ip_address(host)
@@ -234,7 +235,7 @@ def _own_host(host_header: str) -> bool:
 async def _checked_origin(request: web.Request, handler: Callable[[web.Request], Awaitable[web.StreamResponse]]):
     """Serves only requests to this machine by address, and WebSockets opened by the page itself."""
     host = request.headers.get("Host", "")
-    if not _own_host(host):
+    if not _own_host(host, request.app[SERVED_AS]):
         return web.Response(status=403, text="this page is served by address (127.0.0.1, or this machine's)\n")
     origin = request.headers.get("Origin")
     if origin is not None and origin not in (f"http://{host}", f"https://{host}"):
@@ -244,6 +245,10 @@ async def _checked_origin(request: web.Request, handler: Callable[[web.Request],
         response.headers.setdefault("Content-Security-Policy", CONTENT_SECURITY_POLICY)
         response.headers.setdefault("X-Content-Type-Options", "nosniff")
     return response
+
+
+#: The name the server was told to serve on, taken in ``Host`` besides addresses and ``localhost``.
+SERVED_AS = web.AppKey("served_as", str)
 
 
 class ViewServer:
@@ -282,6 +287,7 @@ class ViewServer:
             OSError: the port cannot be bound.
         """
         app = web.Application(middlewares=[_checked_origin])
+        app[SERVED_AS] = self.host if self.host not in ("", "0.0.0.0", "::") else ""
         app.router.add_get("/", self._index)
         app.router.add_get("/static/{name}", self._static)
         app.router.add_get("/api/run", self._run)

@@ -171,6 +171,15 @@ def test_the_view_answers_only_by_address_and_only_its_own_page_s_websocket():
         server.stop()
 
 
+def test_a_view_told_to_serve_on_a_name_takes_that_name_and_no_other():
+    from autonomy.views.web import _own_host
+
+    assert _own_host("Robot-Lab.local:8765", "robot-lab.local")  # --view-host robot-lab.local
+    assert not _own_host("rebind.example:8765", "robot-lab.local")
+    assert not _own_host("robot-lab.local:8765", "")  # served by address: no name at all
+    assert _own_host("192.0.2.7:8765", "robot-lab.local") and _own_host("[::1]:8765")
+
+
 def test_pages_that_never_read_a_replay_of_8_mb_hold_pieces_of_one_answer_never_copies(tmp_path):
     """60 clients ask ``api/run`` of a replayed 9 MB trace, 20 times each, and read nothing."""
     import subprocess
