@@ -44,9 +44,11 @@ REFUSALS = logging.getLogger("autonomy.view")
 REFUSAL_REPEAT_S = 10.0
 
 #: Connections served at once; past this a new one is answered 503 and closed. Fewer when the process
-#: may open fewer files: :data:`RESERVED_FILES` are kept for everything else it opens.
+#: may open fewer files: :data:`RESERVED_FILES` are kept for everything else it opens, and a burst of
+#: connections taken in at once (at most :data:`LISTEN_BACKLOG`) may pass the limit before it is seen.
 MAX_CONNECTIONS = 4096
 RESERVED_FILES = 256
+LISTEN_BACKLOG = 128
 #: ``api/run`` answers on their way at once; past this a page is answered 503 and asks again a second
 #: later. Each holds a piece and the socket's buffer, about 200 KB at most: 50 MB in all.
 MAX_ANSWERS_SENDING = 256
@@ -74,7 +76,7 @@ def connection_limit() -> int:
     soft, _ = resource.getrlimit(resource.RLIMIT_NOFILE)
     if soft == resource.RLIM_INFINITY:
         return MAX_CONNECTIONS
-    return max(16, min(MAX_CONNECTIONS, soft - RESERVED_FILES))
+    return max(16, min(MAX_CONNECTIONS, soft - RESERVED_FILES - LISTEN_BACKLOG))
 
 
 class RecordHub:
@@ -327,7 +329,7 @@ class ViewServer:
                 return handler()
 
             self._listener = loop.run_until_complete(
-                loop.create_server(connection, self.host, self.port, reuse_address=True, backlog=128)
+                loop.create_server(connection, self.host, self.port, reuse_address=True, backlog=LISTEN_BACKLOG)
             )
         except OSError as err:
             failure.append(err)

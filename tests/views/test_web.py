@@ -334,3 +334,59 @@ def test_pages_waiting_for_the_next_run_are_woken_by_a_new_run_only_never_by_tic
     finally:
         client.close()
         server.stop()
+
+
+LOW_FILES = """
+import resource, sys, runpy
+resource.setrlimit(resource.RLIMIT_NOFILE, (300, resource.getrlimit(resource.RLIMIT_NOFILE)[1]))
+sys.argv = ["autonomy", *sys.argv[1:]]
+runpy.run_module("autonomy", run_name="__main__")
+"""
+
+
+def test_a_view_allowed_few_files_refuses_a_flood_past_them_in_one_line_and_serves_on(tmp_path):
+    """When file descriptors ran out the view wrote hundreds of thousands of traceback lines."""
+    import socket
+    import subprocess
+    import sys
+
+    from autonomy.views.web import LISTEN_BACKLOG
+
+    trace = tmp_path / "square.jsonl"
+    made = subprocess.run(
+        [sys.executable, "-m", "autonomy", "run", "missions/square.yaml", "--fast", "--quiet", "--trace", str(trace)],
+        cwd=ROOT, capture_output=True, timeout=60,
+    )  # fmt: skip
+    assert made.returncode == 0
+    replay = subprocess.Popen(
+        [sys.executable, "-c", LOW_FILES, "replay", str(trace), "--view", "--view-port", "0"],
+        cwd=ROOT, stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True,
+    )  # fmt: skip
+    flood: list[socket.socket] = []
+    try:
+        port = int(replay.stderr.readline().rsplit(":", 1)[1].strip(" /\n"))
+        for _ in range(600):  # twice what the process may hold
+            flood.append(socket.create_connection(("127.0.0.1", port), timeout=10))
+        threading.Event().wait(1.0)
+        refused = 0
+        for conn in flood:
+            conn.settimeout(0.05)
+            try:
+                refused += conn.recv(64).startswith(b"HTTP/1.1 503")
+            except TimeoutError:
+                pass  # held, served
+        for conn in flood:
+            conn.close()
+        flood.clear()
+        threading.Event().wait(0.5)
+        page = urllib.request.urlopen(f"http://127.0.0.1:{port}/api/run", timeout=10).read()  # and it serves on
+    finally:
+        for conn in flood:
+            conn.close()
+        replay.terminate()
+        _, said = replay.communicate(timeout=20)
+    assert json.loads(page)["mode"] == "replay"
+    assert refused >= 600 - 16 - LISTEN_BACKLOG  # 16 held (and a burst taken in at once), the rest told 503
+    lines = [line for line in said.splitlines() if line.startswith("view:")]
+    assert lines == ["view: 16 connections at once; another was refused"], said
+    assert "Traceback" not in said
