@@ -388,5 +388,8 @@ def test_a_view_allowed_few_files_refuses_a_flood_past_them_in_one_line_and_serv
     assert json.loads(page)["mode"] == "replay"
     assert refused >= 600 - 16 - LISTEN_BACKLOG  # 16 held (and a burst taken in at once), the rest told 503
     lines = [line for line in said.splitlines() if line.startswith("view:")]
-    assert lines == ["view: 16 connections at once; another was refused"], said
+    # each kind of refusal in one line: past its limit, and, on a busy machine where the refused ones are not
+    # closed as fast as they come, the files run out for a moment too
+    assert lines[0] == "view: 16 connections at once; another was refused", said
+    assert lines[1:] in ([], ["view: socket.accept() out of system resource: Too many open files"]), said
     assert "Traceback" not in said
