@@ -1,0 +1,232 @@
+"""A class's storage: students and their sign-in codes, every run and hand-in, the class's settings.
+
+SQLite from the standard library, in write-ahead-log mode, in one file of the class's folder
+(``class.sqlite``). Every write is committed before the server answers, with ``synchronous=FULL``:
+a hand-in the server acknowledged is on disk, whatever happens to the server next (``kill -9``,
+the machine losing power).
+
+A sign-in code is kept only as its SHA-256: the teacher hands the codes out from ``codes.csv``.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import secrets
+import sqlite3
+import threading
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from autonomy.clock import wall_date
+from autonomy.errors import AutonomyError
+
+#: The file in the class's folder.
+DATABASE = "class.sqlite"
+#: Sign-in codes are made of these (no 0/o, 1/l/i: read off a sheet and typed).
+CODE_ALPHABET = "23456789abcdefghjkmnpqrstuvwxyz"
+CODE_LENGTH = 8
+
+_SCHEMA = """
+CREATE TABLE IF NOT EXISTS students (
+    id TEXT PRIMARY KEY,
+    name TEXT NOT NULL,
+    code_sha256 TEXT NOT NULL UNIQUE,
+    signed_in TEXT NOT NULL DEFAULT ''
+);
+CREATE TABLE IF NOT EXISTS works (
+    id INTEGER PRIMARY KEY AUTOINCREMENT,
+    student TEXT NOT NULL REFERENCES students(id),
+    kind TEXT NOT NULL CHECK (kind IN ('run', 'handin')),
+    at TEXT NOT NULL,
+    source TEXT NOT NULL,
+    total REAL,
+    max_points REAL,
+    problem TEXT NOT NULL DEFAULT '',
+    result TEXT NOT NULL DEFAULT '{}'
+);
+CREATE INDEX IF NOT EXISTS works_by_student ON works (student, kind, id);
+CREATE TABLE IF NOT EXISTS settings (key TEXT PRIMARY KEY, value TEXT NOT NULL);
+"""
+
+
+class StoreError(AutonomyError):
+    """The class's storage cannot be opened or written; the message says why."""
+
+
+@dataclass(frozen=True)
+class Student:
+    """One student of the class."""
+
+    id: str
+    name: str
+    signed_in: str
+
+
+@dataclass(frozen=True)
+class Work:
+    """A run or a hand-in, as kept."""
+
+    id: int
+    student: str
+    kind: str
+    at: str
+    source: str
+    total: float | None
+    max_points: float | None
+    problem: str
+    result: dict[str, Any]
+
+
+def new_code() -> str:
+    """A random sign-in code of :data:`CODE_LENGTH` characters (about 40 bits)."""
+    return "".join(secrets.choice(CODE_ALPHABET) for _ in range(CODE_LENGTH))
+
+
+def code_digest(code: str) -> str:
+    """How a code is kept: its SHA-256, of the code as typed, trimmed and in lower case."""
+    return hashlib.sha256(code.strip().lower().encode("utf-8")).hexdigest()
+
+
+class ClassStore:
+    """The class's database, safe to use from several threads (one connection, one lock).
+
+    Args:
+        folder: The class's folder; made if missing.
+
+    Raises:
+        StoreError: the folder or the database cannot be made or opened.
+    """
+
+    def __init__(self, folder: Path) -> None:
+        self.folder = Path(folder)
+        try:
+            self.folder.mkdir(parents=True, exist_ok=True)
+            self._db = sqlite3.connect(self.folder / DATABASE, check_same_thread=False, isolation_level=None)
+            self._db.execute("PRAGMA journal_mode=WAL")
+            self._db.execute("PRAGMA synchronous=FULL")
+            self._db.execute("PRAGMA foreign_keys=ON")
+            self._db.executescript(_SCHEMA)
+        except (OSError, sqlite3.Error) as err:
+            raise StoreError(f"{self.folder}: cannot keep the class there: {err}") from err
+        self._lock = threading.Lock()
+
+    def close(self) -> None:
+        """Closes the database."""
+        with self._lock:
+            self._db.close()
+
+    def _write(self, statements: list[tuple[str, tuple[Any, ...]]]) -> int:
+        """Runs ``statements`` in one transaction, committed before it returns; the last row id."""
+        with self._lock:
+            try:
+                self._db.execute("BEGIN IMMEDIATE")
+                last = 0
+                for sql, values in statements:
+                    last = self._db.execute(sql, values).lastrowid or last
+                self._db.execute("COMMIT")
+            except sqlite3.Error as err:
+                if self._db.in_transaction:
+                    self._db.execute("ROLLBACK")
+                raise StoreError(f"{self.folder / DATABASE}: cannot write: {err}") from err
+            return last
+
+    def _read(self, sql: str, values: tuple[Any, ...] = ()) -> list[tuple[Any, ...]]:
+        with self._lock:
+            return self._db.execute(sql, values).fetchall()
+
+    # ------------------------------------------------------------------ students
+
+    def enrol(self, roster: list[tuple[str, str]]) -> dict[str, str]:
+        """Adds the roster's students who are not in the class yet, each with a new code.
+
+        Args:
+            roster: (id, name) pairs.
+
+        Returns:
+            The new students' codes by id (a student already in the class keeps the code they have).
+        """
+        known = {row[0] for row in self._read("SELECT id FROM students")}
+        codes = {sid: new_code() for sid, _ in roster if sid not in known}
+        self._write(
+            [
+                ("INSERT INTO students (id, name, code_sha256) VALUES (?, ?, ?)", (sid, name, code_digest(codes[sid])))
+                for sid, name in roster
+                if sid in codes
+            ]
+        )
+        return codes
+
+    def student_by_code(self, code: str) -> Student | None:
+        """The student whose code this is, or None."""
+        rows = self._read("SELECT id, name, signed_in FROM students WHERE code_sha256 = ?", (code_digest(code),))
+        return Student(*rows[0]) if rows else None
+
+    def sign_in(self, student: str) -> None:
+        """Notes that ``student`` signed in (now)."""
+        self._write([("UPDATE students SET signed_in = ? WHERE id = ?", (wall_date(), student))])
+
+    def students(self) -> list[Student]:
+        """Every student, in the roster's order."""
+        return [Student(*row) for row in self._read("SELECT id, name, signed_in FROM students ORDER BY rowid")]
+
+    # ------------------------------------------------------------------ works
+
+    def add_work(
+        self,
+        student: str,
+        kind: str,
+        source: str,
+        result: dict[str, Any],
+        total: float | None = None,
+        max_points: float | None = None,
+        problem: str = "",
+    ) -> int:
+        """Keeps a run or a hand-in, committed to disk before it returns; its number."""
+        return self._write(
+            [
+                (
+                    "INSERT INTO works (student, kind, at, source, total, max_points, problem, result) "
+                    "VALUES (?, ?, ?, ?, ?, ?, ?, ?)",
+                    (student, kind, wall_date(), source, total, max_points, problem, json.dumps(result)),
+                )
+            ]
+        )
+
+    def works(self, student: str, kind: str | None = None) -> list[Work]:
+        """A student's runs and hand-ins (or those of ``kind``), oldest first."""
+        where, values = ("student = ?", (student,)) if kind is None else ("student = ? AND kind = ?", (student, kind))
+        rows = self._read(
+            f"SELECT id, student, kind, at, source, total, max_points, problem, result FROM works "  # noqa: S608
+            f"WHERE {where} ORDER BY id",
+            values,
+        )
+        return [Work(*row[:8], json.loads(row[8])) for row in rows]
+
+    def summary(self) -> list[dict[str, Any]]:
+        """The class table: per student, sign-in, runs, hand-ins, the last hand-in's marks and the last problem."""
+        last_handin = "FROM works w WHERE w.student = s.id AND w.kind = 'handin' ORDER BY w.id DESC LIMIT 1"
+        rows = self._read(
+            "SELECT s.id, s.name, s.signed_in, "
+            "(SELECT COUNT(*) FROM works w WHERE w.student = s.id AND w.kind = 'run'), "
+            "(SELECT COUNT(*) FROM works w WHERE w.student = s.id AND w.kind = 'handin'), "
+            f"(SELECT w.total {last_handin}), (SELECT w.max_points {last_handin}), "  # noqa: S608 - our own text
+            "(SELECT w.problem FROM works w WHERE w.student = s.id AND w.problem != '' ORDER BY w.id DESC LIMIT 1), "
+            "(SELECT MAX(w.id) FROM works w WHERE w.student = s.id) "
+            "FROM students s ORDER BY s.rowid"
+        )
+        keys = ("id", "name", "signed_in", "runs", "handins", "total", "max_points", "last_problem", "last_work")
+        return [dict(zip(keys, row, strict=True)) for row in rows]
+
+    # ------------------------------------------------------------------ settings
+
+    def setting(self, key: str, default: str = "") -> str:
+        """A setting of the class (the deadline, the teacher's token's digest...)."""
+        rows = self._read("SELECT value FROM settings WHERE key = ?", (key,))
+        return rows[0][0] if rows else default
+
+    def set_setting(self, key: str, value: str) -> None:
+        """Sets a setting, committed before it returns."""
+        self._write([("INSERT INTO settings (key, value) VALUES (?, ?) ON CONFLICT(key) DO UPDATE SET value = ?",
+                      (key, value, value))])  # fmt: skip

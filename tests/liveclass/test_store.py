@@ -1,0 +1,62 @@
+"""The class's storage: codes, works kept, and nothing acknowledged lost to kill -9."""
+
+from __future__ import annotations
+
+import signal
+import subprocess
+import sys
+
+from autonomy.liveclass.store import CODE_ALPHABET, CODE_LENGTH, ClassStore
+from tests.views.conftest import ROOT
+
+
+def test_a_roster_enrolled_twice_keeps_each_student_s_code_and_codes_are_kept_only_as_digests(tmp_path):
+    store = ClassStore(tmp_path)
+    first = store.enrol([("s1", "Ada"), ("s2", "Bob")])
+    again = store.enrol([("s1", "Ada"), ("s2", "Bob"), ("s3", "Cy")])
+    assert set(first) == {"s1", "s2"} and set(again) == {"s3"}  # the new student alone gets a new code
+    for code in (*first.values(), *again.values()):
+        assert len(code) == CODE_LENGTH and set(code) <= set(CODE_ALPHABET)
+    assert store.student_by_code(first["s1"]).name == "Ada"
+    assert store.student_by_code(f"  {first['s2'].upper()} ").id == "s2"  # typed with spaces and capitals
+    assert store.student_by_code("not-a-code") is None and store.student_by_code("") is None
+    kept = (tmp_path / "class.sqlite").read_bytes() + (tmp_path / "class.sqlite-wal").read_bytes()
+    assert not any(code.encode() in kept for code in (*first.values(), *again.values()))
+    assert [s.id for s in store.students()] == ["s1", "s2", "s3"]
+
+
+def test_works_are_kept_in_order_and_the_class_table_says_the_last_of_each(tmp_path):
+    store = ClassStore(tmp_path)
+    store.enrol([("s1", "Ada"), ("s2", "Bob")])
+    store.add_work("s1", "run", "tree: a", {}, problem="mission.yaml:3:5: unknown node 'mvoe'")
+    store.add_work("s1", "handin", "tree: b", {"marks": [1, 2]}, 3.0, 10.0)
+    store.add_work("s1", "handin", "tree: c", {"marks": [4, 4]}, 8.0, 10.0)
+    assert [w.source for w in store.works("s1")] == ["tree: a", "tree: b", "tree: c"]
+    assert [w.result for w in store.works("s1", "handin")] == [{"marks": [1, 2]}, {"marks": [4, 4]}]
+    ada, bob = store.summary()
+    assert (ada["runs"], ada["handins"], ada["total"], ada["max_points"]) == (1, 2, 8.0, 10.0)
+    assert ada["last_problem"] == "mission.yaml:3:5: unknown node 'mvoe'"
+    assert (bob["runs"], bob["handins"], bob["total"]) == (0, 0, None)
+
+
+WRITER = """
+import sys
+from pathlib import Path
+from autonomy.liveclass.store import ClassStore
+store = ClassStore(Path(sys.argv[1]))
+store.enrol([("s1", "Ada")])
+while True:
+    number = store.add_work("s1", "handin", "tree: x" * 100, {"marks": [1]}, 1.0, 10.0)
+    print(number, flush=True)  # acknowledged: only now is the hand-in said to be kept
+"""
+
+
+def test_every_hand_in_acknowledged_before_a_kill_9_is_there_after_it(tmp_path):
+    command = [sys.executable, "-c", WRITER, str(tmp_path)]
+    writer = subprocess.Popen(command, cwd=ROOT, stdout=subprocess.PIPE, text=True)
+    acknowledged = [int(writer.stdout.readline()) for _ in range(200)]
+    writer.send_signal(signal.SIGKILL)  # in the middle of a write, most likely
+    writer.wait()
+    acknowledged += [int(line) for line in writer.stdout.read().split()]
+    kept = {work.id for work in ClassStore(tmp_path).works("s1")}
+    assert set(acknowledged) <= kept and len(acknowledged) >= 200
