@@ -326,12 +326,31 @@ def check_submission(exercise: Exercise, path: Path, allow_plugins: bool) -> tup
         text = read_text(path)
     except UnreadableFile as err:
         return None, [f"{label}:{err.line}:{err.column}: cannot read the file: {err.reason}"]
+    spec, problems = check_text(exercise, text, label, path.parent, allow_plugins)
+    return spec, [str(p) for p in problems]
+
+
+def check_text(
+    exercise: Exercise, text: str, label: str, base_dir: Path, allow_plugins: bool = False
+) -> tuple[MissionSpec | None, list[Problem]]:
+    """Validates a mission's text for ``exercise`` without running any of its Python.
+
+    Args:
+        exercise: The exercise: its allowed nodes.
+        text: The mission file's text.
+        label: How the file is named in problems.
+        base_dir: Where the mission's plugins would be (refused unless ``allow_plugins``).
+        allow_plugins: Whether plugins may be named.
+
+    Returns:
+        The validated mission, or None and every problem, in file order.
+    """
     try:  # grading runs in the exercise's world: the mission's own is not loaded (nor echoed)
         spec = validate_text(
-            text, label, path.parent, check_world=False, refuse_plugins=None if allow_plugins else PLUGINS_REFUSED
+            text, label, base_dir, check_world=False, refuse_plugins=None if allow_plugins else PLUGINS_REFUSED
         )
     except MissionInvalid as err:
-        return None, [str(p) for p in err.problems]
+        return None, list(err.problems)
     if exercise.allowed_nodes is not None:
         allowed = set(exercise.allowed_nodes)
         listed = ", ".join(exercise.allowed_nodes)
@@ -347,7 +366,7 @@ def check_submission(exercise: Exercise, path: Path, allow_plugins: bool) -> tup
             if node.type.name not in allowed
         ]
         if problems:
-            return None, [str(p) for p in sorted(problems, key=lambda p: (p.line, p.column))]
+            return None, sorted(problems, key=lambda p: (p.line, p.column))
     return spec, []
 
 
