@@ -1,0 +1,43 @@
+"""Checking a student's mission text for the class's page: problems where they stand, or the tree."""
+
+from __future__ import annotations
+
+from autonomy.classroom.exercise import load_exercise
+from autonomy.liveclass.work import MAX_MISSION_CHARS, check
+from tests.views.conftest import ROOT
+
+GARAGE = load_exercise(ROOT / "exercises" / "garage.yaml")
+SQUARE = load_exercise(ROOT / "exercises" / "square.yaml")  # it allows a few nodes only
+
+
+def test_a_mission_with_a_typo_is_told_at_its_line_and_column():
+    answer = check(GARAGE, "mission: park\ntree:\n  sequence:\n    - mvoe: {speed: 2, seconds: 1}\n")
+    assert answer["ok"] is False and answer["tree_svg"] == ""
+    (problem,) = answer["problems"]
+    assert (problem["line"], problem["column"]) == (4, 7)
+    assert "mvoe" in problem["message"] and "move" in problem["message"]  # the node it may have meant
+
+
+def test_a_node_the_exercise_does_not_allow_is_told_where_it_stands():
+    answer = check(SQUARE, "mission: park\ntree:\n  sequence:\n    - wait: {seconds: 1}\n")
+    assert answer["ok"] is False
+    assert [(p["line"], p["message"].split(" (")[0]) for p in answer["problems"]] == [
+        (4, "'wait' is not allowed in this exercise")
+    ]
+
+
+def test_a_good_mission_gets_its_tree_drawn_and_a_plugin_is_refused_unrun(tmp_path):
+    answer = check(
+        GARAGE, "mission: park\ntree:\n  sequence:\n    - move: {speed: 2, until_obstacle_mm: 60}\n    - beep\n"
+    )
+    assert answer["ok"] is True and answer["problems"] == []
+    assert answer["tree_svg"].startswith("<svg") and answer["tree_svg"].count('class="node') == 3
+    planted = tmp_path / "evil.py"
+    planted.write_text("raise SystemExit('ran')\n")
+    refused = check(GARAGE, f"mission: park\nplugins: [{planted}]\ntree: {{move: {{speed: 2, seconds: 1}}}}\n")
+    assert refused["ok"] is False and "plugin" in refused["problems"][0]["message"]
+
+
+def test_a_mission_longer_than_taken_is_refused_in_one_problem():
+    answer = check(GARAGE, "#" * (MAX_MISSION_CHARS + 1))
+    assert answer["ok"] is False and len(answer["problems"]) == 1 and "at most" in answer["problems"][0]["message"]
