@@ -1,10 +1,10 @@
 """A live publisher Groot2 attaches to, as BehaviorTree.CPP's ``Groot2Publisher`` is.
 
-Groot2 connects a ZeroMQ REQ socket to port 1667 (by default) and asks; we answer on a REP
-socket, from a thread of our own, so the run never waits on Groot2 and costs nothing while
-nobody asks. Each request's first frame is a 6-byte header: the protocol (2), the request
-type (one letter) and a 4-byte id. A reply is two frames: the header echoed with the 16-byte
-id of the tree added, then the answer:
+Groot2 connects a ZeroMQ REQ socket to port 1667 (by default) and asks; we answer on a ROUTER
+socket (as a REP socket would, and knowing who asks), from a thread of our own, so the run never
+waits on Groot2 and costs nothing while nobody asks. Each request's first frame is a 6-byte
+header: the protocol (2), the request type (one letter) and a 4-byte id. A reply is two frames:
+the header echoed with the 16-byte id of the tree added, then the answer:
 
 =====  =========================================================================
 ``T``  the tree's XML, every node with its ``_uid`` (:func:`~autonomy.mission.btcpp.instance`)
@@ -46,10 +46,16 @@ MAX_REQUEST_BYTES = 65_536
 REPLIES_HELD = 2
 #: Requests taken in from one client before its connection is read no further until they are answered.
 REQUESTS_HELD = 4
-#: Answers a second, at most, to everyone together (Groot2 asks 10 a second while it watches), counted
-#: over bursts of :data:`ANSWER_BURST`.
-ANSWERS_PER_S = 500
-ANSWER_BURST = 25
+#: Requests a second taken in, at most, from everyone together, counted over bursts of :data:`RECEIVE_BURST`:
+#: what a crowd of clients can cost the run's process (ZeroMQ reads from each client in turn).
+RECEIVES_PER_S = 10_000
+RECEIVE_BURST = 50
+#: Requests a second one client is answered (Groot2 asks 10 while it watches); past that its requests
+#: are dropped unanswered.
+PEER_REQUESTS_PER_S = 20
+#: The kernel's buffer for what one client sent and is not read yet: a client that floods is slowed
+#: by TCP itself, and what it left behind is little.
+RECEIVE_BUFFER_BYTES = 2048
 
 
 def _msgpack_nils(names: list[str]) -> bytes:
@@ -90,7 +96,7 @@ class GrootPublisher:
         #: Per record node: the status byte Groot2 is told.
         self.codes: dict[int, int] = {record_id: 0 for record_id in tree.record_ids}
         self._context = zmq.Context()
-        self._reply = self._context.socket(zmq.REP)
+        self._reply = self._context.socket(zmq.ROUTER)
         self._publish = self._context.socket(zmq.PUB)
         self._reply.setsockopt(zmq.LINGER, 0)
         self._reply.setsockopt(zmq.MAXMSGSIZE, MAX_REQUEST_BYTES)
@@ -98,6 +104,7 @@ class GrootPublisher:
         # answer (sent without a copy), never a queue that grows with every request.
         self._reply.setsockopt(zmq.SNDHWM, REPLIES_HELD)
         self._reply.setsockopt(zmq.RCVHWM, REQUESTS_HELD)
+        self._reply.setsockopt(zmq.RCVBUF, RECEIVE_BUFFER_BYTES)
         self._publish.setsockopt(zmq.LINGER, 0)
         address = f"[{host}]" if ":" in host else host
         if ":" in host:
@@ -194,23 +201,34 @@ class GrootPublisher:
     def _serve(self) -> None:
         """Answers until :meth:`stop` ends the context, which wakes the waiting receive.
 
-        At most :data:`ANSWERS_PER_S` a second, whoever asks: a crowd of clients costs the run no more
-        than one busy Groot2 would. ZeroMQ queues requests from each client fairly meanwhile.
+        It takes in at most :data:`RECEIVES_PER_S` requests a second, whoever sends them, and answers
+        each client at most :data:`PEER_REQUESTS_PER_S` a second: a crowd of clients costs the run a
+        bounded share of its process, and ZeroMQ takes requests from each client in turn, so Groot2
+        among them is still answered.
         """
         clock = RealClock()
-        budget_start_s, answered = clock.now(), 0
+        budget_start_s, received = clock.now(), 0
+        second_s, asked = clock.now(), {}  # per client, its requests in this second
         try:
             while True:
                 frames = self._reply.recv_multipart()
-                answered += 1
-                if answered >= ANSWER_BURST:
-                    clock.sleep(ANSWER_BURST / ANSWERS_PER_S - (clock.now() - budget_start_s))
-                    budget_start_s, answered = clock.now(), 0
+                received += 1
+                if received >= RECEIVE_BURST:
+                    clock.sleep(RECEIVE_BURST / RECEIVES_PER_S - (clock.now() - budget_start_s))
+                    budget_start_s, received = clock.now(), 0
+                if len(frames) < 3 or frames[1] != b"":  # not a REQ socket's request (a REP socket drops it too)
+                    continue
+                now_s = clock.now()
+                if now_s - second_s >= 1.0:
+                    second_s, asked = now_s, {}
+                count = asked[frames[0]] = asked.get(frames[0], 0) + 1
+                if count > PEER_REQUESTS_PER_S:
+                    continue  # dropped: a flood costs a receive a request, never an answer
                 try:
-                    reply = self.answer(frames)
+                    reply = self.answer(frames[2:])
                 except Exception as err:  # noqa: BLE001 - a request we cannot answer must not end the publisher
                     reply = [b"error", f"cannot answer: {type(err).__name__}".encode()]
-                self._reply.send_multipart(reply, copy=False)  # large answers go out as views of one buffer
+                self._reply.send_multipart(frames[:2] + reply, copy=False)  # large answers: views of one buffer
                 self.requests += 1
         except zmq.ZMQError:  # ETERM: stop() ended the context
             pass

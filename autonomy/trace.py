@@ -33,11 +33,12 @@ from autonomy.record import (
 #: Largest trace line read back (a 200-node tree's first tick is well under 100 kB).
 MAX_LINE_CHARS = 4_000_000
 #: What a trace may hold; a reader refuses more in one line (``autonomy`` exits 2). A run of a mission
-#: has at most 3,000 nodes 50 levels deep, and at most 720,000 ticks (an hour at 200 Hz).
-MAX_TRACE_BYTES = 512_000_000
+#: has at most 3,000 nodes 50 levels deep; an hour of the wander mission at 20 Hz is 72,000 ticks and
+#: 40 MB. A reader holds about ten times a trace's size while it reads it.
+MAX_TRACE_BYTES = 100_000_000
 MAX_NODES = 10_000
 MAX_DEPTH = 100
-MAX_TICKS = 1_000_000
+MAX_TICKS = 500_000
 
 
 class TraceError(AutonomyError):
@@ -183,7 +184,9 @@ def read_trace(path: str | Path) -> Trace:
     except OSError as err:
         raise TraceError(f"{path}: cannot read the trace: {err.strerror or err}") from err
     if len(data) > MAX_TRACE_BYTES:
-        raise TraceError(f"{path}: larger than {MAX_TRACE_BYTES:,} bytes, more than a trace of any run holds")
+        raise TraceError(f"{path}: larger than {MAX_TRACE_BYTES:,} bytes, more than a trace reader takes")
+    if data.count(b"\n") > MAX_TICKS + 2:  # said before a line is read: reading them all costs ten times the file
+        raise TraceError(f"{path}: more than {MAX_TICKS:,} ticks, more than a trace reader takes")
     # Whole lines are UTF-8; a trace cut off in the middle of a character is read to its last whole line.
     whole = data.rfind(b"\n") + 1
     try:
@@ -231,7 +234,7 @@ def read_trace(path: str | Path) -> Trace:
             if end is not None:
                 raise TraceError(f"{path}:{number}: a tick after the run's end")
             if len(ticks) >= MAX_TICKS:
-                raise TraceError(f"{path}:{number}: more than {MAX_TICKS:,} ticks, more than a run of an hour holds")
+                raise TraceError(f"{path}:{number}: more than {MAX_TICKS:,} ticks, more than a trace reader takes")
             unknown = [node_id for node_id in record.nodes if not 0 <= node_id < len(header.nodes)]
             if unknown:
                 raise TraceError(f"{path}:{number}: tick {record.tick} names node {unknown[0]}, not in the header")

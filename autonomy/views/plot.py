@@ -76,13 +76,24 @@ def broken_at_wraps(times: list[float], values: list[float], wrap: float | None)
     return xs, ys
 
 
+#: Longest text a picture shows of a name (a mission's, a node's, a zone's): matplotlib lays out every
+#: character, and a name of megabytes took minutes and gigabytes.
+MAX_LABEL_CHARS = 80
+
+
+def _clip(text: str) -> str:
+    """``text`` as a picture shows it: printable, and at most :data:`MAX_LABEL_CHARS` characters."""
+    text = text if len(text) <= MAX_LABEL_CHARS else text[: MAX_LABEL_CHARS - 1] + "\u2026"
+    return printable(text)
+
+
 def mean_over(times: list[float], values: list[float], window_s: float) -> list[float]:
     """Each value as the mean of those from ``window_s`` before it up to it (times in order)."""
     out: list[float] = []
     first, total = 0, 0.0
     for index, (time_s, value) in enumerate(zip(times, values, strict=True)):
         total += value
-        while times[first] <= time_s - window_s:
+        while first < index and times[first] <= time_s - window_s:  # at 1e17 s, time_s - window_s is time_s
             total -= values[first]
             first += 1
         out.append(total / (index - first + 1))
@@ -97,7 +108,8 @@ def plot_run(trace: Trace, path: str | Path) -> None:
     top, bottom = figure.subfigures(2, 1, height_ratios=[8, 1 + rows * 0.22])
     left, right = top.subfigures(1, 2, width_ratios=[1, 1.15])
     outcome = trace.end.outcome if trace.end is not None else "cut off (no end record)"
-    figure.suptitle(printable(f"{header.mission}: {outcome}, {len(ticks)} ticks, {header.date}"), fontsize=13)
+    title = f"{_clip(header.mission)}: {outcome}, {len(ticks)} ticks, {_clip(header.date)}"
+    figure.suptitle(title, fontsize=13)
     _map(left.add_subplot(), trace)
     axes = right.subplots(len(TELEMETRY), 1, sharex=True)
     times = [t.time_s for t in ticks]
@@ -156,14 +168,14 @@ def _world(ax: Any, world: dict[str, Any]) -> None:
         if "box" in item:
             (x1, y1), (x2, y2) = item["box"]["from_mm"], item["box"]["to_mm"]
             ax.add_patch(Rectangle((min(x1, x2), min(y1, y2)), abs(x2 - x1), abs(y2 - y1), **zone_style))
-            ax.annotate(printable(str(name)), (min(x1, x2), max(y1, y2)), **label_style)
+            ax.annotate(_clip(str(name)), (min(x1, x2), max(y1, y2)), **label_style)
         elif "circle" in item:
             (cx, cy), r = item["circle"]["center_mm"], item["circle"]["radius_mm"]
             ax.add_patch(Circle((cx, cy), r, **zone_style))
-            ax.annotate(printable(str(name)), (cx - r * 0.7, cy + r * 0.7), **label_style)
+            ax.annotate(_clip(str(name)), (cx - r * 0.7, cy + r * 0.7), **label_style)
     ax.set_xlim(-50, width + 50)
     ax.set_ylim(-50, height + 50)
-    ax.set_title(printable(f"world {world.get('name', '?')}"), fontsize=10)
+    ax.set_title(f"world {_clip(str(world.get('name', '?')))}", fontsize=10)
 
 
 def _map(ax: Any, trace: Trace) -> None:
@@ -239,7 +251,7 @@ def _timeline(ax: Any, trace: Trace, rows: int) -> None:
         )
     ax.set_yticks(range(rows))
     ax.set_yticklabels(
-        [("  " * depth[n.id]) + printable(n.name) for n in header.nodes[:rows]], fontsize=7, family="monospace"
+        [("  " * depth[n.id]) + _clip(n.name) for n in header.nodes[:rows]], fontsize=7, family="monospace"
     )
     ax.invert_yaxis()
     ax.set_xlabel("time (s)")

@@ -56,6 +56,17 @@ MAX_ANSWERS_SENDING = 256
 ANSWER_PIECE_BYTES = 65_536
 #: A page that reads none of its answer for this long is let go.
 ANSWER_STALL_S = 10.0
+#: A request's headers: at most this many, each at most this long (the page's are a dozen, short).
+MAX_HEADERS = 32
+MAX_HEADER_BYTES = 4096
+#: A connection that sends no request for this long is closed (a page's fetches come together).
+IDLE_CONNECTION_S = 10.0
+#: Largest WebSocket message taken from a page (it sends none: its socket's end closes it).
+MAX_PAGE_MESSAGE_BYTES = 1024
+#: Most events a preview carries (the last ones); the page gets every one with the whole run at its end.
+PREVIEW_EVENTS = 200
+#: A live run's ``api/run`` answer is made again at most this often: a page takes what came since from its stream.
+PAYLOAD_AGE_S = 1.0
 _RETRY = {"Retry-After": "1"}
 _BUSY_ANSWER = (
     b"HTTP/1.1 503 Service Unavailable\r\nContent-Type: text/plain\r\nContent-Length: 30\r\n"
@@ -64,11 +75,18 @@ _BUSY_ANSWER = (
 
 
 class _Refusing(asyncio.Protocol):
-    """A connection past the limit: told so, and closed."""
+    """A connection past the limit: told so, and closed once its request is read, or after a second.
+
+    Closed with the request unread, the kernel would reset it, and the page would never see the 503.
+    """
 
     def connection_made(self, transport: asyncio.BaseTransport) -> None:
         transport.write(_BUSY_ANSWER)  # type: ignore[attr-defined]
-        transport.close()
+        asyncio.get_running_loop().call_later(1.0, transport.close)
+        self._transport = transport
+
+    def data_received(self, data: bytes) -> None:
+        self._transport.close()
 
 
 def connection_limit() -> int:
@@ -114,6 +132,7 @@ class RecordHub:
         self._run_waiters: set[asyncio.Event] = set()
         #: The ``api/run`` answer, encoded once for every page that asks until the run changes.
         self._payload: tuple[tuple[str, int, bool], bytes] = (("", -1, False), b"")
+        self._payload_s = 0.0
         self._clock = RealClock()
         self._wake_pending = False
         self._woken_s = -1.0
@@ -179,19 +198,22 @@ class RecordHub:
             header, ticks, end, run = self.header, self.ticks, self.end, self.run
             count = len(ticks)
         key = (run, count, end is not None)
-        made, answer = self._payload
-        if made == key:
-            return answer
+        (made_run, made_count, made_end), answer = self._payload
+        now_s = self._clock.now()
+        fresh = (made_run, made_end) == (run, end is not None) and now_s - self._payload_s < PAYLOAD_AGE_S
+        if (made_run, made_count, made_end) == key or (fresh and end is None):
+            return answer  # a live run's from a moment ago: the page's stream starts where it ends
         answer = run_payload(header, ticks[:count], end, self.mode, run).encode("utf-8")
-        self._payload = (key, answer)
+        self._payload, self._payload_s = (key, answer), now_s
         return answer
 
     def event(self, ticks: list[TickRecord]) -> str:
         """The message for ``ticks``: all of them, or for a burst a preview.
 
         A preview is at most :data:`PREVIEW_RECORDS` records: each the last tick of its share of
-        the burst, carrying every node change and event of that share, so the tree and the log
-        are right and the path and plots are drawn from fewer points until the run ends.
+        the burst, carrying every node change and the last :data:`PREVIEW_EVENTS` events of that
+        share, so the tree is right and the path, plots and log are drawn from fewer points until
+        the run ends (or the replay's whole run is fetched).
         """
         if len(ticks) <= self.PREVIEW_RECORDS:
             return "ticks\n[" + ",".join(to_line(t) for t in ticks) + "]"
@@ -202,7 +224,7 @@ class RecordHub:
             nodes: dict[int, NodeState] = {}
             for tick in share:
                 nodes.update(tick.nodes)
-            events = [event for tick in share for event in tick.events]
+            events = [event for tick in share for event in tick.events][-PREVIEW_EVENTS:]
             merged.append(msgspec.structs.replace(share[-1], nodes=nodes, wire=[], events=events))
         return "preview\n[" + ",".join(t.to_line() for t in merged) + "]"
 
@@ -221,10 +243,18 @@ def _own_host(host_header: str, served_as: str = "") -> bool:
     that name: it is refused. A name is never needed here: the page's address is printed as one,
     unless the server was told to serve on a name (``--view-host robot-lab.local``): that one is taken.
     """
-    host = host_header.rsplit(":", 1)[0] if host_header.count(":") == 1 else host_header
-    if host.startswith("[") and "]" in host:  # [::1]:8765
-        host = host[1 : host.index("]")]
-    if host.lower() in ("localhost", served_as.lower()):
+    host, port = host_header, ""
+    if host.startswith("["):  # [::1] or [::1]:8765
+        close = host.find("]")
+        host, port = host[1:close], host[close + 1 :] if close > 0 else ""
+        if close < 0 or (port and not port.startswith(":")):
+            return False
+        port = port[1:]
+    elif host.count(":") == 1:
+        host, port = host.split(":")
+    if port and not (port.isascii() and port.isdigit()):
+        return False
+    if host.lower() == "localhost" or (served_as and host.lower() == served_as.lower()):
         return True
     try:
         ipaddress.ip_address(host)
@@ -239,7 +269,8 @@ async def _checked_origin(request: web.Request, handler: Callable[[web.Request],
     host = request.headers.get("Host", "")
     if not _own_host(host, request.app[SERVED_AS]):
         return web.Response(status=403, text="this page is served by address (127.0.0.1, or this machine's)\n")
-    origin = request.headers.get("Origin")
+    origins = request.headers.getall("Origin", [])
+    origin = origins[0] if len(origins) == 1 else None if not origins else "several"
     if origin is not None and origin not in (f"http://{host}", f"https://{host}"):
         return web.Response(status=403, text="a page of another origin may not read this run\n")
     response = await handler(request)
@@ -298,7 +329,15 @@ class ViewServer:
         # A malformed request (a header of 200 KB, a path of 15 KB) is the client's problem: answered
         # 400 and let go, never a traceback in the terminal the robot is watched from.
         self._runner = web.AppRunner(
-            app, handle_signals=False, access_log=None, shutdown_timeout=0.5, logger=_QUIET_LOGGER
+            app,
+            handle_signals=False,
+            access_log=None,
+            shutdown_timeout=0.5,
+            logger=_QUIET_LOGGER,
+            keepalive_timeout=IDLE_CONNECTION_S,
+            max_headers=MAX_HEADERS,
+            max_field_size=MAX_HEADER_BYTES,
+            max_line_size=MAX_HEADER_BYTES,
         )
         ready = threading.Event()
         failure: list[OSError] = []
@@ -500,14 +539,23 @@ class ViewServer:
         and a page held one for as long as it was open, so the seventh page of a run never loaded.
         It ends when ``send`` returns, or when the page goes. ``waiters`` is the hub's set that wakes it.
         """
-        socket = web.WebSocketResponse(timeout=1.0)  # closing waits at most a second for the page's answer
+        # closing waits at most a second for the page's answer; the page sends nothing, so nothing big is taken
+        socket = web.WebSocketResponse(timeout=1.0, max_msg_size=MAX_PAGE_MESSAGE_BYTES)
         try:
             await socket.prepare(request)
         except ConnectionError:  # the page went while its socket was being opened (a tab shown and hidden at once)
             return web.Response()  # to nobody: aiohttp lets go of a response to a connection already gone
         event = asyncio.Event()
         waiters.add(event)
-        sending = asyncio.ensure_future(send(socket.send_str, event))
+
+        async def put(message: str) -> None:  # a page that reads none of a message for a while is let go
+            try:
+                await asyncio.wait_for(socket.send_str(message), ANSWER_STALL_S)
+            except asyncio.TimeoutError:
+                self._refused("stalled", "a page stopped reading the run; it was let go")
+                raise ConnectionResetError("the page stopped reading") from None
+
+        sending = asyncio.ensure_future(send(put, event))
         listening = asyncio.ensure_future(socket.receive())  # returns once the page closes its end
         try:
             await asyncio.wait({sending, listening}, return_when=asyncio.FIRST_COMPLETED)

@@ -53,6 +53,45 @@ def test_bad_requests_get_errors_and_the_publisher_goes_on_answering(publisher):
     assert ask(publisher.port, b"\x02T\x00\x00\x00\x00")[1].startswith(b'<root BTCPP_format="4">')
 
 
+def test_a_client_asking_past_its_share_is_dropped_and_groot2_is_answered_through_a_flood(publisher):
+    """1,000 clients flooding and never reading kept a well-behaved client waiting 2 s, long after they left."""
+    import time
+
+    from autonomy.groot import PEER_REQUESTS_PER_S
+
+    context = zmq.Context()
+    greedy = context.socket(zmq.REQ)  # one client that asks faster than its share: each over it goes unanswered
+    greedy.setsockopt(zmq.RCVTIMEO, 1000)
+    greedy.setsockopt(zmq.LINGER, 0)
+    greedy.setsockopt(zmq.REQ_RELAXED, 1)  # may ask again without its answer
+    greedy.connect(f"tcp://127.0.0.1:{publisher.port}")
+    flood = []
+    for _ in range(100):
+        dealer = context.socket(zmq.DEALER)
+        dealer.setsockopt(zmq.LINGER, 0)
+        dealer.connect(f"tcp://127.0.0.1:{publisher.port}")
+        flood.append(dealer)
+    try:
+        answered, refused = 0, False
+        while not refused and answered <= 3 * PEER_REQUESTS_PER_S:
+            greedy.send(b"\x02S\x00\x00\x00\x00")
+            try:
+                greedy.recv_multipart()
+                answered += 1
+            except zmq.Again:
+                refused = True  # its request went unanswered
+        # its share of a second (of two, when a second ended while it asked), then nothing
+        assert refused and PEER_REQUESTS_PER_S <= answered <= 2 * PEER_REQUESTS_PER_S
+        for _ in range(50):
+            for dealer in flood:
+                dealer.send_multipart([b"", b"\x02T\x00\x00\x00\x00"], zmq.NOBLOCK)
+        waited = time.monotonic()
+        assert ask(publisher.port, b"\x02S\x00\x00\x00\x00")[0][:2] == b"\x02S"  # Groot2, among them
+        assert time.monotonic() - waited < 3.0
+    finally:
+        context.destroy(linger=0)
+
+
 def test_a_request_larger_than_any_groot2_sends_is_not_taken_in(publisher):
     context = zmq.Context()
     socket = context.socket(zmq.DEALER)

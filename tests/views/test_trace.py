@@ -635,8 +635,11 @@ def test_traces_past_their_limits_of_nodes_ticks_and_bytes_are_refused_with_what
     with pytest.raises(TraceError, match=re.escape(f"{path}:1: the tree has 13 nodes; a trace holds at most 12")):
         read_trace(path)
     monkeypatch.setattr(trace_module, "MAX_NODES", 10_000)
-    monkeypatch.setattr(trace_module, "MAX_TICKS", 20)
-    with pytest.raises(TraceError, match=re.escape(f"{path}:22: more than 20 ticks")):
+    monkeypatch.setattr(trace_module, "MAX_TICKS", 28)  # its lines are counted first
+    with pytest.raises(TraceError, match=re.escape(f"{path}: more than 28 ticks")):
+        read_trace(path)
+    monkeypatch.setattr(trace_module, "MAX_TICKS", 29)  # lines enough for 29 ticks, a header and an end: read
+    with pytest.raises(TraceError, match=re.escape(f"{path}:31: more than 29 ticks")):
         read_trace(path)
     monkeypatch.setattr(trace_module, "MAX_TICKS", 1_000_000)
     monkeypatch.setattr(trace_module, "MAX_TRACE_BYTES", path.stat().st_size - 1)
@@ -657,3 +660,22 @@ def test_a_timeline_of_nodes_that_change_every_tick_is_drawn_with_a_few_collecti
     bars = sum(len(collection.get_paths()) for collection in ax.collections)
     assert bars >= 59 * 999  # every span is drawn
     assert len(ax.collections) <= 60 * len(OUTCOME_COLOURS) + len(OUTCOME_COLOURS) and not ax.lines
+
+
+def test_a_name_of_a_megabyte_is_shown_clipped_and_times_past_a_float_s_resolution_are_plotted(tmp_path):
+    """A node named with 3.9 M characters cost `plot` over 113 s and 2 GB; a tick at 1e17 s made it fail."""
+    import dataclasses
+
+    from matplotlib.figure import Figure
+
+    from autonomy.views.plot import MAX_LABEL_CHARS, _timeline, mean_over
+
+    trace = read_trace(chain_trace(tmp_path / "named.jsonl", 2))
+    nodes = list(trace.header.nodes)
+    nodes[1] = dataclasses.replace(nodes[1], name="n" * 1_000_000)
+    named = dataclasses.replace(trace, header=dataclasses.replace(trace.header, nodes=nodes))
+    ax = Figure().add_subplot()
+    _timeline(ax, named, 2)
+    labels = [label.get_text() for label in ax.get_yticklabels()]
+    assert len(labels[1]) == 2 + MAX_LABEL_CHARS and labels[1].endswith("\u2026")  # indented, clipped
+    assert mean_over([0.0, 1e17, 1e17 + 16], [1.0, 2.0, 4.0], 0.25) == [1.0, 2.0, 4.0]  # 1e17 - 0.25 is 1e17

@@ -177,7 +177,9 @@ def test_a_view_told_to_serve_on_a_name_takes_that_name_and_no_other():
     assert _own_host("Robot-Lab.local:8765", "robot-lab.local")  # --view-host robot-lab.local
     assert not _own_host("rebind.example:8765", "robot-lab.local")
     assert not _own_host("robot-lab.local:8765", "")  # served by address: no name at all
-    assert _own_host("192.0.2.7:8765", "robot-lab.local") and _own_host("[::1]:8765")
+    assert _own_host("192.0.2.7:8765", "robot-lab.local") and _own_host("[::1]:8765") and _own_host("[::1]")
+    for crafted in ("[::1]evil.com:8765", "localhost:abc", "[::1", "", ":8765", "127.0.0.1:80:80", "localhost."):
+        assert not _own_host(crafted), crafted
 
 
 def test_pages_that_never_read_a_replay_of_8_mb_hold_pieces_of_one_answer_never_copies(tmp_path):
@@ -393,3 +395,82 @@ def test_a_view_allowed_few_files_refuses_a_flood_past_them_in_one_line_and_serv
     assert lines[0] == "view: 16 connections at once; another was refused", said
     assert lines[1:] in ([], ["view: socket.accept() out of system resource: Too many open files"]), said
     assert "Traceback" not in said
+
+
+def test_a_page_s_socket_takes_no_big_message_two_origins_are_refused_and_a_silent_connection_is_let_go(monkeypatch):
+    """A WebSocket frame of 4 MB half sent held 4 MB a connection; a silent connection was kept an hour."""
+    import socket
+    import time
+
+    import autonomy.views.web as web_module
+
+    monkeypatch.setattr(web_module, "IDLE_CONNECTION_S", 1.0)
+    server = ViewServer("127.0.0.1", 0)
+    server.start()
+    try:
+        port = server.port
+
+        async def big_message() -> tuple[str, int | None]:
+            async with aiohttp.ClientSession() as session:
+                async with session.ws_connect(f"ws://127.0.0.1:{port}/api/next?run=x") as ws:
+                    await ws.send_str("x" * 100_000)
+                    message = await ws.receive(timeout=10)
+                    return str(message.type), ws.close_code
+
+        with ThreadPoolExecutor(1) as pool:
+            _, code = pool.submit(asyncio.run, big_message()).result(timeout=30)
+        assert code == 1009  # "message too big": closed, nothing held
+
+        raw = (  # its own Origin, then a second one
+            f"GET /api/run HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\nOrigin: http://127.0.0.1:{port}\r\n"
+            "Origin: http://evil.example\r\n\r\n"
+        ).encode()
+        with socket.create_connection(("127.0.0.1", port), timeout=10) as two:
+            two.sendall(raw)
+            assert two.recv(64).startswith(b"HTTP/1.1 403")
+
+        with socket.create_connection(("127.0.0.1", port), timeout=10) as silent:
+            started = time.monotonic()
+            assert silent.recv(64) == b""  # closed by the server, not kept
+            assert time.monotonic() - started < 5
+    finally:
+        server.stop()
+
+
+def test_a_client_past_the_limit_that_asks_reads_the_503_rather_than_a_reset():
+    import socket
+
+    server = ViewServer("127.0.0.1", 0)
+    server.max_connections = 2
+    server.start()
+    held = []
+    try:
+        held = [socket.create_connection(("127.0.0.1", server.port), timeout=10) for _ in range(2)]
+        threading.Event().wait(0.3)
+        for _ in range(5):
+            with socket.create_connection(("127.0.0.1", server.port), timeout=10) as late:
+                late.sendall(f"GET /api/run HTTP/1.1\r\nHost: 127.0.0.1:{server.port}\r\n\r\n".encode())
+                threading.Event().wait(0.1)  # the request is there before the server answers and closes
+                assert late.recv(200).startswith(b"HTTP/1.1 503 Service Unavailable")
+    finally:
+        for conn in held:
+            conn.close()
+        server.stop()
+
+
+def test_a_preview_of_a_run_of_many_events_carries_the_last_ones_only():
+    from autonomy.protocol import Status as Packet
+    from autonomy.record import Event, Pose, TickRecord
+    from autonomy.views.web import PREVIEW_EVENTS, RecordHub
+
+    packet = Packet(0, True, False, False, 0, 0, 255, 0)
+    ticks = [
+        TickRecord(i, i * 0.05, packet, 200, True, 0.0, Pose(0, 0, 0), events=[Event("log", f"{i}:" + "x" * 990)])
+        for i in range(1, 5001)
+    ]
+    kind, _, body = RecordHub("replay").event(ticks).partition("\n")
+    previews = json.loads(body)
+    assert kind == "preview" and len(previews) <= RecordHub.PREVIEW_RECORDS
+    assert all(len(record["events"]) <= PREVIEW_EVENTS for record in previews)
+    assert previews[-1]["events"][-1]["message"].startswith("5000:")  # the latest are kept
+    assert len(body) < 3_000_000  # the whole run's events are 5 MB
