@@ -722,6 +722,7 @@ def grade_class(
     traces: Path | None = None,
     feedback: Path | None = None,
     corrections: dict[str, list[tuple[float, str]]] | None = None,
+    start_method: str = "fork",
 ) -> list[Report]:
     """Grades every submission in worker processes, at most ``workers`` at once.
 
@@ -747,6 +748,8 @@ def grade_class(
         feedback: A folder to write each student's feedback page in (see :func:`page_path`), by the workers.
         corrections: The teacher's corrections by student, which their feedback pages show (the
             reports themselves do not get them: see :func:`autonomy.classroom.gradebook.apply_adjustments`).
+        start_method: How workers start: ``fork`` (the grader is one thread), or ``forkserver`` for a
+            process with threads of its own (a server), whose workers are forked from a clean process.
 
     Returns:
         The reports, in the order of ``submissions``.
@@ -754,7 +757,7 @@ def grade_class(
     workers = max(1, workers or os.cpu_count() or 1)
     wall_s = WALL_PER_CPU * cpu_s if wall_s is None else wall_s
     names = file_names(student for student, _ in submissions) if traces is not None or feedback is not None else {}
-    context = multiprocessing.get_context("fork")
+    context = multiprocessing.get_context(start_method)
     clock = RealClock()
     reports: dict[int, Report] = {}
     pending = list(range(len(submissions)))

@@ -41,3 +41,34 @@ def test_a_good_mission_gets_its_tree_drawn_and_a_plugin_is_refused_unrun(tmp_pa
 def test_a_mission_longer_than_taken_is_refused_in_one_problem():
     answer = check(GARAGE, "#" * (MAX_MISSION_CHARS + 1))
     assert answer["ok"] is False and len(answer["problems"]) == 1 and "at most" in answer["problems"][0]["message"]
+
+
+def test_a_run_is_graded_on_the_public_seeds_and_a_hand_in_on_every_one_in_a_worker_forked_from_a_clean_process(
+    tmp_path,
+):
+    import threading
+
+    from autonomy.classroom.grade import grade_class
+    from autonomy.liveclass.work import grade_text
+
+    secret_exercise = GARAGE.with_secret(b"the teacher's secret")
+    text = (ROOT / "exercises" / "solutions" / "garage.yaml").read_text()
+    busy = threading.Event()
+    beside = threading.Thread(target=busy.wait)  # a server has threads of its own: the workers do not fork from it
+    beside.start()
+    try:
+        run, run_page = grade_text(secret_exercise, "ada", text, tmp_path, 1, hand_in=False)
+        handin, handin_page = grade_text(secret_exercise, "ada", text, tmp_path, 2, hand_in=True)
+    finally:
+        busy.set()
+        beside.join()
+    public = [seed for seed in secret_exercise.seeds if not seed.hidden]
+    assert [s.seed for s in run.seeds] == [s.label for s in public]
+    assert len(handin.seeds) == len(secret_exercise.seeds) > len(public)
+    assert handin.total == run.total == GARAGE.max_points  # the reference solution, on every seed
+    assert (tmp_path / "works" / "ada" / "1-run.yaml").read_text() == text
+    assert (tmp_path / "works" / "ada" / "2-handin.yaml").read_text() == text
+    assert run_page.is_file() and handin_page.is_file() and run_page != handin_page
+    kept = tmp_path / "works" / "ada" / "2-handin.yaml"
+    (forked,) = grade_class(secret_exercise, [("ada-2", kept)], workers=1)  # as `autonomy grade` marks it
+    assert forked.marks == handin.marks
