@@ -284,28 +284,33 @@ async def _checked_origin(request: web.Request, handler: Callable[[web.Request],
 SERVED_AS = web.AppKey("served_as", str)
 
 
-class ViewServer:
-    """Serves the page in a thread of its own.
+class BoundedServer:
+    """An aiohttp server in a thread of its own, bounding what one client can cost.
+
+    It answers only requests to this machine by address (or the name it serves on), WebSockets of
+    its own pages, with a strict content security policy; it takes at most
+    :attr:`max_connections` connections at once, requests of a few headers, and lets a silent
+    connection go; each kind of refusal is said in one line. A subclass adds its routes
+    (:meth:`_routes`).
 
     Args:
         host: The interface (127.0.0.1 unless asked otherwise).
         port: The TCP port (0: any free one).
-        mode: ``live`` or ``replay``.
+        name: How its refusals are introduced (``view``).
     """
 
-    def __init__(self, host: str = "127.0.0.1", port: int = 8765, mode: str = "live") -> None:
+    def __init__(self, host: str = "127.0.0.1", port: int = 8765, name: str = "view") -> None:
         self.host, self.port = host, port
-        self.hub = RecordHub(mode)
+        self.name = name
         self._loop = asyncio.new_event_loop()
         self._thread: threading.Thread | None = None
         self._runner: web.AppRunner | None = None
         self._listener: asyncio.AbstractServer | None = None
         self._stopped = threading.Event()
-        self._answers_sending = 0
+        self._clock = RealClock()
         #: Per kind of refusal: when it was last said, and how many since.
         self._refusals: dict[str, tuple[float, int]] = {}
         self.max_connections = connection_limit()
-        self.max_answers_sending = MAX_ANSWERS_SENDING
 
     @property
     def url(self) -> str:
@@ -313,23 +318,27 @@ class ViewServer:
         host = f"[{self.host}]" if ":" in self.host else self.host
         return f"http://{host}:{self.port}/"
 
+    def _routes(self, app: web.Application) -> None:
+        """Adds the server's routes to ``app``."""
+        raise NotImplementedError
+
+    def _make_app(self) -> web.Application:
+        """The application: the checks of every request, and the routes."""
+        app = web.Application(middlewares=[_checked_origin])
+        app[SERVED_AS] = self.host if self.host not in ("", "0.0.0.0", "::") else ""
+        self._routes(app)
+        return app
+
     def start(self) -> None:
         """Binds the port and starts serving.
 
         Raises:
             OSError: the port cannot be bound.
         """
-        app = web.Application(middlewares=[_checked_origin])
-        app[SERVED_AS] = self.host if self.host not in ("", "0.0.0.0", "::") else ""
-        app.router.add_get("/", self._index)
-        app.router.add_get("/static/{name}", self._static)
-        app.router.add_get("/api/run", self._run)
-        app.router.add_get("/api/stream", self._stream)
-        app.router.add_get("/api/next", self._next)
         # A malformed request (a header of 200 KB, a path of 15 KB) is the client's problem: answered
         # 400 and let go, never a traceback in the terminal the robot is watched from.
         self._runner = web.AppRunner(
-            app,
+            self._make_app(),
             handle_signals=False,
             access_log=None,
             shutdown_timeout=0.5,
@@ -342,7 +351,7 @@ class ViewServer:
         ready = threading.Event()
         failure: list[OSError] = []
         self._thread = threading.Thread(
-            target=self._serve, args=(self._runner, ready, failure), name="autonomy-view", daemon=True
+            target=self._serve, args=(self._runner, ready, failure), name=f"autonomy-{self.name}", daemon=True
         )
         self._thread.start()
         ready.wait()
@@ -359,7 +368,7 @@ class ViewServer:
             loop.run_until_complete(runner.setup())
             handler = runner.server
             if handler is None:  # setup() made it
-                raise OSError("the view's server was not set up")
+                raise OSError(f"the {self.name}'s server was not set up")
 
             def connection() -> asyncio.BaseProtocol:
                 if len(handler.connections) >= self.max_connections:
@@ -379,14 +388,23 @@ class ViewServer:
         sockets = self._listener.sockets
         if sockets:
             self.port = sockets[0].getsockname()[1]
-        self.hub._loop = loop  # noqa: SLF001 - the hub wakes streams on this loop
+        self._serving(loop)
         ready.set()
         loop.run_forever()
         self._stopped.set()
 
+    def _serving(self, loop: asyncio.AbstractEventLoop) -> None:
+        """Called on the server's thread once it listens, before it serves."""
+
+    def _closing(self) -> None:
+        """Called as :meth:`stop` begins, on the caller's thread."""
+
+    async def _before_cleanup(self) -> None:
+        """Called on the server's thread as it stops, before its connections are closed."""
+
     def stop(self) -> None:
-        """Closes every stream and stops serving."""
-        self.hub.closed = True
+        """Closes every connection and stops serving."""
+        self._closing()
         if self._thread is None or self._loop.is_closed():
             return
         future = asyncio.run_coroutine_threadsafe(self._shutdown(), self._loop)
@@ -402,20 +420,19 @@ class ViewServer:
     async def _shutdown(self) -> None:
         if self._listener is not None:
             self._listener.close()
-        self.hub._wake_all()  # noqa: SLF001
-        self.hub._wake_run_waiters()  # noqa: SLF001
+        await self._before_cleanup()
         if self._runner is not None:
             await self._runner.cleanup()
 
     def _refused(self, kind: str, text: str) -> None:
         """Says a refusal in one line: the first of its kind at once, then how many, at most every few seconds."""
-        now_s = self.hub._clock.now()  # noqa: SLF001 - the hub's clock: real time
+        now_s = self._clock.now()
         said_s, since = self._refusals.get(kind, (-REFUSAL_REPEAT_S, 0))
         if now_s - said_s < REFUSAL_REPEAT_S:
             self._refusals[kind] = (said_s, since + 1)
             return
         self._refusals[kind] = (now_s, 0)
-        REFUSALS.warning("view: %s%s", text, f" ({since} more since it was last said)" if since else "")
+        REFUSALS.warning("%s: %s%s", self.name, text, f" ({since} more since it was last said)" if since else "")
 
     def _loop_fault(self, loop: asyncio.AbstractEventLoop, context: dict[str, Any]) -> None:
         """What the event loop could not handle (no file descriptor left to accept with, say): one line."""
@@ -429,6 +446,39 @@ class ViewServer:
         clock = clock or RealClock()
         while not self._stopped.is_set():
             clock.sleep(0.5)
+
+
+class ViewServer(BoundedServer):
+    """Serves the page of a run in a thread of its own.
+
+    Args:
+        host: The interface (127.0.0.1 unless asked otherwise).
+        port: The TCP port (0: any free one).
+        mode: ``live`` or ``replay``.
+    """
+
+    def __init__(self, host: str = "127.0.0.1", port: int = 8765, mode: str = "live") -> None:
+        super().__init__(host, port, "view")
+        self.hub = RecordHub(mode)
+        self._answers_sending = 0
+        self.max_answers_sending = MAX_ANSWERS_SENDING
+
+    def _routes(self, app: web.Application) -> None:
+        app.router.add_get("/", self._index)
+        app.router.add_get("/static/{name}", self._static)
+        app.router.add_get("/api/run", self._run)
+        app.router.add_get("/api/stream", self._stream)
+        app.router.add_get("/api/next", self._next)
+
+    def _serving(self, loop: asyncio.AbstractEventLoop) -> None:
+        self.hub._loop = loop  # noqa: SLF001 - the hub wakes streams on this loop
+
+    def _closing(self) -> None:
+        self.hub.closed = True
+
+    async def _before_cleanup(self) -> None:
+        self.hub._wake_all()  # noqa: SLF001
+        self.hub._wake_run_waiters()  # noqa: SLF001
 
     # ------------------------------------------------------------------ handlers
 
