@@ -106,6 +106,11 @@ def make_clock(virtual: bool) -> Clock:
     return VirtualClock() if virtual else RealClock()
 
 
+def wall_time_s() -> float:
+    """Seconds since the epoch, by the wall clock (deadlines a person sets)."""
+    return time.time()
+
+
 def wall_date() -> str:
     """Today's date and time of day, ISO 8601 with the local offset (for trace headers)."""
     return datetime.datetime.now().astimezone().isoformat(timespec="seconds")

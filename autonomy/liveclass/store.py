@@ -194,6 +194,19 @@ class ClassStore:
             ]
         )
 
+    def finish_work(
+        self, number: int, result: dict[str, Any], total: float | None, max_points: float | None, problem: str = ""
+    ) -> None:
+        """Keeps a work's result (its grading's), committed to disk before it returns."""
+        self._write(
+            [
+                (
+                    "UPDATE works SET result = ?, total = ?, max_points = ?, problem = ? WHERE id = ?",
+                    (json.dumps(result), total, max_points, problem, number),
+                )
+            ]
+        )
+
     def works(self, student: str, kind: str | None = None) -> list[Work]:
         """A student's runs and hand-ins (or those of ``kind``), oldest first."""
         where, values = ("student = ?", (student,)) if kind is None else ("student = ? AND kind = ?", (student, kind))

@@ -299,6 +299,9 @@ class BoundedServer:
         name: How its refusals are introduced (``view``).
     """
 
+    #: Largest request body taken.
+    max_request_bytes = 1024 * 1024
+
     def __init__(self, host: str = "127.0.0.1", port: int = 8765, name: str = "view") -> None:
         self.host, self.port = host, port
         self.name = name
@@ -324,7 +327,7 @@ class BoundedServer:
 
     def _make_app(self) -> web.Application:
         """The application: the checks of every request, and the routes."""
-        app = web.Application(middlewares=[_checked_origin])
+        app = web.Application(middlewares=[_checked_origin], client_max_size=self.max_request_bytes)
         app[SERVED_AS] = self.host if self.host not in ("", "0.0.0.0", "::") else ""
         self._routes(app)
         return app

@@ -1,0 +1,208 @@
+"""The class's server: the JSON API the students' and the teacher's pages use (and a script may).
+
+Every route is under ``/api/``. A student's requests carry ``Authorization: Bearer CODE`` (the
+sign-in code ``codes.csv`` gives them); the teacher's, the teacher's token. Bodies are JSON of at
+most 1 MB. docs/class.md describes each route.
+
+``POST /api/check``   ``{"mission": TEXT}`` -> the problems at their lines, or the tree drawn
+``POST /api/run``     the mission, tried on the public seeds -> the marks of each (runs a minute are limited)
+``POST /api/handin``  the mission, graded on every seed and kept -> what the student may see
+``GET  /api/class``   (the teacher) every student's sign-in, runs, hand-ins, marks, last problem
+
+The server checks who it talks to and bounds what each costs, as every server of ours
+(:class:`~autonomy.views.web.BoundedServer`); a student's Python never runs; grading is done in
+the grader's limited worker processes, two at a time.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import collections
+import hmac
+import json
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+from typing import Any
+
+from aiohttp import web
+
+from autonomy.classroom.exercise import Exercise
+from autonomy.classroom.grade import Report
+from autonomy.clock import wall_time_s
+from autonomy.liveclass.store import ClassStore, Student, code_digest
+from autonomy.liveclass.work import check, grade_text
+from autonomy.views.web import BoundedServer
+
+#: Runs one student may start in a minute; past that they are told when they can run again.
+RUNS_PER_MINUTE = 6
+#: After a wrong code, the next answer to that address waits this long, doubling each time up to the most.
+GUESS_WAIT_S = 0.25
+MOST_GUESS_WAIT_S = 8.0
+#: Addresses whose wrong guesses are remembered; past this the oldest are forgotten.
+GUESSERS_KEPT = 10_000
+#: Gradings at once (the machine's two cores).
+GRADINGS_AT_ONCE = 2
+#: Largest request body.
+MAX_REQUEST_BYTES = 1024 * 1024
+#: The setting that holds the teacher's token's digest, and the one that holds the hand-ins' deadline.
+TEACHER_TOKEN = "teacher_token_sha256"
+DEADLINE = "deadline_s"
+
+
+def _json(data: Any, status: int = 200, headers: dict[str, str] | None = None) -> web.Response:
+    return web.Response(text=json.dumps(data), status=status, content_type="application/json", headers=headers)
+
+
+def _refusal(status: int, why: str, **more: Any) -> web.Response:
+    return _json({"error": why, **more}, status)
+
+
+def seen_by_student(exercise: Exercise, report: Report) -> dict[str, Any]:
+    """What a student is shown of a grading: the marks by criterion, and each seed's outcome.
+
+    Hidden seeds are named ``hidden seed K``, never by their numbers.
+    """
+    return {
+        "total": report.total,
+        "max_points": report.max_points,
+        "criteria": [
+            {"label": criterion.label, "points": criterion.points, "earned": mark}
+            for criterion, mark in zip(exercise.criteria, report.marks, strict=False)
+        ],
+        "seeds": [{"seed": seed.seed, "outcome": seed.outcome} for seed in report.seeds],
+        "problems": list(report.problems),
+        "notes": list(report.notes),
+    }
+
+
+class ClassServer(BoundedServer):
+    """Serves a class's API in a thread of its own; bodies of at most :data:`MAX_REQUEST_BYTES`.
+
+    Args:
+        exercise: The exercise, with its hidden seeds drawn (see :meth:`Exercise.with_secret`).
+        store: The class's storage.
+        folder: The class's folder (works and feedback pages are kept there).
+        host: The interface.
+        port: The TCP port (0: any free one).
+    """
+
+    def __init__(self, exercise: Exercise, store: ClassStore, folder: Path, host: str = "127.0.0.1", port: int = 8770):
+        super().__init__(host, port, "class")
+        self.max_request_bytes = MAX_REQUEST_BYTES
+        self.exercise = exercise
+        self.store = store
+        self.folder = Path(folder)
+        self._runs: dict[str, collections.deque[float]] = {}
+        self._guesses: collections.OrderedDict[str, int] = collections.OrderedDict()
+        self._graders = ThreadPoolExecutor(GRADINGS_AT_ONCE, thread_name_prefix="autonomy-grading")
+
+    def _routes(self, app: web.Application) -> None:
+        app.router.add_post("/api/check", self._check)
+        app.router.add_post("/api/run", self._run)
+        app.router.add_post("/api/handin", self._handin)
+        app.router.add_get("/api/class", self._class)
+
+    def _closing(self) -> None:
+        self._graders.shutdown(wait=False, cancel_futures=True)
+
+    # ------------------------------------------------------------------ who asks
+
+    async def _student(self, request: web.Request) -> Student | web.Response:
+        """The student a request's code names, or the refusal (which waits longer after each wrong guess)."""
+        address = request.remote or ""
+        code = request.headers.get("Authorization", "").removeprefix("Bearer ").strip()
+        student = self.store.student_by_code(code) if code else None
+        if student is not None:
+            self._guesses.pop(address, None)
+            return student
+        wrong = self._guesses.pop(address, 0) + 1
+        self._guesses[address] = wrong
+        while len(self._guesses) > GUESSERS_KEPT:
+            self._guesses.popitem(last=False)
+        await asyncio.sleep(min(MOST_GUESS_WAIT_S, GUESS_WAIT_S * 2 ** (wrong - 1)))
+        self._refused("codes", "a request with a wrong sign-in code was refused")
+        return _refusal(401, "no student has this sign-in code: type the one on your sheet")
+
+    def _teacher(self, request: web.Request) -> bool:
+        token = request.headers.get("Authorization", "").removeprefix("Bearer ").strip()
+        return bool(token) and hmac.compare_digest(code_digest(token), self.store.setting(TEACHER_TOKEN))
+
+    async def _mission(self, request: web.Request) -> str | web.Response:
+        try:
+            body = await request.json()
+        except web.HTTPRequestEntityTooLarge:
+            return _refusal(413, f"the request is larger than {MAX_REQUEST_BYTES:,} bytes")
+        except ValueError:
+            return _refusal(400, 'the body is JSON: {"mission": "the mission file\'s text"}')
+        mission = body.get("mission") if isinstance(body, dict) else None
+        if not isinstance(mission, str):
+            return _refusal(400, 'the body is JSON: {"mission": "the mission file\'s text"}')
+        return mission
+
+    # ------------------------------------------------------------------ routes
+
+    async def _check(self, request: web.Request) -> web.Response:
+        student = await self._student(request)
+        if isinstance(student, web.Response):
+            return student
+        mission = await self._mission(request)
+        if isinstance(mission, web.Response):
+            return mission
+        return _json(check(self.exercise, mission))
+
+    async def _run(self, request: web.Request) -> web.Response:
+        return await self._graded(request, hand_in=False)
+
+    async def _handin(self, request: web.Request) -> web.Response:
+        return await self._graded(request, hand_in=True)
+
+    async def _graded(self, request: web.Request, hand_in: bool) -> web.Response:
+        student = await self._student(request)
+        if isinstance(student, web.Response):
+            return student
+        mission = await self._mission(request)
+        if isinstance(mission, web.Response):
+            return mission
+        if hand_in:
+            deadline = self.store.setting(DEADLINE)
+            if deadline and wall_time_s() >= float(deadline):
+                return _refusal(403, "hand-ins are closed: the deadline has passed")
+        else:
+            now_s = self._clock.now()
+            runs = self._runs.setdefault(student.id, collections.deque())
+            while runs and now_s - runs[0] >= 60.0:
+                runs.popleft()
+            if len(runs) >= RUNS_PER_MINUTE:
+                wait_s = max(1, round(60.0 - (now_s - runs[0]) + 0.5))
+                why = f"{RUNS_PER_MINUTE} runs a minute at most: you can run again in {wait_s} s"
+                return _json({"error": why, "retry_after_s": wait_s}, 429, {"Retry-After": str(wait_s)})
+            runs.append(now_s)
+        kind = "handin" if hand_in else "run"
+        checked = check(self.exercise, mission)
+        if not checked["ok"]:
+            first = checked["problems"][0]
+            problem = f"line {first['line']}, column {first['column']}: {first['message']}"
+            self.store.add_work(student.id, kind, mission, checked, problem=problem)
+            return _json({"ok": False, "problems": checked["problems"]}, 422)
+        number = self.store.add_work(student.id, kind, mission, {"grading": True})
+        loop = asyncio.get_running_loop()
+        report, _page = await loop.run_in_executor(
+            self._graders, grade_text, self.exercise, student.id, mission, self.folder, number, hand_in
+        )
+        shown = seen_by_student(self.exercise, report)
+        problem = report.problems[0] if report.problems else ""
+        self.store.finish_work(number, report.to_json(), report.total, report.max_points, problem)
+        return _json({"ok": True, "number": number, "kind": kind, **shown})  # kept before it is said
+
+    async def _class(self, request: web.Request) -> web.Response:
+        if not self._teacher(request):
+            return _refusal(401, "the class table is the teacher's: use the teacher's token")
+        deadline = self.store.setting(DEADLINE)
+        return _json(
+            {
+                "exercise": self.exercise.name,
+                "title": self.exercise.title,
+                "deadline_s": float(deadline) if deadline else None,
+                "students": self.store.summary(),
+            }
+        )
