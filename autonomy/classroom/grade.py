@@ -758,6 +758,8 @@ def grade_class(
     wall_s = WALL_PER_CPU * cpu_s if wall_s is None else wall_s
     names = file_names(student for student, _ in submissions) if traces is not None or feedback is not None else {}
     context = multiprocessing.get_context(start_method)
+    if start_method == "forkserver":  # its workers are forked with the grader's modules loaded, not each importing them
+        context.set_forkserver_preload(["autonomy.classroom.grade"])
     clock = RealClock()
     reports: dict[int, Report] = {}
     pending = list(range(len(submissions)))

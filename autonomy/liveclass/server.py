@@ -34,7 +34,7 @@ from autonomy.liveclass.work import check, grade_text
 from autonomy.views.web import BoundedServer
 
 #: Runs one student may start in a minute; past that they are told when they can run again.
-RUNS_PER_MINUTE = 6
+RUNS_PER_MINUTE = 10
 #: After a wrong code, the next answer to that address waits this long, doubling each time up to the most.
 GUESS_WAIT_S = 0.25
 MOST_GUESS_WAIT_S = 8.0
