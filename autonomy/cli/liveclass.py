@@ -28,7 +28,7 @@ def cmd_class_serve(args: argparse.Namespace) -> int:
     """Serves the class's API until Ctrl-C; writes the students' codes to DIR/codes.csv."""
     from autonomy.classroom.exercise import SecretError, read_secret
     from autonomy.classroom.gradebook import GradebookError, read_roster
-    from autonomy.liveclass.server import TEACHER_TOKEN, ClassServer
+    from autonomy.liveclass.server import DEADLINE, TEACHER_TOKEN, ClassServer
     from autonomy.liveclass.store import ClassStore, StoreError, code_digest
 
     found = _exercise(args.exercise)
@@ -53,6 +53,8 @@ def cmd_class_serve(args: argparse.Namespace) -> int:
     except (OSError, SecretError) as err:
         return _fail(f"{secret_file}: cannot keep the class's secret there: {err}", EXIT_USAGE)
     exercise = exercise.with_secret(secret)
+    if args.deadline is not None:
+        store.set_setting(DEADLINE, str(args.deadline))
     codes = store.enrol([(entry.id, entry.name) for entry in roster])
     token = secrets.token_urlsafe(18)
     store.set_setting(TEACHER_TOKEN, code_digest(token))
@@ -66,9 +68,17 @@ def cmd_class_serve(args: argparse.Namespace) -> int:
         return _fail(f"cannot serve the class on {args.host}:{args.port}: {_port_busy(err, '--port')}", EXIT_USAGE)
     _warn_if_public(args.host, "the class is")
     shown = " or ".join(_addresses(args.host))
-    print(f"class: {exercise.name}, {len(roster)} students; codes in {folder / 'codes.csv'}", file=sys.stderr)
-    print(f"teacher: http://{shown}:{server.port}/ token {token}", file=sys.stderr, flush=True)
-    print(f"http://127.0.0.1:{server.port}/", flush=True)
+    students = len(store.students())
+    deadline = store.setting(DEADLINE)
+    closes = f"; hand-ins close at {_when(float(deadline))}" if deadline else ""
+    codes_file = folder / "codes.csv"
+    print(f"class: {exercise.name}, {students} students; their codes are in {codes_file}{closes}", file=sys.stderr)
+    print(
+        f"teacher: token {token} (new at each start): GET /api/class with 'Authorization: Bearer {token}'",
+        file=sys.stderr,
+        flush=True,
+    )
+    print(f"http://{shown}:{server.port}/", flush=True)
     signal.signal(signal.SIGTERM, _interrupt)
     try:
         server.wait()
@@ -78,6 +88,24 @@ def cmd_class_serve(args: argparse.Namespace) -> int:
         server.stop()
         store.close()
     return EXIT_OK
+
+
+def _deadline(text: str) -> float:
+    """``--deadline``: a date and time (``2026-11-27T15:00``, this machine's time unless it says its offset)."""
+    from datetime import datetime
+
+    try:
+        return datetime.fromisoformat(text).timestamp()
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected a date and time such as 2026-11-27T15:00, got {text[:40]!r}"
+        ) from None
+
+
+def _when(epoch_s: float) -> str:
+    from datetime import datetime
+
+    return datetime.fromtimestamp(epoch_s).astimezone().isoformat(timespec="minutes")
 
 
 def _write_codes(path: Path, roster: list[Any], codes: dict[str, str]) -> None:
@@ -103,4 +131,10 @@ def add_parsers(sub: Any) -> None:
     serve.add_argument("--dir", required=True, metavar="CLASSDIR", help="where the class is kept (made if missing)")
     serve.add_argument("--host", default="127.0.0.1", help="the interface (default 127.0.0.1, this machine only)")
     serve.add_argument("--port", type=_tcp_port, default=8770, help="the port (default 8770; 0: any free one)")
+    serve.add_argument(
+        "--deadline",
+        type=_deadline,
+        metavar="TIME",
+        help="when hand-ins close, e.g. 2026-11-27T15:00 (kept with the class; the students' codes stay in codes.csv)",
+    )
     serve.set_defaults(func=cmd_class_serve)

@@ -30,11 +30,17 @@ from autonomy.classroom.exercise import Exercise
 from autonomy.classroom.grade import Report
 from autonomy.clock import wall_time_s
 from autonomy.liveclass.store import ClassStore, Student, code_digest
-from autonomy.liveclass.work import check, grade_text
+from autonomy.liveclass.work import MAX_MISSION_CHARS, check, grade_text
 from autonomy.views.web import BoundedServer
 
 #: Runs one student may start in a minute; past that they are told when they can run again.
 RUNS_PER_MINUTE = 10
+#: Hand-ins one student may make in a minute.
+HANDINS_PER_MINUTE = 4
+#: A wrong guess is forgotten after this long without another from the same address.
+GUESS_MEMORY_S = 600.0
+#: Checks at once (drawing a tree of 3,000 nodes takes a third of a second): off the server's loop.
+CHECKS_AT_ONCE = 2
 #: After a wrong code, the next answer to that address waits this long, doubling each time up to the most.
 GUESS_WAIT_S = 0.25
 MOST_GUESS_WAIT_S = 8.0
@@ -92,9 +98,14 @@ class ClassServer(BoundedServer):
         self.exercise = exercise
         self.store = store
         self.folder = Path(folder)
-        self._runs: dict[str, collections.deque[float]] = {}
-        self._guesses: collections.OrderedDict[str, int] = collections.OrderedDict()
+        self._runs: dict[tuple[str, str], collections.deque[float]] = {}
+        #: Per address: wrong guesses, when the last was, and a lock that makes its guesses wait in turn.
+        self._guesses: collections.OrderedDict[str, tuple[int, float, asyncio.Lock]] = collections.OrderedDict()
         self._graders = ThreadPoolExecutor(GRADINGS_AT_ONCE, thread_name_prefix="autonomy-grading")
+        self._checkers = ThreadPoolExecutor(CHECKS_AT_ONCE, thread_name_prefix="autonomy-check")
+        #: Students with a request under way (a check, a run or a hand-in): one at a time each.
+        self._busy: set[str] = set()
+        self._signed_in: set[str] = set()
 
     def _routes(self, app: web.Application) -> None:
         app.router.add_post("/api/check", self._check)
@@ -104,6 +115,7 @@ class ClassServer(BoundedServer):
 
     def _closing(self) -> None:
         self._graders.shutdown(wait=False, cancel_futures=True)
+        self._checkers.shutdown(wait=False, cancel_futures=True)
 
     # ------------------------------------------------------------------ who asks
 
@@ -113,13 +125,18 @@ class ClassServer(BoundedServer):
         code = request.headers.get("Authorization", "").removeprefix("Bearer ").strip()
         student = self.store.student_by_code(code) if code else None
         if student is not None:
-            self._guesses.pop(address, None)
+            if student.id not in self._signed_in:
+                self._signed_in.add(student.id)
+                self.store.sign_in(student.id)
             return student
-        wrong = self._guesses.pop(address, 0) + 1
-        self._guesses[address] = wrong
+        now_s = self._clock.now()
+        wrong, last_s, lock = self._guesses.pop(address, (0, now_s, asyncio.Lock()))
+        wrong = 1 if now_s - last_s > GUESS_MEMORY_S else wrong + 1  # a right code in between forgets nothing
+        self._guesses[address] = (wrong, now_s, lock)
         while len(self._guesses) > GUESSERS_KEPT:
             self._guesses.popitem(last=False)
-        await asyncio.sleep(min(MOST_GUESS_WAIT_S, GUESS_WAIT_S * 2 ** (wrong - 1)))
+        async with lock:  # an address's wrong guesses wait in turn, not side by side
+            await asyncio.sleep(min(MOST_GUESS_WAIT_S, GUESS_WAIT_S * 2 ** (wrong - 1)))
         self._refused("codes", "a request with a wrong sign-in code was refused")
         return _refusal(401, "no student has this sign-in code: type the one on your sheet")
 
@@ -132,11 +149,15 @@ class ClassServer(BoundedServer):
             body = await request.json()
         except web.HTTPRequestEntityTooLarge:
             return _refusal(413, f"the request is larger than {MAX_REQUEST_BYTES:,} bytes")
-        except ValueError:
+        except (ValueError, RecursionError):  # not JSON, or nested deeper than a reader goes
             return _refusal(400, 'the body is JSON: {"mission": "the mission file\'s text"}')
         mission = body.get("mission") if isinstance(body, dict) else None
         if not isinstance(mission, str):
             return _refusal(400, 'the body is JSON: {"mission": "the mission file\'s text"}')
+        try:
+            mission.encode("utf-8")
+        except UnicodeEncodeError:
+            return _refusal(400, "the mission holds a character that is not text (half of a surrogate pair)")
         return mission
 
     # ------------------------------------------------------------------ routes
@@ -148,7 +169,15 @@ class ClassServer(BoundedServer):
         mission = await self._mission(request)
         if isinstance(mission, web.Response):
             return mission
-        return _json(check(self.exercise, mission))
+        if student.id in self._busy:
+            return _refusal(429, "your last request is still under way: send the next when it has its answer")
+        self._busy.add(student.id)
+        try:  # off the server's loop: a tree of 3,000 nodes takes a third of a second to draw
+            return _json(
+                await asyncio.get_running_loop().run_in_executor(self._checkers, check, self.exercise, mission)
+            )
+        finally:
+            self._busy.discard(student.id)
 
     async def _run(self, request: web.Request) -> web.Response:
         return await self._graded(request, hand_in=False)
@@ -167,28 +196,46 @@ class ClassServer(BoundedServer):
             deadline = self.store.setting(DEADLINE)
             if deadline and wall_time_s() >= float(deadline):
                 return _refusal(403, "hand-ins are closed: the deadline has passed")
-        else:
-            now_s = self._clock.now()
-            runs = self._runs.setdefault(student.id, collections.deque())
-            while runs and now_s - runs[0] >= 60.0:
-                runs.popleft()
-            if len(runs) >= RUNS_PER_MINUTE:
-                wait_s = max(1, round(60.0 - (now_s - runs[0]) + 0.5))
-                why = f"{RUNS_PER_MINUTE} runs a minute at most: you can run again in {wait_s} s"
-                return _json({"error": why, "retry_after_s": wait_s}, 429, {"Retry-After": str(wait_s)})
-            runs.append(now_s)
+        if student.id in self._busy:
+            return _refusal(429, "your last request is still under way: send the next when it has its answer")
         kind = "handin" if hand_in else "run"
-        checked = check(self.exercise, mission)
+        most = HANDINS_PER_MINUTE if hand_in else RUNS_PER_MINUTE
+        now_s = self._clock.now()
+        done = self._runs.setdefault((student.id, kind), collections.deque())
+        while done and now_s - done[0] >= 60.0:
+            done.popleft()
+        if len(done) >= most:
+            wait_s = max(1, round(60.0 - (now_s - done[0]) + 0.5))
+            what = "hand-ins" if hand_in else "runs"
+            why = f"{most} {what} a minute at most: you can {'hand in' if hand_in else 'run'} again in {wait_s} s"
+            return _json({"error": why, "retry_after_s": wait_s}, 429, {"Retry-After": str(wait_s)})
+        done.append(now_s)
+        self._busy.add(student.id)
+        try:
+            return await self._grade(student, mission, kind)
+        finally:
+            self._busy.discard(student.id)
+
+    async def _grade(self, student: Student, mission: str, kind: str) -> web.Response:
+        loop = asyncio.get_running_loop()
+        checked = await loop.run_in_executor(self._checkers, check, self.exercise, mission)
         if not checked["ok"]:
             first = checked["problems"][0]
             problem = f"line {first['line']}, column {first['column']}: {first['message']}"
-            self.store.add_work(student.id, kind, mission, checked, problem=problem)
+            self.store.add_work(
+                student.id, kind, mission[:MAX_MISSION_CHARS], {"problems": checked["problems"]}, problem=problem
+            )
             return _json({"ok": False, "problems": checked["problems"]}, 422)
         number = self.store.add_work(student.id, kind, mission, {"grading": True})
-        loop = asyncio.get_running_loop()
-        report, _page = await loop.run_in_executor(
-            self._graders, grade_text, self.exercise, student.id, mission, self.folder, number, hand_in
-        )
+        try:
+            report, _page = await loop.run_in_executor(
+                self._graders, grade_text, self.exercise, student.id, mission, self.folder, number, kind == "handin"
+            )
+        except Exception as err:  # noqa: BLE001 - said in one line, kept as the work's problem, answered 500
+            why = f"the grading failed: {type(err).__name__}"
+            self._refused(f"grading {type(err).__name__}", f"{why} (work {number})")
+            self.store.finish_work(number, {"error": why}, None, None, why)
+            return _refusal(500, why)
         shown = seen_by_student(self.exercise, report)
         problem = report.problems[0] if report.problems else ""
         self.store.finish_work(number, report.to_json(), report.total, report.max_points, problem)

@@ -102,8 +102,10 @@ class ClassStore:
     def __init__(self, folder: Path) -> None:
         self.folder = Path(folder)
         try:
-            self.folder.mkdir(parents=True, exist_ok=True)
-            self._db = sqlite3.connect(self.folder / DATABASE, check_same_thread=False, isolation_level=None)
+            self.folder.mkdir(mode=0o700, parents=True, exist_ok=True)
+            database = self.folder / DATABASE
+            database.touch(mode=0o600)  # the students' work, and their codes' digests: the teacher's alone
+            self._db = sqlite3.connect(database, check_same_thread=False, isolation_level=None)
             self._db.execute("PRAGMA journal_mode=WAL")
             self._db.execute("PRAGMA synchronous=FULL")
             self._db.execute("PRAGMA foreign_keys=ON")
@@ -126,10 +128,12 @@ class ClassStore:
                 for sql, values in statements:
                     last = self._db.execute(sql, values).lastrowid or last
                 self._db.execute("COMMIT")
-            except sqlite3.Error as err:
+            except BaseException as err:  # whatever it was, the next write starts on a clean transaction
                 if self._db.in_transaction:
                     self._db.execute("ROLLBACK")
-                raise StoreError(f"{self.folder / DATABASE}: cannot write: {err}") from err
+                if isinstance(err, sqlite3.Error):
+                    raise StoreError(f"{self.folder / DATABASE}: cannot write: {err}") from err
+                raise
             return last
 
     def _read(self, sql: str, values: tuple[Any, ...] = ()) -> list[tuple[Any, ...]]:

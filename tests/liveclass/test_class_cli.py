@@ -8,6 +8,7 @@ import re
 import signal
 import subprocess
 import sys
+import urllib.error
 import urllib.request
 
 from tests.views.conftest import ROOT
@@ -65,3 +66,33 @@ def test_a_hand_in_acknowledged_right_before_a_kill_9_is_there_with_its_marks_af
         again.send_signal(signal.SIGINT)
         _, said = again.communicate(timeout=30)
     assert again.returncode == 0 and "Traceback" not in said
+
+
+def test_a_deadline_given_to_serve_closes_hand_ins_and_is_said(tmp_path):
+    (tmp_path / "roster.csv").write_text("id,name,submission\n1001,Ada Lovelace,ada\n")
+    process = subprocess.Popen(
+        [sys.executable, "-m", "autonomy", "class", "serve", "garage", "--roster", str(tmp_path / "roster.csv")]
+        + ["--dir", str(tmp_path / "class"), "--port", "0", "--deadline", "2000-01-01T00:00"],
+        cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    try:
+        said = process.stderr.readline()
+        port = int(process.stdout.readline().strip().rstrip("/").rsplit(":", 1)[1])
+        with (tmp_path / "class" / "codes.csv").open() as stream:
+            code = next(csv.DictReader(stream))["code"]
+        try:
+            post(port, "/api/handin", {"mission": SOLUTION}, code)
+            refused = None
+        except urllib.error.HTTPError as err:
+            refused = err.code, json.loads(err.read())
+    finally:
+        process.send_signal(signal.SIGINT)
+        process.communicate(timeout=30)
+    assert "hand-ins close at 2000-01-01T00:00" in said
+    assert refused is not None and refused[0] == 403 and "closed" in refused[1]["error"]
+    bad = subprocess.run(
+        [sys.executable, "-m", "autonomy", "class", "serve", "garage", "--roster", str(tmp_path / "roster.csv")]
+        + ["--dir", str(tmp_path / "class"), "--deadline", "friday"],
+        cwd=ROOT, capture_output=True, text=True, timeout=60,
+    )  # fmt: skip
+    assert bad.returncode == 2 and "expected a date and time such as 2026-11-27T15:00" in bad.stderr

@@ -112,3 +112,58 @@ def test_a_hand_in_after_the_deadline_is_refused_and_not_kept(served):
     status, refused = call(server, "/api/handin", {"mission": SOLUTION}, codes["s1"])
     assert status == 403 and "closed" in refused["error"]
     assert server.store.works("s1") == []
+
+
+def test_a_request_that_cannot_be_kept_is_refused_and_the_next_student_s_hand_in_is_kept(served):
+    """A lone surrogate left a transaction open, and the next student's hand-in failed with a 500."""
+    server, codes = served
+    status, refused = call(server, "/api/handin", b'{"mission": "tree: beep\\ud800"}', codes["s2"])
+    assert status == 400 and "not text" in refused["error"]
+    status, deep = call(server, "/api/check", b"[" * 100_000 + b"]" * 100_000, codes["s2"])
+    assert status == 400  # nested deeper than a reader goes: told what to send, no 500
+    status, kept = call(server, "/api/handin", {"mission": SOLUTION}, codes["s1"])
+    assert status == 200 and kept["total"] == GARAGE.max_points
+
+
+def test_one_request_at_a_time_per_student_hand_ins_a_minute_and_what_is_kept_of_a_refused_text(served):
+    from concurrent.futures import ThreadPoolExecutor
+
+    from autonomy.liveclass.server import HANDINS_PER_MINUTE
+    from autonomy.liveclass.work import MAX_MISSION_CHARS
+
+    server, codes = served
+    with ThreadPoolExecutor(4) as pool:
+        answers = list(pool.map(lambda _: call(server, "/api/run", {"mission": SOLUTION}, codes["s1"]), range(4)))
+    statuses = sorted(status for status, _ in answers)
+    assert statuses[0] == 200 and 429 in statuses  # the others are told their last is under way
+    assert all("still under way" in a["error"] for status, a in answers if status == 429)
+    for _ in range(HANDINS_PER_MINUTE):
+        assert call(server, "/api/handin", {"mission": TYPO}, codes["s2"])[0] == 422
+    status, refused = call(server, "/api/handin", {"mission": TYPO}, codes["s2"])
+    assert status == 429 and "hand in again in" in refused["error"]
+    long_typo = TYPO + "#" * 200_000
+    call(server, "/api/run", {"mission": long_typo}, codes["s1"])
+    assert len(server.store.works("s1")[-1].source) == MAX_MISSION_CHARS  # kept, cut to what a mission may be
+
+
+def test_a_student_is_signed_in_by_their_first_request_and_the_class_is_the_teacher_s_alone_on_disk(served):
+    import stat
+
+    server, codes = served
+    assert [s["signed_in"] for s in server.store.summary()] == ["", ""]
+    call(server, "/api/check", {"mission": TYPO}, codes["s2"])
+    ada, bob = server.store.summary()
+    assert ada["signed_in"] == "" and bob["signed_in"] != ""
+    assert stat.S_IMODE(server.folder.stat().st_mode) == 0o700
+    assert stat.S_IMODE((server.folder / "class.sqlite").stat().st_mode) == 0o600
+
+
+def test_wrong_guesses_sent_side_by_side_wait_in_turn(served):
+    from concurrent.futures import ThreadPoolExecutor
+
+    server, _ = served
+    started = time.monotonic()
+    with ThreadPoolExecutor(4) as pool:
+        statuses = list(pool.map(lambda k: call(server, "/api/check", {"mission": TYPO}, f"wrong{k}")[0], range(4)))
+    assert statuses == [401] * 4
+    assert time.monotonic() - started >= (1 + 2 + 4 + 8) * GUESS_WAIT_S  # 0.25 + 0.5 + 1 + 2 s, one after another
