@@ -30,7 +30,7 @@ def test_200_groot2_and_60_view_clients_that_never_read_leave_the_run_under_300_
         groot.close()
         for conn in readers:
             conn.close()
-    assert groot.sent > 20_000  # they asked, all along
+    assert groot.sent > 5_000  # they asked, all along
     assert ended, said  # the run ended by itself, its robot stopped
     assert code == 0, said  # it succeeded (its view then ended by Ctrl-C)
     assert peak_mb[0] - start_mb < 300, f"{start_mb} MB at the start, {peak_mb[0]} MB at the peak"
