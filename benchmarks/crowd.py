@@ -26,12 +26,11 @@ import resource
 import statistics
 import sys
 import tempfile
-import threading
 import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from tests.crowd import GrootCrowd, IdleWebSockets, Run, big_mission, memory_mb, non_readers, tick_gaps_ms  # noqa: E402
+from tests.crowd import GrootCrowd, IdleWebSockets, PeakMemory, Run, big_mission, non_readers, tick_gaps_ms  # noqa: E402
 
 PERIOD_MS = 50.0
 WAIT_S = 6.0
@@ -47,15 +46,7 @@ def one_run(folder: Path, case: str, websockets: int) -> dict[str, float]:
     start_mb = run.start["VmRSS"]
     attackers: list = []
     sockets = None
-    peak_mb = [0]
-    watching = threading.Event()
-
-    def watch() -> None:
-        while not watching.wait(0.05):
-            peak_mb[0] = max(peak_mb[0], memory_mb(run.process.pid).get("VmHWM", 0))
-
-    watcher = threading.Thread(target=watch)
-    watcher.start()
+    peak = PeakMemory(run.process.pid)
     try:
         if case != "alone":
             sockets = IdleWebSockets(run.view_port, websockets)
@@ -66,8 +57,7 @@ def one_run(folder: Path, case: str, websockets: int) -> dict[str, float]:
                 raise RuntimeError("the crowd came after the wait: the drive's figures would include it")
         ended, code, said = run.finish(timeout_s=120)
     finally:
-        watching.set()
-        watcher.join()
+        peak.close()
         for attacker in attackers:
             attacker.close()
         if sockets is not None:
@@ -80,7 +70,7 @@ def one_run(folder: Path, case: str, websockets: int) -> dict[str, float]:
         "p99_ms": gaps[int(len(gaps) * 0.99)],
         "worst_ms": gaps[-1],
         "coming_ms": max(coming),
-        "memory_mb": peak_mb[0] - start_mb,
+        "memory_mb": peak.peak_mb - start_mb,
     }
 
 

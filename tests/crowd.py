@@ -39,6 +39,24 @@ def memory_mb(pid: int) -> dict[str, int]:
     return {key: int(value.group(1)) // 1024 for key, value in found.items() if value}  # a zombie has none
 
 
+class PeakMemory:
+    """Watches a process's peak resident memory (VmHWM), in MB, every 50 ms until :meth:`close`."""
+
+    def __init__(self, pid: int) -> None:
+        self.pid, self.peak_mb = pid, 0
+        self._done = threading.Event()
+        self._thread = threading.Thread(target=self._watch)
+        self._thread.start()
+
+    def _watch(self) -> None:
+        while not self._done.wait(0.05):
+            self.peak_mb = max(self.peak_mb, memory_mb(self.pid).get("VmHWM", 0))
+
+    def close(self) -> None:
+        self._done.set()
+        self._thread.join()
+
+
 class Run:
     """``autonomy run ARGS`` in a process of its own, with the ports it prints of its view and Groot2 publisher."""
 

@@ -48,6 +48,8 @@ MOST_GUESS_WAIT_S = 8.0
 GUESSERS_KEPT = 10_000
 #: Gradings at once (the machine's two cores).
 GRADINGS_AT_ONCE = 2
+#: What a student is told who sends a request while their last is under way.
+UNDER_WAY = "your last request is still under way: send the next when it has its answer"
 #: Largest request body.
 MAX_REQUEST_BYTES = 1024 * 1024
 #: The setting that holds the teacher's token's digest, and the one that holds the hand-ins' deadline.
@@ -162,15 +164,23 @@ class ClassServer(BoundedServer):
 
     # ------------------------------------------------------------------ routes
 
-    async def _check(self, request: web.Request) -> web.Response:
+    async def _asked(self, request: web.Request) -> tuple[Student, str] | web.Response:
+        """Who asks, and the mission they send; or the refusal."""
         student = await self._student(request)
         if isinstance(student, web.Response):
             return student
         mission = await self._mission(request)
         if isinstance(mission, web.Response):
             return mission
+        return student, mission
+
+    async def _check(self, request: web.Request) -> web.Response:
+        asked = await self._asked(request)
+        if isinstance(asked, web.Response):
+            return asked
+        student, mission = asked
         if student.id in self._busy:
-            return _refusal(429, "your last request is still under way: send the next when it has its answer")
+            return _refusal(429, UNDER_WAY)
         self._busy.add(student.id)
         try:  # off the server's loop: a tree of 3,000 nodes takes a third of a second to draw
             return _json(
@@ -186,18 +196,16 @@ class ClassServer(BoundedServer):
         return await self._graded(request, hand_in=True)
 
     async def _graded(self, request: web.Request, hand_in: bool) -> web.Response:
-        student = await self._student(request)
-        if isinstance(student, web.Response):
-            return student
-        mission = await self._mission(request)
-        if isinstance(mission, web.Response):
-            return mission
+        asked = await self._asked(request)
+        if isinstance(asked, web.Response):
+            return asked
+        student, mission = asked
         if hand_in:
             deadline = self.store.setting(DEADLINE)
             if deadline and wall_time_s() >= float(deadline):
                 return _refusal(403, "hand-ins are closed: the deadline has passed")
         if student.id in self._busy:
-            return _refusal(429, "your last request is still under way: send the next when it has its answer")
+            return _refusal(429, UNDER_WAY)
         kind = "handin" if hand_in else "run"
         most = HANDINS_PER_MINUTE if hand_in else RUNS_PER_MINUTE
         now_s = self._clock.now()

@@ -188,12 +188,11 @@ class RecordHub:
         """The run's name for the page: this hub's, and which of its runs (empty before any)."""
         return f"{self.name}-{self.generation}" if self.header is not None else ""
 
-    def payload(self) -> str:
-        """The whole run so far, as the page's ``api/run`` answer."""
-        return self.encoded_payload().decode("utf-8")
-
     def encoded_payload(self) -> bytes:
-        """:meth:`payload` in UTF-8: made once for every page that asks while the run stays as it is."""
+        """The whole run so far, as the page's ``api/run`` answer, in UTF-8.
+
+        Made once for every page that asks while the run stays as it is.
+        """
         with self._lock:
             header, ticks, end, run = self.header, self.ticks, self.end, self.run
             count = len(ticks)

@@ -2,9 +2,7 @@
 
 from __future__ import annotations
 
-import threading
-
-from tests.crowd import GrootCrowd, Run, big_mission, memory_mb, non_readers
+from tests.crowd import GrootCrowd, PeakMemory, Run, big_mission, non_readers
 
 
 def test_200_groot2_and_60_view_clients_that_never_read_leave_the_run_under_300_mb_and_it_ends(tmp_path):
@@ -13,25 +11,16 @@ def test_200_groot2_and_60_view_clients_that_never_read_leave_the_run_under_300_
     start_mb = run.start["VmRSS"]
     groot = GrootCrowd(run.groot_port, 200)
     readers = non_readers(run.view_port, 60)
-    peak_mb = [0]
-    watching = threading.Event()
-
-    def watch() -> None:
-        while not watching.wait(0.05):
-            peak_mb[0] = max(peak_mb[0], memory_mb(run.process.pid).get("VmHWM", 0))
-
-    watcher = threading.Thread(target=watch)
-    watcher.start()
+    peak = PeakMemory(run.process.pid)
     try:
         ended, code, said = run.finish(timeout_s=60)
     finally:
-        watching.set()
-        watcher.join()
+        peak.close()
         groot.close()
         for conn in readers:
             conn.close()
     assert groot.sent > 5_000  # they asked, all along
     assert ended, said  # the run ended by itself, its robot stopped
     assert code == 0, said  # it succeeded (its view then ended by Ctrl-C)
-    assert peak_mb[0] - start_mb < 300, f"{start_mb} MB at the start, {peak_mb[0]} MB at the peak"
+    assert peak.peak_mb - start_mb < 300, f"{start_mb} MB at the start, {peak.peak_mb} MB at the peak"
     assert "Traceback" not in said, said
