@@ -17,7 +17,7 @@ from matplotlib.patches import Circle, Rectangle
 
 from autonomy.record import FAILURE, INVALID, RUNNING, SUCCESS, TreeState
 from autonomy.trace import Trace
-from autonomy.views.lines import printable
+from autonomy.views.lines import fit
 
 OUTCOME_COLOURS = {SUCCESS: "#2f9e44", FAILURE: "#e03131", INVALID: "#adb5bd", RUNNING: "#f59f00"}
 #: Each plot: its label, its value in a tick, and the value at which it wraps round to 0 (or None).
@@ -81,12 +81,6 @@ def broken_at_wraps(times: list[float], values: list[float], wrap: float | None)
 MAX_LABEL_CHARS = 80
 
 
-def _clip(text: str) -> str:
-    """``text`` as a picture shows it: printable, and at most :data:`MAX_LABEL_CHARS` characters."""
-    text = text if len(text) <= MAX_LABEL_CHARS else text[: MAX_LABEL_CHARS - 1] + "\u2026"
-    return printable(text)
-
-
 def mean_over(times: list[float], values: list[float], window_s: float) -> list[float]:
     """Each value as the mean of those from ``window_s`` before it up to it (times in order)."""
     out: list[float] = []
@@ -108,7 +102,9 @@ def plot_run(trace: Trace, path: str | Path) -> None:
     top, bottom = figure.subfigures(2, 1, height_ratios=[8, 1 + rows * 0.22])
     left, right = top.subfigures(1, 2, width_ratios=[1, 1.15])
     outcome = trace.end.outcome if trace.end is not None else "cut off (no end record)"
-    title = f"{_clip(header.mission)}: {outcome}, {len(ticks)} ticks, {_clip(header.date)}"
+    title = (
+        f"{fit(header.mission, MAX_LABEL_CHARS)}: {outcome}, {len(ticks)} ticks, {fit(header.date, MAX_LABEL_CHARS)}"
+    )
     figure.suptitle(title, fontsize=13)
     _map(left.add_subplot(), trace)
     axes = right.subplots(len(TELEMETRY), 1, sharex=True)
@@ -168,14 +164,14 @@ def _world(ax: Any, world: dict[str, Any]) -> None:
         if "box" in item:
             (x1, y1), (x2, y2) = item["box"]["from_mm"], item["box"]["to_mm"]
             ax.add_patch(Rectangle((min(x1, x2), min(y1, y2)), abs(x2 - x1), abs(y2 - y1), **zone_style))
-            ax.annotate(_clip(str(name)), (min(x1, x2), max(y1, y2)), **label_style)
+            ax.annotate(fit(str(name), MAX_LABEL_CHARS), (min(x1, x2), max(y1, y2)), **label_style)
         elif "circle" in item:
             (cx, cy), r = item["circle"]["center_mm"], item["circle"]["radius_mm"]
             ax.add_patch(Circle((cx, cy), r, **zone_style))
-            ax.annotate(_clip(str(name)), (cx - r * 0.7, cy + r * 0.7), **label_style)
+            ax.annotate(fit(str(name), MAX_LABEL_CHARS), (cx - r * 0.7, cy + r * 0.7), **label_style)
     ax.set_xlim(-50, width + 50)
     ax.set_ylim(-50, height + 50)
-    ax.set_title(f"world {_clip(str(world.get('name', '?')))}", fontsize=10)
+    ax.set_title(f"world {fit(str(world.get('name', '?')), MAX_LABEL_CHARS)}", fontsize=10)
 
 
 def _map(ax: Any, trace: Trace) -> None:
@@ -251,7 +247,9 @@ def _timeline(ax: Any, trace: Trace, rows: int) -> None:
         )
     ax.set_yticks(range(rows))
     ax.set_yticklabels(
-        [("  " * depth[n.id]) + _clip(n.name) for n in header.nodes[:rows]], fontsize=7, family="monospace"
+        [("  " * depth[n.id]) + fit(n.name, MAX_LABEL_CHARS) for n in header.nodes[:rows]],
+        fontsize=7,
+        family="monospace",
     )
     ax.invert_yaxis()
     ax.set_xlabel("time (s)")
