@@ -258,10 +258,8 @@ class TcpServer(_Server):
         if self._conn is not None and now_s - self._heard_s > self.idle_peer_s:
             self._drop_connection()
         for conn, since_s in list(self._turned_away.items()):
-            if now_s - since_s > TURN_AWAY_S:
-                self._selector.unregister(conn)
-                del self._turned_away[conn]
-                conn.close()
+            if now_s - since_s > TURN_AWAY_S:  # it asked nothing: told all the same, and let go
+                self._turn_away(conn)
 
     def _drop_connection(self) -> None:
         if self._conn is not None:
