@@ -128,6 +128,24 @@ class Report:
         del out["shape"]
         return out
 
+    @classmethod
+    def from_json(cls, data: dict[str, Any]) -> Report:
+        """The report :meth:`to_json` wrote (its tree's shape, left out there, is empty)."""
+        seeds = [
+            SeedResult(
+                **{
+                    **seed,
+                    "verdicts": [tuple(v) for v in seed["verdicts"]],
+                    "path": [tuple(p) for p in seed["path"]],
+                    "collisions": [tuple(c) for c in seed["collisions"]],
+                    "beeps": [tuple(b) for b in seed["beeps"]],
+                    "turns": [tuple(t) for t in seed["turns"]],
+                }
+            )
+            for seed in data["seeds"]
+        ]
+        return cls(**{**data, "seeds": seeds, "adjustments": [tuple(a) for a in data["adjustments"]]})
+
 
 def default_cpu_s(exercise: Exercise) -> float:
     """The CPU time a submission gets by default: 60 s, or more when its seeds add up to a long time.
@@ -632,6 +650,7 @@ def _worker(
     feedback: Path | None = None,
     names: dict[str, str] | None = None,
     corrections: dict[str, list[tuple[float, str]]] | None = None,
+    by_name: bool = False,
 ) -> None:
     """A worker process's body: limits its memory, then grades the submissions it is sent, one at a time.
 
@@ -666,6 +685,9 @@ def _worker(
         if job is None:
             return
         student, path = job
+        if by_name:  # graded from its own folder: the report, the page and the runs name the file alone
+            os.chdir(path.parent)
+            path = Path(path.name)
         Blackboard.clear()  # as a new worker has it: nothing of the last submission's trees
         if allow_plugins:  # what a plugin starts inherits it
             _cap_what_it_starts(cpu_s)
@@ -723,6 +745,7 @@ def grade_class(
     feedback: Path | None = None,
     corrections: dict[str, list[tuple[float, str]]] | None = None,
     start_method: str = "fork",
+    by_name: bool = False,
 ) -> list[Report]:
     """Grades every submission in worker processes, at most ``workers`` at once.
 
@@ -750,12 +773,18 @@ def grade_class(
             reports themselves do not get them: see :func:`autonomy.classroom.gradebook.apply_adjustments`).
         start_method: How workers start: ``fork`` (the grader is one thread), or ``forkserver`` for a
             process with threads of its own (a server), whose workers are forked from a clean process.
+        by_name: Each submission is graded from its own folder, its file named by its name alone in
+            the report, the page and the runs (a class's server: where it keeps the file is none of the
+            student's business). The submissions are files.
 
     Returns:
         The reports, in the order of ``submissions``.
     """
     workers = max(1, workers or os.cpu_count() or 1)
     wall_s = WALL_PER_CPU * cpu_s if wall_s is None else wall_s
+    if by_name:  # a worker grades from each file's folder: every other place is told whole
+        submissions = [(student, path.resolve()) for student, path in submissions]
+        traces, feedback = (None if f is None else f.resolve() for f in (traces, feedback))
     names = file_names(student for student, _ in submissions) if traces is not None or feedback is not None else {}
     context = multiprocessing.get_context(start_method)
     if start_method == "forkserver":  # its workers are forked with the grader's modules loaded, not each importing them
@@ -768,7 +797,7 @@ def grade_class(
 
     def failed(index: int, why: str) -> Report:
         student, path = submissions[index]
-        report = Report(student, str(path), 0.0, exercise.max_points, list(zero), [why])
+        report = Report(student, path.name if by_name else str(path), 0.0, exercise.max_points, list(zero), [why])
         if feedback is not None:  # its worker made no page (it ran out of time, or ended): the page says why
             name = names.get(student) or file_names([student])[student]
             _feedback_page(exercise, report, feedback, [], name, (corrections or {}).get(student))
@@ -797,7 +826,7 @@ def grade_class(
         mine, theirs = context.Pipe(duplex=True)
         process = context.Process(
             target=_worker,
-            args=(exercise, allow_plugins, memory_mb, cpu_s, theirs, traces, feedback, names, corrections),
+            args=(exercise, allow_plugins, memory_mb, cpu_s, theirs, traces, feedback, names, corrections, by_name),
             daemon=True,
         )
         process.start()
@@ -887,6 +916,19 @@ def _bundle(path: Path) -> list[tuple[str, bytes]]:
     return []  # missing, or a link: graded where it lands, which says so
 
 
+def refuse_daemon() -> None:
+    """Says why a Dask worker that runs as a daemon cannot grade (it may not start a submission's process).
+
+    Raises:
+        RuntimeError: this process is a daemon.
+    """
+    if multiprocessing.current_process().daemon:
+        raise RuntimeError(
+            "the Dask worker runs as a daemon, which may not start the process a submission is graded in: "
+            "start the workers with the Dask setting distributed.worker.daemon: false"
+        )
+
+
 def _dask_job(
     exercise: Exercise, jobs: list[tuple[str, str, list[tuple[str, bytes]], bool]], options: dict[str, Any]
 ) -> list[Report]:
@@ -900,11 +942,7 @@ def _dask_job(
     """
     import tempfile
 
-    if multiprocessing.current_process().daemon:
-        raise RuntimeError(
-            "the Dask worker runs as a daemon, which may not start the process a submission is graded in: "
-            "start the workers with the Dask setting distributed.worker.daemon: false"
-        )
+    refuse_daemon()
     with tempfile.TemporaryDirectory(prefix="autonomy-grade-") as folder:
         places: list[Path] = []
         for index, (_, given, files, is_folder) in enumerate(jobs):

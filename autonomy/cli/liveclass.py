@@ -25,16 +25,19 @@ from autonomy.cli.grade import _exercise
 
 
 def cmd_class_serve(args: argparse.Namespace) -> int:
-    """Serves the class's API until Ctrl-C; writes the students' codes to DIR/codes.csv."""
+    """Serves the class until Ctrl-C; writes the students' codes to DIR/codes.csv."""
+    import hashlib
+
     from autonomy.classroom.exercise import SecretError, read_secret
     from autonomy.classroom.gradebook import GradebookError, read_roster
-    from autonomy.liveclass.server import DEADLINE, TEACHER_TOKEN, ClassServer
-    from autonomy.liveclass.store import ClassStore, StoreError, code_digest
+    from autonomy.classroom.gradescope import build_autograder
+    from autonomy.liveclass.server import DEADLINE, EXERCISE, TEACHER_TOKEN, ClassServer
+    from autonomy.liveclass.store import ClassStore, StoreError, token_digest
 
     found = _exercise(args.exercise)
     if isinstance(found, int):
         return found
-    exercise, _ = found
+    exercise, exercise_path = found
     try:
         roster = read_roster(args.roster)
     except GradebookError as err:
@@ -52,19 +55,52 @@ def cmd_class_serve(args: argparse.Namespace) -> int:
         secret = read_secret(str(secret_file))
     except (OSError, SecretError) as err:
         return _fail(f"{secret_file}: cannot keep the class's secret there: {err}", EXIT_USAGE)
-    exercise = exercise.with_secret(secret)
+    kept = store.setting(EXERCISE)
+    this = f"{exercise.name} {hashlib.sha256(exercise.source.encode()).hexdigest()}"
+    if kept and kept != this:
+        store.close()
+        return _fail(
+            f"{folder} holds a class of another exercise ('{kept.split()[0]}', or another version of it): "
+            "give this one a --dir of its own",
+            EXIT_USAGE,
+        )
+    store.set_setting(EXERCISE, this)
+    grader = None
+    if args.dask:
+        from autonomy.liveclass.work import DaskGrader
+
+        try:
+            grader = DaskGrader(args.dask)
+        except ImportError:
+            store.close()
+            return _fail("--dask needs dask.distributed: pip install 'autonomy[cluster]'", EXIT_USAGE)
+        except OSError as err:
+            store.close()
+            return _fail(f"--dask {args.dask}: no Dask scheduler answers there ({err})", EXIT_USAGE)
+    plain, exercise = exercise, exercise.with_secret(secret)
     if args.deadline is not None:
         store.set_setting(DEADLINE, str(args.deadline))
     codes = store.enrol([(entry.id, entry.name) for entry in roster])
     token = secrets.token_urlsafe(18)
-    store.set_setting(TEACHER_TOKEN, code_digest(token))
+    store.set_setting(TEACHER_TOKEN, token_digest(token))
     if codes:
         _write_codes(folder / "codes.csv", roster, codes)
-    server = ClassServer(exercise, store, folder, args.host, args.port)
+    server = ClassServer(
+        exercise,
+        store,
+        folder,
+        args.host,
+        args.port,
+        key=hashlib.sha256(b"feedback pages " + secret).digest(),
+        grader=grader,
+        autograder=lambda: build_autograder(plain, Path(exercise_path), secret),
+    )
     try:
         server.start()
     except OSError as err:
         store.close()
+        if grader is not None:
+            grader.close()
         return _fail(f"cannot serve the class on {args.host}:{args.port}: {_port_busy(err, '--port')}", EXIT_USAGE)
     _warn_if_public(args.host, "the class is")
     shown = " or ".join(_addresses(args.host))
@@ -73,8 +109,9 @@ def cmd_class_serve(args: argparse.Namespace) -> int:
     closes = f"; hand-ins close at {_when(float(deadline))}" if deadline else ""
     codes_file = folder / "codes.csv"
     print(f"class: {exercise.name}, {students} students; their codes are in {codes_file}{closes}", file=sys.stderr)
+    where = "on a Dask cluster at " + args.dask if args.dask else "here"
     print(
-        f"teacher: token {token} (new at each start): GET /api/class with 'Authorization: Bearer {token}'",
+        f"teacher: http://{shown}:{server.port}/teacher#{token} (the token is new at each start; graded {where})",
         file=sys.stderr,
         flush=True,
     )
@@ -87,6 +124,36 @@ def cmd_class_serve(args: argparse.Namespace) -> int:
     finally:
         server.stop()
         store.close()
+        if grader is not None:
+            grader.close()
+    return EXIT_OK
+
+
+def cmd_class_codes(args: argparse.Namespace) -> int:
+    """Gives students new sign-in codes (a code lost, or ``codes.csv``); their old codes sign in no more."""
+    from autonomy.liveclass.store import DATABASE, ClassStore, StoreError
+
+    folder = Path(args.dir)
+    if not (folder / DATABASE).is_file():
+        return _fail(f"{folder}: no class is kept there (autonomy class serve --dir makes one)", EXIT_USAGE)
+    try:
+        store = ClassStore(folder)
+    except StoreError as err:
+        return _fail(str(err), EXIT_USAGE)
+    try:
+        students = {student.id: student for student in store.students()}
+        chosen = list(students) if args.all else list(dict.fromkeys(args.students))
+        if not chosen:
+            return _fail("name the students (their ids), or --all", EXIT_USAGE)
+        try:
+            codes = store.new_codes(chosen)
+        except StoreError as err:
+            return _fail(f"{err} (ids as in codes.csv)", EXIT_USAGE)
+        roster = [students[sid] for sid in chosen if sid in students]
+        _write_codes(folder / "codes.csv", roster, codes, replace=True)
+    finally:
+        store.close()
+    print(f"{len(codes)} new codes in {folder / 'codes.csv'}; the old ones sign in no more", file=sys.stderr)
     return EXIT_OK
 
 
@@ -108,17 +175,24 @@ def _when(epoch_s: float) -> str:
     return datetime.fromtimestamp(epoch_s).astimezone().isoformat(timespec="minutes")
 
 
-def _write_codes(path: Path, roster: list[Any], codes: dict[str, str]) -> None:
-    """Adds the new students' codes to ``codes.csv`` (``id,name,code``), for the teacher to hand out."""
-    new = not path.exists()
-    with path.open("a", encoding="utf-8", newline="") as stream:
-        writer = csv.writer(stream)
-        if new:
-            writer.writerow(["id", "name", "code"])
-        for entry in roster:
-            if entry.id in codes:
-                writer.writerow([entry.id, entry.name, codes[entry.id]])
-    path.chmod(0o600)
+def _write_codes(path: Path, roster: list[Any], codes: dict[str, str], replace: bool = False) -> None:
+    """Adds the new students' codes to ``codes.csv`` (``id,name,code``), for the teacher to hand out.
+
+    With ``replace``, the lines of these students are taken out first (their codes are new).
+    """
+    rows: list[list[str]] = []
+    if path.exists():
+        with path.open(encoding="utf-8", newline="") as stream:
+            rows = [row for row in csv.reader(stream) if row]
+        if replace:
+            rows = [row for row in rows if row[0] not in codes]
+    rows = rows or [["id", "name", "code"]]
+    rows += [[entry.id, entry.name, codes[entry.id]] for entry in roster if entry.id in codes]
+    fresh = path.with_name(path.name + ".new")
+    with fresh.open("w", encoding="utf-8", newline="") as stream:
+        fresh.chmod(0o600)
+        csv.writer(stream).writerows(rows)
+    fresh.replace(path)
 
 
 def add_parsers(sub: Any) -> None:
@@ -137,4 +211,14 @@ def add_parsers(sub: Any) -> None:
         metavar="TIME",
         help="when hand-ins close, e.g. 2026-11-27T15:00 (kept with the class; the students' codes stay in codes.csv)",
     )
+    serve.add_argument(
+        "--dask",
+        metavar="ADDRESS",
+        help="grade runs and hand-ins on the Dask cluster with its scheduler at ADDRESS (needs autonomy[cluster])",
+    )
     serve.set_defaults(func=cmd_class_serve)
+    codes = commands.add_parser("codes", help="give students new sign-in codes (the old ones sign in no more)")
+    codes.add_argument("students", nargs="*", metavar="ID", help="the students' ids, as in codes.csv")
+    codes.add_argument("--all", action="store_true", help="every student of the class")
+    codes.add_argument("--dir", required=True, metavar="CLASSDIR", help="the class's folder")
+    codes.set_defaults(func=cmd_class_codes)

@@ -7,7 +7,15 @@ most 1 MB. docs/class.md describes each route.
 ``POST /api/check``   ``{"mission": TEXT}`` -> the problems at their lines, or the tree drawn
 ``POST /api/run``     the mission, tried on the public seeds -> the marks of each (runs a minute are limited)
 ``POST /api/handin``  the mission, graded on every seed and kept -> what the student may see
+``GET  /api/me``      the exercise (text, world picture, criteria), the student, their works and their last mission
 ``GET  /api/class``   (the teacher) every student's sign-in, runs, hand-ins, marks, last problem
+                      (``?after=V``: once it is newer than version V)
+``POST /api/deadline`` (the teacher) ``{"deadline_s": EPOCH_S, "now" or null}``: when hand-ins close
+``GET  /api/export/grades.csv``, ``autograder.zip``, ``feedback.zip`` (the teacher) the teacher's desk's exports
+
+The pages: ``/`` (a student's: sign in, write, run, hand in), ``/teacher`` (the class table, any
+student's run replayed, the projector view), and each graded work's feedback page at
+``/pages/NUMBER-KEY.html``, whose key only its student and the teacher are given.
 
 The server checks who it talks to and bounds what each costs, as every server of ours
 (:class:`~autonomy.views.web.BoundedServer`); a student's Python never runs; grading is done in
@@ -18,19 +26,31 @@ from __future__ import annotations
 
 import asyncio
 import collections
+import functools
+import hashlib
 import hmac
+import io
 import json
+import math
+import re
+import secrets
+import zipfile
+from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
+from importlib import resources
 from pathlib import Path
 from typing import Any
 
 from aiohttp import web
 
 from autonomy.classroom.exercise import Exercise
-from autonomy.classroom.grade import Report
+from autonomy.classroom.grade import Report, file_names
+from autonomy.classroom.gradebook import RosterEntry, RosterMatch
+from autonomy.classroom.report import to_csv
 from autonomy.clock import wall_time_s
-from autonomy.liveclass.store import ClassStore, Student, code_digest
-from autonomy.liveclass.work import MAX_MISSION_CHARS, check, grade_text
+from autonomy.errors import AutonomyError
+from autonomy.liveclass.store import ClassStore, Student, Work, token_digest
+from autonomy.liveclass.work import MAX_MISSION_CHARS, check, exercise_shown, grade_text, page_file
 from autonomy.views.web import BoundedServer
 
 #: Runs one student may start in a minute; past that they are told when they can run again.
@@ -55,6 +75,34 @@ MAX_REQUEST_BYTES = 1024 * 1024
 #: The setting that holds the teacher's token's digest, and the one that holds the hand-ins' deadline.
 TEACHER_TOKEN = "teacher_token_sha256"
 DEADLINE = "deadline_s"
+#: The setting that holds which exercise the class is of (its name and its text's SHA-256).
+EXERCISE = "exercise"
+#: Longest a teacher's ``GET /api/class?after=V`` waits for the class to change.
+CLASS_WAIT_S = 20.0
+#: Teachers' pages waiting on the class at once (a teacher has one or two: the desk and the projector).
+CLASS_WAITERS = 16
+#: The pages' files, and their types.
+PAGE_FILES = {
+    "student.html": "text/html",
+    "teacher.html": "text/html",
+    "class.js": "text/javascript",
+    "teacher.js": "text/javascript",
+    "class.css": "text/css",
+}
+#: The pages' policy: their own scripts and styles, pictures as data, frames of this server (feedback pages).
+PAGE_POLICY = (
+    "default-src 'none'; script-src 'self'; style-src 'self'; img-src data:; connect-src 'self'; "
+    "frame-src 'self'; base-uri 'none'; form-action 'none'; frame-ancestors 'none'"
+)
+#: A feedback page's policy, on top of its own: a sandbox of its own origin, framed by the class's pages alone.
+FEEDBACK_POLICY = "sandbox allow-scripts; frame-ancestors 'self'"
+_PAGE_NAME = re.compile(r"(\d{1,12})-([0-9a-f]{32})\.html")
+
+
+@functools.cache
+def page_text(name: str) -> str:
+    """One of the pages' files (:data:`PAGE_FILES`), as text."""
+    return resources.files("autonomy.liveclass").joinpath("static", name).read_text(encoding="utf-8")
 
 
 def _json(data: Any, status: int = 200, headers: dict[str, str] | None = None) -> web.Response:
@@ -92,10 +140,33 @@ class ClassServer(BoundedServer):
         folder: The class's folder (works and feedback pages are kept there).
         host: The interface.
         port: The TCP port (0: any free one).
+        key: What feedback pages' addresses are signed with (the class's secret keeps them the same
+            from one start to the next; default: new ones).
+        grader: Grades a work instead of this machine's workers (``grade_text``'s arguments; see
+            :func:`autonomy.liveclass.work.dask_grader`).
+        autograder: The exercise packed for Gradescope (``autonomy gradescope``), for its export;
+            None: not offered.
     """
 
-    def __init__(self, exercise: Exercise, store: ClassStore, folder: Path, host: str = "127.0.0.1", port: int = 8770):
+    def __init__(
+        self,
+        exercise: Exercise,
+        store: ClassStore,
+        folder: Path,
+        host: str = "127.0.0.1",
+        port: int = 8770,
+        key: bytes | None = None,
+        grader: Callable[..., tuple[Report, Path]] | None = None,
+        autograder: Callable[[], bytes] | None = None,
+    ):
         super().__init__(host, port, "class")
+        self._key = key if key is not None else secrets.token_bytes(32)
+        self._grader = grader or grade_text
+        self._autograder = autograder
+        #: Bumped at each change of the class table; teachers' pages wait on it.
+        self._version = 0
+        self._changed: asyncio.Event | None = None
+        self._class_waiters = 0
         self.max_request_bytes = MAX_REQUEST_BYTES
         self.exercise = exercise
         self.store = store
@@ -110,10 +181,27 @@ class ClassServer(BoundedServer):
         self._signed_in: set[str] = set()
 
     def _routes(self, app: web.Application) -> None:
+        app.router.add_get("/", functools.partial(self._file, "student.html"))
+        app.router.add_get("/teacher", functools.partial(self._file, "teacher.html"))
+        app.router.add_get("/static/{name}", self._static)
+        app.router.add_get("/pages/{name}", self._page)
         app.router.add_post("/api/check", self._check)
         app.router.add_post("/api/run", self._run)
         app.router.add_post("/api/handin", self._handin)
+        app.router.add_get("/api/me", self._me)
         app.router.add_get("/api/class", self._class)
+        app.router.add_post("/api/deadline", self._deadline)
+        app.router.add_get("/api/export/{name}", self._export)
+
+    def _serving(self, loop: asyncio.AbstractEventLoop) -> None:
+        self._changed = asyncio.Event()
+
+    def _change(self) -> None:
+        """The class table changed: the teachers' pages waiting on it are answered (on the server's loop)."""
+        self._version += 1
+        if self._changed is not None:
+            self._changed.set()
+            self._changed = asyncio.Event()
 
     def _closing(self) -> None:
         self._graders.shutdown(wait=False, cancel_futures=True)
@@ -130,6 +218,7 @@ class ClassServer(BoundedServer):
             if student.id not in self._signed_in:
                 self._signed_in.add(student.id)
                 self.store.sign_in(student.id)
+                self._change()
             return student
         now_s = self._clock.now()
         wrong, last_s, lock = self._guesses.pop(address, (0, now_s, asyncio.Lock()))
@@ -144,7 +233,7 @@ class ClassServer(BoundedServer):
 
     def _teacher(self, request: web.Request) -> bool:
         token = request.headers.get("Authorization", "").removeprefix("Bearer ").strip()
-        return bool(token) and hmac.compare_digest(code_digest(token), self.store.setting(TEACHER_TOKEN))
+        return bool(token) and hmac.compare_digest(token_digest(token), self.store.setting(TEACHER_TOKEN))
 
     async def _mission(self, request: web.Request) -> str | web.Response:
         try:
@@ -233,31 +322,195 @@ class ClassServer(BoundedServer):
             self.store.add_work(
                 student.id, kind, mission[:MAX_MISSION_CHARS], {"problems": checked["problems"]}, problem=problem
             )
+            self._change()
             return _json({"ok": False, "problems": checked["problems"]}, 422)
         number = self.store.add_work(student.id, kind, mission, {"grading": True})
+        self._change()
         try:
             report, _page = await loop.run_in_executor(
-                self._graders, grade_text, self.exercise, student.id, mission, self.folder, number, kind == "handin"
+                self._graders, self._grader, self.exercise, student.id, mission, self.folder, number, kind == "handin"
             )
         except Exception as err:  # noqa: BLE001 - said in one line, kept as the work's problem, answered 500
             why = f"the grading failed: {type(err).__name__}"
             self._refused(f"grading {type(err).__name__}", f"{why} (work {number})")
             self.store.finish_work(number, {"error": why}, None, None, why)
+            self._change()
             return _refusal(500, why)
         shown = seen_by_student(self.exercise, report)
         problem = report.problems[0] if report.problems else ""
         self.store.finish_work(number, report.to_json(), report.total, report.max_points, problem)
-        return _json({"ok": True, "number": number, "kind": kind, **shown})  # kept before it is said
+        self._change()
+        page = self._page_url(number)
+        return _json({"ok": True, "number": number, "kind": kind, "page": page, **shown})  # kept before it is said
 
-    async def _class(self, request: web.Request) -> web.Response:
-        if not self._teacher(request):
-            return _refusal(401, "the class table is the teacher's: use the teacher's token")
-        deadline = self.store.setting(DEADLINE)
+    # ------------------------------------------------------------------ pages
+
+    async def _file(self, name: str, request: web.Request) -> web.Response:
+        return web.Response(
+            text=page_text(name), content_type=PAGE_FILES[name], headers={"Content-Security-Policy": PAGE_POLICY}
+        )
+
+    async def _static(self, request: web.Request) -> web.Response:
+        name = request.match_info["name"]
+        if name not in PAGE_FILES or name.endswith(".html"):
+            raise web.HTTPNotFound()
+        return await self._file(name, request)
+
+    def _page_key(self, number: int) -> str:
+        return hmac.new(self._key, f"page {number}".encode(), hashlib.sha256).hexdigest()[:32]
+
+    def _page_url(self, number: int | None) -> str | None:
+        """Where a graded work's feedback page is: an address only its student and the teacher are given."""
+        return None if number is None else f"/pages/{number}-{self._page_key(number)}.html"
+
+    async def _page(self, request: web.Request) -> web.Response:
+        """A work's feedback page, to the one who has its address: in a sandbox, framed by the class's pages alone."""
+        named = _PAGE_NAME.fullmatch(request.match_info["name"])
+        if not named or not hmac.compare_digest(named[2], self._page_key(int(named[1]))):
+            raise web.HTTPNotFound()
+        work = self.store.work(int(named[1]))
+        path = page_file(self.folder, work.student, work.id) if work is not None else None
+        if path is None or not path.is_file():
+            raise web.HTTPNotFound()
+        return web.Response(
+            body=path.read_bytes(),
+            content_type="text/html",
+            charset="utf-8",
+            headers={"Content-Security-Policy": FEEDBACK_POLICY, "Cache-Control": "no-store"},
+        )
+
+    # ------------------------------------------------------------------ the student's
+
+    async def _me(self, request: web.Request) -> web.Response:
+        """The exercise, and (to a student) who they are, their works, and their last mission's text."""
+        if self._teacher(request):
+            return _json({"exercise": exercise_shown(self.exercise), "deadline_s": self._deadline_s()})
+        student = await self._student(request)
+        if isinstance(student, web.Response):
+            return student
+        works = self.store.works(student.id)
         return _json(
             {
-                "exercise": self.exercise.name,
-                "title": self.exercise.title,
-                "deadline_s": float(deadline) if deadline else None,
-                "students": self.store.summary(),
+                "exercise": exercise_shown(self.exercise),
+                "deadline_s": self._deadline_s(),
+                "student": {"id": student.id, "name": student.name},
+                "mission": works[-1].source if works else "",
+                "works": [self._work_shown(work) for work in works],
             }
         )
+
+    def _work_shown(self, work: Work) -> dict[str, Any]:
+        graded = work.total is not None
+        return {
+            "number": work.id,
+            "kind": work.kind,
+            "at": work.at,
+            "total": work.total,
+            "max_points": work.max_points,
+            "problem": work.problem,
+            "page": self._page_url(work.id) if graded else None,
+        }
+
+    # ------------------------------------------------------------------ the teacher's
+
+    def _deadline_s(self) -> float | None:
+        deadline = self.store.setting(DEADLINE)
+        return float(deadline) if deadline else None
+
+    async def _class(self, request: web.Request) -> web.Response:
+        """The class table; with ``?after=V``, once it is newer than version V (or after :data:`CLASS_WAIT_S`)."""
+        if not self._teacher(request):
+            return _refusal(401, "the class table is the teacher's: use the teacher's token")
+        after = request.query.get("after", "")
+        if after.isascii() and after.isdigit() and int(after) >= self._version and self._changed is not None:
+            if self._class_waiters >= CLASS_WAITERS:
+                return _refusal(429, f"at most {CLASS_WAITERS} pages wait on the class at once")
+            self._class_waiters += 1
+            try:
+                await asyncio.wait_for(self._changed.wait(), CLASS_WAIT_S)
+            except TimeoutError:
+                pass
+            finally:
+                self._class_waiters -= 1
+        students = self.store.summary()
+        for row in students:
+            row["latest_page"] = self._page_url(row.pop("last_graded"))
+            row["handin_page"] = self._page_url(row.pop("last_handin"))
+        return _json(
+            {
+                "version": self._version,
+                "exercise": self.exercise.name,
+                "title": self.exercise.title,
+                "max_points": self.exercise.max_points,
+                "deadline_s": self._deadline_s(),
+                "now_s": wall_time_s(),
+                "students": students,
+            }
+        )
+
+    async def _deadline(self, request: web.Request) -> web.Response:
+        """Sets (``{"deadline_s": EPOCH_S}``) or lifts (``null``) the hand-ins' deadline."""
+        if not self._teacher(request):
+            return _refusal(401, "the deadline is the teacher's: use the teacher's token")
+        try:
+            body = await request.json()
+        except (ValueError, RecursionError, web.HTTPRequestEntityTooLarge):
+            body = None
+        deadline = body.get("deadline_s", "missing") if isinstance(body, dict) else "missing"
+        if deadline == "now":  # the server's clock: the teacher's page may be on a machine whose clock is off
+            deadline = wall_time_s()
+        if deadline is not None and (
+            isinstance(deadline, bool) or not isinstance(deadline, (int, float)) or not math.isfinite(deadline)
+        ):
+            return _refusal(400, 'the body is JSON: {"deadline_s": seconds since the epoch, "now", or null for none}')
+        self.store.set_setting(DEADLINE, "" if deadline is None else repr(float(deadline)))
+        self._change()
+        return _json({"deadline_s": self._deadline_s()})
+
+    async def _export(self, request: web.Request) -> web.Response:
+        """The teacher's desk's exports: the gradebook, the autograder for Gradescope, every feedback page."""
+        if not self._teacher(request):
+            return _refusal(401, "the exports are the teacher's: use the teacher's token")
+        name = request.match_info["name"]
+        loop = asyncio.get_running_loop()
+        if name == "grades.csv":
+            body, kind = self._gradebook().encode("utf-8"), "text/csv"
+        elif name == "feedback.zip":
+            body, kind = await loop.run_in_executor(self._checkers, self._feedback_zip), "application/zip"
+        elif name == "autograder.zip" and self._autograder is not None:
+            try:
+                body, kind = await loop.run_in_executor(self._checkers, self._autograder), "application/zip"
+            except AutonomyError as err:
+                return _refusal(500, str(err))
+        else:
+            raise web.HTTPNotFound()
+        disposition = f'attachment; filename="{self.exercise.name}-{name}"'
+        return web.Response(body=body, content_type=kind, headers={"Content-Disposition": disposition})
+
+    def _handed_in(self) -> list[tuple[Student, Work | None]]:
+        """Each student on the roster, with their last graded hand-in (None: none)."""
+        last = {row["id"]: row["last_handin"] for row in self.store.summary()}
+        return [
+            (student, self.store.work(last[student.id]) if last.get(student.id) else None)
+            for student in self.store.students()
+        ]
+
+    def _gradebook(self) -> str:
+        """The gradebook, as ``autonomy grade --roster --csv`` writes it: ids first, each student's last hand-in."""
+        listed: list[tuple[RosterEntry, Report | None]] = []
+        for line, (student, work) in enumerate(self._handed_in(), start=2):
+            report = Report.from_json(work.result) if work is not None and "seeds" in work.result else None
+            listed.append((RosterEntry(student.id, student.name, "", line), report))
+        return to_csv(self.exercise, [r for _, r in listed if r is not None], RosterMatch(listed, []))
+
+    def _feedback_zip(self) -> bytes:
+        """Each student's last hand-in's feedback page, as ``ID.html``."""
+        out = io.BytesIO()
+        handed_in = self._handed_in()
+        names = file_names(student.id for student, _ in handed_in)  # no two alike
+        with zipfile.ZipFile(out, "w", zipfile.ZIP_DEFLATED) as archive:
+            for student, work in handed_in:
+                page = page_file(self.folder, student.id, work.id) if work is not None else None
+                if page is not None and page.is_file():
+                    archive.writestr(f"{names[student.id]}.html", page.read_bytes())
+        return out.getvalue()

@@ -33,7 +33,8 @@ CREATE TABLE IF NOT EXISTS students (
     id TEXT PRIMARY KEY,
     name TEXT NOT NULL,
     code_sha256 TEXT NOT NULL UNIQUE,
-    signed_in TEXT NOT NULL DEFAULT ''
+    signed_in TEXT NOT NULL DEFAULT '',
+    on_roster INTEGER NOT NULL DEFAULT 1
 );
 CREATE TABLE IF NOT EXISTS works (
     id INTEGER PRIMARY KEY AUTOINCREMENT,
@@ -64,6 +65,11 @@ class Student:
     signed_in: str
 
 
+#: A student's columns, as :class:`Student` holds them, and a work's, as :class:`Work` does.
+_STUDENT = "id, name, signed_in"
+_WORK = "id, student, kind, at, source, total, max_points, problem, result"
+
+
 @dataclass(frozen=True)
 class Work:
     """A run or a hand-in, as kept."""
@@ -86,7 +92,12 @@ def new_code() -> str:
 
 def code_digest(code: str) -> str:
     """How a code is kept: its SHA-256, of the code as typed, trimmed and in lower case."""
-    return hashlib.sha256(code.strip().lower().encode("utf-8")).hexdigest()
+    return token_digest(code.strip().lower())
+
+
+def token_digest(token: str) -> str:
+    """How the teacher's token is kept: its SHA-256, letter for letter (it is pasted, never typed)."""
+    return hashlib.sha256(token.encode("utf-8", "replace")).hexdigest()
 
 
 class ClassStore:
@@ -110,6 +121,9 @@ class ClassStore:
             self._db.execute("PRAGMA synchronous=FULL")
             self._db.execute("PRAGMA foreign_keys=ON")
             self._db.executescript(_SCHEMA)
+            columns = {row[1] for row in self._db.execute("PRAGMA table_info(students)")}
+            if "on_roster" not in columns:  # a class kept before students could leave the roster
+                self._db.execute("ALTER TABLE students ADD COLUMN on_roster INTEGER NOT NULL DEFAULT 1")
         except (OSError, sqlite3.Error) as err:
             raise StoreError(f"{self.folder}: cannot keep the class there: {err}") from err
         self._lock = threading.Lock()
@@ -143,7 +157,10 @@ class ClassStore:
     # ------------------------------------------------------------------ students
 
     def enrol(self, roster: list[tuple[str, str]]) -> dict[str, str]:
-        """Adds the roster's students who are not in the class yet, each with a new code.
+        """Makes the class the roster's: new students get a code, names are the roster's, the rest are let go.
+
+        A student no longer on the roster can no longer sign in, and leaves the class table; their
+        work is kept, and they are back, with the code they had, when the roster names them again.
 
         Args:
             roster: (id, name) pairs.
@@ -153,18 +170,48 @@ class ClassStore:
         """
         known = {row[0] for row in self._read("SELECT id FROM students")}
         codes = {sid: new_code() for sid, _ in roster if sid not in known}
+        listed = [sid for sid, _ in roster]
         self._write(
             [
                 ("INSERT INTO students (id, name, code_sha256) VALUES (?, ?, ?)", (sid, name, code_digest(codes[sid])))
                 for sid, name in roster
                 if sid in codes
             ]
+            + [("UPDATE students SET name = ?, on_roster = 1 WHERE id = ?", (name, sid)) for sid, name in roster]
+            + [
+                (
+                    f"UPDATE students SET on_roster = 0 WHERE id NOT IN ({', '.join('?' * len(listed))})",  # noqa: S608
+                    tuple(listed),
+                )
+            ]
+        )
+        return codes
+
+    def new_codes(self, students: list[str]) -> dict[str, str]:
+        """Gives these students new codes (their old ones sign in no more); the codes by id.
+
+        Raises:
+            StoreError: a student is not in the class.
+        """
+        known = {row[0] for row in self._read("SELECT id FROM students")}
+        unknown = [sid for sid in students if sid not in known]
+        if unknown:
+            raise StoreError(f"not in the class: {', '.join(unknown[:5])}")
+        codes = {sid: new_code() for sid in students}
+        self._write(
+            [
+                ("UPDATE students SET code_sha256 = ? WHERE id = ?", (code_digest(code), sid))
+                for sid, code in codes.items()
+            ]
         )
         return codes
 
     def student_by_code(self, code: str) -> Student | None:
-        """The student whose code this is, or None."""
-        rows = self._read("SELECT id, name, signed_in FROM students WHERE code_sha256 = ?", (code_digest(code),))
+        """The student on the roster whose code this is, or None."""
+        rows = self._read(
+            f"SELECT {_STUDENT} FROM students WHERE code_sha256 = ? AND on_roster = 1",  # noqa: S608
+            (code_digest(code),),
+        )
         return Student(*rows[0]) if rows else None
 
     def sign_in(self, student: str) -> None:
@@ -172,8 +219,11 @@ class ClassStore:
         self._write([("UPDATE students SET signed_in = ? WHERE id = ?", (wall_date(), student))])
 
     def students(self) -> list[Student]:
-        """Every student, in the roster's order."""
-        return [Student(*row) for row in self._read("SELECT id, name, signed_in FROM students ORDER BY rowid")]
+        """Every student on the roster, in its order."""
+        return [
+            Student(*row)
+            for row in self._read(f"SELECT {_STUDENT} FROM students WHERE on_roster = 1 ORDER BY rowid")  # noqa: S608
+        ]
 
     # ------------------------------------------------------------------ works
 
@@ -215,14 +265,18 @@ class ClassStore:
         """A student's runs and hand-ins (or those of ``kind``), oldest first."""
         where, values = ("student = ?", (student,)) if kind is None else ("student = ? AND kind = ?", (student, kind))
         rows = self._read(
-            f"SELECT id, student, kind, at, source, total, max_points, problem, result FROM works "  # noqa: S608
-            f"WHERE {where} ORDER BY id",
+            f"SELECT {_WORK} FROM works WHERE {where} ORDER BY id",  # noqa: S608
             values,
         )
         return [Work(*row[:8], json.loads(row[8])) for row in rows]
 
+    def work(self, number: int) -> Work | None:
+        """The run or hand-in numbered ``number``, or None."""
+        rows = self._read(f"SELECT {_WORK} FROM works WHERE id = ?", (number,))  # noqa: S608
+        return Work(*rows[0][:8], json.loads(rows[0][8])) if rows else None
+
     def summary(self) -> list[dict[str, Any]]:
-        """The class table: per student, sign-in, runs, hand-ins, the last hand-in's marks and the last problem."""
+        """The class table: per student on the roster, sign-in, runs, hand-ins, last hand-in's marks, last problem."""
         last_handin = "FROM works w WHERE w.student = s.id AND w.kind = 'handin' ORDER BY w.id DESC LIMIT 1"
         rows = self._read(
             "SELECT s.id, s.name, s.signed_in, "
@@ -230,10 +284,15 @@ class ClassStore:
             "(SELECT COUNT(*) FROM works w WHERE w.student = s.id AND w.kind = 'handin'), "
             f"(SELECT w.total {last_handin}), (SELECT w.max_points {last_handin}), "  # noqa: S608 - our own text
             "(SELECT w.problem FROM works w WHERE w.student = s.id AND w.problem != '' ORDER BY w.id DESC LIMIT 1), "
-            "(SELECT MAX(w.id) FROM works w WHERE w.student = s.id) "
-            "FROM students s ORDER BY s.rowid"
+            "(SELECT MAX(w.id) FROM works w WHERE w.student = s.id), "
+            "(SELECT MAX(w.id) FROM works w WHERE w.student = s.id AND w.total IS NOT NULL), "
+            "(SELECT MAX(w.id) FROM works w WHERE w.student = s.id AND w.kind = 'handin' AND w.total IS NOT NULL) "
+            "FROM students s WHERE s.on_roster = 1 ORDER BY s.rowid"
         )
-        keys = ("id", "name", "signed_in", "runs", "handins", "total", "max_points", "last_problem", "last_work")
+        keys = (
+            "id", "name", "signed_in", "runs", "handins", "total", "max_points", "last_problem", "last_work",
+            "last_graded", "last_handin",
+        )  # fmt: skip
         return [dict(zip(keys, row, strict=True)) for row in rows]
 
     # ------------------------------------------------------------------ settings

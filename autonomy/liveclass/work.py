@@ -6,13 +6,16 @@ Nothing here runs a student's Python: plugins are refused, as in grading.
 from __future__ import annotations
 
 import dataclasses
+import tempfile
 from pathlib import Path
 from typing import Any
 
 from autonomy.behaviours.tree import describe_tree
 from autonomy.classroom.exercise import Exercise
-from autonomy.classroom.grade import Report, check_text, file_names, grade_class, page_path
+from autonomy.classroom.grade import Report, check_text, file_names, grade_class, page_path, refuse_daemon
 from autonomy.mission import build_tree
+from autonomy.views.lines import printable
+from autonomy.views.mapsvg import world_svg
 from autonomy.views.treesvg import svg_tree
 
 #: How a student's mission is named in its problems.
@@ -38,6 +41,29 @@ def check(exercise: Exercise, text: str) -> dict[str, Any]:
     return {"ok": True, "problems": [], "tree_svg": svg_tree(describe_tree(build_tree(spec)), spec.name)}
 
 
+def exercise_shown(exercise: Exercise) -> dict[str, Any]:
+    """What a student is shown of the exercise: its text, its world drawn, its criteria and how many seeds."""
+    hidden = sum(1 for seed in exercise.seeds if seed.hidden)
+    return {
+        "name": printable(exercise.name),
+        "title": printable(exercise.title),
+        "description": printable(exercise.description),
+        "world_svg": world_svg(exercise.world.as_dict(), f"the world of {exercise.title}"),
+        "time_limit_s": exercise.time_limit_s,
+        "criteria": [{"label": printable(c.label), "points": c.points} for c in exercise.criteria],
+        "max_points": exercise.max_points,
+        "public_seeds": len(exercise.seeds) - hidden,
+        "hidden_seeds": hidden,
+        "allowed_nodes": list(exercise.allowed_nodes) if exercise.allowed_nodes is not None else None,
+    }
+
+
+def page_file(folder: Path, student: str, number: int) -> Path:
+    """Where the feedback page of a student's work numbered ``number`` is kept in the class's folder."""
+    name = f"{file_names([student])[student]}-{number}"
+    return page_path(folder / "pages", file_names([name])[name])
+
+
 def public_only(exercise: Exercise) -> Exercise:
     """The exercise with its public seeds alone: what a student's "Run" is tried on."""
     return dataclasses.replace(exercise, seeds=[seed for seed in exercise.seeds if not seed.hidden])
@@ -49,7 +75,8 @@ def grade_text(
     """Grades a student's mission text as ``autonomy grade`` does, in a limited worker process.
 
     The text is kept as ``FOLDER/works/NAME/NUMBER-run.yaml`` (or ``-handin``), and its feedback page,
-    with each seed's replay, written to ``FOLDER/pages/NAME-NUMBER.html``.
+    with each seed's replay, written to ``FOLDER/pages/NAME-NUMBER.html``. The report and the page name
+    the file ``NUMBER-run.yaml``: where the class's folder is is none of the student's business.
 
     Args:
         exercise: The exercise, with its hidden seeds when it has them (see :meth:`Exercise.with_secret`).
@@ -62,12 +89,62 @@ def grade_text(
     Returns:
         The report, and the feedback page's path.
     """
-    name = file_names([student])[student]
-    kept = folder / "works" / name / f"{number}-{'handin' if hand_in else 'run'}.yaml"
-    kept.parent.mkdir(parents=True, exist_ok=True)
-    kept.write_text(text, encoding="utf-8")
+    kept = _keep(folder, student, text, number, hand_in)
     pages = folder / "pages"
     pages.mkdir(parents=True, exist_ok=True)
     graded = exercise if hand_in else public_only(exercise)
-    (report,) = grade_class(graded, [(f"{name}-{number}", kept)], workers=1, feedback=pages, start_method="forkserver")
-    return report, page_path(pages, file_names([f"{name}-{number}"])[f"{name}-{number}"])
+    name = f"{file_names([student])[student]}-{number}"
+    (report,) = grade_class(graded, [(name, kept)], workers=1, feedback=pages, start_method="forkserver", by_name=True)
+    return report, page_file(folder, student, number)
+
+
+def _keep(folder: Path, student: str, text: str, number: int, hand_in: bool) -> Path:
+    """Keeps a work's text as ``FOLDER/works/NAME/NUMBER-run.yaml`` (or ``-handin``); its path."""
+    kept = folder / "works" / file_names([student])[student] / f"{number}-{'handin' if hand_in else 'run'}.yaml"
+    kept.parent.mkdir(parents=True, exist_ok=True)
+    kept.write_text(text, encoding="utf-8")
+    return kept
+
+
+def grade_on_worker(exercise: Exercise, student: str, text: str, number: int, hand_in: bool) -> tuple[Report, bytes]:
+    """:func:`grade_text` on a Dask worker, in a folder of its own there: the report, and the feedback page's bytes."""
+    refuse_daemon()
+    with tempfile.TemporaryDirectory(prefix="autonomy-class-") as folder:
+        report, page = grade_text(exercise, student, text, Path(folder), number, hand_in)
+        return report, page.read_bytes()
+
+
+class DaskGrader:
+    """Grades the class's works on a Dask cluster, as :func:`grade_text` does here (the same marks, the same page).
+
+    The workers need ``autonomy`` installed, and the Dask setting ``distributed.worker.daemon: false``
+    (a submission is graded in a process of its own, as here).
+
+    Args:
+        address: The scheduler's address (``tcp://host:8786``).
+
+    Raises:
+        ImportError: ``dask.distributed`` is not installed (``pip install 'autonomy[cluster]'``).
+        OSError: no scheduler answers at ``address``.
+    """
+
+    def __init__(self, address: str) -> None:
+        from distributed import Client
+
+        self._client = Client(address, timeout="5s")
+
+    def __call__(
+        self, exercise: Exercise, student: str, text: str, folder: Path, number: int, hand_in: bool
+    ) -> tuple[Report, Path]:
+        """Grades one work on the cluster; keeps its text and its page in ``folder`` as :func:`grade_text` does."""
+        _keep(folder, student, text, number, hand_in)
+        task = self._client.submit(grade_on_worker, exercise, student, text, number, hand_in, pure=False)
+        report, page = task.result()
+        path = page_file(folder, student, number)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_bytes(page)
+        return report, path
+
+    def close(self) -> None:
+        """Lets the cluster go."""
+        self._client.close()

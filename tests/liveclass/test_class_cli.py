@@ -23,7 +23,7 @@ def serve(folder) -> tuple[subprocess.Popen, int, str]:
         cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
     )  # fmt: skip
     said = process.stderr.readline() + process.stderr.readline()
-    token = re.search(r"token (\S+)", said).group(1)
+    token = re.search(r"/teacher#(\S+)", said).group(1)
     port = int(process.stdout.readline().strip().rstrip("/").rsplit(":", 1)[1])
     return process, port, token
 
@@ -96,3 +96,75 @@ def test_a_deadline_given_to_serve_closes_hand_ins_and_is_said(tmp_path):
         cwd=ROOT, capture_output=True, text=True, timeout=60,
     )  # fmt: skip
     assert bad.returncode == 2 and "expected a date and time such as 2026-11-27T15:00" in bad.stderr
+
+
+def run_autonomy(*args: str) -> subprocess.CompletedProcess:
+    command = [sys.executable, "-m", "autonomy", *args]
+    return subprocess.run(command, cwd=ROOT, capture_output=True, text=True, timeout=60)
+
+
+def test_a_lost_code_is_replaced_and_the_old_one_signs_in_no_more(tmp_path):
+    (tmp_path / "roster.csv").write_text("id,name,submission\n1001,Ada Lovelace,ada\n1002,Bob Jones,bob\n")
+    server, port, token = serve(tmp_path)
+    codes_file = tmp_path / "class" / "codes.csv"
+    try:
+        with codes_file.open() as stream:
+            old = {row["id"]: row["code"] for row in csv.DictReader(stream)}
+        renewed = run_autonomy("class", "codes", "1001", "--dir", str(tmp_path / "class"))
+        assert renewed.returncode == 0 and "1 new codes" in renewed.stderr
+        with codes_file.open() as stream:
+            new = {row["id"]: row["code"] for row in csv.DictReader(stream)}
+        assert set(new) == {"1001", "1002"} and new["1002"] == old["1002"] and new["1001"] != old["1001"]
+        assert oct(codes_file.stat().st_mode & 0o777) == "0o600"
+        assert post(port, "/api/check", {"mission": SOLUTION}, new["1001"])["ok"]  # the running server takes it
+        try:
+            post(port, "/api/check", {"mission": SOLUTION}, old["1001"])
+            raise AssertionError("the old code still signs in")
+        except urllib.error.HTTPError as refused:
+            assert refused.code == 401
+    finally:
+        server.send_signal(signal.SIGINT)
+        server.communicate(timeout=30)
+    unknown = run_autonomy("class", "codes", "9999", "--dir", str(tmp_path / "class"))
+    assert unknown.returncode == 2 and unknown.stderr.count("\n") == 1 and "9999" in unknown.stderr
+    nothing = run_autonomy("class", "codes", "--dir", str(tmp_path / "nowhere"))
+    assert nothing.returncode == 2 and "no class is kept there" in nothing.stderr
+    assert not (tmp_path / "nowhere").exists()
+
+
+def test_a_class_folder_is_of_one_exercise(tmp_path):
+    (tmp_path / "roster.csv").write_text("id,name,submission\n1001,Ada Lovelace,ada\n")
+    server, _, _ = serve(tmp_path)
+    server.send_signal(signal.SIGINT)
+    server.communicate(timeout=30)
+    other = run_autonomy(
+        "class", "serve", "slalom", "--roster", str(tmp_path / "roster.csv"), "--dir", str(tmp_path / "class")
+    )
+    assert other.returncode == 2 and "holds a class of another exercise ('garage'" in other.stderr
+    assert other.stderr.count("\n") == 1 and other.stdout == ""
+
+
+def test_the_roster_s_changes_are_the_class_s_at_the_next_start(tmp_path):
+    (tmp_path / "roster.csv").write_text("id,name,submission\n1001,Ada Lovelace,ada\n1002,Bob Jones,bob\n")
+    server, _, _ = serve(tmp_path)
+    server.send_signal(signal.SIGINT)
+    server.communicate(timeout=30)
+    with (tmp_path / "class" / "codes.csv").open() as stream:
+        codes = {row["id"]: row["code"] for row in csv.DictReader(stream)}
+    (tmp_path / "roster.csv").write_text("id,name,submission\n1001,Ada King,ada\n1003,Cy Young,cy\n")
+    server, port, token = serve(tmp_path)
+    try:
+        assert [(s["id"], s["name"]) for s in table(port, token)["students"]] == [
+            ("1001", "Ada King"),
+            ("1003", "Cy Young"),
+        ]
+        try:
+            post(port, "/api/check", {"mission": SOLUTION}, codes["1002"])
+            raise AssertionError("a student no longer on the roster signs in")
+        except urllib.error.HTTPError as refused:
+            assert refused.code == 401
+    finally:
+        server.send_signal(signal.SIGINT)
+        server.communicate(timeout=30)
+    with (tmp_path / "class" / "codes.csv").open() as stream:
+        assert [row["id"] for row in csv.DictReader(stream)] == ["1001", "1002", "1003"]

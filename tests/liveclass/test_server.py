@@ -6,16 +6,28 @@ running too often, a hand-in after the deadline.
 
 from __future__ import annotations
 
+import csv
+import io
 import json
+import re
+import threading
 import time
 import urllib.error
 import urllib.request
+import zipfile
 
 import pytest
 
 from autonomy.classroom.exercise import load_exercise
-from autonomy.liveclass.server import DEADLINE, GUESS_WAIT_S, RUNS_PER_MINUTE, TEACHER_TOKEN, ClassServer
-from autonomy.liveclass.store import ClassStore, code_digest
+from autonomy.liveclass.server import (
+    CLASS_WAITERS,
+    DEADLINE,
+    GUESS_WAIT_S,
+    RUNS_PER_MINUTE,
+    TEACHER_TOKEN,
+    ClassServer,
+)
+from autonomy.liveclass.store import ClassStore, token_digest
 from tests.views.conftest import ROOT
 
 GARAGE = load_exercise(ROOT / "exercises" / "garage.yaml").with_secret(b"the teacher's secret")
@@ -27,7 +39,7 @@ TYPO = "mission: park\ntree:\n  sequence:\n    - mvoe: {speed: 2, seconds: 1}\n"
 def served(tmp_path):
     store = ClassStore(tmp_path)
     codes = store.enrol([("s1", "Ada"), ("s2", "Bob")])
-    store.set_setting(TEACHER_TOKEN, code_digest("teacher-token"))
+    store.set_setting(TEACHER_TOKEN, token_digest("teacher-token"))
     server = ClassServer(GARAGE, store, tmp_path, port=0)
     server.start()
     yield server, codes
@@ -167,3 +179,121 @@ def test_wrong_guesses_sent_side_by_side_wait_in_turn(served):
         statuses = list(pool.map(lambda k: call(server, "/api/check", {"mission": TYPO}, f"wrong{k}")[0], range(4)))
     assert statuses == [401] * 4
     assert time.monotonic() - started >= (1 + 2 + 4 + 8) * GUESS_WAIT_S  # 0.25 + 0.5 + 1 + 2 s, one after another
+
+
+def fetch(server, path: str, token: str = "") -> tuple[int, dict[str, str], bytes]:
+    request = urllib.request.Request(server.url + path.lstrip("/"))
+    if token:
+        request.add_header("Authorization", f"Bearer {token}")
+    try:
+        with urllib.request.urlopen(request, timeout=60) as answer:
+            return answer.status, dict(answer.headers), answer.read()
+    except urllib.error.HTTPError as refused:
+        return refused.code, dict(refused.headers), refused.read()
+
+
+def test_a_feedback_page_is_served_to_who_has_its_address_alone_in_a_sandbox(served):
+    server, codes = served
+    status, ran = call(server, "/api/run", {"mission": SOLUTION}, codes["s1"])
+    assert status == 200 and re.fullmatch(rf"/pages/{ran['number']}-[0-9a-f]{{32}}\.html", ran["page"])
+    status, headers, page = fetch(server, ran["page"])
+    assert status == 200 and b"<iframe" in page
+    assert "sandbox allow-scripts" in headers["Content-Security-Policy"]  # its own origin: it reaches no API
+    assert "frame-ancestors 'self'" in headers["Content-Security-Policy"]
+    number, key = ran["page"][len("/pages/") : -len(".html")].split("-")
+    forged = [
+        f"/pages/{number}-{'0' * 32}.html",  # a guessed key
+        f"/pages/{int(number) + 1}-{key}.html",  # the key of one work, for another's
+        f"/pages/{number}-{key.upper()}.html",
+        f"/pages/{number}-{key}.html/../x",
+        "/pages/..%2Fclass.sqlite",
+        f"/pages/{number}-{key}",
+    ]
+    for path in forged:
+        assert fetch(server, path)[0] == 404, path
+    status, mine = call(server, "/api/me", code=codes["s1"], method="GET")
+    assert [work["page"] for work in mine["works"]] == [ran["page"]]
+    status, theirs = call(server, "/api/me", code=codes["s2"], method="GET")
+    assert status == 200 and theirs["works"] == [] and theirs["student"] == {"id": "s2", "name": "Bob"}
+
+
+def test_what_a_student_is_shown_of_the_exercise_names_no_hidden_seed(served):
+    server, codes = served
+    status, me = call(server, "/api/me", code=codes["s1"], method="GET")
+    exercise = me["exercise"]
+    assert status == 200 and exercise["public_seeds"] == 4 and exercise["hidden_seeds"] == 12
+    assert exercise["world_svg"].startswith("<svg") and me["mission"] == ""
+    text = json.dumps(me)
+    hidden = [seed for seed in GARAGE.seeds if seed.hidden]
+    assert len(hidden) == 12 and not any(re.search(rf"\b{seed.seed}\b", text) for seed in hidden)
+    assert call(server, "/api/me", code="not-a-code", method="GET")[0] == 401
+
+
+def test_the_teacher_s_routes_refuse_a_student_s_code_and_a_forged_token(served):
+    server, codes = served
+    for token in (codes["s1"], "Teacher-Token", "teacher-toke", "teacher-token\u00e9", ""):
+        for path in ("/api/export/grades.csv", "/api/export/feedback.zip", "/api/class?after=0"):
+            assert fetch(server, path, token)[0] == 401, (path, token)
+        assert call(server, "/api/deadline", {"deadline_s": None}, token)[0] == 401
+    assert fetch(server, "/api/export/autograder.zip", "teacher-token")[0] == 404  # not offered by this server
+    assert fetch(server, "/api/export/class.sqlite", "teacher-token")[0] == 404
+
+
+def test_the_deadline_is_set_closed_now_and_lifted_and_a_bad_one_is_refused(served):
+    server, codes = served
+    for body in ({"deadline_s": "tomorrow"}, {"deadline_s": True}, {}, [1], b"{\"deadline_s\": NaN}",
+                 b"{\"deadline_s\": Infinity}", b"not json"):  # fmt: skip
+        status, said = call(server, "/api/deadline", body, "teacher-token")
+        assert status == 400 and "deadline_s" in said["error"], body
+    status, said = call(server, "/api/deadline", {"deadline_s": "now"}, "teacher-token")
+    assert status == 200 and abs(said["deadline_s"] - time.time()) < 60
+    assert call(server, "/api/handin", {"mission": SOLUTION}, codes["s1"])[0] == 403
+    assert call(server, "/api/deadline", {"deadline_s": None}, "teacher-token") == (200, {"deadline_s": None})
+    assert call(server, "/api/handin", {"mission": SOLUTION}, codes["s1"])[0] == 200
+
+
+def test_the_teacher_s_table_waits_for_a_change_and_at_most_so_many_pages_wait(served):
+    server, codes = served
+    _, first = call(server, "/api/class", code="teacher-token", method="GET")
+    answers: list[tuple[int, dict]] = []
+    waiting = [
+        threading.Thread(
+            target=lambda: answers.append(
+                call(server, f"/api/class?after={first['version']}", code="teacher-token", method="GET")
+            )
+        )  # fmt: skip
+        for _ in range(CLASS_WAITERS)
+    ]
+    for thread in waiting:
+        thread.start()
+    deadline = time.monotonic() + 30
+    while server._class_waiters < CLASS_WAITERS and time.monotonic() < deadline:  # every one waits
+        time.sleep(0.05)
+    assert answers == [] and server._class_waiters == CLASS_WAITERS
+    status, said = call(server, f"/api/class?after={first['version']}", code="teacher-token", method="GET")
+    assert status == 429 and str(CLASS_WAITERS) in said["error"]
+    assert call(server, "/api/check", {"mission": SOLUTION}, codes["s2"])[0] == 200  # Bob signs in: a change
+    for thread in waiting:
+        thread.join(timeout=30)
+    assert len(answers) == CLASS_WAITERS
+    assert all(status == 200 and said["version"] > first["version"] for status, said in answers)
+    bob = answers[0][1]["students"][1]
+    assert bob["id"] == "s2" and bob["signed_in"]
+
+
+def test_the_exports_hold_each_student_s_last_hand_in(served):
+    server, codes = served
+    call(server, "/api/handin", {"mission": TYPO.replace("mvoe", "move")}, codes["s1"])
+    status, handed = call(server, "/api/handin", {"mission": SOLUTION}, codes["s1"])
+    assert status == 200 and handed["total"] == 10
+    status, headers, body = fetch(server, "/api/export/grades.csv", "teacher-token")
+    assert status == 200 and headers["Content-Disposition"] == 'attachment; filename="garage-grades.csv"'
+    rows = list(csv.DictReader(io.StringIO(body.decode())))
+    assert [(row["id"], row["name"], row["total"], row["problems"]) for row in rows] == [
+        ("s1", "Ada", "10", ""),
+        ("s2", "Bob", "0", "no submission"),
+    ]
+    status, _, body = fetch(server, "/api/export/feedback.zip", "teacher-token")
+    archive = zipfile.ZipFile(io.BytesIO(body))
+    assert archive.namelist() == ["s1.html"]
+    assert archive.read("s1.html") == fetch(server, handed["page"])[2]

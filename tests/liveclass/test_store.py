@@ -6,7 +6,9 @@ import signal
 import subprocess
 import sys
 
-from autonomy.liveclass.store import CODE_ALPHABET, CODE_LENGTH, ClassStore
+import pytest
+
+from autonomy.liveclass.store import CODE_ALPHABET, CODE_LENGTH, ClassStore, StoreError
 from tests.views.conftest import ROOT
 
 
@@ -60,3 +62,42 @@ def test_every_hand_in_acknowledged_before_a_kill_9_is_there_after_it(tmp_path):
     acknowledged += [int(line) for line in writer.stdout.read().split()]
     kept = {work.id for work in ClassStore(tmp_path).works("s1")}
     assert set(acknowledged) <= kept and len(acknowledged) >= 200
+
+
+def test_the_roster_changes_the_class_a_student_let_go_cannot_sign_in_and_is_back_with_their_work(tmp_path):
+    store = ClassStore(tmp_path)
+    codes = store.enrol([("s1", "Ada"), ("s2", "Bob")])
+    store.add_work("s2", "handin", "mission: m\n", {}, 7.0, 10.0)
+    assert store.enrol([("s1", "Ada King")]) == {}  # Bob leaves, Ada is renamed
+    assert store.student_by_code(codes["s2"]) is None
+    assert [(s.id, s.name) for s in store.students()] == [("s1", "Ada King")]
+    assert [row["id"] for row in store.summary()] == ["s1"]
+    assert store.enrol([("s1", "Ada King"), ("s2", "Bob")]) == {}  # back, with the code and the work he had
+    assert store.student_by_code(codes["s2"]).id == "s2"
+    assert store.summary()[1]["total"] == 7.0
+
+
+def test_new_codes_replace_the_old_ones_and_a_student_not_in_the_class_is_said(tmp_path):
+    store = ClassStore(tmp_path)
+    old = store.enrol([("s1", "Ada"), ("s2", "Bob")])
+    new = store.new_codes(["s1"])
+    assert set(new) == {"s1"} and new["s1"] != old["s1"]
+    assert store.student_by_code(old["s1"]) is None and store.student_by_code(new["s1"]).id == "s1"
+    assert store.student_by_code(old["s2"]).id == "s2"
+    with pytest.raises(StoreError, match="not in the class: s9"):
+        store.new_codes(["s1", "s9"])
+    assert store.student_by_code(new["s1"]).id == "s1"  # nothing changed
+
+
+def test_a_class_kept_before_students_could_leave_the_roster_is_opened(tmp_path):
+    import sqlite3
+
+    old = sqlite3.connect(tmp_path / "class.sqlite")
+    old.executescript(
+        "CREATE TABLE students (id TEXT PRIMARY KEY, name TEXT NOT NULL, code_sha256 TEXT NOT NULL UNIQUE, "
+        "signed_in TEXT NOT NULL DEFAULT '');"
+        "INSERT INTO students VALUES ('s1', 'Ada', 'x', '');"
+    )
+    old.commit()
+    old.close()
+    assert [s.id for s in ClassStore(tmp_path).students()] == ["s1"]

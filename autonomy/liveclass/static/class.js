@@ -1,0 +1,281 @@
+// A student's page: sign in with the code on their sheet, write the mission (checked as they type:
+// problems at their lines, the tree drawn), run it on the public seeds, hand it in, see the marks.
+// Everything the server sends is put in the page as text (textContent), pictures as images: no
+// received markup is ever inserted as HTML.
+"use strict";
+
+const CODE_KEY = "autonomy-class-code";
+const CHECK_AFTER_MS = 300; // a check this long after the last key typed
+const $ = (id) => document.getElementById(id);
+
+let code = sessionStorage.getItem(CODE_KEY) || "";
+let deadlineS = null;
+let checkTimer = 0;
+let checkedText = null; // the text the problems and the tree shown are of
+let shownProblems = []; // marked at their lines until the next check has its answer
+let queue = Promise.resolve(); // one request under way at a time: the server takes no second one
+
+/** Runs `task` after every request before it has had its answer. */
+function inTurn(task) {
+  const done = queue.then(task, task);
+  queue = done.catch(() => undefined);
+  return done;
+}
+
+/** A request to the class's API; the answer's status and JSON (or a made-up one when the server is out of reach). */
+async function api(method, path, body) {
+  const headers = { Authorization: `Bearer ${code}` };
+  if (body !== undefined) headers["Content-Type"] = "application/json";
+  try {
+    const answer = await fetch(path, { method, headers, body: body === undefined ? undefined : JSON.stringify(body) });
+    let data = {};
+    try {
+      data = await answer.json();
+    } catch (_) {
+      data = { error: `the server answered ${answer.status}` };
+    }
+    return { status: answer.status, data };
+  } catch (_) {
+    return { status: 0, data: { error: "the class's server cannot be reached: is it still running?" } };
+  }
+}
+
+function svgImage(img, svg) {
+  img.src = "data:image/svg+xml;charset=utf-8," + encodeURIComponent(svg);
+}
+
+function element(tag, text, className) {
+  const made = document.createElement(tag);
+  if (text !== undefined) made.textContent = text;
+  if (className) made.className = className;
+  return made;
+}
+
+function number(value) {
+  return value === null || value === undefined ? "-" : String(Math.round(value * 100) / 100);
+}
+
+function say(text, isError) {
+  $("message").textContent = text;
+  $("message").className = isError ? "error" : "";
+}
+
+// ------------------------------------------------------------------ signing in
+
+async function signIn(given) {
+  code = given.trim();
+  const { status, data } = await api("GET", "/api/me");
+  if (status !== 200) {
+    code = "";
+    sessionStorage.removeItem(CODE_KEY);
+    $("sign-in-error").textContent = data.error || `the server answered ${status}`;
+    return;
+  }
+  sessionStorage.setItem(CODE_KEY, code);
+  show(data);
+}
+
+function show(me) {
+  const exercise = me.exercise;
+  $("sign-in").hidden = true;
+  $("desk").hidden = false;
+  $("sign-out").hidden = false;
+  $("title").textContent = exercise.title;
+  document.title = `${exercise.title}: autonomy`;
+  $("who").textContent = me.student.name;
+  $("exercise-title").textContent = exercise.title;
+  $("exercise-text").textContent = exercise.description;
+  $("criteria").replaceChildren(
+    ...exercise.criteria.map((c) => element("li", `${c.label}: ${number(c.points)} points`)),
+  );
+  const hidden = exercise.hidden_seeds ? `, and ${exercise.hidden_seeds} hidden seeds when you hand in` : "";
+  $("seeds").textContent =
+    `${exercise.time_limit_s} s a run. "Run" tries ${exercise.public_seeds} public seeds${hidden}.`;
+  svgImage($("world"), exercise.world_svg);
+  deadlineS = me.deadline_s;
+  showDeadline();
+  const mission = $("mission");
+  mission.value = me.mission;
+  lines();
+  $("handins").replaceChildren();
+  for (const work of me.works) if (work.kind === "handin" && work.page) addHandIn(work);
+  if (me.mission) check();
+}
+
+function showDeadline() {
+  const closed = deadlineS !== null && Date.now() / 1000 >= deadlineS;
+  $("deadline").textContent =
+    deadlineS === null ? "" : `Hand-ins ${closed ? "closed" : "close"} at ${new Date(deadlineS * 1000).toLocaleString()}.`;
+  $("handin").disabled = closed;
+}
+
+// ------------------------------------------------------------------ the editor
+
+/** The gutter's line numbers, one per line of the text, those with a problem marked. */
+function lines(problems = shownProblems) {
+  const count = $("mission").value.split("\n").length;
+  const marked = new Map();
+  for (const p of problems) marked.set(p.line, [...(marked.get(p.line) || []), p.message]);
+  const numbers = [];
+  for (let line = 1; line <= count; line++) {
+    const row = element("div", String(line));
+    if (marked.has(line)) {
+      row.className = "problem";
+      row.title = marked.get(line).join("\n");
+    }
+    numbers.push(row);
+  }
+  $("gutter").replaceChildren(...numbers);
+  $("gutter").scrollTop = $("mission").scrollTop;
+}
+
+function showProblems(problems) {
+  shownProblems = problems;
+  lines(problems);
+  $("problems").replaceChildren(
+    ...problems.map((p) => {
+      const item = element("li");
+      item.append(element("span", `line ${p.line}, column ${p.column}:`, "where"), p.message);
+      item.dataset.line = String(p.line);
+      item.addEventListener("click", () => goTo(p.line, p.column));
+      return item;
+    }),
+  );
+}
+
+function goTo(line, column) {
+  const mission = $("mission");
+  const rows = mission.value.split("\n");
+  let at = 0;
+  for (let i = 0; i < line - 1 && i < rows.length; i++) at += rows[i].length + 1;
+  at += Math.max(0, Math.min(column - 1, (rows[line - 1] || "").length));
+  mission.focus();
+  mission.setSelectionRange(at, at);
+}
+
+function check() {
+  clearTimeout(checkTimer);
+  checkTimer = 0;
+  const text = $("mission").value;
+  if (!text.trim()) {
+    checkedText = text;
+    showProblems([]);
+    $("tree").hidden = true;
+    $("no-tree").hidden = false;
+    $("status").textContent = "Write your mission: it is checked as you type.";
+    return Promise.resolve();
+  }
+  return inTurn(async () => {
+    if (text !== $("mission").value || text === checkedText) return; // typed on since, or checked already
+    $("status").textContent = "checking...";
+    const { status, data } = await api("POST", "/api/check", { mission: text });
+    if (status !== 200) {
+      $("status").textContent = data.error || `the check failed (${status})`;
+      return;
+    }
+    checkedText = text;
+    if (text !== $("mission").value) return; // a newer text has its own check on its way
+    showProblems(data.problems);
+    $("tree").hidden = !data.ok;
+    $("no-tree").hidden = data.ok;
+    if (data.ok) svgImage($("tree"), data.tree_svg);
+    const count = data.problems.length;
+    $("status").textContent = data.ok ? "No problem found: your tree is drawn below." : `${count} problem${count > 1 ? "s" : ""}:`;
+    $("status").className = data.ok ? "quiet" : "error";
+  });
+}
+
+// ------------------------------------------------------------------ running and handing in
+
+async function send(kind) {
+  const text = $("mission").value;
+  if (!text.trim()) {
+    say("Write a mission first.", true);
+    return;
+  }
+  $("run").disabled = $("handin").disabled = true;
+  const what = kind === "handin" ? "grading it on every seed" : "running it on the public seeds";
+  say(`${what}...`, false);
+  try {
+    const { status, data } = await inTurn(() => api("POST", `/api/${kind}`, { mission: text }));
+    if (status === 422) {
+      showProblems(data.problems);
+      say("It has problems: fix them first (they are marked at their lines).", true);
+    } else if (status !== 200) {
+      say(data.error || `the server answered ${status}`, true);
+    } else {
+      say(kind === "handin" ? `Handed in (number ${data.number}): kept.` : "", false);
+      showResult(data);
+      if (kind === "handin") addHandIn({ ...data, at: new Date().toISOString() });
+    }
+  } finally {
+    $("run").disabled = false;
+    showDeadline();
+  }
+}
+
+function showResult(result) {
+  $("result").hidden = false;
+  const where = result.kind === "handin" ? "hand-in, on every seed" : "run, on the public seeds";
+  $("result-title").textContent = `Your ${where}: ${number(result.total)} / ${number(result.max_points)}`;
+  $("marks").tBodies[0].replaceChildren(
+    ...result.criteria.map((c) => {
+      const row = element("tr");
+      row.append(element("td", c.label), element("td", number(c.earned), "number"), element("td", number(c.points), "number"));
+      return row;
+    }),
+  );
+  $("outcomes").replaceChildren(...result.seeds.map((s) => element("li", `${s.seed}: ${s.outcome}`)));
+  $("notes").replaceChildren(...[...result.problems, ...result.notes].map((n) => element("li", n)));
+  if (result.page) $("replay").src = result.page;
+  $("result").scrollIntoView({ behavior: "smooth", block: "start" });
+}
+
+function addHandIn(work) {
+  $("no-handins").hidden = true;
+  const at = work.at ? `, ${new Date(work.at).toLocaleString()}` : "";
+  const item = element("li", `Hand-in ${work.number}${at}: ${number(work.total)} / ${number(work.max_points)}`);
+  if (work.page) {
+    const open = element("button", "show");
+    open.type = "button";
+    open.addEventListener("click", () => {
+      $("result").hidden = false;
+      $("result-title").textContent = `Your hand-in number ${work.number}: ${number(work.total)} / ${number(work.max_points)}`;
+      $("replay").src = work.page;
+      $("result").scrollIntoView({ behavior: "smooth", block: "start" });
+    });
+    item.append(open);
+  }
+  $("handins").append(item);
+}
+
+// ------------------------------------------------------------------ wiring
+
+$("sign-in-form").addEventListener("submit", (event) => {
+  event.preventDefault();
+  $("sign-in-error").textContent = "";
+  signIn($("code").value);
+});
+$("sign-out").addEventListener("click", () => {
+  sessionStorage.removeItem(CODE_KEY);
+  location.reload();
+});
+$("mission").addEventListener("input", () => {
+  lines();
+  clearTimeout(checkTimer);
+  checkTimer = setTimeout(check, CHECK_AFTER_MS);
+});
+$("mission").addEventListener("scroll", () => {
+  $("gutter").scrollTop = $("mission").scrollTop;
+});
+$("mission").addEventListener("keydown", (event) => {
+  if (event.key !== "Tab" || event.shiftKey) return; // Tab writes two spaces (YAML takes no tabs)
+  event.preventDefault();
+  const mission = $("mission");
+  mission.setRangeText("  ", mission.selectionStart, mission.selectionEnd, "end");
+  mission.dispatchEvent(new Event("input"));
+});
+$("run").addEventListener("click", () => send("run"));
+$("handin").addEventListener("click", () => send("handin"));
+setInterval(showDeadline, 10_000);
+if (code) signIn(code);

@@ -1,0 +1,234 @@
+// The teacher's page: the class table, kept live (each change is answered to a waiting request), any
+// student's latest run replayed, the projector view, the deadline, the exports. The token comes in
+// the address's fragment (never sent to the server in the address), is kept for the tab, and taken
+// out of the address bar before anything is shown: a projected page shows no token.
+// Everything the server sends is put in the page as text: no received markup is inserted as HTML.
+"use strict";
+
+const TOKEN_KEY = "autonomy-class-teacher";
+const $ = (id) => document.getElementById(id);
+
+let token = location.hash.slice(1) || sessionStorage.getItem(TOKEN_KEY) || "";
+if (location.hash) history.replaceState(null, "", location.pathname);
+let version = -1;
+let table = null;
+let shown = null; // the student whose run the viewer shows: {name, page}
+
+function element(tag, text, className) {
+  const made = document.createElement(tag);
+  if (text !== undefined) made.textContent = text;
+  if (className) made.className = className;
+  return made;
+}
+
+function number(value) {
+  return value === null || value === undefined ? "-" : String(Math.round(value * 100) / 100);
+}
+
+function count(n, what) {
+  return `${n} ${what}${n === 1 ? "" : "s"}`;
+}
+
+function when(text) {
+  return text ? new Date(text).toLocaleTimeString() : "";
+}
+
+async function api(method, path, body) {
+  const headers = { Authorization: `Bearer ${token}` };
+  if (body !== undefined) headers["Content-Type"] = "application/json";
+  const answer = await fetch(path, { method, headers, body: body === undefined ? undefined : JSON.stringify(body) });
+  return answer;
+}
+
+function refused(why) {
+  $("desk").hidden = true;
+  $("board").hidden = true;
+  $("no-token").hidden = false;
+  $("token-why").textContent = why;
+  $("live").textContent = "not signed in";
+}
+
+// ------------------------------------------------------------------ the class, live
+
+async function follow() {
+  for (;;) {
+    let answer;
+    try {
+      answer = await api("GET", version < 0 ? "/api/class" : `/api/class?after=${version}`);
+    } catch (_) {
+      $("live").textContent = "the server cannot be reached: trying again";
+      await new Promise((resolve) => setTimeout(resolve, 2000));
+      continue;
+    }
+    if (answer.status === 401) {
+      sessionStorage.removeItem(TOKEN_KEY);
+      refused("This token is not the class's: the server makes a new one each time it starts.");
+      return;
+    }
+    if (answer.status !== 200) {
+      $("live").textContent = `the server answered ${answer.status}: trying again`;
+      await new Promise((resolve) => setTimeout(resolve, 2000));
+      continue;
+    }
+    sessionStorage.setItem(TOKEN_KEY, token);
+    const data = await answer.json();
+    $("live").textContent = "live";
+    if (data.version !== version) {
+      const before = table;
+      version = data.version;
+      table = data;
+      draw(before);
+    }
+  }
+}
+
+function draw(before) {
+  $("no-token").hidden = true;
+  if ($("board").hidden) $("desk").hidden = false;
+  $("title").textContent = table.title;
+  document.title = `${table.title}: the teacher's desk`;
+  const students = table.students;
+  const signedIn = students.filter((s) => s.signed_in).length;
+  const handedIn = students.filter((s) => s.handins > 0).length;
+  $("counts").textContent = `${students.length} students, ${signedIn} signed in, ${handedIn} handed in.`;
+  const closed = table.deadline_s !== null && table.now_s >= table.deadline_s;
+  $("deadline-state").textContent =
+    table.deadline_s === null
+      ? "Hand-ins are open."
+      : `Hand-ins ${closed ? "closed" : "close"} at ${new Date(table.deadline_s * 1000).toLocaleString()}.`;
+  const old = new Map((before ? before.students : []).map((s) => [s.id, s]));
+  $("class-table").tBodies[0].replaceChildren(...students.map((s) => row(s, old.get(s.id))));
+  drawBoard();
+}
+
+function row(student, before) {
+  const tr = element("tr");
+  tr.dataset.student = student.id;
+  const mark = student.handins ? `${number(student.total)} / ${number(student.max_points)}` : "";
+  tr.append(
+    element("td", student.name),
+    element("td", student.id),
+    element("td", when(student.signed_in)),
+    element("td", String(student.runs), "number"),
+    element("td", String(student.handins), "number"),
+    element("td", mark, "number mark"),
+    element("td", student.last_problem, "problem"),
+  );
+  tr.cells[6].title = student.last_problem;
+  const actions = element("td");
+  if (student.latest_page) actions.append(button("Replay", () => view(student.name, student.latest_page, "latest run")));
+  if (student.handin_page) actions.append(button("Hand-in", () => view(student.name, student.handin_page, "hand-in")));
+  tr.append(actions);
+  if (before && before.last_work !== student.last_work) tr.className = "fresh";
+  return tr;
+}
+
+function button(text, action) {
+  const made = element("button", text);
+  made.type = "button";
+  made.addEventListener("click", action);
+  return made;
+}
+
+function view(name, page, what) {
+  shown = { name, page, what };
+  $("viewer").hidden = false;
+  $("viewer-title").textContent = `${name}: ${what}`;
+  $("viewer-frame").src = page;
+  $("viewer").scrollIntoView({ behavior: "smooth", block: "start" });
+}
+
+// ------------------------------------------------------------------ the projector
+
+function drawBoard() {
+  if (!table) return;
+  $("board-title").textContent = table.title;
+  $("board-cards").replaceChildren(
+    ...table.students.map((s) => {
+      const card = element("div", undefined, "student");
+      const share = s.handins && s.max_points ? Math.max(0, Math.min(1, s.total / s.max_points)) : 0;
+      const bar = element("div", undefined, "bar-out");
+      const fill = element("div", undefined, "bar-in");
+      fill.style.width = `${(share * 100).toFixed(1)}%`;
+      bar.append(fill);
+      card.append(
+        element("div", s.name, "name"),
+        element("div", s.handins ? `${number(s.total)} / ${number(s.max_points)}` : "-", "mark"),
+        bar,
+        element("div", `${count(s.runs, "run")}, ${count(s.handins, "hand-in")}`, "counts"),
+      );
+      return card;
+    }),
+  );
+}
+
+function projector(on, run) {
+  $("board").hidden = !on;
+  $("desk").hidden = on;
+  $("projector").textContent = on ? "Back to the desk" : "Projector view";
+  $("board-cards").hidden = Boolean(run);
+  $("board-run").hidden = !run;
+  if (run) {
+    $("board-run-title").textContent = `${run.name}: ${run.what}`;
+    $("board-frame").src = run.page;
+  } else {
+    $("board-frame").removeAttribute("src");
+  }
+}
+
+// ------------------------------------------------------------------ the deadline and the exports
+
+function deskSays(text, isError) {
+  $("desk-message").textContent = text;
+  $("desk-message").className = isError ? "error" : "quiet";
+}
+
+async function setDeadline(deadlineS) {
+  const answer = await api("POST", "/api/deadline", { deadline_s: deadlineS });
+  const data = await answer.json();
+  deskSays(answer.status === 200 ? "" : data.error, answer.status !== 200);
+}
+
+async function download(file) {
+  deskSays(`making ${file}...`, false);
+  const answer = await api("GET", `/api/export/${file}`);
+  if (answer.status !== 200) {
+    let why = `the server answered ${answer.status}`;
+    try {
+      why = (await answer.json()).error || why;
+    } catch (_) {
+      // not JSON: said by its status
+    }
+    deskSays(why, true);
+    return;
+  }
+  const link = element("a");
+  link.href = URL.createObjectURL(await answer.blob());
+  link.download = `${table ? table.exercise : "class"}-${file}`;
+  document.body.append(link);
+  link.click();
+  link.remove();
+  deskSays(`${file}: downloaded.`, false);
+}
+
+$("projector").addEventListener("click", () => projector($("board").hidden, null));
+$("viewer-project").addEventListener("click", () => projector(true, shown));
+$("viewer-close").addEventListener("click", () => {
+  $("viewer").hidden = true;
+  $("viewer-frame").removeAttribute("src");
+});
+$("deadline-set").addEventListener("click", () => {
+  const at = $("deadline-at").value;
+  if (!at) return deskSays("Choose a date and time first.", true);
+  setDeadline(new Date(at).getTime() / 1000);
+});
+$("close-now").addEventListener("click", () => setDeadline("now")); // the server's clock, not this one's
+$("reopen").addEventListener("click", () => setDeadline(null));
+for (const id of ["export-csv", "export-gradescope", "export-feedback"]) {
+  $(id).addEventListener("click", () => download($(id).dataset.file));
+}
+document.addEventListener("keydown", (event) => {
+  if (event.key === "Escape" && !$("board").hidden) projector(false, null);
+});
+if (token) follow();
+else refused("This page needs the teacher's token.");

@@ -1,0 +1,68 @@
+"""``autonomy class serve --dask``: runs and hand-ins graded on a Dask cluster (a LocalCluster on loopback)."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import re
+import signal
+import subprocess
+import sys
+import urllib.request
+
+import pytest
+
+if importlib.util.find_spec("distributed") is None:  # the optional extra: autonomy[cluster]
+    pytest.skip("dask.distributed is not installed", allow_module_level=True)
+
+from autonomy.classroom.exercise import load_exercise
+from autonomy.liveclass.work import grade_text
+from tests.classroom.test_dask import ENV, ROOT, cluster  # noqa: F401 - the cluster fixture, shared
+from tests.liveclass.test_class_cli import SOLUTION, post
+
+WRONG = (ROOT / "autonomy" / "exercises" / "wrong" / "garage_full_speed.yaml").read_text()
+
+
+def test_a_class_graded_on_a_cluster_gets_the_marks_and_pages_graded_here_would(cluster, tmp_path):  # noqa: F811
+    (tmp_path / "roster.csv").write_text("id,name,submission\n1001,Ada Lovelace,ada\n")
+    process = subprocess.Popen(
+        [sys.executable, "-m", "autonomy", "class", "serve", "garage", "--roster", str(tmp_path / "roster.csv")]
+        + ["--dir", str(tmp_path / "class"), "--port", "0", "--dask", cluster],
+        cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=ENV,
+    )  # fmt: skip
+    try:
+        said = process.stderr.readline() + process.stderr.readline()
+        assert f"graded on a Dask cluster at {cluster}" in said, said
+        port = int(process.stdout.readline().strip().rstrip("/").rsplit(":", 1)[1])
+        code = (tmp_path / "class" / "codes.csv").read_text().splitlines()[1].split(",")[2]
+        ran = post(port, "/api/run", {"mission": WRONG}, code)
+        handed = post(port, "/api/handin", {"mission": SOLUTION}, code)
+        with urllib.request.urlopen(f"http://127.0.0.1:{port}{handed['page']}", timeout=30) as answer:
+            page = answer.read()
+    finally:
+        process.send_signal(signal.SIGINT)
+        _, err = process.communicate(timeout=60)
+    assert process.returncode == 0 and "Traceback" not in err, err
+    secret = (tmp_path / "class" / "secret").read_bytes()
+    exercise = load_exercise(ROOT / "exercises" / "garage.yaml").with_secret(secret)
+    here = tmp_path / "here"
+    for given, number, hand_in in ((ran, ran["number"], False), (handed, handed["number"], True)):
+        report, path = grade_text(exercise, "1001", WRONG if not hand_in else SOLUTION, here, number, hand_in)
+        assert (given["total"], [s["outcome"] for s in given["seeds"]]) == (
+            report.total,
+            [s.outcome for s in report.seeds],
+        )
+    assert ran["total"] < ran["max_points"] and handed["total"] == handed["max_points"] == 10
+    assert page == path.read_bytes()  # the hand-in's page, made on the cluster, byte for byte
+    assert re.search(rb"hidden seed 12", page) and json.loads(json.dumps(handed))["kind"] == "handin"
+
+
+def test_serve_with_no_scheduler_at_the_address_says_so_in_one_line(tmp_path):
+    (tmp_path / "roster.csv").write_text("id,name,submission\n1001,Ada Lovelace,ada\n")
+    done = subprocess.run(
+        [sys.executable, "-m", "autonomy", "class", "serve", "garage", "--roster", str(tmp_path / "roster.csv")]
+        + ["--dir", str(tmp_path / "class"), "--port", "0", "--dask", "tcp://127.0.0.1:9"],
+        cwd=ROOT, capture_output=True, text=True, timeout=60, env=ENV,
+    )  # fmt: skip
+    assert done.returncode == 2 and done.stdout == ""
+    assert done.stderr.count("\n") == 1 and "no Dask scheduler answers there" in done.stderr

@@ -1,0 +1,193 @@
+"""The class's pages in a real headless Chromium, served by ``autonomy class serve`` as a teacher starts it.
+
+A student signs in, types a mission with a mistake and sees it at its line, fixes it, runs it,
+hands it in and sees the marks; the teacher's page, open all along, shows the hand-in without a
+reload; the projector view shows the class.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import re
+import signal
+import subprocess
+import sys
+import zipfile
+
+import pytest
+
+from tests.views.conftest import ROOT, browser  # noqa: F401 - the browser fixture, shared
+from tests.views.conftest import until as until_in
+
+#: Longest wait for what the server does (a busy machine grades slowly; a wait that holds returns at once).
+WAIT_MS = 60_000
+
+
+def until(page, expression: str, timeout: float = WAIT_MS) -> None:
+    until_in(page, expression, timeout)
+
+
+MISTAKE = "mission: park\ntree:\n  sequence:\n    - mvoe: {speed: 2, until_obstacle_mm: 150}\n"
+FIXED = MISTAKE.replace("mvoe", "move")
+
+
+@pytest.fixture
+def classroom(tmp_path):
+    """``autonomy class serve garage`` for Ada and Bob: (student's URL, teacher's URL, codes)."""
+    (tmp_path / "roster.csv").write_text("id,name,submission\n1001,Ada Lovelace,ada\n1002,Bob <b>Jones</b>,bob\n")
+    process = subprocess.Popen(
+        [sys.executable, "-m", "autonomy", "class", "serve", "garage", "--roster", str(tmp_path / "roster.csv")]
+        + ["--dir", str(tmp_path / "class"), "--port", "0"],
+        cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    said = process.stderr.readline() + process.stderr.readline()
+    teacher = re.search(r"(http://\S+/teacher#\S+)", said).group(1)
+    student = process.stdout.readline().strip()
+    with (tmp_path / "class" / "codes.csv").open() as stream:
+        codes = {row["id"]: row["code"] for row in csv.DictReader(stream)}
+    yield student, teacher, codes
+    process.send_signal(signal.SIGINT)
+    _, err = process.communicate(timeout=30)
+    assert process.returncode == 0 and "Traceback" not in err, err
+
+
+def new_page(browser, errors: list[str]):  # noqa: F811 - the fixture, by name
+    context = browser.new_context(viewport={"width": 1400, "height": 1000}, accept_downloads=True)
+    page = context.new_page()
+    page.on("pageerror", lambda error: errors.append(str(error)))
+    page.on("console", lambda message: errors.append(message.text) if message.type == "error" else None)
+    return page
+
+
+def test_a_student_writes_runs_and_hands_in_while_the_teacher_watches(browser, classroom):  # noqa: F811
+    student_url, teacher_url, codes = classroom
+    errors: list[str] = []
+    teacher = new_page(browser, errors)
+    teacher.goto(teacher_url)
+    until(teacher, "document.querySelectorAll('#class-table tbody tr').length === 2")
+    assert "#" not in teacher.url  # the token is out of the address bar before anything is shown
+    names = teacher.locator("#class-table tbody td:first-child").all_text_contents()
+    assert names == ["Ada Lovelace", "Bob <b>Jones</b>"]  # a name is text, never markup
+
+    student = new_page(browser, errors)
+    student.goto(student_url)
+    student.fill("#code", "wrong-code")
+    student.click("#sign-in-form button")
+    until(student, "document.getElementById('sign-in-error').textContent !== ''")
+    assert "no student has this sign-in code" in student.text_content("#sign-in-error")
+    student.fill("#code", codes["1001"].upper())  # as read off a sheet
+    student.click("#sign-in-form button")
+    until(student, "!document.getElementById('desk').hidden")
+    assert student.text_content("#who") == "Ada Lovelace"
+    assert "Park in the garage" in student.text_content("#exercise-title")
+    assert student.evaluate("document.getElementById('world').naturalWidth") > 100  # the world is drawn
+
+    student.click("#mission")
+    student.keyboard.type(MISTAKE)
+    until(student, "document.querySelectorAll('#gutter div.problem').length > 0")
+    marked = student.locator("#gutter div.problem")
+    assert marked.all_text_contents() == ["4"]  # at its line
+    assert "mvoe" in marked.get_attribute("title")
+    assert student.text_content("#problems li").startswith("line 4, column 7:")
+    assert student.locator("#tree").is_hidden()
+
+    student.fill("#mission", FIXED)
+    student.dispatch_event("#mission", "input")
+    until(student, "!document.querySelector('#gutter div.problem') && !document.getElementById('tree').hidden")
+    assert student.evaluate("document.getElementById('tree').naturalWidth") > 50  # the tree is drawn
+
+    student.click("#run")
+    until(student, "!document.getElementById('result').hidden")
+    assert "run, on the public seeds" in student.text_content("#result-title")
+    assert len(student.locator("#outcomes li").all()) == 4  # the 4 public seeds
+    frame = student.frame_locator("#replay")
+    frame.locator("h1").wait_for(timeout=WAIT_MS)  # the feedback page, with each seed's replay
+    assert len(frame.locator("iframe[data-run]").all()) == 4
+    until(teacher, "document.querySelector('#class-table tbody tr').cells[3].textContent === '1'")  # the run, live
+
+    student.click("#handin")
+    until(student, "document.getElementById('result-title').textContent.includes('hand-in')")
+    title = student.text_content("#result-title")
+    assert re.search(r"hand-in, on every seed: \d+(\.\d+)? / 10", title), title
+    assert len(student.locator("#outcomes li").all()) == 16  # 4 public and 12 hidden seeds
+    hidden = student.locator("#outcomes li").all_text_contents()[-1]
+    assert hidden.startswith("hidden seed") and not re.search(r"seed \d{3,}", hidden)
+    assert len(student.locator("#handins li").all()) == 1
+    mark = title.split(": ")[1]
+
+    # the teacher's page, never reloaded, shows the hand-in and its mark
+    until(teacher, "document.querySelector('#class-table tbody tr').cells[4].textContent === '1'")
+    ada = teacher.locator("#class-table tbody tr").first
+    assert ada.locator("td.mark").text_content() == mark
+    ada.locator("button", has_text="Replay").click()
+    teacher.frame_locator("#viewer-frame").locator("h1").wait_for(timeout=WAIT_MS)
+
+    # the projector shows the class: every student, Ada's mark; then Ada's run
+    teacher.click("#projector")
+    assert teacher.locator("#desk").is_hidden() and teacher.locator("#board").is_visible()
+    cards = teacher.locator("#board .student")
+    assert cards.count() == 2
+    assert cards.first.locator(".name").text_content() == "Ada Lovelace"
+    assert cards.first.locator(".mark").text_content() == mark
+    assert cards.nth(1).locator(".mark").text_content() == "-"
+    assert codes["1001"] not in teacher.content()  # no code, no token on the projector
+    teacher.keyboard.press("Escape")
+    teacher.locator("#viewer-project").click()
+    teacher.frame_locator("#board-frame").locator("h1").wait_for(timeout=WAIT_MS)
+    assert teacher.text_content("#board-run-title") == "Ada Lovelace: latest run"
+
+    # the exports: the gradebook with ids, each student's feedback page
+    teacher.keyboard.press("Escape")
+    with teacher.expect_download() as got:
+        teacher.click("#export-csv")
+    rows = list(csv.DictReader(io.StringIO(open(got.value.path()).read())))
+    assert [(row["id"], row["total"]) for row in rows] == [("1001", mark.split(" / ")[0]), ("1002", "0")]
+    with teacher.expect_download() as got:
+        teacher.click("#export-feedback")
+    assert zipfile.ZipFile(got.value.path()).namelist() == ["1001.html"]
+    with teacher.expect_download() as got:
+        teacher.click("#export-gradescope")
+    assert "setup.sh" in zipfile.ZipFile(got.value.path()).namelist()
+
+    # a student signed in again gets their mission and hand-ins back
+    student.reload()
+    until(student, "!document.getElementById('desk').hidden")
+    assert student.input_value("#mission") == FIXED
+    assert len(student.locator("#handins li").all()) == 1
+    assert [e for e in errors if "status of 401" not in e] == [] and len(errors) == 1  # the wrong code's refusal
+
+
+def test_the_teacher_closes_hand_ins_and_the_student_is_told(browser, classroom):  # noqa: F811
+    student_url, teacher_url, codes = classroom
+    errors: list[str] = []
+    teacher = new_page(browser, errors)
+    teacher.goto(teacher_url)
+    until(teacher, "document.querySelectorAll('#class-table tbody tr').length === 2")
+    student = new_page(browser, errors)
+    student.goto(student_url)
+    student.fill("#code", codes["1002"])
+    student.click("#sign-in-form button")
+    until(student, "!document.getElementById('desk').hidden")
+    assert student.text_content("#who") == "Bob <b>Jones</b>"
+    teacher.click("#close-now")
+    until(teacher, "document.getElementById('deadline-state').textContent.includes('closed')")
+    student.fill("#mission", FIXED)
+    student.evaluate("document.getElementById('handin').disabled = false")  # a page opened before the deadline
+    student.click("#handin")
+    until(student, "document.getElementById('message').textContent.includes('closed')")
+    assert student.locator("#handins li").count() == 0
+    teacher.click("#reopen")
+    until(teacher, "document.getElementById('deadline-state').textContent === 'Hand-ins are open.'")
+    assert [e for e in errors if "status of 403" not in e] == []  # the refused hand-in's line
+
+
+def test_the_teacher_page_without_its_token_says_where_to_find_it(browser, classroom):  # noqa: F811
+    _, teacher_url, _ = classroom
+    errors: list[str] = []
+    teacher = new_page(browser, errors)
+    teacher.goto(teacher_url.split("#")[0] + "#not-the-token")
+    until(teacher, "!document.getElementById('no-token').hidden")
+    assert "not the class's" in teacher.text_content("#token-why")
+    assert teacher.locator("#class-table tbody tr").count() == 0
+    assert [e for e in errors if "401" not in e] == []  # the refused request is the console's one line
