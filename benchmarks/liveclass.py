@@ -3,7 +3,8 @@
 Starts ``autonomy class serve garage`` (a process of its own, on loopback) with a roster of 30,
 then plays 30 students from this process, each on its own schedule: a check every 0.5 s (of
 the text as it is typed: a typo now and then), a run every 10 s, a hand-in every 60 s. Every
-request is timed from before it is sent to its whole answer.
+request is timed from before it is sent to its whole answer. The teacher's page follows the
+class all along, as it does (``GET /api/class?after=V``, answered at each change).
 
 Reports, per kind of request: how many, the median, 95th percentile and slowest answer; how
 many were refused (and why), and how many got no answer at all (lost); and the server's
@@ -66,12 +67,35 @@ async def student(session, url: str, code: str, seconds: float, seen: dict, rng:
             await asyncio.sleep(max(0.0, 0.5 - took))
 
 
-async def play(url: str, codes: list[str], seconds: float) -> dict:
-    seen = {kind: {"times": [], "refused": [], "lost": []} for kind in ("check", "run", "handin")}
+async def teacher(session, url: str, token: str, seconds: float, seen: dict) -> None:
+    """The teacher's page: the class table, asked again at each change; its answers' times and the versions seen."""
+    headers = {"Authorization": f"Bearer {token}"}
+    start, version = time.monotonic(), None
+    while time.monotonic() - start < seconds:
+        path = "api/class" if version is None else f"api/class?after={version}"
+        sent = time.monotonic()
+        try:
+            async with session.get(url + path, headers=headers) as answer:
+                table = await answer.json()
+        except (aiohttp.ClientError, asyncio.TimeoutError) as err:
+            seen["lost"].append(type(err).__name__)
+            await asyncio.sleep(1)
+            continue
+        seen["times"].append(time.monotonic() - sent)
+        if answer.status != 200:
+            seen["refused"].append(answer.status)
+            continue
+        version = table["version"]
+        seen["versions"] = version
+
+
+async def play(url: str, codes: list[str], token: str, seconds: float) -> dict:
+    seen = {kind: {"times": [], "refused": [], "lost": []} for kind in ("check", "run", "handin", "class")}
     timeout = aiohttp.ClientTimeout(total=120)
     async with aiohttp.ClientSession(timeout=timeout, connector=aiohttp.TCPConnector(limit=0)) as session:
         await asyncio.gather(
-            *(student(session, url, code, seconds, seen, random.Random(i)) for i, code in enumerate(codes))
+            teacher(session, url, token, seconds, seen["class"]),
+            *(student(session, url, code, seconds, seen, random.Random(i)) for i, code in enumerate(codes)),
         )
     return seen
 
@@ -92,10 +116,12 @@ def main() -> None:
             cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
         )  # fmt: skip
         try:
+            said = server.stderr.readline() + server.stderr.readline()
+            token = re.search(r"/teacher#(\S+)", said).group(1)
             url = server.stdout.readline().strip()
             with (Path(folder) / "class" / "codes.csv").open() as stream:
                 codes = [row["code"] for row in csv.DictReader(stream)]
-            seen = asyncio.run(play(url, codes, args.seconds))
+            seen = asyncio.run(play(url, codes, token, args.seconds))
             status = Path(f"/proc/{server.pid}/status").read_text()
             rss_mb = int(re.search(r"VmRSS:\s+(\d+)", status).group(1)) // 1024
         finally:
@@ -104,6 +130,8 @@ def main() -> None:
     print(f"{args.students} students, {args.seconds:g} s; the server's memory at the end: {rss_mb} MB")
     print(f"{'':<8}{'answered':>9}{'median':>9}{'p95':>9}{'slowest':>9}{'refused':>9}{'lost':>6}")
     for kind, got in seen.items():
+        if kind == "class":
+            continue
         times = sorted(got["times"])
         p95 = times[int(len(times) * 0.95)] if times else float("nan")
         print(
@@ -112,6 +140,10 @@ def main() -> None:
         )
         if got["refused"]:
             print(f"         refused: {dict(collections.Counter(got['refused']))}")
+    print(
+        f"the teacher's page: {len(seen['class']['times'])} answers for {seen['class'].get('versions', 0)} changes "
+        f"of the class table, {len(seen['class']['refused'])} refused, {len(seen['class']['lost'])} lost"
+    )
     check_p95 = sorted(seen["check"]["times"])[int(len(seen["check"]["times"]) * 0.95)]
     run_p95 = sorted(seen["run"]["times"])[int(len(seen["run"]["times"]) * 0.95)]
     lost = sum(len(got["lost"]) for got in seen.values())
