@@ -228,7 +228,7 @@ function showResult(result) {
   $("outcomes").replaceChildren(...result.seeds.map((s) => element("li", `${s.seed}: ${s.outcome}`)));
   $("notes").replaceChildren(...[...result.problems, ...result.notes].map((n) => element("li", n)));
   if (result.page) $("replay").src = result.page;
-  $("result").scrollIntoView({ behavior: "smooth", block: "start" });
+  $("result").scrollIntoView({ block: "start" });
 }
 
 function addHandIn(work) {
@@ -242,7 +242,7 @@ function addHandIn(work) {
       $("result").hidden = false;
       $("result-title").textContent = `Your hand-in number ${work.number}: ${number(work.total)} / ${number(work.max_points)}`;
       $("replay").src = work.page;
-      $("result").scrollIntoView({ behavior: "smooth", block: "start" });
+      $("result").scrollIntoView({ block: "start" });
     });
     item.append(open);
   }

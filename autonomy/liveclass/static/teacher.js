@@ -135,7 +135,7 @@ function view(name, page, what) {
   $("viewer").hidden = false;
   $("viewer-title").textContent = `${name}: ${what}`;
   $("viewer-frame").src = page;
-  $("viewer").scrollIntoView({ behavior: "smooth", block: "start" });
+  $("viewer").scrollIntoView({ block: "start" });
 }
 
 // ------------------------------------------------------------------ the projector
