@@ -143,9 +143,9 @@ class GrootCrowd:
         self.context.destroy(linger=0)
 
 
-def non_readers(port: int, clients: int, requests: int = 20) -> list[socket.socket]:
-    """Connections that each ask ``api/run`` ``requests`` times at once and never read an answer."""
-    ask = f"GET /api/run HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\n\r\n".encode() * requests
+def non_readers(port: int, clients: int, requests: int = 20, path: str = "/api/run") -> list[socket.socket]:
+    """Connections that each ask ``path`` ``requests`` times at once and never read an answer."""
+    ask = f"GET {path} HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\n\r\n".encode() * requests
     crowd = []
     for _ in range(clients):
         conn = socket.socket()

@@ -29,7 +29,7 @@ def _number(value: float) -> str:
     return f"{value:g}"
 
 
-def _cell_text(text: str) -> str:
+def cell_text(text: str) -> str:
     """Text a spreadsheet will not run as a formula (a file may be named ``=HYPERLINK(...)``)."""
     text = printable(text)
     return "'" + text if text[:1] in ("=", "+", "-", "@") else text
@@ -55,25 +55,25 @@ def to_csv(exercise: Exercise, reports: list[Report], roster: RosterMatch | None
             _number(report.max_points),
             *[_number(m) for m in report.marks],
             _number(sum(points for points, _ in report.adjustments)),
-            _cell_text(" | ".join(reason for _, reason in report.adjustments)),
-            _cell_text(" | ".join(report.problems)),
+            cell_text(" | ".join(reason for _, reason in report.adjustments)),
+            cell_text(" | ".join(report.problems)),
         ]
 
     if roster is None:
         writer.writerow(["student", "total", "out_of", *criteria, *tail])
         for report in reports:
-            writer.writerow([_cell_text(report.student), *cells(report)])
+            writer.writerow([cell_text(report.student), *cells(report)])
         return out.getvalue()
     writer.writerow(["id", "name", "student", "total", "out_of", *criteria, *tail])
     for entry, report in roster.listed:
         if report is None:
-            writer.writerow([_cell_text(entry.id), _cell_text(entry.name), "", *zero, "no submission"])
+            writer.writerow([cell_text(entry.id), cell_text(entry.name), "", *zero, "no submission"])
         else:
-            writer.writerow([_cell_text(entry.id), _cell_text(entry.name), _cell_text(report.student), *cells(report)])
+            writer.writerow([cell_text(entry.id), cell_text(entry.name), cell_text(report.student), *cells(report)])
     for report in roster.unlisted:
         row = cells(report)
-        row[-1] = _cell_text(" | ".join(["not on the roster", *report.problems]))
-        writer.writerow(["", "", _cell_text(report.student), *row])
+        row[-1] = cell_text(" | ".join(["not on the roster", *report.problems]))
+        writer.writerow(["", "", cell_text(report.student), *row])
     return out.getvalue()
 
 

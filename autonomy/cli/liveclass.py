@@ -178,16 +178,19 @@ def _when(epoch_s: float) -> str:
 def _write_codes(path: Path, roster: list[Any], codes: dict[str, str], replace: bool = False) -> None:
     """Adds the new students' codes to ``codes.csv`` (``id,name,code``), for the teacher to hand out.
 
-    With ``replace``, the lines of these students are taken out first (their codes are new).
+    With ``replace``, the lines of these students are taken out first (their codes are new). Ids and
+    names are written as a spreadsheet shows them and runs none (``=HYPERLINK(...)`` gets a ``'``).
     """
+    from autonomy.classroom.report import cell_text
+
     rows: list[list[str]] = []
     if path.exists():
         with path.open(encoding="utf-8", newline="") as stream:
             rows = [row for row in csv.reader(stream) if row]
         if replace:
-            rows = [row for row in rows if row[0] not in codes]
+            rows = [row for row in rows if row[0] not in {cell_text(sid) for sid in codes}]
     rows = rows or [["id", "name", "code"]]
-    rows += [[entry.id, entry.name, codes[entry.id]] for entry in roster if entry.id in codes]
+    rows += [[cell_text(entry.id), cell_text(entry.name), codes[entry.id]] for entry in roster if entry.id in codes]
     fresh = path.with_name(path.name + ".new")
     with fresh.open("w", encoding="utf-8", newline="") as stream:
         fresh.chmod(0o600)

@@ -30,6 +30,7 @@ import functools
 import hashlib
 import hmac
 import io
+import ipaddress
 import json
 import math
 import re
@@ -49,8 +50,9 @@ from autonomy.classroom.gradebook import RosterEntry, RosterMatch
 from autonomy.classroom.report import to_csv
 from autonomy.clock import wall_time_s
 from autonomy.errors import AutonomyError
-from autonomy.liveclass.store import ClassStore, Student, Work, token_digest
+from autonomy.liveclass.store import ClassStore, Student, Work, code_digest, token_digest
 from autonomy.liveclass.work import MAX_MISSION_CHARS, check, exercise_shown, grade_text, page_file
+from autonomy.views.lines import printable
 from autonomy.views.web import BoundedServer
 
 #: Runs one student may start in a minute; past that they are told when they can run again.
@@ -61,11 +63,21 @@ HANDINS_PER_MINUTE = 4
 GUESS_MEMORY_S = 600.0
 #: Checks at once (drawing a tree of 3,000 nodes takes a third of a second): off the server's loop.
 CHECKS_AT_ONCE = 2
-#: After a wrong code, the next answer to that address waits this long, doubling each time up to the most.
+#: After a wrong code, an address may try another code only this long later, doubling at each wrong one up to
+#: the most; a code tried sooner is refused at once, unchecked (codes that signed in from there are still taken).
 GUESS_WAIT_S = 0.25
 MOST_GUESS_WAIT_S = 8.0
-#: Addresses whose wrong guesses are remembered; past this the oldest are forgotten.
+#: Addresses whose wrong guesses are remembered; past this the oldest are forgotten. An IPv6 address is
+#: counted with its /64 network (one machine may hold all of it).
 GUESSERS_KEPT = 10_000
+#: Codes remembered as signed in from one address (a class behind one router: a few dozen).
+CODES_KEPT_PER_ADDRESS = 256
+#: A grading that took longer than this (seconds of wall time) holds its student's next one back as long.
+LONG_GRADING_S = 5.0
+#: Feedback pages kept per student: their latest runs' (their hand-ins' are counted apart), and the largest kept.
+RUN_PAGES_KEPT = 5
+HANDIN_PAGES_KEPT = 20
+MAX_PAGE_BYTES = 8 * 1024 * 1024
 #: Gradings at once (the machine's two cores).
 GRADINGS_AT_ONCE = 2
 #: What a student is told who sends a request while their last is under way.
@@ -105,6 +117,17 @@ def page_text(name: str) -> str:
     return resources.files("autonomy.liveclass").joinpath("static", name).read_text(encoding="utf-8")
 
 
+def _guesser(address: str) -> str:
+    """Who guesses codes: an IPv4 address, or an IPv6 address's /64 network (one machine may hold all of it)."""
+    try:
+        ip = ipaddress.ip_address(address)
+    except ValueError:
+        return address
+    if isinstance(ip, ipaddress.IPv6Address):
+        return str(ip.ipv4_mapped) if ip.ipv4_mapped else str(ipaddress.ip_network(f"{ip}/64", strict=False))
+    return str(ip)
+
+
 def _json(data: Any, status: int = 200, headers: dict[str, str] | None = None) -> web.Response:
     return web.Response(text=json.dumps(data), status=status, content_type="application/json", headers=headers)
 
@@ -114,7 +137,7 @@ def _refusal(status: int, why: str, **more: Any) -> web.Response:
 
 
 def seen_by_student(exercise: Exercise, report: Report) -> dict[str, Any]:
-    """What a student is shown of a grading: the marks by criterion, and each seed's outcome.
+    """What a student is shown of a grading: the marks by criterion, and each seed's outcome and marks.
 
     Hidden seeds are named ``hidden seed K``, never by their numbers.
     """
@@ -125,7 +148,16 @@ def seen_by_student(exercise: Exercise, report: Report) -> dict[str, Any]:
             {"label": criterion.label, "points": criterion.points, "earned": mark}
             for criterion, mark in zip(exercise.criteria, report.marks, strict=False)
         ],
-        "seeds": [{"seed": seed.seed, "outcome": seed.outcome} for seed in report.seeds],
+        "seeds": [
+            {
+                "seed": seed.seed,
+                "outcome": seed.outcome,
+                "earned": round(
+                    sum(c.points * share for c, share in zip(exercise.criteria, seed.shares, strict=False)), 2
+                ),
+            }
+            for seed in report.seeds
+        ],
         "problems": list(report.problems),
         "notes": list(report.notes),
     }
@@ -172,8 +204,12 @@ class ClassServer(BoundedServer):
         self.store = store
         self.folder = Path(folder)
         self._runs: dict[tuple[str, str], collections.deque[float]] = {}
-        #: Per address: wrong guesses, when the last was, and a lock that makes its guesses wait in turn.
-        self._guesses: collections.OrderedDict[str, tuple[int, float, asyncio.Lock]] = collections.OrderedDict()
+        #: Per address: wrong guesses, when the last was, and until when it may try no other code.
+        self._guesses: collections.OrderedDict[str, tuple[int, float, float]] = collections.OrderedDict()
+        #: Per address: the digests of the codes that signed in from there (taken whatever its guesses).
+        self._known: collections.OrderedDict[str, set[str]] = collections.OrderedDict()
+        #: Per student: when their next run or hand-in may start (after a long grading).
+        self._held_until: dict[str, float] = {}
         self._graders = ThreadPoolExecutor(GRADINGS_AT_ONCE, thread_name_prefix="autonomy-grading")
         self._checkers = ThreadPoolExecutor(CHECKS_AT_ONCE, thread_name_prefix="autonomy-check")
         #: Students with a request under way (a check, a run or a hand-in): one at a time each.
@@ -210,26 +246,48 @@ class ClassServer(BoundedServer):
     # ------------------------------------------------------------------ who asks
 
     async def _student(self, request: web.Request) -> Student | web.Response:
-        """The student a request's code names, or the refusal (which waits longer after each wrong guess)."""
-        address = request.remote or ""
-        code = request.headers.get("Authorization", "").removeprefix("Bearer ").strip()
-        student = self.store.student_by_code(code) if code else None
+        """The student a request's code names, or the refusal.
+
+        An address that sent a wrong code may try another only a while later (0.25 s, doubling at each
+        wrong one, up to 8 s); a code tried sooner is refused at once, unchecked, so that guessing in
+        parallel gains nothing and holds no connection. Codes that signed in from that address are
+        always taken: a class behind one router is not held back by one student's typo.
+        """
+        code = "".join(request.headers.get("Authorization", "").removeprefix("Bearer ").split())
+        if not code:
+            return _refusal(401, "sign in with the code on your sheet")
+        address = _guesser(request.remote or "")
+        digest = code_digest(code)
+        now_s = self._clock.now()
+        wrong, last_s, until_s = self._guesses.get(address, (0, 0.0, 0.0))
+        known = self._known.get(address, set())
+        if now_s < until_s and digest not in known:
+            wait_s = max(1, math.ceil(until_s - now_s))
+            self._refused("codes", "a code sent too soon after a wrong one was refused")
+            why = f"a wrong code was typed here a moment ago: try again in {wait_s} s"
+            return _json({"error": why, "retry_after_s": wait_s}, 429, {"Retry-After": str(wait_s)})
+        student = self.store.student_by_code(code)
         if student is not None:
+            self._known.setdefault(address, set())
+            self._known.move_to_end(address)
+            if len(known) < CODES_KEPT_PER_ADDRESS:
+                self._known[address].add(digest)
+            while len(self._known) > GUESSERS_KEPT:
+                self._known.popitem(last=False)
             if student.id not in self._signed_in:
                 self._signed_in.add(student.id)
                 self.store.sign_in(student.id)
                 self._change()
             return student
-        now_s = self._clock.now()
-        wrong, last_s, lock = self._guesses.pop(address, (0, now_s, asyncio.Lock()))
         wrong = 1 if now_s - last_s > GUESS_MEMORY_S else wrong + 1  # a right code in between forgets nothing
-        self._guesses[address] = (wrong, now_s, lock)
+        wait_s = min(MOST_GUESS_WAIT_S, GUESS_WAIT_S * 2 ** (wrong - 1))
+        self._guesses.pop(address, None)
+        self._guesses[address] = (wrong, now_s, now_s + wait_s)
         while len(self._guesses) > GUESSERS_KEPT:
             self._guesses.popitem(last=False)
-        async with lock:  # an address's wrong guesses wait in turn, not side by side
-            await asyncio.sleep(min(MOST_GUESS_WAIT_S, GUESS_WAIT_S * 2 ** (wrong - 1)))
         self._refused("codes", "a request with a wrong sign-in code was refused")
-        return _refusal(401, "no student has this sign-in code: type the one on your sheet")
+        why = "no student has this sign-in code: type the one on your sheet"
+        return _json({"error": why, "retry_after_s": math.ceil(wait_s)}, 401, {"Retry-After": str(math.ceil(wait_s))})
 
     def _teacher(self, request: web.Request) -> bool:
         token = request.headers.get("Authorization", "").removeprefix("Bearer ").strip()
@@ -272,11 +330,11 @@ class ClassServer(BoundedServer):
             return _refusal(429, UNDER_WAY)
         self._busy.add(student.id)
         try:  # off the server's loop: a tree of 3,000 nodes takes a third of a second to draw
-            return _json(
-                await asyncio.get_running_loop().run_in_executor(self._checkers, check, self.exercise, mission)
-            )
+            checked = await asyncio.get_running_loop().run_in_executor(self._checkers, check, self.exercise, mission)
         finally:
             self._busy.discard(student.id)
+        checked["hand_ins_open"] = self._hand_ins_open()
+        return await self._send_in_pieces(request, json.dumps(checked).encode(), "application/json")  # trees are big
 
     async def _run(self, request: web.Request) -> web.Response:
         return await self._graded(request, hand_in=False)
@@ -289,10 +347,8 @@ class ClassServer(BoundedServer):
         if isinstance(asked, web.Response):
             return asked
         student, mission = asked
-        if hand_in:
-            deadline = self.store.setting(DEADLINE)
-            if deadline and wall_time_s() >= float(deadline):
-                return _refusal(403, "hand-ins are closed: the deadline has passed")
+        if hand_in and not self._hand_ins_open():
+            return _json({"error": "hand-ins are closed: the deadline has passed", "hand_ins_open": False}, 403)
         if student.id in self._busy:
             return _refusal(429, UNDER_WAY)
         kind = "handin" if hand_in else "run"
@@ -301,10 +357,15 @@ class ClassServer(BoundedServer):
         done = self._runs.setdefault((student.id, kind), collections.deque())
         while done and now_s - done[0] >= 60.0:
             done.popleft()
+        verb = "hand in" if hand_in else "run"
         if len(done) >= most:
             wait_s = max(1, round(60.0 - (now_s - done[0]) + 0.5))
-            what = "hand-ins" if hand_in else "runs"
-            why = f"{most} {what} a minute at most: you can {'hand in' if hand_in else 'run'} again in {wait_s} s"
+            why = f"{most} {'hand-ins' if hand_in else 'runs'} a minute at most: you can {verb} again in {wait_s} s"
+            return _json({"error": why, "retry_after_s": wait_s}, 429, {"Retry-After": str(wait_s)})
+        held_s = self._held_until.get(student.id, 0.0) - now_s
+        if held_s > 0:  # their last grading was long: the others' go first
+            wait_s = max(1, math.ceil(held_s))
+            why = f"your last grading took long, and the class shares the machine: you can {verb} again in {wait_s} s"
             return _json({"error": why, "retry_after_s": wait_s}, 429, {"Retry-After": str(wait_s)})
         done.append(now_s)
         self._busy.add(student.id)
@@ -312,6 +373,9 @@ class ClassServer(BoundedServer):
             return await self._grade(student, mission, kind)
         finally:
             self._busy.discard(student.id)
+            took_s = self._clock.now() - now_s
+            if took_s > LONG_GRADING_S:
+                self._held_until[student.id] = self._clock.now() + took_s
 
     async def _grade(self, student: Student, mission: str, kind: str) -> web.Response:
         loop = asyncio.get_running_loop()
@@ -327,8 +391,10 @@ class ClassServer(BoundedServer):
         number = self.store.add_work(student.id, kind, mission, {"grading": True})
         self._change()
         try:
-            report, _page = await loop.run_in_executor(
-                self._graders, self._grader, self.exercise, student.id, mission, self.folder, number, kind == "handin"
+            label = f"{'hand-in' if kind == 'handin' else 'run'} {len(self.store.works(student.id, kind))}"
+            grading = functools.partial(self._grader, label=label)  # what their page is headed by: no id
+            report, page = await loop.run_in_executor(
+                self._graders, grading, self.exercise, student.id, mission, self.folder, number, kind == "handin"
             )
         except Exception as err:  # noqa: BLE001 - said in one line, kept as the work's problem, answered 500
             why = f"the grading failed: {type(err).__name__}"
@@ -340,8 +406,30 @@ class ClassServer(BoundedServer):
         problem = report.problems[0] if report.problems else ""
         self.store.finish_work(number, report.to_json(), report.total, report.max_points, problem)
         self._change()
-        page = self._page_url(number)
-        return _json({"ok": True, "number": number, "kind": kind, "page": page, **shown})  # kept before it is said
+        kept = await loop.run_in_executor(self._checkers, self._keep_pages, student.id, kind, page)
+        return _json(
+            {
+                "ok": True,
+                "number": number,
+                "kind": kind,
+                "count": len(self.store.works(student.id, kind)),  # their own: hand-in 3 is their third
+                "page": self._page_url(number) if kept else None,
+                "page_problem": "" if kept else f"its replay is over {MAX_PAGE_BYTES // 2**20} MB: too large to keep",
+                **shown,
+            }
+        )  # kept before it is said
+
+    def _keep_pages(self, student: str, kind: str, page: Path) -> bool:
+        """Bounds a student's pages on disk: none too large, only their latest few; whether this one is kept."""
+        try:
+            if page.stat().st_size > MAX_PAGE_BYTES:
+                page.unlink()
+            most = HANDIN_PAGES_KEPT if kind == "handin" else RUN_PAGES_KEPT
+            for work in self.store.works(student, kind)[:-most]:
+                page_file(self.folder, student, work.id).unlink(missing_ok=True)
+            return page.is_file()
+        except OSError:
+            return False
 
     # ------------------------------------------------------------------ pages
 
@@ -372,12 +460,8 @@ class ClassServer(BoundedServer):
         path = page_file(self.folder, work.student, work.id) if work is not None else None
         if path is None or not path.is_file():
             raise web.HTTPNotFound()
-        return web.Response(
-            body=path.read_bytes(),
-            content_type="text/html",
-            charset="utf-8",
-            headers={"Content-Security-Policy": FEEDBACK_POLICY, "Cache-Control": "no-store"},
-        )
+        headers = {"Content-Security-Policy": FEEDBACK_POLICY, "Cache-Control": "no-store"}
+        return await self._send_in_pieces(request, path, "text/html; charset=utf-8", headers)
 
     # ------------------------------------------------------------------ the student's
 
@@ -389,26 +473,29 @@ class ClassServer(BoundedServer):
         if isinstance(student, web.Response):
             return student
         works = self.store.works(student.id)
-        return _json(
-            {
-                "exercise": exercise_shown(self.exercise),
-                "deadline_s": self._deadline_s(),
-                "student": {"id": student.id, "name": student.name},
-                "mission": works[-1].source if works else "",
-                "works": [self._work_shown(work) for work in works],
-            }
-        )
+        me = {
+            "exercise": exercise_shown(self.exercise),
+            "deadline_s": self._deadline_s(),
+            "hand_ins_open": self._hand_ins_open(),
+            "student": {"id": printable(student.id), "name": printable(student.name)},
+            "mission": works[-1].source if works else "",
+            "works": [self._work_shown(work, works) for work in works],
+        }
+        return await self._send_in_pieces(request, json.dumps(me).encode(), "application/json")
 
-    def _work_shown(self, work: Work) -> dict[str, Any]:
+    def _work_shown(self, work: Work, works: list[Work]) -> dict[str, Any]:
         graded = work.total is not None
         return {
             "number": work.id,
+            "count": sum(1 for w in works if w.kind == work.kind and w.id <= work.id),
             "kind": work.kind,
             "at": work.at,
             "total": work.total,
             "max_points": work.max_points,
             "problem": work.problem,
-            "page": self._page_url(work.id) if graded else None,
+            "page": self._page_url(work.id)
+            if graded and page_file(self.folder, work.student, work.id).is_file()
+            else None,
         }
 
     # ------------------------------------------------------------------ the teacher's
@@ -416,6 +503,11 @@ class ClassServer(BoundedServer):
     def _deadline_s(self) -> float | None:
         deadline = self.store.setting(DEADLINE)
         return float(deadline) if deadline else None
+
+    def _hand_ins_open(self) -> bool:
+        """Whether hand-ins are open now, by this machine's clock (a page's clock may be off)."""
+        deadline = self._deadline_s()
+        return deadline is None or wall_time_s() < deadline
 
     async def _class(self, request: web.Request) -> web.Response:
         """The class table; with ``?after=V``, once it is newer than version V (or after :data:`CLASS_WAIT_S`)."""
@@ -434,6 +526,7 @@ class ClassServer(BoundedServer):
                 self._class_waiters -= 1
         students = self.store.summary()
         for row in students:
+            row["id"], row["name"] = printable(row["id"]), printable(row["name"])
             row["latest_page"] = self._page_url(row.pop("last_graded"))
             row["handin_page"] = self._page_url(row.pop("last_handin"))
         return _json(

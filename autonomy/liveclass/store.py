@@ -91,8 +91,8 @@ def new_code() -> str:
 
 
 def code_digest(code: str) -> str:
-    """How a code is kept: its SHA-256, of the code as typed, trimmed and in lower case."""
-    return token_digest(code.strip().lower())
+    """How a code is kept: its SHA-256, of the code in lower case without spaces or dashes (as copied off a sheet)."""
+    return token_digest("".join(code.split()).replace("-", "").lower())
 
 
 def token_digest(token: str) -> str:
@@ -276,14 +276,17 @@ class ClassStore:
         return Work(*rows[0][:8], json.loads(rows[0][8])) if rows else None
 
     def summary(self) -> list[dict[str, Any]]:
-        """The class table: per student on the roster, sign-in, runs, hand-ins, last hand-in's marks, last problem."""
+        """The class table: per student on the roster, sign-in, runs, hand-ins, last hand-in's marks, last problem.
+
+        The last problem is their last run's or hand-in's: empty once one has none.
+        """
         last_handin = "FROM works w WHERE w.student = s.id AND w.kind = 'handin' ORDER BY w.id DESC LIMIT 1"
         rows = self._read(
             "SELECT s.id, s.name, s.signed_in, "
             "(SELECT COUNT(*) FROM works w WHERE w.student = s.id AND w.kind = 'run'), "
             "(SELECT COUNT(*) FROM works w WHERE w.student = s.id AND w.kind = 'handin'), "
             f"(SELECT w.total {last_handin}), (SELECT w.max_points {last_handin}), "  # noqa: S608 - our own text
-            "(SELECT w.problem FROM works w WHERE w.student = s.id AND w.problem != '' ORDER BY w.id DESC LIMIT 1), "
+            "(SELECT w.problem FROM works w WHERE w.student = s.id ORDER BY w.id DESC LIMIT 1), "
             "(SELECT MAX(w.id) FROM works w WHERE w.student = s.id), "
             "(SELECT MAX(w.id) FROM works w WHERE w.student = s.id AND w.total IS NOT NULL), "
             "(SELECT MAX(w.id) FROM works w WHERE w.student = s.id AND w.kind = 'handin' AND w.total IS NOT NULL) "

@@ -22,6 +22,8 @@ from autonomy.views.treesvg import svg_tree
 MISSION_LABEL = "mission.yaml"
 #: Longest mission text taken (a mission file may be 500,000 bytes; a class's are a few hundred).
 MAX_MISSION_CHARS = 100_000
+#: Most nodes in a class's mission (its replays, on every seed, grow with them: a class's have a few dozen).
+MAX_NODES = 500
 
 
 def check(exercise: Exercise, text: str) -> dict[str, Any]:
@@ -38,7 +40,11 @@ def check(exercise: Exercise, text: str) -> dict[str, Any]:
     if spec is None:
         shown = [{"line": p.line, "column": p.column, "path": p.path, "message": p.message} for p in problems]
         return {"ok": False, "problems": shown, "tree_svg": ""}
-    return {"ok": True, "problems": [], "tree_svg": svg_tree(describe_tree(build_tree(spec)), spec.name)}
+    nodes = describe_tree(build_tree(spec))
+    if len(nodes) > MAX_NODES:
+        message = f"the tree has {len(nodes):,} nodes; a class's mission has at most {MAX_NODES:,}"
+        return {"ok": False, "problems": [{"line": 1, "column": 1, "path": "tree", "message": message}], "tree_svg": ""}
+    return {"ok": True, "problems": [], "tree_svg": svg_tree(nodes, spec.name)}
 
 
 def exercise_shown(exercise: Exercise) -> dict[str, Any]:
@@ -70,13 +76,13 @@ def public_only(exercise: Exercise) -> Exercise:
 
 
 def grade_text(
-    exercise: Exercise, student: str, text: str, folder: Path, number: int, hand_in: bool
+    exercise: Exercise, student: str, text: str, folder: Path, number: int, hand_in: bool, label: str = ""
 ) -> tuple[Report, Path]:
     """Grades a student's mission text as ``autonomy grade`` does, in a limited worker process.
 
     The text is kept as ``FOLDER/works/NAME/NUMBER-run.yaml`` (or ``-handin``), and its feedback page,
-    with each seed's replay, written to ``FOLDER/pages/NAME-NUMBER.html``. The report and the page name
-    the file ``NUMBER-run.yaml``: where the class's folder is is none of the student's business.
+    with each seed's replay, written to :func:`page_file`. The report and the page name the file
+    ``NUMBER-run.yaml``: where the class's folder is is none of the student's business.
 
     Args:
         exercise: The exercise, with its hidden seeds when it has them (see :meth:`Exercise.with_secret`).
@@ -85,17 +91,26 @@ def grade_text(
         folder: The class's folder.
         number: The work's number in the class's store, which names its files.
         hand_in: Graded on every seed; otherwise ("Run") on the public seeds alone.
+        label: Who the report and the page say it is (``hand-in 3``: a page may be projected); default
+            the student's id and the number.
 
     Returns:
         The report, and the feedback page's path.
     """
     kept = _keep(folder, student, text, number, hand_in)
-    pages = folder / "pages"
-    pages.mkdir(parents=True, exist_ok=True)
+    label = label or f"{file_names([student])[student]}-{number}"
+    made = folder / "pages" / f".{number}"  # the page is made apart, then put where it is kept
+    made.mkdir(parents=True, exist_ok=True)
     graded = exercise if hand_in else public_only(exercise)
-    name = f"{file_names([student])[student]}-{number}"
-    (report,) = grade_class(graded, [(name, kept)], workers=1, feedback=pages, start_method="forkserver", by_name=True)
-    return report, page_file(folder, student, number)
+    (report,) = grade_class(graded, [(label, kept)], workers=1, feedback=made, start_method="forkserver", by_name=True)
+    page = page_file(folder, student, number)
+    try:
+        page_path(made, file_names([label])[label]).replace(page)
+    finally:
+        for left in made.iterdir():
+            left.unlink()
+        made.rmdir()
+    return report, page
 
 
 def _keep(folder: Path, student: str, text: str, number: int, hand_in: bool) -> Path:
@@ -106,11 +121,13 @@ def _keep(folder: Path, student: str, text: str, number: int, hand_in: bool) -> 
     return kept
 
 
-def grade_on_worker(exercise: Exercise, student: str, text: str, number: int, hand_in: bool) -> tuple[Report, bytes]:
+def grade_on_worker(
+    exercise: Exercise, student: str, text: str, number: int, hand_in: bool, label: str = ""
+) -> tuple[Report, bytes]:
     """:func:`grade_text` on a Dask worker, in a folder of its own there: the report, and the feedback page's bytes."""
     refuse_daemon()
     with tempfile.TemporaryDirectory(prefix="autonomy-class-") as folder:
-        report, page = grade_text(exercise, student, text, Path(folder), number, hand_in)
+        report, page = grade_text(exercise, student, text, Path(folder), number, hand_in, label)
         return report, page.read_bytes()
 
 
@@ -134,11 +151,11 @@ class DaskGrader:
         self._client = Client(address, timeout="5s")
 
     def __call__(
-        self, exercise: Exercise, student: str, text: str, folder: Path, number: int, hand_in: bool
+        self, exercise: Exercise, student: str, text: str, folder: Path, number: int, hand_in: bool, label: str = ""
     ) -> tuple[Report, Path]:
         """Grades one work on the cluster; keeps its text and its page in ``folder`` as :func:`grade_text` does."""
         _keep(folder, student, text, number, hand_in)
-        task = self._client.submit(grade_on_worker, exercise, student, text, number, hand_in, pure=False)
+        task = self._client.submit(grade_on_worker, exercise, student, text, number, hand_in, label, pure=False)
         report, page = task.result()
         path = page_file(folder, student, number)
         path.parent.mkdir(parents=True, exist_ok=True)

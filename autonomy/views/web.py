@@ -15,12 +15,15 @@ for the next run. :mod:`autonomy.views.page` has the page, and freezes it on a w
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import ipaddress
 import logging
+import os
 import resource
 import threading
 import uuid
 from collections.abc import Awaitable, Callable
+from pathlib import Path
 from typing import Any
 
 import msgspec
@@ -313,6 +316,8 @@ class BoundedServer:
         #: Per kind of refusal: when it was last said, and how many since.
         self._refusals: dict[str, tuple[float, int]] = {}
         self.max_connections = connection_limit()
+        self._answers_sending = 0
+        self.max_answers_sending = MAX_ANSWERS_SENDING
 
     @property
     def url(self) -> str:
@@ -426,6 +431,48 @@ class BoundedServer:
         if self._runner is not None:
             await self._runner.cleanup()
 
+    async def _send_in_pieces(
+        self, request: web.Request, body: bytes | Path, content_type: str, headers: dict[str, str] | None = None
+    ) -> web.StreamResponse:
+        """Sends a large answer (bytes, or a file's) a piece at a time, as the client reads it.
+
+        A client that does not read holds a piece of the answer (and the kernel's buffer), never a
+        copy of it; at most :attr:`max_answers_sending` answers are on their way at once (past that:
+        503, asked again a second later), and one not read for :data:`ANSWER_STALL_S` is given up.
+        """
+        if self._answers_sending >= self.max_answers_sending:
+            self._refused("answers", "too many answers are on their way at once")
+            return web.Response(status=503, text="too many answers are on their way at once\n", headers=_RETRY)
+        self._answers_sending += 1
+        try:
+            with body.open("rb") if isinstance(body, Path) else contextlib.nullcontext() as stream:
+                length = os.fstat(stream.fileno()).st_size if stream is not None else len(body)
+                view = memoryview(body) if stream is None else None
+                response = web.StreamResponse(headers={"Content-Type": content_type, **(headers or {})})
+                response.content_length = length
+                response.headers.setdefault("Content-Security-Policy", CONTENT_SECURITY_POLICY)
+                response.headers["X-Content-Type-Options"] = "nosniff"
+                await response.prepare(request)
+                for start in range(0, length, ANSWER_PIECE_BYTES):
+                    piece = (
+                        view[start : start + ANSWER_PIECE_BYTES]
+                        if view is not None
+                        else stream.read(ANSWER_PIECE_BYTES)
+                    )
+                    try:
+                        await asyncio.wait_for(response.write(piece), ANSWER_STALL_S)
+                    except asyncio.TimeoutError:
+                        self._refused("stalled", "a client stopped reading its answer; it was let go")
+                        if request.transport is not None:
+                            request.transport.abort()
+                        return response
+                await response.write_eof()
+                return response
+        except ConnectionError:  # the client went
+            return web.Response()
+        finally:
+            self._answers_sending -= 1
+
     def _refused(self, kind: str, text: str) -> None:
         """Says a refusal in one line: the first of its kind at once, then how many, at most every few seconds."""
         now_s = self._clock.now()
@@ -462,8 +509,6 @@ class ViewServer(BoundedServer):
     def __init__(self, host: str = "127.0.0.1", port: int = 8765, mode: str = "live") -> None:
         super().__init__(host, port, "view")
         self.hub = RecordHub(mode)
-        self._answers_sending = 0
-        self.max_answers_sending = MAX_ANSWERS_SENDING
 
     def _routes(self, app: web.Application) -> None:
         app.router.add_get("/", self._index)
@@ -494,37 +539,8 @@ class ViewServer(BoundedServer):
         return web.Response(text=static_text(name), content_type=STATIC_FILES[name])
 
     async def _run(self, request: web.Request) -> web.StreamResponse:
-        """The whole run so far: one encoded answer for every page, sent a piece at a time as each page reads it.
-
-        A page that does not read holds a piece of the answer (and the kernel's buffer), never a copy
-        of it; at most :attr:`max_answers_sending` answers are on their way at once, and one not read
-        for :data:`ANSWER_STALL_S` is given up.
-        """
-        if self._answers_sending >= self.max_answers_sending:
-            self._refused("answers", "too many pages are being sent the run at once")
-            return web.Response(status=503, text="too many pages are being sent the run at once\n", headers=_RETRY)
-        self._answers_sending += 1
-        try:
-            body = memoryview(self.hub.encoded_payload())
-            response = web.StreamResponse(headers={"Content-Type": "application/json; charset=utf-8"})
-            response.content_length = len(body)
-            response.headers["Content-Security-Policy"] = CONTENT_SECURITY_POLICY
-            response.headers["X-Content-Type-Options"] = "nosniff"
-            await response.prepare(request)
-            for start in range(0, len(body), ANSWER_PIECE_BYTES):
-                try:
-                    await asyncio.wait_for(response.write(body[start : start + ANSWER_PIECE_BYTES]), ANSWER_STALL_S)
-                except asyncio.TimeoutError:
-                    self._refused("stalled", "a page stopped reading the run; it was let go")
-                    if request.transport is not None:
-                        request.transport.abort()
-                    return response
-            await response.write_eof()
-            return response
-        except ConnectionError:  # the page went
-            return web.Response()
-        finally:
-            self._answers_sending -= 1
+        """The whole run so far: one encoded answer for every page, sent a piece at a time as each page reads it."""
+        return await self._send_in_pieces(request, self.hub.encoded_payload(), "application/json; charset=utf-8")
 
     async def _stream(self, request: web.Request) -> web.StreamResponse:
         """The run as it goes, for a page: messages ``ticks``, ``preview``, ``end``, or ``header`` (start again)."""

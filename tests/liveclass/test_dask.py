@@ -47,7 +47,8 @@ def test_a_class_graded_on_a_cluster_gets_the_marks_and_pages_graded_here_would(
     exercise = load_exercise(ROOT / "exercises" / "garage.yaml").with_secret(secret)
     here = tmp_path / "here"
     for given, number, hand_in in ((ran, ran["number"], False), (handed, handed["number"], True)):
-        report, path = grade_text(exercise, "1001", WRONG if not hand_in else SOLUTION, here, number, hand_in)
+        label = "hand-in 1" if hand_in else "run 1"
+        report, path = grade_text(exercise, "1001", WRONG if not hand_in else SOLUTION, here, number, hand_in, label)
         assert (given["total"], [s["outcome"] for s in given["seeds"]]) == (
             report.total,
             [s.outcome for s in report.seeds],

@@ -92,8 +92,8 @@ def test_a_student_writes_runs_and_hands_in_while_the_teacher_watches(browser, c
     student.click("#sign-in-form button")
     until(student, "document.getElementById('sign-in-error').textContent !== ''")
     assert "no student has this sign-in code" in student.text_content("#sign-in-error")
-    student.fill("#code", codes["1001"].upper())  # as read off a sheet
-    student.click("#sign-in-form button")
+    student.fill("#code", f"{codes['1001'][:4]} {codes['1001'][4:]}".upper())  # as read off a sheet
+    student.click("#sign-in-form button")  # waits until the button is on again: a moment after a wrong code
     until(student, "!document.getElementById('desk').hidden")
     assert student.text_content("#who") == "Ada Lovelace"
     assert "Park in the garage" in student.text_content("#exercise-title")
@@ -125,7 +125,7 @@ def test_a_student_writes_runs_and_hands_in_while_the_teacher_watches(browser, c
     press(student, "#handin")
     until(student, "document.getElementById('result-title').textContent.includes('hand-in')")
     title = student.text_content("#result-title")
-    assert re.search(r"hand-in, on every seed: \d+(\.\d+)? / 10", title), title
+    assert re.search(r"hand-in 1, on every seed: \d+(\.\d+)? / 10", title), title
     assert len(student.locator("#outcomes li").all()) == 16  # 4 public and 12 hidden seeds
     hidden = student.locator("#outcomes li").all_text_contents()[-1]
     assert hidden.startswith("hidden seed") and not re.search(r"seed \d{3,}", hidden)
@@ -153,6 +153,8 @@ def test_a_student_writes_runs_and_hands_in_while_the_teacher_watches(browser, c
     press(teacher, "#viewer-project")
     teacher.frame_locator("#board-frame").locator("h1").wait_for(timeout=WAIT_MS)
     assert teacher.text_content("#board-run-title") == "Ada Lovelace: latest run"
+    projected = teacher.frame_locator("#board-frame").locator("h1").text_content()
+    assert projected.startswith("hand-in 1: ") and "1001" not in projected  # no id on the projector
 
     # the exports: the gradebook with ids, each student's feedback page
     teacher.keyboard.press("Escape")
@@ -190,12 +192,18 @@ def test_the_teacher_closes_hand_ins_and_the_student_is_told(browser, classroom)
     teacher.click("#close-now")
     until(teacher, "document.getElementById('deadline-state').textContent.includes('closed')")
     student.fill("#mission", FIXED)
-    student.evaluate("document.getElementById('handin').disabled = false")  # a page opened before the deadline
+    student.dispatch_event("#mission", "input")  # the next check's answer tells the page
+    until(student, "document.getElementById('handin').disabled")
+    assert "Hand-ins are closed" in student.text_content("#deadline")
+    student.evaluate("document.getElementById('handin').disabled = false")  # a page that was not told
     student.click("#handin")
     until(student, "document.getElementById('message').textContent.includes('closed')")
-    assert student.locator("#handins li").count() == 0
+    assert student.locator("#handins li").count() == 0 and student.locator("#handin").is_disabled()
     teacher.click("#reopen")
     until(teacher, "document.getElementById('deadline-state').textContent === 'Hand-ins are open.'")
+    student.fill("#mission", FIXED + "\n")
+    student.dispatch_event("#mission", "input")
+    until(student, "!document.getElementById('handin').disabled")
     assert [e for e in errors if "status of 403" not in e] == []  # the refused hand-in's line
 
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 import csv
 import io
 import json
+import os
 import re
 import threading
 import time
@@ -19,15 +20,20 @@ import zipfile
 import pytest
 
 from autonomy.classroom.exercise import load_exercise
+from autonomy.clock import VirtualClock
 from autonomy.liveclass.server import (
     CLASS_WAITERS,
     DEADLINE,
-    GUESS_WAIT_S,
+    MAX_PAGE_BYTES,
+    RUN_PAGES_KEPT,
     RUNS_PER_MINUTE,
     TEACHER_TOKEN,
     ClassServer,
+    _guesser,
 )
 from autonomy.liveclass.store import ClassStore, token_digest
+from autonomy.liveclass.work import MAX_NODES, page_file
+from tests.crowd import memory_mb, non_readers
 from tests.views.conftest import ROOT
 
 GARAGE = load_exercise(ROOT / "exercises" / "garage.yaml").with_secret(b"the teacher's secret")
@@ -85,18 +91,33 @@ def test_a_student_checks_runs_and_hands_in_and_the_teacher_sees_it(served):
     assert [w.kind for w in server.store.works("s1")] == ["run", "handin"]
 
 
-def test_a_wrong_code_is_refused_and_guessing_again_slows_down_and_a_student_never_sees_the_class(served):
+def test_a_wrong_code_is_refused_and_the_next_try_from_there_waits_longer_each_time(served):
     server, codes = served
-    waits = []
-    for _ in range(3):
-        started = time.monotonic()
-        status, refused = call(server, "/api/check", {"mission": TYPO}, "aaaaaaaa")
-        waits.append(time.monotonic() - started)
-        assert status == 401 and "sign-in code" in refused["error"]
-    assert waits[2] >= 4 * GUESS_WAIT_S  # 0.25 s, 0.5 s, 1 s: each wrong guess waits twice as long
+    server._clock = clock = VirtualClock(1000.0)  # the server's time, moved by the test
+    status, refused = call(server, "/api/check", {"mission": TYPO}, "aaaaaaaa")
+    assert status == 401 and "sign-in code" in refused["error"]
+    for wait_s in (0.25, 0.5, 1.0, 2.0, 4.0, 8.0, 8.0):  # each wrong code: the next try waits twice as long
+        clock.advance_to(clock.now() + wait_s - 0.01)
+        status, refused = call(server, "/api/check", {"mission": TYPO}, codes["s2"])  # even a right one
+        assert status == 429 and "try again in" in refused["error"] and refused["retry_after_s"] >= 1
+        clock.advance_to(clock.now() + 0.02)
+        assert call(server, "/api/check", {"mission": TYPO}, "bbbbbbbb")[0] == 401
+    clock.advance_to(clock.now() + 8.0)
+    assert call(server, "/api/check", {"mission": TYPO}, codes["s2"])[0] == 200
     assert call(server, "/api/check", {"mission": TYPO}, "")[0] == 401
     assert call(server, "/api/class", code=codes["s1"], method="GET")[0] == 401  # a student's code is not the teacher's
     assert call(server, "/api/class", code="teacher-tokem", method="GET")[0] == 401
+
+
+def test_a_student_signed_in_from_an_address_is_not_held_back_by_another_s_wrong_codes_from_there(served):
+    server, codes = served
+    server._clock = VirtualClock(1000.0)
+    assert call(server, "/api/check", {"mission": TYPO}, codes["s1"])[0] == 200  # Ada signs in, behind the router
+    for _ in range(5):
+        call(server, "/api/check", {"mission": TYPO}, "wrongcode")  # Bob mistypes his, again and again
+    assert call(server, "/api/check", {"mission": TYPO}, codes["s1"])[0] == 200  # Ada goes on
+    assert call(server, "/api/check", {"mission": TYPO}, codes["s2"])[0] == 429  # Bob waits his turn
+    assert call(server, "/api/check", {"mission": TYPO}, f" {codes['s1'][:4]} {codes['s1'][4:].upper()}")[0] == 200
 
 
 def test_a_body_over_a_megabyte_is_refused_and_a_body_not_json_is_told_what_to_send(served):
@@ -170,15 +191,18 @@ def test_a_student_is_signed_in_by_their_first_request_and_the_class_is_the_teac
     assert stat.S_IMODE((server.folder / "class.sqlite").stat().st_mode) == 0o600
 
 
-def test_wrong_guesses_sent_side_by_side_wait_in_turn(served):
+def test_guesses_sent_side_by_side_are_refused_at_once_unchecked_and_hold_no_connection(served):
     from concurrent.futures import ThreadPoolExecutor
 
-    server, _ = served
+    server, codes = served
+    server._clock = VirtualClock(1000.0)  # the server's time stands still: the first wrong code's wait never ends
     started = time.monotonic()
-    with ThreadPoolExecutor(4) as pool:
-        statuses = list(pool.map(lambda k: call(server, "/api/check", {"mission": TYPO}, f"wrong{k}")[0], range(4)))
-    assert statuses == [401] * 4
-    assert time.monotonic() - started >= (1 + 2 + 4 + 8) * GUESS_WAIT_S  # 0.25 + 0.5 + 1 + 2 s, one after another
+    guesses = [f"wrong{k:03d}" for k in range(200)] + [codes["s1"]]  # a right one among them
+    with ThreadPoolExecutor(16) as pool:
+        statuses = list(pool.map(lambda code: call(server, "/api/check", {"mission": TYPO}, code)[0], guesses))
+    assert time.monotonic() - started < 30  # none of them waited
+    assert statuses.count(401) == 1 and statuses[-1] == 429  # one checked, the rest (the right one too) unchecked
+    assert server._guesses and server._known == {}
 
 
 def fetch(server, path: str, token: str = "") -> tuple[int, dict[str, str], bytes]:
@@ -297,3 +321,76 @@ def test_the_exports_hold_each_student_s_last_hand_in(served):
     archive = zipfile.ZipFile(io.BytesIO(body))
     assert archive.namelist() == ["s1.html"]
     assert archive.read("s1.html") == fetch(server, handed["page"])[2]
+
+
+def test_clients_that_never_read_a_big_page_hold_a_piece_of_it_not_the_page(served):
+    server, codes = served
+    status, ran = call(server, "/api/run", {"mission": SOLUTION}, codes["s1"])
+    page = page_file(server.folder, "s1", ran["number"])
+    page.write_bytes(b"<!doctype html>" + b"x" * (MAX_PAGE_BYTES - 100))  # as large as a page is kept
+    before_mb = memory_mb(os.getpid())["VmRSS"]
+    crowd = non_readers(server.port, 30, requests=3, path=ran["page"])
+    try:
+        time.sleep(1.0)
+        grown_mb = memory_mb(os.getpid())["VmRSS"] - before_mb
+        assert grown_mb < 60, grown_mb  # read whole, the 30 answers would hold 240 MB
+    finally:
+        for conn in crowd:
+            conn.close()
+    assert fetch(server, ran["page"])[0] == 200  # and the page is served on
+
+
+def test_a_page_too_large_is_not_kept_and_a_student_s_older_run_pages_go(served, monkeypatch):
+    server, codes = served
+    graded = server._grader
+
+    def huge_page(*args, **kwargs):
+        report, page = graded(*args, **kwargs)
+        if args[4] == 3:  # the third work: its page grows past the most kept
+            page.write_bytes(b"x" * (MAX_PAGE_BYTES + 1))
+        return report, page
+
+    server._grader = huge_page
+    answers = [call(server, "/api/run", {"mission": SOLUTION}, codes["s1"])[1] for _ in range(RUN_PAGES_KEPT + 3)]
+    assert answers[2]["page"] is None and "too large to keep" in answers[2]["page_problem"]
+    assert answers[2]["total"] == 10  # the marks stand
+    pages = sorted(path.name for path in (server.folder / "pages").iterdir())
+    assert pages == sorted(page_file(server.folder, "s1", a["number"]).name for a in answers[-RUN_PAGES_KEPT:])
+    _, me = call(server, "/api/me", code=codes["s1"], method="GET")
+    assert [w["page"] is not None for w in me["works"]] == [False] * 3 + [True] * RUN_PAGES_KEPT
+
+
+def test_a_student_whose_grading_took_long_waits_as_long_before_the_next(served):
+    server, codes = served
+    server._clock = clock = VirtualClock(1000.0)
+    graded = server._grader
+
+    def slow(*args, **kwargs):
+        clock.advance_to(clock.now() + 30.0)  # a grading of 30 s (a mission that spins until its CPU time is up)
+        return graded(*args, **kwargs)
+
+    server._grader = slow
+    assert call(server, "/api/run", {"mission": SOLUTION}, codes["s1"])[0] == 200
+    status, held = call(server, "/api/run", {"mission": SOLUTION}, codes["s1"])
+    assert status == 429 and "took long" in held["error"] and held["retry_after_s"] == 30
+    assert call(server, "/api/handin", {"mission": SOLUTION}, codes["s1"])[0] == 429
+    assert call(server, "/api/check", {"mission": SOLUTION}, codes["s1"])[0] == 200  # checks are not held
+    clock.advance_to(clock.now() + 30.0)
+    server._grader = graded
+    assert call(server, "/api/run", {"mission": SOLUTION}, codes["s1"])[0] == 200
+
+
+def test_a_mission_of_too_many_nodes_is_refused_where_it_starts(served):
+    server, codes = served
+    many = "mission: m\ntree:\n  sequence:\n" + "    - wait: {seconds: 1}\n" * MAX_NODES
+    status, checked = call(server, "/api/check", {"mission": many}, codes["s1"])
+    assert status == 200 and not checked["ok"] and checked["tree_svg"] == ""
+    assert checked["problems"][0]["line"] == 1 and f"at most {MAX_NODES}" in checked["problems"][0]["message"]
+    assert call(server, "/api/run", {"mission": many}, codes["s1"])[0] == 422
+
+
+def test_guesses_are_counted_by_address_and_an_ipv6_machine_by_its_network():
+    assert _guesser("127.0.0.1") == "127.0.0.1"
+    assert _guesser("2001:db8::1") == _guesser("2001:db8::ffff:1234") == "2001:db8::/64"
+    assert _guesser("2001:db8:0:1::1") != _guesser("2001:db8::1")
+    assert _guesser("::ffff:192.0.2.7") == "192.0.2.7"

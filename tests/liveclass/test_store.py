@@ -37,8 +37,10 @@ def test_works_are_kept_in_order_and_the_class_table_says_the_last_of_each(tmp_p
     assert [w.result for w in store.works("s1", "handin")] == [{"marks": [1, 2]}, {"marks": [4, 4]}]
     ada, bob = store.summary()
     assert (ada["runs"], ada["handins"], ada["total"], ada["max_points"]) == (1, 2, 8.0, 10.0)
-    assert ada["last_problem"] == "mission.yaml:3:5: unknown node 'mvoe'"
+    assert ada["last_problem"] == ""  # fixed since: her last hand-in has none
     assert (bob["runs"], bob["handins"], bob["total"]) == (0, 0, None)
+    store.add_work("s2", "run", "tree: d", {}, problem="mission.yaml:2:1: 'tree' is missing")
+    assert store.summary()[1]["last_problem"] == "mission.yaml:2:1: 'tree' is missing"
 
 
 WRITER = """

@@ -247,7 +247,7 @@ def test_answers_past_the_limit_are_refused_503_and_said_once(caplog, tmp_path):
             answers = sorted(conn.recv(64).split(b"\r\n")[0] for conn in crowd)
         assert answers == [b"HTTP/1.1 200 OK"] * 5 + [b"HTTP/1.1 503 Service Unavailable"] * 7
         said = [record.getMessage() for record in caplog.records if record.name == "autonomy.view"]
-        assert said == ["view: too many pages are being sent the run at once"]
+        assert said == ["view: too many answers are on their way at once"]
     finally:
         for conn in crowd:
             conn.close()

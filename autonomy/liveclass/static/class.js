@@ -10,6 +10,8 @@ const $ = (id) => document.getElementById(id);
 
 let code = sessionStorage.getItem(CODE_KEY) || "";
 let deadlineS = null;
+let handInsOpen = true;
+let busy = false; // a run or a hand-in under way
 let checkTimer = 0;
 let checkedText = null; // the text the problems and the tree shown are of
 let shownProblems = []; // marked at their lines until the next check has its answer
@@ -62,15 +64,27 @@ function say(text, isError) {
 
 // ------------------------------------------------------------------ signing in
 
+let attempt = 0; // the sign-in whose answer counts: an answer to an earlier one is let go
+
 async function signIn(given) {
+  const mine = ++attempt;
+  const button = $("sign-in-form").querySelector("button");
+  button.disabled = true;
   code = given.trim();
   const { status, data } = await api("GET", "/api/me");
+  if (mine !== attempt) return;
   if (status !== 200) {
     code = "";
     sessionStorage.removeItem(CODE_KEY);
+    $("sign-in").hidden = false;
     $("sign-in-error").textContent = data.error || `the server answered ${status}`;
+    // after a wrong code, the server takes another only a moment later: the button says when
+    setTimeout(() => {
+      if (mine === attempt) button.disabled = false;
+    }, 1000 * (data.retry_after_s || 0));
     return;
   }
+  button.disabled = false;
   sessionStorage.setItem(CODE_KEY, code);
   show(data);
 }
@@ -92,8 +106,8 @@ function show(me) {
   $("seeds").textContent =
     `${exercise.time_limit_s} s a run. "Run" tries ${exercise.public_seeds} public seeds${hidden}.`;
   svgImage($("world"), exercise.world_svg);
-  deadlineS = me.deadline_s;
-  showDeadline();
+  $("nodes").textContent = exercise.allowed_nodes ? `Nodes you may use: ${exercise.allowed_nodes.join(", ")}.` : "";
+  deadline(me);
   const mission = $("mission");
   mission.value = me.mission;
   lines();
@@ -102,11 +116,18 @@ function show(me) {
   if (me.mission) check();
 }
 
-function showDeadline() {
-  const closed = deadlineS !== null && Date.now() / 1000 >= deadlineS;
-  $("deadline").textContent =
-    deadlineS === null ? "" : `Hand-ins ${closed ? "closed" : "close"} at ${new Date(deadlineS * 1000).toLocaleString()}.`;
-  $("handin").disabled = closed;
+/** The hand-ins' deadline, as the server's last answer says it (the teacher may change it at any time). */
+function deadline(answer) {
+  if (answer.hand_ins_open === undefined) return;
+  handInsOpen = answer.hand_ins_open;
+  if (answer.deadline_s !== undefined) deadlineS = answer.deadline_s;
+  const at = deadlineS === null ? "" : new Date(deadlineS * 1000).toLocaleString();
+  $("deadline").textContent = handInsOpen
+    ? deadlineS === null
+      ? ""
+      : `Hand-ins close at ${at}.`
+    : `Hand-ins are closed${at ? ` (since ${at})` : ""}.`;
+  $("handin").disabled = !handInsOpen || busy;
 }
 
 // ------------------------------------------------------------------ the editor
@@ -137,7 +158,11 @@ function showProblems(problems) {
       const item = element("li");
       item.append(element("span", `line ${p.line}, column ${p.column}:`, "where"), p.message);
       item.dataset.line = String(p.line);
+      item.tabIndex = 0;
       item.addEventListener("click", () => goTo(p.line, p.column));
+      item.addEventListener("keydown", (event) => {
+        if (event.key === "Enter") goTo(p.line, p.column);
+      });
       return item;
     }),
   );
@@ -174,6 +199,7 @@ function check() {
       return;
     }
     checkedText = text;
+    deadline(data);
     if (text !== $("mission").value) return; // a newer text has its own check on its way
     showProblems(data.problems);
     $("tree").hidden = !data.ok;
@@ -193,30 +219,34 @@ async function send(kind) {
     say("Write a mission first.", true);
     return;
   }
+  busy = true;
   $("run").disabled = $("handin").disabled = true;
   const what = kind === "handin" ? "grading it on every seed" : "running it on the public seeds";
   say(`${what}...`, false);
   try {
     const { status, data } = await inTurn(() => api("POST", `/api/${kind}`, { mission: text }));
+    deadline(data);
     if (status === 422) {
       showProblems(data.problems);
       say("It has problems: fix them first (they are marked at their lines).", true);
     } else if (status !== 200) {
       say(data.error || `the server answered ${status}`, true);
     } else {
-      say(kind === "handin" ? `Handed in (number ${data.number}): kept.` : "", false);
+      say(kind === "handin" ? `Handed in: your hand-in ${data.count}, kept.` : "", false);
       showResult(data);
       if (kind === "handin") addHandIn({ ...data, at: new Date().toISOString() });
     }
   } finally {
+    busy = false;
     $("run").disabled = false;
-    showDeadline();
+    $("handin").disabled = !handInsOpen;
   }
 }
 
 function showResult(result) {
   $("result").hidden = false;
-  const where = result.kind === "handin" ? "hand-in, on every seed" : "run, on the public seeds";
+  $("marks").hidden = $("outcomes").hidden = $("notes").hidden = false;
+  const where = result.kind === "handin" ? `hand-in ${result.count}, on every seed` : "run, on the public seeds";
   $("result-title").textContent = `Your ${where}: ${number(result.total)} / ${number(result.max_points)}`;
   $("marks").tBodies[0].replaceChildren(
     ...result.criteria.map((c) => {
@@ -225,8 +255,12 @@ function showResult(result) {
       return row;
     }),
   );
-  $("outcomes").replaceChildren(...result.seeds.map((s) => element("li", `${s.seed}: ${s.outcome}`)));
-  $("notes").replaceChildren(...[...result.problems, ...result.notes].map((n) => element("li", n)));
+  $("outcomes").replaceChildren(
+    ...result.seeds.map((s) => element("li", `${s.seed}: ${s.outcome}, ${number(s.earned)} / ${number(result.max_points)}`)),
+  );
+  const notes = [...result.problems, ...result.notes, ...(result.page_problem ? [result.page_problem] : [])];
+  $("notes").replaceChildren(...notes.map((n) => element("li", n)));
+  $("replay").hidden = !result.page;
   if (result.page) $("replay").src = result.page;
   $("result").scrollIntoView({ block: "start" });
 }
@@ -234,13 +268,17 @@ function showResult(result) {
 function addHandIn(work) {
   $("no-handins").hidden = true;
   const at = work.at ? `, ${new Date(work.at).toLocaleString()}` : "";
-  const item = element("li", `Hand-in ${work.number}${at}: ${number(work.total)} / ${number(work.max_points)}`);
+  const mark = `${number(work.total)} / ${number(work.max_points)}`;
+  const item = element("li", `Hand-in ${work.count}${at}: ${mark}`);
   if (work.page) {
     const open = element("button", "show");
     open.type = "button";
     open.addEventListener("click", () => {
+      // its page has its marks, seed by seed: the table above is the last grading's, so it is put away
       $("result").hidden = false;
-      $("result-title").textContent = `Your hand-in number ${work.number}: ${number(work.total)} / ${number(work.max_points)}`;
+      $("marks").hidden = $("outcomes").hidden = $("notes").hidden = true;
+      $("result-title").textContent = `Your hand-in ${work.count}: ${mark}`;
+      $("replay").hidden = false;
       $("replay").src = work.page;
       $("result").scrollIntoView({ block: "start" });
     });
@@ -268,8 +306,20 @@ $("mission").addEventListener("input", () => {
 $("mission").addEventListener("scroll", () => {
   $("gutter").scrollTop = $("mission").scrollTop;
 });
+let leaving = false; // Escape was pressed: the next Tab leaves the editor
 $("mission").addEventListener("keydown", (event) => {
-  if (event.key !== "Tab" || event.shiftKey) return; // Tab writes two spaces (YAML takes no tabs)
+  if (event.key === "Enter" && (event.ctrlKey || event.metaKey)) {
+    event.preventDefault();
+    if (!$("run").disabled) send("run");
+    return;
+  }
+  if (event.key === "Escape") {
+    leaving = true;
+    return;
+  }
+  const leave = leaving;
+  leaving = false;
+  if (event.key !== "Tab" || event.shiftKey || leave) return; // Tab writes two spaces (YAML takes no tabs)
   event.preventDefault();
   const mission = $("mission");
   mission.setRangeText("  ", mission.selectionStart, mission.selectionEnd, "end");
@@ -277,5 +327,5 @@ $("mission").addEventListener("keydown", (event) => {
 });
 $("run").addEventListener("click", () => send("run"));
 $("handin").addEventListener("click", () => send("handin"));
-setInterval(showDeadline, 10_000);
 if (code) signIn(code);
+else $("code").focus();
