@@ -91,6 +91,7 @@ bench: $(STAMP)
 	$(BIN)/python benchmarks/feedback.py
 	$(BIN)/python benchmarks/cluster.py
 	$(BIN)/python benchmarks/work.py
+	$(BIN)/python benchmarks/liveclass.py
 
 ## docs: make the node reference in docs/missions.md anew from the registry
 docs: $(STAMP)

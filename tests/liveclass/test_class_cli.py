@@ -168,3 +168,19 @@ def test_the_roster_s_changes_are_the_class_s_at_the_next_start(tmp_path):
         server.communicate(timeout=30)
     with (tmp_path / "class" / "codes.csv").open() as stream:
         assert [row["id"] for row in csv.DictReader(stream)] == ["1001", "1002", "1003"]
+
+
+def test_codes_csv_names_no_formula_a_spreadsheet_would_run(tmp_path):
+    (tmp_path / "roster.csv").write_text('id,name,submission\n1001,"=HYPERLINK(""http://x"",""a"")",ada\n+1002,Bob,b\n')
+    server, _, _ = serve(tmp_path)
+    server.send_signal(signal.SIGINT)
+    server.communicate(timeout=30)
+    with (tmp_path / "class" / "codes.csv").open() as stream:
+        rows = list(csv.DictReader(stream))
+    shown = [(row["id"], row["name"]) for row in rows]
+    assert shown == [("1001", '\'=HYPERLINK("http://x","a")'), ("'+1002", "Bob")]
+    renewed = run_autonomy("class", "codes", "+1002", "--dir", str(tmp_path / "class"))
+    assert renewed.returncode == 0
+    with (tmp_path / "class" / "codes.csv").open() as stream:
+        again = list(csv.DictReader(stream))
+    assert [row["id"] for row in again] == ["1001", "'+1002"] and again[1]["code"] != rows[1]["code"]
