@@ -394,3 +394,35 @@ def test_guesses_are_counted_by_address_and_an_ipv6_machine_by_its_network():
     assert _guesser("2001:db8::1") == _guesser("2001:db8::ffff:1234") == "2001:db8::/64"
     assert _guesser("2001:db8:0:1::1") != _guesser("2001:db8::1")
     assert _guesser("::ffff:192.0.2.7") == "192.0.2.7"
+
+
+def test_the_pages_have_a_strict_policy_and_another_site_s_page_or_name_is_refused(served):
+    server, codes = served
+    for path in ("/", "/teacher", "/static/class.js"):
+        status, headers, _ = fetch(server, path)
+        policy = headers["Content-Security-Policy"]
+        assert status == 200 and "script-src 'self'" in policy and "unsafe" not in policy, path
+        assert "frame-ancestors 'none'" in policy and headers["X-Content-Type-Options"] == "nosniff"
+    assert fetch(server, "/static/student.html")[0] == 404 and fetch(server, "/static/../store.py")[0] == 404
+    for header, value in (("Origin", "http://evil.example"), ("Host", "evil.example"), ("Origin", "null")):
+        request = urllib.request.Request(
+            server.url + "api/check", data=json.dumps({"mission": SOLUTION}).encode(), method="POST"
+        )
+        request.add_header("Authorization", f"Bearer {codes['s1']}")
+        request.add_header(header, value)
+        try:
+            urllib.request.urlopen(request, timeout=30)
+            raise AssertionError(f"{header}: {value} was served")
+        except urllib.error.HTTPError as refused:
+            assert refused.code == 403, (header, value)
+
+
+def test_the_pages_scripts_put_what_they_receive_in_as_text_never_as_markup():
+    from autonomy.liveclass.server import PAGE_FILES, page_text
+
+    for name in PAGE_FILES:
+        if name.endswith(".js"):
+            text = page_text(name)
+            for sink in ("innerHTML", "outerHTML", "insertAdjacentHTML", "document.write", "eval(", "srcdoc"):
+                assert sink not in text, (name, sink)
+            assert "textContent" in text
