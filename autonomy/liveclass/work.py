@@ -13,7 +13,8 @@ from typing import Any
 from autonomy.behaviours.tree import describe_tree
 from autonomy.classroom.exercise import Exercise
 from autonomy.classroom.grade import Report, check_text, file_names, grade_class, page_path, refuse_daemon
-from autonomy.mission import build_tree
+from autonomy.mission import BUILTINS, build_tree
+from autonomy.mission.catalogue import node_help
 from autonomy.views.lines import printable
 from autonomy.views.mapsvg import world_svg
 from autonomy.views.treesvg import svg_tree
@@ -48,7 +49,7 @@ def check(exercise: Exercise, text: str) -> dict[str, Any]:
 
 
 def exercise_shown(exercise: Exercise) -> dict[str, Any]:
-    """What a student is shown of the exercise: its text, its world drawn, its criteria and how many seeds."""
+    """What a student is shown of the exercise: its text, its world drawn, its criteria, how many seeds, its nodes."""
     hidden = sum(1 for seed in exercise.seeds if seed.hidden)
     return {
         "name": printable(exercise.name),
@@ -61,6 +62,7 @@ def exercise_shown(exercise: Exercise) -> dict[str, Any]:
         "public_seeds": len(exercise.seeds) - hidden,
         "hidden_seeds": hidden,
         "allowed_nodes": list(exercise.allowed_nodes) if exercise.allowed_nodes is not None else None,
+        "nodes": node_help(BUILTINS, exercise.allowed_nodes),
     }
 
 

@@ -87,6 +87,16 @@ def catalogue_markdown(registry: Registry) -> str:
     return "\n".join(out).rstrip() + "\n"
 
 
+def node_help(registry: Registry, names: tuple[str, ...] | None = None) -> list[dict[str, str]]:
+    """Each node type (or those of ``names``) in a line, for a page: name, category, what it does, an example."""
+    return [
+        {"name": t.name, "category": t.category, "doc": t.doc, "example": _example(t)}
+        for _, types in _by_category(registry)
+        for t in types
+        if names is None or t.name in names or any(alias in names for alias in t.aliases)
+    ]
+
+
 def _example(node_type: NodeType) -> str:
     if node_type.category == "reference":
         return "subtree: corner"

@@ -98,6 +98,8 @@ def test_a_student_writes_runs_and_hands_in_while_the_teacher_watches(browser, c
     assert student.text_content("#who") == "Ada Lovelace"
     assert "Park in the garage" in student.text_content("#exercise-title")
     assert student.evaluate("document.getElementById('world').naturalWidth") > 100  # the world is drawn
+    student.click("#node-help summary")  # the nodes, each with an example, for a first-timer
+    assert "move: {speed: 2}" in student.locator("#nodes dt").all_text_contents()
 
     student.click("#mission")
     student.keyboard.type(MISTAKE)

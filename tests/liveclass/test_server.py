@@ -247,6 +247,7 @@ def test_what_a_student_is_shown_of_the_exercise_names_no_hidden_seed(served):
     exercise = me["exercise"]
     assert status == 200 and exercise["public_seeds"] == 4 and exercise["hidden_seeds"] == 12
     assert exercise["world_svg"].startswith("<svg") and me["mission"] == ""
+    assert {"sequence", "move", "obstacle_within"} <= {node["name"] for node in exercise["nodes"]}
     text = json.dumps(me)
     hidden = [seed for seed in GARAGE.seeds if seed.hidden]
     assert len(hidden) == 12 and not any(re.search(rf"\b{seed.seed}\b", text) for seed in hidden)

@@ -106,7 +106,9 @@ function show(me) {
   $("seeds").textContent =
     `${exercise.time_limit_s} s a run. "Run" tries ${exercise.public_seeds} public seeds${hidden}.`;
   svgImage($("world"), exercise.world_svg);
-  $("nodes").textContent = exercise.allowed_nodes ? `Nodes you may use: ${exercise.allowed_nodes.join(", ")}.` : "";
+  $("nodes").replaceChildren(
+    ...exercise.nodes.flatMap((n) => [element("dt", n.example), element("dd", `${n.doc} (${n.category})`)]),
+  );
   deadline(me);
   const mission = $("mission");
   mission.value = me.mission;
