@@ -97,6 +97,7 @@ CLASS_WAITERS = 16
 PAGE_FILES = {
     "student.html": "text/html",
     "teacher.html": "text/html",
+    "common.js": "text/javascript",
     "class.js": "text/javascript",
     "teacher.js": "text/javascript",
     "class.css": "text/css",

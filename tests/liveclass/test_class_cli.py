@@ -16,13 +16,18 @@ from tests.views.conftest import ROOT
 SOLUTION = (ROOT / "exercises" / "solutions" / "garage.yaml").read_text()
 
 
-def serve(folder) -> tuple[subprocess.Popen, int, str]:
+def serve(folder, *more: str, env: dict[str, str] | None = None) -> tuple[subprocess.Popen, int, str]:
+    """``autonomy class serve garage`` of ``folder/roster.csv`` in ``folder/class``: the process, its port, its token.
+
+    Its first two lines on standard error (the class, the teacher's address) are kept as ``process.said``.
+    """
     process = subprocess.Popen(
         [sys.executable, "-m", "autonomy", "class", "serve", "garage", "--roster", str(folder / "roster.csv")]
-        + ["--dir", str(folder / "class"), "--port", "0"],
-        cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        + ["--dir", str(folder / "class"), "--port", "0", *more],
+        cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
     )  # fmt: skip
     said = process.stderr.readline() + process.stderr.readline()
+    process.said = said
     token = re.search(r"/teacher#(\S+)", said).group(1)
     port = int(process.stdout.readline().strip().rstrip("/").rsplit(":", 1)[1])
     return process, port, token
@@ -33,6 +38,15 @@ def post(port: int, path: str, body: dict, code: str) -> dict:
     request.add_header("Authorization", f"Bearer {code}")
     with urllib.request.urlopen(request, timeout=60) as answer:
         return json.loads(answer.read())
+
+
+def refused(port: int, code: str) -> int:
+    """The status a check with ``code`` is refused with (the test fails if it is taken)."""
+    try:
+        post(port, "/api/check", {"mission": SOLUTION}, code)
+    except urllib.error.HTTPError as refusal:
+        return refusal.code
+    raise AssertionError(f"the code {code} signs in")
 
 
 def table(port: int, token: str) -> dict:
@@ -117,11 +131,7 @@ def test_a_lost_code_is_replaced_and_the_old_one_signs_in_no_more(tmp_path):
         assert set(new) == {"1001", "1002"} and new["1002"] == old["1002"] and new["1001"] != old["1001"]
         assert oct(codes_file.stat().st_mode & 0o777) == "0o600"
         assert post(port, "/api/check", {"mission": SOLUTION}, new["1001"])["ok"]  # the running server takes it
-        try:
-            post(port, "/api/check", {"mission": SOLUTION}, old["1001"])
-            raise AssertionError("the old code still signs in")
-        except urllib.error.HTTPError as refused:
-            assert refused.code == 401
+        assert refused(port, old["1001"]) == 401
     finally:
         server.send_signal(signal.SIGINT)
         server.communicate(timeout=30)
@@ -158,11 +168,7 @@ def test_the_roster_s_changes_are_the_class_s_at_the_next_start(tmp_path):
             ("1001", "Ada King"),
             ("1003", "Cy Young"),
         ]
-        try:
-            post(port, "/api/check", {"mission": SOLUTION}, codes["1002"])
-            raise AssertionError("a student no longer on the roster signs in")
-        except urllib.error.HTTPError as refused:
-            assert refused.code == 401
+        assert refused(port, codes["1002"]) == 401  # no longer on the roster
     finally:
         server.send_signal(signal.SIGINT)
         server.communicate(timeout=30)

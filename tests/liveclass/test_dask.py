@@ -18,22 +18,16 @@ if importlib.util.find_spec("distributed") is None:  # the optional extra: auton
 from autonomy.classroom.exercise import load_exercise
 from autonomy.liveclass.work import grade_text
 from tests.classroom.test_dask import ENV, ROOT, cluster  # noqa: F401 - the cluster fixture, shared
-from tests.liveclass.test_class_cli import SOLUTION, post
+from tests.liveclass.test_class_cli import SOLUTION, post, serve
 
 WRONG = (ROOT / "autonomy" / "exercises" / "wrong" / "garage_full_speed.yaml").read_text()
 
 
 def test_a_class_graded_on_a_cluster_gets_the_marks_and_pages_graded_here_would(cluster, tmp_path):  # noqa: F811
     (tmp_path / "roster.csv").write_text("id,name,submission\n1001,Ada Lovelace,ada\n")
-    process = subprocess.Popen(
-        [sys.executable, "-m", "autonomy", "class", "serve", "garage", "--roster", str(tmp_path / "roster.csv")]
-        + ["--dir", str(tmp_path / "class"), "--port", "0", "--dask", cluster],
-        cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=ENV,
-    )  # fmt: skip
+    process, port, _ = serve(tmp_path, "--dask", cluster, env=ENV)
     try:
-        said = process.stderr.readline() + process.stderr.readline()
-        assert f"graded on a Dask cluster at {cluster}" in said, said
-        port = int(process.stdout.readline().strip().rstrip("/").rsplit(":", 1)[1])
+        assert f"graded on a Dask cluster at {cluster}" in process.said, process.said
         code = (tmp_path / "class" / "codes.csv").read_text().splitlines()[1].split(",")[2]
         ran = post(port, "/api/run", {"mission": WRONG}, code)
         handed = post(port, "/api/handin", {"mission": SOLUTION}, code)

@@ -11,13 +11,11 @@ import csv
 import io
 import re
 import signal
-import subprocess
-import sys
 import zipfile
 
 import pytest
 
-from tests.views.conftest import ROOT
+from tests.liveclass.test_class_cli import serve
 from tests.views.conftest import until as until_in
 
 #: Longest wait for what the server does (a busy machine grades slowly; a wait that holds returns at once).
@@ -41,20 +39,27 @@ FIXED = MISTAKE.replace("mvoe", "move")
 def classroom(tmp_path):
     """``autonomy class serve garage`` for Ada and Bob: (student's URL, teacher's URL, codes)."""
     (tmp_path / "roster.csv").write_text("id,name,submission\n1001,Ada Lovelace,ada\n1002,Bob <b>Jones</b>,bob\n")
-    process = subprocess.Popen(
-        [sys.executable, "-m", "autonomy", "class", "serve", "garage", "--roster", str(tmp_path / "roster.csv")]
-        + ["--dir", str(tmp_path / "class"), "--port", "0"],
-        cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-    )  # fmt: skip
-    said = process.stderr.readline() + process.stderr.readline()
-    teacher = re.search(r"(http://\S+/teacher#\S+)", said).group(1)
-    student = process.stdout.readline().strip()
+    process, port, token = serve(tmp_path)
     with (tmp_path / "class" / "codes.csv").open() as stream:
         codes = {row["id"]: row["code"] for row in csv.DictReader(stream)}
-    yield student, teacher, codes
+    yield f"http://127.0.0.1:{port}/", f"http://127.0.0.1:{port}/teacher#{token}", codes
     process.send_signal(signal.SIGINT)
     _, err = process.communicate(timeout=30)
     assert process.returncode == 0 and "Traceback" not in err, err
+
+
+def watching(browser, teacher_url: str, errors: list[str]):
+    """The teacher's page, once it shows the class."""
+    teacher = new_page(browser, errors)
+    teacher.goto(teacher_url)
+    until(teacher, "document.querySelectorAll('#class-table tbody tr').length === 2")
+    return teacher
+
+
+def sign_in(page, code: str) -> None:
+    """Signs in on the student's page as a student does: the code typed, the button pressed."""
+    page.fill("#code", code)
+    page.click("#sign-in-form button")  # waits until the button is on: a moment after a wrong code
 
 
 def press(page, selector: str) -> None:
@@ -79,21 +84,17 @@ def new_page(browser, errors: list[str]):
 def test_a_student_writes_runs_and_hands_in_while_the_teacher_watches(browser, classroom):
     student_url, teacher_url, codes = classroom
     errors: list[str] = []
-    teacher = new_page(browser, errors)
-    teacher.goto(teacher_url)
-    until(teacher, "document.querySelectorAll('#class-table tbody tr').length === 2")
+    teacher = watching(browser, teacher_url, errors)
     assert "#" not in teacher.url  # the token is out of the address bar before anything is shown
     names = teacher.locator("#class-table tbody td:first-child").all_text_contents()
     assert names == ["Ada Lovelace", "Bob <b>Jones</b>"]  # a name is text, never markup
 
     student = new_page(browser, errors)
     student.goto(student_url)
-    student.fill("#code", "wrong-code")
-    student.click("#sign-in-form button")
+    sign_in(student, "wrong-code")
     until(student, "document.getElementById('sign-in-error').textContent !== ''")
     assert "no student has this sign-in code" in student.text_content("#sign-in-error")
-    student.fill("#code", f"{codes['1001'][:4]} {codes['1001'][4:]}".upper())  # as read off a sheet
-    student.click("#sign-in-form button")  # waits until the button is on again: a moment after a wrong code
+    sign_in(student, f"{codes['1001'][:4]} {codes['1001'][4:]}".upper())  # as read off a sheet
     until(student, "!document.getElementById('desk').hidden")
     assert student.text_content("#who") == "Ada Lovelace"
     assert "Park in the garage" in student.text_content("#exercise-title")
@@ -182,13 +183,10 @@ def test_a_student_writes_runs_and_hands_in_while_the_teacher_watches(browser, c
 def test_the_teacher_closes_hand_ins_and_the_student_is_told(browser, classroom):
     student_url, teacher_url, codes = classroom
     errors: list[str] = []
-    teacher = new_page(browser, errors)
-    teacher.goto(teacher_url)
-    until(teacher, "document.querySelectorAll('#class-table tbody tr').length === 2")
+    teacher = watching(browser, teacher_url, errors)
     student = new_page(browser, errors)
     student.goto(student_url)
-    student.fill("#code", codes["1002"])
-    student.click("#sign-in-form button")
+    sign_in(student, codes["1002"])
     until(student, "!document.getElementById('desk').hidden")
     assert student.text_content("#who") == "Bob <b>Jones</b>"
     teacher.click("#close-now")

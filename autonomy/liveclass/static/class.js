@@ -6,7 +6,6 @@
 
 const CODE_KEY = "autonomy-class-code";
 const CHECK_AFTER_MS = 300; // a check this long after the last key typed
-const $ = (id) => document.getElementById(id);
 
 let code = sessionStorage.getItem(CODE_KEY) || "";
 let deadlineS = null;
@@ -44,17 +43,6 @@ async function api(method, path, body) {
 
 function svgImage(img, svg) {
   img.src = "data:image/svg+xml;charset=utf-8," + encodeURIComponent(svg);
-}
-
-function element(tag, text, className) {
-  const made = document.createElement(tag);
-  if (text !== undefined) made.textContent = text;
-  if (className) made.className = className;
-  return made;
-}
-
-function number(value) {
-  return value === null || value === undefined ? "-" : String(Math.round(value * 100) / 100);
 }
 
 function say(text, isError) {

@@ -6,24 +6,12 @@
 "use strict";
 
 const TOKEN_KEY = "autonomy-class-teacher";
-const $ = (id) => document.getElementById(id);
 
 let token = location.hash.slice(1) || sessionStorage.getItem(TOKEN_KEY) || "";
 if (location.hash) history.replaceState(null, "", location.pathname);
 let version = -1;
 let table = null;
 let shown = null; // the student whose run the viewer shows: {name, page}
-
-function element(tag, text, className) {
-  const made = document.createElement(tag);
-  if (text !== undefined) made.textContent = text;
-  if (className) made.className = className;
-  return made;
-}
-
-function number(value) {
-  return value === null || value === undefined ? "-" : String(Math.round(value * 100) / 100);
-}
 
 function count(n, what) {
   return `${n} ${what}${n === 1 ? "" : "s"}`;
