@@ -51,7 +51,7 @@ from autonomy.classroom.report import to_csv
 from autonomy.clock import wall_time_s
 from autonomy.errors import AutonomyError
 from autonomy.liveclass.store import ClassStore, Student, Work, code_digest, token_digest
-from autonomy.liveclass.work import MAX_MISSION_CHARS, check, exercise_shown, grade_text, page_file
+from autonomy.liveclass.work import MAX_MISSION_CHARS, check, exercise_shown, grade_text, page_file, work_file
 from autonomy.views.lines import printable
 from autonomy.views.web import BoundedServer
 
@@ -70,6 +70,9 @@ MOST_GUESS_WAIT_S = 8.0
 #: Addresses whose wrong guesses are remembered; past this the oldest are forgotten. An IPv6 address is
 #: counted with its /64 network (one machine may hold all of it).
 GUESSERS_KEPT = 10_000
+#: Large answers on their way at once to one address (pages, checks): one client of many connections takes no more
+#: than its share of the server's 256, and a class behind one router still gets two each.
+MAX_ANSWERS_PER_ADDRESS = 64
 #: Codes remembered as signed in from one address (a class behind one router: a few dozen).
 CODES_KEPT_PER_ADDRESS = 256
 #: A grading that took longer than this (seconds of wall time) holds its student's next one back as long.
@@ -78,8 +81,14 @@ LONG_GRADING_S = 5.0
 RUN_PAGES_KEPT = 5
 HANDIN_PAGES_KEPT = 20
 MAX_PAGE_BYTES = 8 * 1024 * 1024
-#: Gradings at once (the machine's two cores).
+#: Gradings at once (the machine's two cores): one for anyone, one kept for students whose gradings are quick.
 GRADINGS_AT_ONCE = 2
+#: A student whose grading took longer than :data:`LONG_GRADING_S` within this long is graded in the lane for anyone.
+SLOW_MEMORY_S = 600.0
+#: Texts of a student's runs kept in the class's database, their last (every hand-in's is kept).
+RUN_TEXTS_KEPT = 20
+#: Problems kept with a work that had problems (a student sees them all when they check).
+PROBLEMS_KEPT = 20
 #: What a student is told who sends a request while their last is under way.
 UNDER_WAY = "your last request is still under way: send the next when it has its answer"
 #: Largest request body.
@@ -129,8 +138,14 @@ def _guesser(address: str) -> str:
     return str(ip)
 
 
+#: Every answer of the API: a student's work is never kept by a browser's cache.
+NO_STORE = {"Cache-Control": "no-store"}
+
+
 def _json(data: Any, status: int = 200, headers: dict[str, str] | None = None) -> web.Response:
-    return web.Response(text=json.dumps(data), status=status, content_type="application/json", headers=headers)
+    return web.Response(
+        text=json.dumps(data), status=status, content_type="application/json", headers={**NO_STORE, **(headers or {})}
+    )
 
 
 def _refusal(status: int, why: str, **more: Any) -> web.Response:
@@ -194,6 +209,7 @@ class ClassServer(BoundedServer):
     ):
         super().__init__(host, port, "class")
         self._key = key if key is not None else secrets.token_bytes(32)
+        self._exercise_shown = exercise_shown(exercise)  # the same for every student: made once
         self._grader = grader or grade_text
         self._autograder = autograder
         #: Bumped at each change of the class table; teachers' pages wait on it.
@@ -201,6 +217,7 @@ class ClassServer(BoundedServer):
         self._changed: asyncio.Event | None = None
         self._class_waiters = 0
         self.max_request_bytes = MAX_REQUEST_BYTES
+        self.max_answers_per_address = MAX_ANSWERS_PER_ADDRESS
         self.exercise = exercise
         self.store = store
         self.folder = Path(folder)
@@ -211,7 +228,11 @@ class ClassServer(BoundedServer):
         self._known: collections.OrderedDict[str, set[str]] = collections.OrderedDict()
         #: Per student: when their next run or hand-in may start (after a long grading).
         self._held_until: dict[str, float] = {}
-        self._graders = ThreadPoolExecutor(GRADINGS_AT_ONCE, thread_name_prefix="autonomy-grading")
+        #: Two lanes of grading: anyone's, and one for students whose gradings are quick; how many wait in each.
+        self._lanes = [ThreadPoolExecutor(1, thread_name_prefix=f"autonomy-grading-{n}") for n in ("any", "quick")]
+        self._waiting = [0, 0]
+        #: Per student: when their last long grading ended.
+        self._slow: dict[str, float] = {}
         self._checkers = ThreadPoolExecutor(CHECKS_AT_ONCE, thread_name_prefix="autonomy-check")
         #: Students with a request under way (a check, a run or a hand-in): one at a time each.
         self._busy: set[str] = set()
@@ -241,7 +262,8 @@ class ClassServer(BoundedServer):
             self._changed = asyncio.Event()
 
     def _closing(self) -> None:
-        self._graders.shutdown(wait=False, cancel_futures=True)
+        for lane in self._lanes:
+            lane.shutdown(wait=False, cancel_futures=True)
         self._checkers.shutdown(wait=False, cancel_futures=True)
 
     # ------------------------------------------------------------------ who asks
@@ -335,7 +357,8 @@ class ClassServer(BoundedServer):
         finally:
             self._busy.discard(student.id)
         checked["hand_ins_open"] = self._hand_ins_open()
-        return await self._send_in_pieces(request, json.dumps(checked).encode(), "application/json")  # trees are big
+        body = json.dumps(checked).encode()
+        return await self._send_in_pieces(request, body, "application/json", NO_STORE)  # trees are big
 
     async def _run(self, request: web.Request) -> web.Response:
         return await self._graded(request, hand_in=False)
@@ -374,9 +397,6 @@ class ClassServer(BoundedServer):
             return await self._grade(student, mission, kind)
         finally:
             self._busy.discard(student.id)
-            took_s = self._clock.now() - now_s
-            if took_s > LONG_GRADING_S:
-                self._held_until[student.id] = self._clock.now() + took_s
 
     async def _grade(self, student: Student, mission: str, kind: str) -> web.Response:
         loop = asyncio.get_running_loop()
@@ -384,19 +404,16 @@ class ClassServer(BoundedServer):
         if not checked["ok"]:
             first = checked["problems"][0]
             problem = f"line {first['line']}, column {first['column']}: {first['message']}"
-            self.store.add_work(
-                student.id, kind, mission[:MAX_MISSION_CHARS], {"problems": checked["problems"]}, problem=problem
-            )
+            kept = {"problems": checked["problems"][:PROBLEMS_KEPT]}
+            self.store.add_work(student.id, kind, mission[:MAX_MISSION_CHARS], kept, problem=problem)
             self._change()
             return _json({"ok": False, "problems": checked["problems"]}, 422)
         number = self.store.add_work(student.id, kind, mission, {"grading": True})
         self._change()
         try:
-            label = f"{'hand-in' if kind == 'handin' else 'run'} {len(self.store.works(student.id, kind))}"
+            label = f"{'hand-in' if kind == 'handin' else 'run'} {self.store.count(student.id, kind)}"
             grading = functools.partial(self._grader, label=label)  # what their page is headed by: no id
-            report, page = await loop.run_in_executor(
-                self._graders, grading, self.exercise, student.id, mission, self.folder, number, kind == "handin"
-            )
+            report, page = await self._in_lane(student.id, grading, mission, number, kind == "handin")
         except Exception as err:  # noqa: BLE001 - said in one line, kept as the work's problem, answered 500
             why = f"the grading failed: {type(err).__name__}"
             self._refused(f"grading {type(err).__name__}", f"{why} (work {number})")
@@ -407,27 +424,64 @@ class ClassServer(BoundedServer):
         problem = report.problems[0] if report.problems else ""
         self.store.finish_work(number, report.to_json(), report.total, report.max_points, problem)
         self._change()
-        kept = await loop.run_in_executor(self._checkers, self._keep_pages, student.id, kind, page)
+        kept = await loop.run_in_executor(self._checkers, self._bound_disk, student.id, number, kind, page)
         return _json(
             {
                 "ok": True,
                 "number": number,
                 "kind": kind,
-                "count": len(self.store.works(student.id, kind)),  # their own: hand-in 3 is their third
+                "count": self.store.count(student.id, kind),  # their own: hand-in 3 is their third
                 "page": self._page_url(number) if kept else None,
                 "page_problem": "" if kept else f"its replay is over {MAX_PAGE_BYTES // 2**20} MB: too large to keep",
                 **shown,
             }
         )  # kept before it is said
 
-    def _keep_pages(self, student: str, kind: str, page: Path) -> bool:
-        """Bounds a student's pages on disk: none too large, only their latest few; whether this one is kept."""
+    async def _in_lane(
+        self, student: str, grading: Callable[..., tuple[Report, Path]], mission: str, number: int, hand_in: bool
+    ) -> tuple[Report, Path]:
+        """Grades in a lane: a student whose grading took long lately in anyone's, the others in the less busy.
+
+        Two students whose missions spin until their CPU time is up hold one lane at most: the
+        rest of the class is graded in the other. A grading that takes long (counted from when it
+        starts, not from when it was asked) holds its student's next back as long.
+        """
+        now_s = self._clock.now()
+        slow = now_s - self._slow.get(student, -SLOW_MEMORY_S) < SLOW_MEMORY_S
+        lane = 0 if slow or self._waiting[0] < self._waiting[1] else 1
+        self._waiting[lane] += 1
+
+        def timed() -> tuple[tuple[Report, Path], float]:
+            started_s = self._clock.now()
+            done = grading(self.exercise, student, mission, self.folder, number, hand_in)
+            return done, self._clock.now() - started_s
+
+        try:
+            done, took_s = await asyncio.get_running_loop().run_in_executor(self._lanes[lane], timed)
+        finally:
+            self._waiting[lane] -= 1
+        if took_s > LONG_GRADING_S:
+            ended_s = self._clock.now()
+            self._slow[student], self._held_until[student] = ended_s, ended_s + took_s
+        return done
+
+    def _bound_disk(self, student: str, number: int, kind: str, page: Path) -> bool:
+        """Bounds what a student keeps on disk; whether this work's page is kept.
+
+        No page over :data:`MAX_PAGE_BYTES`; the pages of their last :data:`RUN_PAGES_KEPT` runs and
+        :data:`HANDIN_PAGES_KEPT` hand-ins; the texts of their last :data:`RUN_TEXTS_KEPT` runs, in the
+        database alone (a hand-in's text is kept for good, in both).
+        """
         try:
             if page.stat().st_size > MAX_PAGE_BYTES:
                 page.unlink()
-            most = HANDIN_PAGES_KEPT if kind == "handin" else RUN_PAGES_KEPT
-            for work in self.store.works(student, kind)[:-most]:
-                page_file(self.folder, student, work.id).unlink(missing_ok=True)
+            last = self.store.count(student, kind) - (HANDIN_PAGES_KEPT if kind == "handin" else RUN_PAGES_KEPT)
+            for work in self.store.work_list(student):
+                if work["kind"] == kind and work["count"] <= last:
+                    page_file(self.folder, student, work["number"]).unlink(missing_ok=True)
+            if kind == "run":
+                work_file(self.folder, student, number, hand_in=False).unlink(missing_ok=True)
+                self.store.forget_old_runs(student, RUN_TEXTS_KEPT)
             return page.is_file()
         except OSError:
             return False
@@ -469,35 +523,23 @@ class ClassServer(BoundedServer):
     async def _me(self, request: web.Request) -> web.Response:
         """The exercise, and (to a student) who they are, their works, and their last mission's text."""
         if self._teacher(request):
-            return _json({"exercise": exercise_shown(self.exercise), "deadline_s": self._deadline_s()})
+            return _json({"exercise": self._exercise_shown, "deadline_s": self._deadline_s()})
         student = await self._student(request)
         if isinstance(student, web.Response):
             return student
-        works = self.store.works(student.id)
+        works = self.store.work_list(student.id)  # without their texts: a class's hour may hold hundreds
+        for work in works:
+            graded = work["total"] is not None and page_file(self.folder, student.id, work["number"]).is_file()
+            work["page"] = self._page_url(work["number"]) if graded else None
         me = {
-            "exercise": exercise_shown(self.exercise),
+            "exercise": self._exercise_shown,
             "deadline_s": self._deadline_s(),
             "hand_ins_open": self._hand_ins_open(),
             "student": {"id": printable(student.id), "name": printable(student.name)},
-            "mission": works[-1].source if works else "",
-            "works": [self._work_shown(work, works) for work in works],
+            "mission": self.store.last_source(student.id),
+            "works": works,
         }
-        return await self._send_in_pieces(request, json.dumps(me).encode(), "application/json")
-
-    def _work_shown(self, work: Work, works: list[Work]) -> dict[str, Any]:
-        graded = work.total is not None
-        return {
-            "number": work.id,
-            "count": sum(1 for w in works if w.kind == work.kind and w.id <= work.id),
-            "kind": work.kind,
-            "at": work.at,
-            "total": work.total,
-            "max_points": work.max_points,
-            "problem": work.problem,
-            "page": self._page_url(work.id)
-            if graded and page_file(self.folder, work.student, work.id).is_file()
-            else None,
-        }
+        return await self._send_in_pieces(request, json.dumps(me).encode(), "application/json", NO_STORE)
 
     # ------------------------------------------------------------------ the teacher's
 

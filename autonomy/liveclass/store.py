@@ -270,6 +270,44 @@ class ClassStore:
         )
         return [Work(*row[:8], json.loads(row[8])) for row in rows]
 
+    def work_list(self, student: str) -> list[dict[str, Any]]:
+        """A student's runs and hand-ins, oldest first, without their texts or results: what a page lists.
+
+        Each has ``number``, ``kind``, ``count`` (the how-manieth of its kind, theirs), ``at``, ``total``,
+        ``max_points``, ``problem``.
+        """
+        rows = self._read(
+            "SELECT id, kind, ROW_NUMBER() OVER (PARTITION BY kind ORDER BY id), at, total, max_points, problem "
+            "FROM works WHERE student = ? ORDER BY id",
+            (student,),
+        )
+        keys = ("number", "kind", "count", "at", "total", "max_points", "problem")
+        return [dict(zip(keys, row, strict=True)) for row in rows]
+
+    def last_source(self, student: str) -> str:
+        """The text of a student's last run or hand-in ("" if none)."""
+        rows = self._read("SELECT source FROM works WHERE student = ? ORDER BY id DESC LIMIT 1", (student,))
+        return rows[0][0] if rows else ""
+
+    def count(self, student: str, kind: str) -> int:
+        """How many runs (or hand-ins) a student has made."""
+        return self._read("SELECT COUNT(*) FROM works WHERE student = ? AND kind = ?", (student, kind))[0][0]
+
+    def forget_old_runs(self, student: str, kept: int) -> list[int]:
+        """Forgets the texts of a student's runs but their last ``kept`` (their marks stay); their numbers.
+
+        A hand-in's text is never forgotten: every version handed in is kept.
+        """
+        rows = self._read(
+            "SELECT id FROM works WHERE student = ? AND kind = 'run' AND source != '' "
+            "ORDER BY id DESC LIMIT -1 OFFSET ?",
+            (student, kept),
+        )
+        old = [row[0] for row in rows]
+        if old:
+            self._write([("UPDATE works SET source = '' WHERE id = ?", (number,)) for number in old])
+        return old
+
     def work(self, number: int) -> Work | None:
         """The run or hand-in numbered ``number``, or None."""
         rows = self._read(f"SELECT {_WORK} FROM works WHERE id = ?", (number,))  # noqa: S608

@@ -115,9 +115,14 @@ def grade_text(
     return report, page
 
 
+def work_file(folder: Path, student: str, number: int, hand_in: bool) -> Path:
+    """Where a work's text is kept: ``FOLDER/works/NAME/NUMBER-run.yaml`` (or ``-handin``)."""
+    return folder / "works" / file_names([student])[student] / f"{number}-{'handin' if hand_in else 'run'}.yaml"
+
+
 def _keep(folder: Path, student: str, text: str, number: int, hand_in: bool) -> Path:
-    """Keeps a work's text as ``FOLDER/works/NAME/NUMBER-run.yaml`` (or ``-handin``); its path."""
-    kept = folder / "works" / file_names([student])[student] / f"{number}-{'handin' if hand_in else 'run'}.yaml"
+    """Keeps a work's text where :func:`work_file` says; its path."""
+    kept = work_file(folder, student, number, hand_in)
     kept.parent.mkdir(parents=True, exist_ok=True)
     kept.write_text(text, encoding="utf-8")
     return kept

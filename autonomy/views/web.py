@@ -15,6 +15,7 @@ for the next run. :mod:`autonomy.views.page` has the page, and freezes it on a w
 from __future__ import annotations
 
 import asyncio
+import collections
 import contextlib
 import ipaddress
 import logging
@@ -318,6 +319,8 @@ class BoundedServer:
         self.max_connections = connection_limit()
         self._answers_sending = 0
         self.max_answers_sending = MAX_ANSWERS_SENDING
+        self._sending_to: collections.Counter[str] = collections.Counter()
+        self.max_answers_per_address = MAX_ANSWERS_SENDING  # a server of many clients takes fewer (the class's)
 
     @property
     def url(self) -> str:
@@ -437,13 +440,19 @@ class BoundedServer:
         """Sends a large answer (bytes, or a file's) a piece at a time, as the client reads it.
 
         A client that does not read holds a piece of the answer (and the kernel's buffer), never a
-        copy of it; at most :attr:`max_answers_sending` answers are on their way at once (past that:
-        503, asked again a second later), and one not read for :data:`ANSWER_STALL_S` is given up.
+        copy of it; at most :attr:`max_answers_sending` answers are on their way at once, and
+        :attr:`max_answers_per_address` to one address (past that: 503, asked again a second later);
+        one not read for :data:`ANSWER_STALL_S` is given up.
         """
+        address = request.remote or ""
+        if self._sending_to[address] >= self.max_answers_per_address:
+            self._refused("answers to one", "too many answers are on their way to one address at once")
+            return web.Response(status=503, text="too many answers are on their way to you at once\n", headers=_RETRY)
         if self._answers_sending >= self.max_answers_sending:
             self._refused("answers", "too many answers are on their way at once")
             return web.Response(status=503, text="too many answers are on their way at once\n", headers=_RETRY)
         self._answers_sending += 1
+        self._sending_to[address] += 1
         try:
             with body.open("rb") if isinstance(body, Path) else contextlib.nullcontext() as stream:
                 length = os.fstat(stream.fileno()).st_size if stream is not None else len(body)
@@ -472,6 +481,9 @@ class BoundedServer:
             return web.Response()
         finally:
             self._answers_sending -= 1
+            self._sending_to[address] -= 1
+            if not self._sending_to[address]:
+                del self._sending_to[address]
 
     def _refused(self, kind: str, text: str) -> None:
         """Says a refusal in one line: the first of its kind at once, then how many, at most every few seconds."""

@@ -11,6 +11,7 @@ import io
 import json
 import os
 import re
+import socket
 import threading
 import time
 import urllib.error
@@ -32,7 +33,7 @@ from autonomy.liveclass.server import (
     _guesser,
 )
 from autonomy.liveclass.store import ClassStore, token_digest
-from autonomy.liveclass.work import MAX_NODES, page_file
+from autonomy.liveclass.work import MAX_NODES, page_file, work_file
 from tests.crowd import memory_mb, non_readers
 from tests.views.conftest import ROOT
 
@@ -427,3 +428,77 @@ def test_the_pages_scripts_put_what_they_receive_in_as_text_never_as_markup():
             for sink in ("innerHTML", "outerHTML", "insertAdjacentHTML", "document.write", "eval(", "srcdoc"):
                 assert sink not in text, (name, sink)
             assert "textContent" in text
+
+
+def test_a_long_history_is_listed_without_its_texts(served):
+    server, codes = served
+    store = server.store
+    for number in range(300):  # an hour of runs, each a long text
+        store.add_work("s1", "run", f"# {number}\n" + "#" * 90_000, {}, 5.0, 10.0)
+    status, headers, body = fetch(server, "/api/me", codes["s1"])
+    me = json.loads(body)
+    assert status == 200 and headers["Cache-Control"] == "no-store"
+    assert len(body) < 150_000 and me["mission"].startswith("# 299\n")  # the last text alone
+    assert [work["count"] for work in me["works"]] == list(range(1, 301))
+    assert all("source" not in work and "result" not in work for work in me["works"])
+
+
+def test_one_address_gets_its_share_of_the_answers_on_their_way_and_another_is_served(served):
+    server, codes = served
+    server.max_answers_per_address = 3
+    status, ran = call(server, "/api/run", {"mission": SOLUTION}, codes["s1"])
+    page_file(server.folder, "s1", ran["number"]).write_bytes(b"<!doctype html>" + b"x" * (MAX_PAGE_BYTES - 100))
+    crowd = non_readers(server.port, 6, requests=1, path=ran["page"])
+    try:
+        time.sleep(0.5)
+        answers = sorted(conn.recv(64).split(b"\r\n")[0] for conn in crowd)
+        assert answers == [b"HTTP/1.1 200 OK"] * 3 + [b"HTTP/1.1 503 Service Unavailable"] * 3
+        other = socket.create_connection(("127.0.0.1", server.port), source_address=("127.0.0.2", 0))
+        with other:
+            other.sendall(f"GET {ran['page']} HTTP/1.1\r\nHost: 127.0.0.1:{server.port}\r\n\r\n".encode())
+            assert other.recv(64).startswith(b"HTTP/1.1 200 OK")  # another machine is served
+    finally:
+        for conn in crowd:
+            conn.close()
+
+
+def test_students_whose_gradings_spin_hold_one_lane_and_the_class_is_graded_in_the_other(served):
+    server, codes = served
+    server._clock = clock = VirtualClock(1000.0)
+    graded, spinning, released = server._grader, threading.Event(), threading.Event()
+
+    def grader(*args, **kwargs):
+        if args[1] == "s1" and not spinning.is_set():  # Ada's first: 30 s of grading
+            spinning.set()
+            clock.advance_to(clock.now() + 30.0)
+        elif args[1] == "s1":  # her next spins until it is released
+            released.wait(60)
+        return graded(*args, **kwargs)
+
+    server._grader = grader
+    assert call(server, "/api/run", {"mission": SOLUTION}, codes["s1"])[0] == 200
+    clock.advance_to(clock.now() + 31.0)  # her hold is over: she runs again, and spins
+    ada = threading.Thread(target=call, args=(server, "/api/run", {"mission": SOLUTION}, codes["s1"]))
+    ada.start()
+    try:
+        deadline = time.monotonic() + 30
+        while server._waiting[0] == 0 and time.monotonic() < deadline:
+            time.sleep(0.01)
+        assert server._waiting == [1, 0]  # in the lane for anyone
+        assert call(server, "/api/run", {"mission": SOLUTION}, codes["s2"])[0] == 200  # Bob is graded meanwhile
+    finally:
+        released.set()
+        ada.join(60)
+
+
+def test_a_run_s_text_is_kept_in_the_database_alone_and_only_the_last_ones(served, monkeypatch):
+    import autonomy.liveclass.server as server_module
+
+    server, codes = served
+    monkeypatch.setattr(server_module, "RUN_TEXTS_KEPT", 2)
+    numbers = [call(server, "/api/run", {"mission": SOLUTION + f"# {k}\n"}, codes["s1"])[1]["number"] for k in range(4)]
+    _, handed = call(server, "/api/handin", {"mission": SOLUTION}, codes["s1"])
+    assert [server.store.work(n).source != "" for n in numbers] == [False, False, True, True]
+    assert [w.source for w in server.store.works("s1", "handin")] == [SOLUTION]  # a hand-in's, for good
+    assert not any(work_file(server.folder, "s1", n, hand_in=False).exists() for n in numbers)
+    assert work_file(server.folder, "s1", handed["number"], hand_in=True).read_text() == SOLUTION
