@@ -158,8 +158,8 @@ def _silence_stdout() -> None:
         pass
 
 
-def _warn_if_public(host: str, what: str) -> None:
-    """Warns when ``what`` is served on an interface other machines can reach."""
+def _warn_if_public(host: str, what: str, can: str = "watch the run") -> None:
+    """Warns when ``what`` is served on an interface other machines can reach, where anyone ``can`` do so."""
     import ipaddress
 
     try:
@@ -167,7 +167,7 @@ def _warn_if_public(host: str, what: str) -> None:
     except ValueError:
         loopback = False
     if not loopback:
-        print(f"warning: {what} served on {host}: anyone who can reach this machine can watch the run", file=sys.stderr)
+        print(f"warning: {what} served on {host}: anyone who can reach this machine can {can}", file=sys.stderr)
 
 
 def _port_busy(err: OSError, option: str) -> str:

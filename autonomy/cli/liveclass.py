@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import csv
 import secrets
 import signal
@@ -26,13 +27,8 @@ from autonomy.cli.grade import _exercise
 
 def cmd_class_serve(args: argparse.Namespace) -> int:
     """Serves the class until Ctrl-C; writes the students' codes to DIR/codes.csv."""
-    import hashlib
-
-    from autonomy.classroom.exercise import SecretError, read_secret
     from autonomy.classroom.gradebook import GradebookError, read_roster
-    from autonomy.classroom.gradescope import build_autograder
-    from autonomy.liveclass.server import DEADLINE, EXERCISE, TEACHER_TOKEN, ClassServer
-    from autonomy.liveclass.store import ClassStore, StoreError, token_digest
+    from autonomy.liveclass.store import ClassStore, StoreError
 
     found = _exercise(args.exercise)
     if isinstance(found, int):
@@ -47,6 +43,28 @@ def cmd_class_serve(args: argparse.Namespace) -> int:
         store = ClassStore(folder)
     except StoreError as err:
         return _fail(str(err), EXIT_USAGE)
+    with contextlib.ExitStack() as closing:  # whichever way this ends, the class and the cluster are let go
+        closing.callback(store.close)
+        return _serve(args, exercise, Path(exercise_path), roster, store, closing)
+
+
+def _serve(
+    args: argparse.Namespace,
+    exercise: Any,
+    exercise_path: Path,
+    roster: list[Any],
+    store: Any,
+    closing: contextlib.ExitStack,
+) -> int:
+    """Serves the class kept in ``store`` until Ctrl-C; what it opens is closed by ``closing``."""
+    import hashlib
+
+    from autonomy.classroom.exercise import SecretError, read_secret
+    from autonomy.classroom.gradescope import build_autograder
+    from autonomy.liveclass.server import DEADLINE, EXERCISE, TEACHER_TOKEN, ClassServer
+    from autonomy.liveclass.store import token_digest
+
+    folder = Path(args.dir)
     secret_file = folder / "secret"
     try:
         if not secret_file.exists():
@@ -58,7 +76,6 @@ def cmd_class_serve(args: argparse.Namespace) -> int:
     kept = store.setting(EXERCISE)
     this = f"{exercise.name} {hashlib.sha256(exercise.source.encode()).hexdigest()}"
     if kept and kept != this:
-        store.close()
         return _fail(
             f"{folder} holds a class of another exercise ('{kept.split()[0]}', or another version of it): "
             "give this one a --dir of its own",
@@ -72,11 +89,10 @@ def cmd_class_serve(args: argparse.Namespace) -> int:
         try:
             grader = DaskGrader(args.dask)
         except ImportError:
-            store.close()
             return _fail("--dask needs dask.distributed: pip install 'autonomy[cluster]'", EXIT_USAGE)
         except OSError as err:
-            store.close()
             return _fail(f"--dask {args.dask}: no Dask scheduler answers there ({err})", EXIT_USAGE)
+        closing.callback(grader.close)
     plain, exercise = exercise, exercise.with_secret(secret)
     if args.deadline is not None:
         store.set_setting(DEADLINE, str(args.deadline))
@@ -93,16 +109,14 @@ def cmd_class_serve(args: argparse.Namespace) -> int:
         args.port,
         key=hashlib.sha256(b"feedback pages " + secret).digest(),
         grader=grader,
-        autograder=lambda: build_autograder(plain, Path(exercise_path), secret),
+        autograder=lambda: build_autograder(plain, exercise_path, secret),
     )
     try:
         server.start()
     except OSError as err:
-        store.close()
-        if grader is not None:
-            grader.close()
         return _fail(f"cannot serve the class on {args.host}:{args.port}: {_port_busy(err, '--port')}", EXIT_USAGE)
-    _warn_if_public(args.host, "the class is")
+    closing.callback(server.stop)
+    _warn_if_public(args.host, "the class is", "sign in with a code, and read the exercise")
     shown = " or ".join(_addresses(args.host))
     students = len(store.students())
     deadline = store.setting(DEADLINE)
@@ -121,11 +135,6 @@ def cmd_class_serve(args: argparse.Namespace) -> int:
         server.wait()
     except KeyboardInterrupt:
         pass
-    finally:
-        server.stop()
-        store.close()
-        if grader is not None:
-            grader.close()
     return EXIT_OK
 
 

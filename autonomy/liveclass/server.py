@@ -38,7 +38,6 @@ import secrets
 import zipfile
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
-from importlib import resources
 from pathlib import Path
 from typing import Any
 
@@ -53,6 +52,7 @@ from autonomy.errors import AutonomyError
 from autonomy.liveclass.store import ClassStore, Student, Work, code_digest, token_digest
 from autonomy.liveclass.work import MAX_MISSION_CHARS, check, exercise_shown, grade_text, page_file, work_file
 from autonomy.views.lines import printable
+from autonomy.views.page import static_text
 from autonomy.views.web import BoundedServer
 
 #: Runs one student may start in a minute; past that they are told when they can run again.
@@ -61,7 +61,7 @@ RUNS_PER_MINUTE = 10
 HANDINS_PER_MINUTE = 4
 #: A wrong guess is forgotten after this long without another from the same address.
 GUESS_MEMORY_S = 600.0
-#: Checks at once (drawing a tree of 3,000 nodes takes a third of a second): off the server's loop.
+#: Checks at once (drawing a tree of 500 nodes takes a tenth of a second): off the server's loop.
 CHECKS_AT_ONCE = 2
 #: After a wrong code, an address may try another code only this long later, doubling at each wrong one up to
 #: the most; a code tried sooner is refused at once, unchecked (codes that signed in from there are still taken).
@@ -81,8 +81,6 @@ LONG_GRADING_S = 5.0
 RUN_PAGES_KEPT = 5
 HANDIN_PAGES_KEPT = 20
 MAX_PAGE_BYTES = 8 * 1024 * 1024
-#: Gradings at once (the machine's two cores): one for anyone, one kept for students whose gradings are quick.
-GRADINGS_AT_ONCE = 2
 #: A student whose grading took longer than :data:`LONG_GRADING_S` within this long is graded in the lane for anyone.
 SLOW_MEMORY_S = 600.0
 #: Texts of a student's runs kept in the class's database, their last (every hand-in's is kept).
@@ -121,10 +119,9 @@ FEEDBACK_POLICY = "sandbox allow-scripts; frame-ancestors 'self'"
 _PAGE_NAME = re.compile(r"(\d{1,12})-([0-9a-f]{32})\.html")
 
 
-@functools.cache
 def page_text(name: str) -> str:
     """One of the pages' files (:data:`PAGE_FILES`), as text."""
-    return resources.files("autonomy.liveclass").joinpath("static", name).read_text(encoding="utf-8")
+    return static_text(name, "autonomy.liveclass")
 
 
 def _guesser(address: str) -> str:
@@ -150,6 +147,17 @@ def _json(data: Any, status: int = 200, headers: dict[str, str] | None = None) -
 
 def _refusal(status: int, why: str, **more: Any) -> web.Response:
     return _json({"error": why, **more}, status)
+
+
+def _come_back(status: int, why: str, wait_s: float) -> web.Response:
+    """A refusal that says when to ask again (``retry_after_s``, and ``Retry-After``), in whole seconds."""
+    wait_s = max(1, math.ceil(wait_s))
+    return _json({"error": why, "retry_after_s": wait_s}, status, {"Retry-After": str(wait_s)})
+
+
+def _bearer(request: web.Request) -> str:
+    """What a request's ``Authorization: Bearer ...`` carries, as sent."""
+    return request.headers.get("Authorization", "").removeprefix("Bearer ")
 
 
 def seen_by_student(exercise: Exercise, report: Report) -> dict[str, Any]:
@@ -191,7 +199,7 @@ class ClassServer(BoundedServer):
         key: What feedback pages' addresses are signed with (the class's secret keeps them the same
             from one start to the next; default: new ones).
         grader: Grades a work instead of this machine's workers (``grade_text``'s arguments; see
-            :func:`autonomy.liveclass.work.dask_grader`).
+            :class:`autonomy.liveclass.work.DaskGrader`).
         autograder: The exercise packed for Gradescope (``autonomy gradescope``), for its export;
             None: not offered.
     """
@@ -226,13 +234,12 @@ class ClassServer(BoundedServer):
         self._guesses: collections.OrderedDict[str, tuple[int, float, float]] = collections.OrderedDict()
         #: Per address: the digests of the codes that signed in from there (taken whatever its guesses).
         self._known: collections.OrderedDict[str, set[str]] = collections.OrderedDict()
-        #: Per student: when their next run or hand-in may start (after a long grading).
-        self._held_until: dict[str, float] = {}
-        #: Two lanes of grading: anyone's, and one for students whose gradings are quick; how many wait in each.
+        #: Per student: when their last long grading ended, and how long it took (their next waits as long).
+        self._long: dict[str, tuple[float, float]] = {}
+        #: Two gradings at once (the machine's two cores), in two lanes: anyone's, and one for students whose
+        #: gradings are quick; and how many wait in each.
         self._lanes = [ThreadPoolExecutor(1, thread_name_prefix=f"autonomy-grading-{n}") for n in ("any", "quick")]
         self._waiting = [0, 0]
-        #: Per student: when their last long grading ended.
-        self._slow: dict[str, float] = {}
         self._checkers = ThreadPoolExecutor(CHECKS_AT_ONCE, thread_name_prefix="autonomy-check")
         #: Students with a request under way (a check, a run or a hand-in): one at a time each.
         self._busy: set[str] = set()
@@ -276,7 +283,7 @@ class ClassServer(BoundedServer):
         parallel gains nothing and holds no connection. Codes that signed in from that address are
         always taken: a class behind one router is not held back by one student's typo.
         """
-        code = "".join(request.headers.get("Authorization", "").removeprefix("Bearer ").split())
+        code = "".join(_bearer(request).split())
         if not code:
             return _refusal(401, "sign in with the code on your sheet")
         address = _guesser(request.remote or "")
@@ -285,10 +292,9 @@ class ClassServer(BoundedServer):
         wrong, last_s, until_s = self._guesses.get(address, (0, 0.0, 0.0))
         known = self._known.get(address, set())
         if now_s < until_s and digest not in known:
-            wait_s = max(1, math.ceil(until_s - now_s))
             self._refused("codes", "a code sent too soon after a wrong one was refused")
-            why = f"a wrong code was typed here a moment ago: try again in {wait_s} s"
-            return _json({"error": why, "retry_after_s": wait_s}, 429, {"Retry-After": str(wait_s)})
+            why = f"a wrong code was typed here a moment ago: try again in {math.ceil(until_s - now_s)} s"
+            return _come_back(429, why, until_s - now_s)
         student = self.store.student_by_code(code)
         if student is not None:
             self._known.setdefault(address, set())
@@ -309,11 +315,10 @@ class ClassServer(BoundedServer):
         while len(self._guesses) > GUESSERS_KEPT:
             self._guesses.popitem(last=False)
         self._refused("codes", "a request with a wrong sign-in code was refused")
-        why = "no student has this sign-in code: type the one on your sheet"
-        return _json({"error": why, "retry_after_s": math.ceil(wait_s)}, 401, {"Retry-After": str(math.ceil(wait_s))})
+        return _come_back(401, "no student has this sign-in code: type the one on your sheet", wait_s)
 
     def _teacher(self, request: web.Request) -> bool:
-        token = request.headers.get("Authorization", "").removeprefix("Bearer ").strip()
+        token = _bearer(request).strip()
         return bool(token) and hmac.compare_digest(token_digest(token), self.store.setting(TEACHER_TOKEN))
 
     async def _mission(self, request: web.Request) -> str | web.Response:
@@ -383,14 +388,14 @@ class ClassServer(BoundedServer):
             done.popleft()
         verb = "hand in" if hand_in else "run"
         if len(done) >= most:
-            wait_s = max(1, round(60.0 - (now_s - done[0]) + 0.5))
-            why = f"{most} {'hand-ins' if hand_in else 'runs'} a minute at most: you can {verb} again in {wait_s} s"
-            return _json({"error": why, "retry_after_s": wait_s}, 429, {"Retry-After": str(wait_s)})
-        held_s = self._held_until.get(student.id, 0.0) - now_s
-        if held_s > 0:  # their last grading was long: the others' go first
-            wait_s = max(1, math.ceil(held_s))
-            why = f"your last grading took long, and the class shares the machine: you can {verb} again in {wait_s} s"
-            return _json({"error": why, "retry_after_s": wait_s}, 429, {"Retry-After": str(wait_s)})
+            wait_s = 60.0 - (now_s - done[0])
+            why = f"{most} {'hand-ins' if hand_in else 'runs'} a minute at most: you can {verb} again in"
+            return _come_back(429, f"{why} {max(1, math.ceil(wait_s))} s", wait_s)
+        ended_s, took_s = self._long.get(student.id, (0.0, 0.0))
+        if now_s < ended_s + took_s:  # their last grading was long: the others' go first
+            wait_s = ended_s + took_s - now_s
+            why = "your last grading took long, and the class shares the machine: you can"
+            return _come_back(429, f"{why} {verb} again in {max(1, math.ceil(wait_s))} s", wait_s)
         done.append(now_s)
         self._busy.add(student.id)
         try:
@@ -447,7 +452,7 @@ class ClassServer(BoundedServer):
         starts, not from when it was asked) holds its student's next back as long.
         """
         now_s = self._clock.now()
-        slow = now_s - self._slow.get(student, -SLOW_MEMORY_S) < SLOW_MEMORY_S
+        slow = student in self._long and now_s - self._long[student][0] < SLOW_MEMORY_S
         lane = 0 if slow or self._waiting[0] < self._waiting[1] else 1
         self._waiting[lane] += 1
 
@@ -461,8 +466,7 @@ class ClassServer(BoundedServer):
         finally:
             self._waiting[lane] -= 1
         if took_s > LONG_GRADING_S:
-            ended_s = self._clock.now()
-            self._slow[student], self._held_until[student] = ended_s, ended_s + took_s
+            self._long[student] = (self._clock.now(), took_s)
         return done
 
     def _bound_disk(self, student: str, number: int, kind: str, page: Path) -> bool:
@@ -515,7 +519,7 @@ class ClassServer(BoundedServer):
         path = page_file(self.folder, work.student, work.id) if work is not None else None
         if path is None or not path.is_file():
             raise web.HTTPNotFound()
-        headers = {"Content-Security-Policy": FEEDBACK_POLICY, "Cache-Control": "no-store"}
+        headers = {"Content-Security-Policy": FEEDBACK_POLICY, **NO_STORE}
         return await self._send_in_pieces(request, path, "text/html; charset=utf-8", headers)
 
     # ------------------------------------------------------------------ the student's

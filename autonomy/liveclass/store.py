@@ -85,6 +85,11 @@ class Work:
     result: dict[str, Any]
 
 
+def _work(row: tuple[Any, ...]) -> Work:
+    """A work as read (:data:`_WORK`'s columns), its result parsed."""
+    return Work(*row[:8], json.loads(row[8]))
+
+
 def new_code() -> str:
     """A random sign-in code of :data:`CODE_LENGTH` characters (about 40 bits)."""
     return "".join(secrets.choice(CODE_ALPHABET) for _ in range(CODE_LENGTH))
@@ -264,11 +269,8 @@ class ClassStore:
     def works(self, student: str, kind: str | None = None) -> list[Work]:
         """A student's runs and hand-ins (or those of ``kind``), oldest first."""
         where, values = ("student = ?", (student,)) if kind is None else ("student = ? AND kind = ?", (student, kind))
-        rows = self._read(
-            f"SELECT {_WORK} FROM works WHERE {where} ORDER BY id",  # noqa: S608
-            values,
-        )
-        return [Work(*row[:8], json.loads(row[8])) for row in rows]
+        rows = self._read(f"SELECT {_WORK} FROM works WHERE {where} ORDER BY id", values)  # noqa: S608
+        return [_work(row) for row in rows]
 
     def work_list(self, student: str) -> list[dict[str, Any]]:
         """A student's runs and hand-ins, oldest first, without their texts or results: what a page lists.
@@ -293,25 +295,18 @@ class ClassStore:
         """How many runs (or hand-ins) a student has made."""
         return self._read("SELECT COUNT(*) FROM works WHERE student = ? AND kind = ?", (student, kind))[0][0]
 
-    def forget_old_runs(self, student: str, kept: int) -> list[int]:
-        """Forgets the texts of a student's runs but their last ``kept`` (their marks stay); their numbers.
+    def forget_old_runs(self, student: str, kept: int) -> None:
+        """Forgets the texts of a student's runs but their last ``kept`` (their marks stay).
 
         A hand-in's text is never forgotten: every version handed in is kept.
         """
-        rows = self._read(
-            "SELECT id FROM works WHERE student = ? AND kind = 'run' AND source != '' "
-            "ORDER BY id DESC LIMIT -1 OFFSET ?",
-            (student, kept),
-        )
-        old = [row[0] for row in rows]
-        if old:
-            self._write([("UPDATE works SET source = '' WHERE id = ?", (number,)) for number in old])
-        return old
+        older = "SELECT id FROM works WHERE student = ? AND kind = 'run' ORDER BY id DESC LIMIT -1 OFFSET ?"
+        self._write([(f"UPDATE works SET source = '' WHERE source != '' AND id IN ({older})", (student, kept))])  # noqa: S608
 
     def work(self, number: int) -> Work | None:
         """The run or hand-in numbered ``number``, or None."""
         rows = self._read(f"SELECT {_WORK} FROM works WHERE id = ?", (number,))  # noqa: S608
-        return Work(*rows[0][:8], json.loads(rows[0][8])) if rows else None
+        return _work(rows[0]) if rows else None
 
     def summary(self) -> list[dict[str, Any]]:
         """The class table: per student on the roster, sign-in, runs, hand-ins, last hand-in's marks, last problem.

@@ -15,6 +15,7 @@ from autonomy.classroom.exercise import Exercise
 from autonomy.classroom.grade import Report, check_text, file_names, grade_class, page_path, refuse_daemon
 from autonomy.mission import BUILTINS, build_tree
 from autonomy.mission.catalogue import node_help
+from autonomy.source import Problem
 from autonomy.views.lines import printable
 from autonomy.views.mapsvg import world_svg
 from autonomy.views.treesvg import svg_tree
@@ -35,17 +36,25 @@ def check(exercise: Exercise, text: str) -> dict[str, Any]:
         tree is drawn only for a mission without problems.
     """
     if len(text) > MAX_MISSION_CHARS:
-        message = f"the mission is {len(text):,} characters long; at most {MAX_MISSION_CHARS:,} are taken"
-        return {"ok": False, "problems": [{"line": 1, "column": 1, "path": "", "message": message}], "tree_svg": ""}
+        return _refused(f"the mission is {len(text):,} characters long; at most {MAX_MISSION_CHARS:,} are taken")
     spec, problems = check_text(exercise, text, MISSION_LABEL, Path("/nonexistent-plugins"))
     if spec is None:
-        shown = [{"line": p.line, "column": p.column, "path": p.path, "message": p.message} for p in problems]
-        return {"ok": False, "problems": shown, "tree_svg": ""}
+        return _refused(*problems)
     nodes = describe_tree(build_tree(spec))
     if len(nodes) > MAX_NODES:
-        message = f"the tree has {len(nodes):,} nodes; a class's mission has at most {MAX_NODES:,}"
-        return {"ok": False, "problems": [{"line": 1, "column": 1, "path": "tree", "message": message}], "tree_svg": ""}
+        return _refused(f"the tree has {len(nodes):,} nodes; a class's mission has at most {MAX_NODES:,}", path="tree")
     return {"ok": True, "problems": [], "tree_svg": svg_tree(nodes, spec.name)}
+
+
+def _refused(*problems: Problem | str, path: str = "") -> dict[str, Any]:
+    """The ``api/check`` answer of a mission with problems: each a :class:`Problem`, or a message about the whole."""
+    shown = [
+        {"line": p.line, "column": p.column, "path": p.path, "message": p.message}
+        if isinstance(p, Problem)
+        else {"line": 1, "column": 1, "path": path, "message": p}
+        for p in problems
+    ]
+    return {"ok": False, "problems": shown, "tree_svg": ""}
 
 
 def exercise_shown(exercise: Exercise) -> dict[str, Any]:

@@ -30,9 +30,9 @@ RUN_REQUEST = "autonomy-run?"
 
 
 @functools.cache
-def static_text(name: str) -> str:
-    """One of the page's files (``index.html``, ``app.js``, ``app.css``), as text."""
-    return resources.files("autonomy.views").joinpath("static", name).read_text(encoding="utf-8")
+def static_text(name: str, package: str = "autonomy.views") -> str:
+    """One of a package's page files (``static/``: the view's ``index.html``, ``app.js``, ``app.css``), as text."""
+    return resources.files(package).joinpath("static", name).read_text(encoding="utf-8")
 
 
 #: The last tree drawn: (mission, nodes, picture). A student's runs on every seed have the same tree.
