@@ -154,11 +154,14 @@ def cmd_class_codes(args: argparse.Namespace) -> int:
         chosen = list(students) if args.all else list(dict.fromkeys(args.students))
         if not chosen:
             return _fail("name the students (their ids), or --all", EXIT_USAGE)
+        missing = [sid for sid in chosen if sid not in students]  # a code for one not there would go nowhere
+        if missing:
+            return _fail(f"not in the class: {', '.join(missing[:5])} (ids as in codes.csv)", EXIT_USAGE)
         try:
             codes = store.new_codes(chosen)
         except StoreError as err:
-            return _fail(f"{err} (ids as in codes.csv)", EXIT_USAGE)
-        roster = [students[sid] for sid in chosen if sid in students]
+            return _fail(str(err), EXIT_USAGE)
+        roster = [students[sid] for sid in chosen]
         _write_codes(folder / "codes.csv", roster, codes, replace=True)
     finally:
         store.close()

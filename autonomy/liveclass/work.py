@@ -63,7 +63,7 @@ def exercise_shown(exercise: Exercise) -> dict[str, Any]:
     return {
         "name": printable(exercise.name),
         "title": printable(exercise.title),
-        "description": printable(exercise.description),
+        "description": "\n".join(printable(line) for line in exercise.description.splitlines()),
         "world_svg": world_svg(exercise.world.as_dict(), f"the world of {exercise.title}"),
         "time_limit_s": exercise.time_limit_s,
         "criteria": [{"label": printable(c.label), "points": c.points} for c in exercise.criteria],

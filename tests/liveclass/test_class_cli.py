@@ -137,6 +137,12 @@ def test_a_lost_code_is_replaced_and_the_old_one_signs_in_no_more(tmp_path):
         server.communicate(timeout=30)
     unknown = run_autonomy("class", "codes", "9999", "--dir", str(tmp_path / "class"))
     assert unknown.returncode == 2 and unknown.stderr.count("\n") == 1 and "9999" in unknown.stderr
+    (tmp_path / "roster.csv").write_text("id,name,submission\n1001,Ada Lovelace,ada\n")  # Bob leaves the class
+    server, _, _ = serve(tmp_path)
+    server.send_signal(signal.SIGINT)
+    server.communicate(timeout=30)
+    gone = run_autonomy("class", "codes", "1002", "--dir", str(tmp_path / "class"))
+    assert gone.returncode == 2 and "not in the class: 1002" in gone.stderr  # a code for him would go nowhere
     nothing = run_autonomy("class", "codes", "--dir", str(tmp_path / "nowhere"))
     assert nothing.returncode == 2 and "no class is kept there" in nothing.stderr
     assert not (tmp_path / "nowhere").exists()

@@ -72,3 +72,14 @@ def test_a_run_is_graded_on_the_public_seeds_and_a_hand_in_on_every_one_in_a_wor
     kept = tmp_path / "works" / "ada" / "2-handin.yaml"
     (forked,) = grade_class(secret_exercise, [("ada-2", kept)], workers=1)  # as `autonomy grade` marks it
     assert forked.marks == handin.marks
+
+
+def test_what_a_student_is_shown_of_the_exercise_keeps_its_lines_and_shows_no_control_character():
+    import dataclasses
+
+    from autonomy.liveclass.work import exercise_shown
+
+    exercise = load_exercise(ROOT / "exercises" / "garage.yaml")
+    text = "Park.\nThen stop.\u202e\x07"
+    shown = exercise_shown(dataclasses.replace(exercise, description=text))
+    assert shown["description"] == "Park.\nThen stop.\ufffd\ufffd"
