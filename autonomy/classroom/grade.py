@@ -33,7 +33,7 @@ from py_trees.blackboard import Blackboard
 from autonomy.classroom.exercise import Exercise, Seed
 from autonomy.classroom.judge import Gatherer, RunFacts, Verdict, facts_of, judge, path_points
 from autonomy.client import Client
-from autonomy.clock import RealClock, cpu_alarm
+from autonomy.clock import RealClock, cpu_alarm, cpu_time_s
 from autonomy.errors import LinkError
 from autonomy.mission import MissionInvalid, MissionSpec, NodeSpec, Problem, validate_text
 from autonomy.runner import Runner
@@ -109,6 +109,8 @@ class Report:
         adjustments: The teacher's corrections, (points, reason), already in ``total``.
         shape: The tree's shape, numbers and names left out (what similar submissions are told by;
             not written out in reports).
+        cpu_s: The CPU time its grading took, seconds (what the class's server tells a long grading by;
+            not written out in reports, nor compared: it differs a little from one grading to the next).
     """
 
     student: str
@@ -121,11 +123,12 @@ class Report:
     notes: list[str] = field(default_factory=list)
     adjustments: list[tuple[float, str]] = field(default_factory=list)
     shape: list[str] = field(default_factory=list)
+    cpu_s: float = field(default=0.0, compare=False)
 
     def to_json(self) -> dict[str, Any]:
         """The report as plain JSON (tuples as lists), its tree's shape left out."""
         out = asdict(self)
-        del out["shape"]
+        del out["shape"], out["cpu_s"]
         return out
 
     @classmethod
@@ -590,6 +593,7 @@ def _graded(
     kept it): it is not graded again.
     """
     _cpu.rung = 0
+    started_cpu_s = cpu_time_s()
     result: Report | str
     runs: list[ReplayMaker] | None = None
     try:
@@ -616,6 +620,8 @@ def _graded(
     ends = isinstance(result, str) or bool(_cpu.rung)
     if feedback is not None and isinstance(result, Report):  # in the worker: as many pages at once as workers
         _feedback_page(exercise, result, feedback, runs or [], name or file_names([student])[student], corrections)
+    if isinstance(result, Report):
+        result.cpu_s = cpu_time_s() - started_cpu_s
     return result, ends
 
 
@@ -857,7 +863,7 @@ def grade_class(
                 if last or not isinstance(result, Report):
                     end(worker)
                 if result is None and worker.process.exitcode in (CPU_EXIT_CODE, -signal.SIGXCPU):  # not graded again
-                    finish(index, failed(index, _cpu_used_up_why(cpu_s)))
+                    finish(index, replace(failed(index, _cpu_used_up_why(cpu_s)), cpu_s=cpu_s))
                 elif not isinstance(result, Report) and worker.used:
                     start(index)  # perhaps what came before was the cause: a new worker, in the place it left
                 elif isinstance(result, Report):

@@ -30,7 +30,6 @@ import functools
 import hashlib
 import hmac
 import io
-import ipaddress
 import json
 import math
 import re
@@ -53,7 +52,7 @@ from autonomy.liveclass.store import ClassStore, Student, Work, code_digest, tok
 from autonomy.liveclass.work import MAX_MISSION_CHARS, check, exercise_shown, grade_text, page_file, work_file
 from autonomy.views.lines import printable
 from autonomy.views.page import static_text
-from autonomy.views.web import BoundedServer
+from autonomy.views.web import BoundedServer, address_group
 
 #: Runs one student may start in a minute; past that they are told when they can run again.
 RUNS_PER_MINUTE = 10
@@ -75,7 +74,7 @@ GUESSERS_KEPT = 10_000
 MAX_ANSWERS_PER_ADDRESS = 64
 #: Codes remembered as signed in from one address (a class behind one router: a few dozen).
 CODES_KEPT_PER_ADDRESS = 256
-#: A grading that took longer than this (seconds of wall time) holds its student's next one back as long.
+#: A grading that took more CPU time than this (seconds) holds its student's next one back as long (in wall time).
 LONG_GRADING_S = 5.0
 #: Feedback pages kept per student: their latest runs' (their hand-ins' are counted apart), and the largest kept.
 RUN_PAGES_KEPT = 5
@@ -91,6 +90,12 @@ PROBLEMS_KEPT = 20
 UNDER_WAY = "your last request is still under way: send the next when it has its answer"
 #: Largest request body.
 MAX_REQUEST_BYTES = 1024 * 1024
+#: A request's body must have come whole this long after its headers (a mission of 100 kB takes a second
+#: on a slow link); one that has not is answered 408 and let go.
+BODY_DEADLINE_S = 15.0
+#: Bytes of bodies being read at once, all students together: each body counts its declared length, or the
+#: largest when it declares none. Past this a request is answered 503 and asked again a second later.
+BODIES_READ_BYTES = 64 * MAX_REQUEST_BYTES
 #: The setting that holds the teacher's token's digest, and the one that holds the hand-ins' deadline.
 TEACHER_TOKEN = "teacher_token_sha256"
 DEADLINE = "deadline_s"
@@ -124,17 +129,6 @@ def page_text(name: str) -> str:
     return static_text(name, "autonomy.liveclass")
 
 
-def _guesser(address: str) -> str:
-    """Who guesses codes: an IPv4 address, or an IPv6 address's /64 network (one machine may hold all of it)."""
-    try:
-        ip = ipaddress.ip_address(address)
-    except ValueError:
-        return address
-    if isinstance(ip, ipaddress.IPv6Address):
-        return str(ip.ipv4_mapped) if ip.ipv4_mapped else str(ipaddress.ip_network(f"{ip}/64", strict=False))
-    return str(ip)
-
-
 #: Every answer of the API: a student's work is never kept by a browser's cache.
 NO_STORE = {"Cache-Control": "no-store"}
 
@@ -158,6 +152,16 @@ def _come_back(status: int, why: str, wait_s: float) -> web.Response:
 def _bearer(request: web.Request) -> str:
     """What a request's ``Authorization: Bearer ...`` carries, as sent."""
     return request.headers.get("Authorization", "").removeprefix("Bearer ")
+
+
+def _seconds(value: Any) -> bool:
+    """Whether ``value`` is a finite number of seconds (not a boolean, not 10**400, which no float holds)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return False
+    try:
+        return math.isfinite(float(value))
+    except OverflowError:
+        return False
 
 
 def seen_by_student(exercise: Exercise, report: Report) -> dict[str, Any]:
@@ -244,6 +248,10 @@ class ClassServer(BoundedServer):
         #: Students with a request under way (a check, a run or a hand-in): one at a time each.
         self._busy: set[str] = set()
         self._signed_in: set[str] = set()
+        #: Bytes of the bodies being read now (see :data:`BODIES_READ_BYTES`).
+        self._reading_bytes = 0
+        self.body_deadline_s = BODY_DEADLINE_S
+        self.bodies_read_bytes = BODIES_READ_BYTES
 
     def _routes(self, app: web.Application) -> None:
         app.router.add_get("/", functools.partial(self._file, "student.html"))
@@ -286,7 +294,7 @@ class ClassServer(BoundedServer):
         code = "".join(_bearer(request).split())
         if not code:
             return _refusal(401, "sign in with the code on your sheet")
-        address = _guesser(request.remote or "")
+        address = address_group(request.remote or "")
         digest = code_digest(code)
         now_s = self._clock.now()
         wrong, last_s, until_s = self._guesses.get(address, (0, 0.0, 0.0))
@@ -321,14 +329,42 @@ class ClassServer(BoundedServer):
         token = _bearer(request).strip()
         return bool(token) and hmac.compare_digest(token_digest(token), self.store.setting(TEACHER_TOKEN))
 
-    async def _mission(self, request: web.Request) -> str | web.Response:
+    async def _body(self, request: web.Request) -> bytes | web.Response:
+        """A request's body, read against :attr:`body_deadline_s` within :attr:`bodies_read_bytes`; or the refusal.
+
+        Read only once the student is known and has no other request under way: one student's
+        requests whose bodies never end cost one connection, for the deadline.
+        """
+        declared = request.content_length
+        if declared is not None and declared > MAX_REQUEST_BYTES:
+            return _refusal(413, f"the request is larger than {MAX_REQUEST_BYTES:,} bytes")
+        counted = MAX_REQUEST_BYTES if declared is None else declared
+        if self._reading_bytes + counted > self.bodies_read_bytes:
+            self._refused("bodies", "too many requests' bodies were being read at once; one was asked again later")
+            return _come_back(503, "the server is reading many requests at once: send yours again in a moment", 1)
+        self._reading_bytes += counted
         try:
-            body = await request.json()
+            return await asyncio.wait_for(request.read(), self.body_deadline_s)
+        except asyncio.TimeoutError:
+            self._refused("slow bodies", "a request's body did not come whole in time; it was let go")
+            return _refusal(408, f"the request's body did not come whole within {self.body_deadline_s:g} s")
         except web.HTTPRequestEntityTooLarge:
             return _refusal(413, f"the request is larger than {MAX_REQUEST_BYTES:,} bytes")
-        except (ValueError, RecursionError):  # not JSON, or nested deeper than a reader goes
+        except (web.RequestPayloadError, ConnectionError):  # a broken gzip, or the client went
+            return _refusal(400, "the request's body could not be read (is its Content-Encoding right?)")
+        finally:
+            self._reading_bytes -= counted
+
+    async def _mission(self, request: web.Request) -> str | web.Response:
+        """The mission's text a request's body carries (``{"mission": TEXT}``), or the refusal."""
+        body = await self._body(request)
+        if isinstance(body, web.Response):
+            return body
+        try:
+            sent = json.loads(body.decode("utf-8"))
+        except (ValueError, RecursionError):  # not JSON (nor UTF-8), or nested deeper than a reader goes
             return _refusal(400, 'the body is JSON: {"mission": "the mission file\'s text"}')
-        mission = body.get("mission") if isinstance(body, dict) else None
+        mission = sent.get("mission") if isinstance(sent, dict) else None
         if not isinstance(mission, str):
             return _refusal(400, 'the body is JSON: {"mission": "the mission file\'s text"}')
         try:
@@ -339,28 +375,35 @@ class ClassServer(BoundedServer):
 
     # ------------------------------------------------------------------ routes
 
-    async def _asked(self, request: web.Request) -> tuple[Student, str] | web.Response:
-        """Who asks, and the mission they send; or the refusal."""
+    async def _one_at_a_time(self, request: web.Request) -> Student | web.Response:
+        """Who asks, now marked as having a request under way (release with :meth:`_done`); or the refusal.
+
+        Nothing of the request's body has been read yet: a student with a request under way is
+        refused before theirs is.
+        """
         student = await self._student(request)
         if isinstance(student, web.Response):
             return student
-        mission = await self._mission(request)
-        if isinstance(mission, web.Response):
-            return mission
-        return student, mission
-
-    async def _check(self, request: web.Request) -> web.Response:
-        asked = await self._asked(request)
-        if isinstance(asked, web.Response):
-            return asked
-        student, mission = asked
         if student.id in self._busy:
             return _refusal(429, UNDER_WAY)
         self._busy.add(student.id)
-        try:  # off the server's loop: a tree of 3,000 nodes takes a third of a second to draw
+        return student
+
+    def _done(self, student: Student) -> None:
+        self._busy.discard(student.id)
+
+    async def _check(self, request: web.Request) -> web.Response:
+        student = await self._one_at_a_time(request)
+        if isinstance(student, web.Response):
+            return student
+        try:
+            mission = await self._mission(request)
+            if isinstance(mission, web.Response):
+                return mission
+            # off the server's loop: a tree of 3,000 nodes takes a third of a second to draw
             checked = await asyncio.get_running_loop().run_in_executor(self._checkers, check, self.exercise, mission)
         finally:
-            self._busy.discard(student.id)
+            self._done(student)
         checked["hand_ins_open"] = self._hand_ins_open()
         body = json.dumps(checked).encode()
         return await self._send_in_pieces(request, body, "application/json", NO_STORE)  # trees are big
@@ -372,36 +415,35 @@ class ClassServer(BoundedServer):
         return await self._graded(request, hand_in=True)
 
     async def _graded(self, request: web.Request, hand_in: bool) -> web.Response:
-        asked = await self._asked(request)
-        if isinstance(asked, web.Response):
-            return asked
-        student, mission = asked
-        if hand_in and not self._hand_ins_open():
-            return _json({"error": "hand-ins are closed: the deadline has passed", "hand_ins_open": False}, 403)
-        if student.id in self._busy:
-            return _refusal(429, UNDER_WAY)
-        kind = "handin" if hand_in else "run"
-        most = HANDINS_PER_MINUTE if hand_in else RUNS_PER_MINUTE
-        now_s = self._clock.now()
-        done = self._runs.setdefault((student.id, kind), collections.deque())
-        while done and now_s - done[0] >= 60.0:
-            done.popleft()
-        verb = "hand in" if hand_in else "run"
-        if len(done) >= most:
-            wait_s = 60.0 - (now_s - done[0])
-            why = f"{most} {'hand-ins' if hand_in else 'runs'} a minute at most: you can {verb} again in"
-            return _come_back(429, f"{why} {max(1, math.ceil(wait_s))} s", wait_s)
-        ended_s, took_s = self._long.get(student.id, (0.0, 0.0))
-        if now_s < ended_s + took_s:  # their last grading was long: the others' go first
-            wait_s = ended_s + took_s - now_s
-            why = "your last grading took long, and the class shares the machine: you can"
-            return _come_back(429, f"{why} {verb} again in {max(1, math.ceil(wait_s))} s", wait_s)
-        done.append(now_s)
-        self._busy.add(student.id)
+        student = await self._one_at_a_time(request)
+        if isinstance(student, web.Response):
+            return student
         try:
+            if hand_in and not self._hand_ins_open():
+                return _json({"error": "hand-ins are closed: the deadline has passed", "hand_ins_open": False}, 403)
+            kind = "handin" if hand_in else "run"
+            most = HANDINS_PER_MINUTE if hand_in else RUNS_PER_MINUTE
+            now_s = self._clock.now()
+            done = self._runs.setdefault((student.id, kind), collections.deque())
+            while done and now_s - done[0] >= 60.0:
+                done.popleft()
+            verb = "hand in" if hand_in else "run"
+            if len(done) >= most:
+                wait_s = 60.0 - (now_s - done[0])
+                why = f"{most} {'hand-ins' if hand_in else 'runs'} a minute at most: you can {verb} again in"
+                return _come_back(429, f"{why} {max(1, math.ceil(wait_s))} s", wait_s)
+            ended_s, took_s = self._long.get(student.id, (0.0, 0.0))
+            if now_s < ended_s + took_s:  # their last grading was long: the others' go first
+                wait_s = ended_s + took_s - now_s
+                why = "your last grading took long, and the class shares the machine: you can"
+                return _come_back(429, f"{why} {verb} again in {max(1, math.ceil(wait_s))} s", wait_s)
+            mission = await self._mission(request)
+            if isinstance(mission, web.Response):
+                return mission
+            done.append(self._clock.now())
             return await self._grade(student, mission, kind)
         finally:
-            self._busy.discard(student.id)
+            self._done(student)
 
     async def _grade(self, student: Student, mission: str, kind: str) -> web.Response:
         loop = asyncio.get_running_loop()
@@ -448,26 +490,23 @@ class ClassServer(BoundedServer):
         """Grades in a lane: a student whose grading took long lately in anyone's, the others in the less busy.
 
         Two students whose missions spin until their CPU time is up hold one lane at most: the
-        rest of the class is graded in the other. A grading that takes long (counted from when it
-        starts, not from when it was asked) holds its student's next back as long.
+        rest of the class is graded in the other. A grading that took long, counted in the CPU time
+        it used (never in wall time, which a busy machine stretches for everyone), holds its
+        student's next back as long.
         """
         now_s = self._clock.now()
         slow = student in self._long and now_s - self._long[student][0] < SLOW_MEMORY_S
         lane = 0 if slow or self._waiting[0] < self._waiting[1] else 1
         self._waiting[lane] += 1
-
-        def timed() -> tuple[tuple[Report, Path], float]:
-            started_s = self._clock.now()
-            done = grading(self.exercise, student, mission, self.folder, number, hand_in)
-            return done, self._clock.now() - started_s
-
         try:
-            done, took_s = await asyncio.get_running_loop().run_in_executor(self._lanes[lane], timed)
+            report, page = await asyncio.get_running_loop().run_in_executor(
+                self._lanes[lane], grading, self.exercise, student, mission, self.folder, number, hand_in
+            )
         finally:
             self._waiting[lane] -= 1
-        if took_s > LONG_GRADING_S:
-            self._long[student] = (self._clock.now(), took_s)
-        return done
+        if report.cpu_s > LONG_GRADING_S:
+            self._long[student] = (self._clock.now(), report.cpu_s)
+        return report, page
 
     def _bound_disk(self, student: str, number: int, kind: str, page: Path) -> bool:
         """Bounds what a student keeps on disk; whether this work's page is kept.
@@ -592,16 +631,17 @@ class ClassServer(BoundedServer):
         """Sets (``{"deadline_s": EPOCH_S}``) or lifts (``null``) the hand-ins' deadline."""
         if not self._teacher(request):
             return _refusal(401, "the deadline is the teacher's: use the teacher's token")
+        read = await self._body(request)
+        if isinstance(read, web.Response):
+            return read
         try:
-            body = await request.json()
-        except (ValueError, RecursionError, web.HTTPRequestEntityTooLarge):
+            body = json.loads(read.decode("utf-8"))
+        except (ValueError, RecursionError):
             body = None
         deadline = body.get("deadline_s", "missing") if isinstance(body, dict) else "missing"
         if deadline == "now":  # the server's clock: the teacher's page may be on a machine whose clock is off
             deadline = wall_time_s()
-        if deadline is not None and (
-            isinstance(deadline, bool) or not isinstance(deadline, (int, float)) or not math.isfinite(deadline)
-        ):
+        if deadline is not None and not _seconds(deadline):
             return _refusal(400, 'the body is JSON: {"deadline_s": seconds since the epoch, "now", or null for none}')
         self.store.set_setting(DEADLINE, "" if deadline is None else repr(float(deadline)))
         self._change()

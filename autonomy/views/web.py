@@ -25,7 +25,7 @@ import threading
 import uuid
 from collections.abc import Awaitable, Callable
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import msgspec
 from aiohttp import web
@@ -53,6 +53,13 @@ REFUSAL_REPEAT_S = 10.0
 MAX_CONNECTIONS = 4096
 RESERVED_FILES = 256
 LISTEN_BACKLOG = 128
+#: Connections served at once to one address (an IPv6 machine: its /64), as a share of :data:`MAX_CONNECTIONS`:
+#: one client that opens connections by the thousand holds its share, never every slot. A class behind one
+#: router still has 16 each for 30 students.
+CONNECTIONS_PER_ADDRESS_SHARE = 8
+#: How long a request refused before its body was read may go on sending it (read and thrown away) before
+#: its connection is closed: a refusal is read by a client whose body is short, and costs nothing held longer.
+LINGER_S = 2.0
 #: ``api/run`` answers on their way at once; past this a page is answered 503 and asks again a second
 #: later. Each holds a piece and the socket's buffer, about 200 KB at most: 50 MB in all.
 MAX_ANSWERS_SENDING = 256
@@ -91,6 +98,67 @@ class _Refusing(asyncio.Protocol):
 
     def data_received(self, data: bytes) -> None:
         self._transport.close()
+
+
+def address_group(address: str) -> str:
+    """Who a connection is counted as: an IPv4 address, or an IPv6 address's /64 network (one machine may hold all)."""
+    try:
+        ip = ipaddress.ip_address(address)
+    except ValueError:
+        return address
+    if isinstance(ip, ipaddress.IPv6Address):
+        return str(ip.ipv4_mapped) if ip.ipv4_mapped else str(ipaddress.ip_network(f"{ip}/64", strict=False))
+    return str(ip)
+
+
+class _Counted(asyncio.Protocol):
+    """A connection counted against its address's share: served by the server's handler, or refused past the share.
+
+    Args:
+        server: The server that counts.
+        serve: Makes the protocol that serves the connection (aiohttp's request handler).
+    """
+
+    def __init__(self, server: BoundedServer, serve: Callable[[], asyncio.BaseProtocol]) -> None:
+        self._server, self._serve = server, serve
+        self._inner: asyncio.Protocol = _Refusing()
+        self._address: str | None = None
+
+    def connection_made(self, transport: asyncio.BaseTransport) -> None:
+        peer = transport.get_extra_info("peername")
+        address = address_group(str(peer[0])) if isinstance(peer, tuple) and peer else ""
+        counts, share = self._server.connections_from, self._server.max_connections_per_address
+        if share < self._server.max_connections and counts[address] >= share:  # few in all: the limit in all alone
+            self._server._refused(
+                "connections from one",
+                f"{self._server.max_connections_per_address} connections at once from one address; another was refused",
+            )
+        else:
+            counts[address] += 1
+            self._address = address
+            self._inner = cast(asyncio.Protocol, self._serve())
+        self._inner.connection_made(transport)
+
+    def data_received(self, data: bytes) -> None:
+        self._inner.data_received(data)
+
+    def eof_received(self) -> bool | None:
+        return self._inner.eof_received()
+
+    def pause_writing(self) -> None:
+        self._inner.pause_writing()
+
+    def resume_writing(self) -> None:
+        self._inner.resume_writing()
+
+    def connection_lost(self, exc: Exception | None) -> None:
+        if self._address is not None:
+            counts = self._server.connections_from
+            counts[self._address] -= 1
+            if counts[self._address] <= 0:
+                del counts[self._address]
+            self._address = None
+        self._inner.connection_lost(exc)
 
 
 def connection_limit() -> int:
@@ -317,6 +385,9 @@ class BoundedServer:
         #: Per kind of refusal: when it was last said, and how many since.
         self._refusals: dict[str, tuple[float, int]] = {}
         self.max_connections = connection_limit()
+        self.max_connections_per_address = max(16, self.max_connections // CONNECTIONS_PER_ADDRESS_SHARE)
+        #: Connections served now, by address (:func:`address_group`).
+        self.connections_from: collections.Counter[str] = collections.Counter()
         self._answers_sending = 0
         self.max_answers_sending = MAX_ANSWERS_SENDING
         self._sending_to: collections.Counter[str] = collections.Counter()
@@ -354,6 +425,7 @@ class BoundedServer:
             shutdown_timeout=0.5,
             logger=_QUIET_LOGGER,
             keepalive_timeout=IDLE_CONNECTION_S,
+            lingering_time=LINGER_S,
             max_headers=MAX_HEADERS,
             max_field_size=MAX_HEADER_BYTES,
             max_line_size=MAX_HEADER_BYTES,
@@ -384,7 +456,7 @@ class BoundedServer:
                 if len(handler.connections) >= self.max_connections:
                     self._refused("connections", f"{self.max_connections} connections at once; another was refused")
                     return _Refusing()
-                return handler()
+                return _Counted(self, handler)
 
             self._listener = loop.run_until_complete(
                 loop.create_server(connection, self.host, self.port, reuse_address=True, backlog=LISTEN_BACKLOG)

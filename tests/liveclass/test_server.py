@@ -7,11 +7,14 @@ running too often, a hand-in after the deadline.
 from __future__ import annotations
 
 import csv
+import dataclasses
 import io
 import json
 import os
 import re
 import socket
+import subprocess
+import sys
 import threading
 import time
 import urllib.error
@@ -30,10 +33,10 @@ from autonomy.liveclass.server import (
     RUNS_PER_MINUTE,
     TEACHER_TOKEN,
     ClassServer,
-    _guesser,
 )
 from autonomy.liveclass.store import ClassStore, token_digest
 from autonomy.liveclass.work import MAX_NODES, page_file, work_file
+from autonomy.views.web import address_group
 from tests.crowd import memory_mb, non_readers
 from tests.views.conftest import ROOT
 
@@ -362,16 +365,23 @@ def test_a_page_too_large_is_not_kept_and_a_student_s_older_run_pages_go(served,
     assert [w["page"] is not None for w in me["works"]] == [False] * 3 + [True] * RUN_PAGES_KEPT
 
 
+def costing(graded, cpu_s: float, wall_s: float = 0.0, clock: VirtualClock | None = None):
+    """The grader ``graded``, its gradings said to have taken ``cpu_s`` of CPU time and ``wall_s`` on ``clock``."""
+
+    def grader(*args, **kwargs):
+        if clock is not None:
+            clock.advance_to(clock.now() + wall_s)
+        report, page = graded(*args, **kwargs)
+        return dataclasses.replace(report, cpu_s=cpu_s), page
+
+    return grader
+
+
 def test_a_student_whose_grading_took_long_waits_as_long_before_the_next(served):
     server, codes = served
     server._clock = clock = VirtualClock(1000.0)
     graded = server._grader
-
-    def slow(*args, **kwargs):
-        clock.advance_to(clock.now() + 30.0)  # a grading of 30 s (a mission that spins until its CPU time is up)
-        return graded(*args, **kwargs)
-
-    server._grader = slow
+    server._grader = costing(graded, cpu_s=30.0)  # a mission that spins until its CPU time is up
     assert call(server, "/api/run", {"mission": SOLUTION}, codes["s1"])[0] == 200
     status, held = call(server, "/api/run", {"mission": SOLUTION}, codes["s1"])
     assert status == 429 and "took long" in held["error"] and held["retry_after_s"] == 30
@@ -380,6 +390,43 @@ def test_a_student_whose_grading_took_long_waits_as_long_before_the_next(served)
     clock.advance_to(clock.now() + 30.0)
     server._grader = graded
     assert call(server, "/api/run", {"mission": SOLUTION}, codes["s1"])[0] == 200
+
+
+def test_a_grading_that_took_long_in_wall_time_alone_holds_no_one_back(served):
+    """A busy machine stretches every grading's wall time: a student whose grading used little CPU goes on."""
+    server, codes = served
+    server._clock = clock = VirtualClock(1000.0)
+    server._grader = costing(server._grader, cpu_s=0.2, wall_s=60.0, clock=clock)
+    for path in ("/api/run", "/api/handin", "/api/run"):
+        status, answer = call(server, path, {"mission": SOLUTION}, codes["s1"])
+        assert status == 200 and answer["total"] == 10, answer
+    assert server._long == {}
+
+
+def test_real_gradings_on_a_machine_two_busy_processes_load_are_told_by_their_cpu_time(served):
+    server, codes = served
+    graded = server._grader
+    took = []
+
+    def grader(*args, **kwargs):
+        report, page = graded(*args, **kwargs)
+        took.append(report.cpu_s)
+        return report, page
+
+    server._grader = grader
+    spin = "import os\nos.nice(-5) if os.geteuid() == 0 else None\nwhile True: pass"
+    busy = [subprocess.Popen([sys.executable, "-c", spin]) for _ in range(2)]  # both cores taken
+    try:
+        answers = [call(server, path, {"mission": SOLUTION}, codes["s1"]) for path in ("/api/run", "/api/handin")]
+        answers += [call(server, "/api/run", {"mission": SOLUTION}, codes["s1"])]
+    finally:
+        for process in busy:
+            process.kill()
+            process.wait()
+    assert [(status, answer["total"]) for status, answer in answers] == [(200, 10)] * 3
+    assert len(took) == 3 and all(0.0 < cpu_s < 5.0 for cpu_s in took), took  # counted in the worker
+    assert server._long == {}  # no one held back, whatever the wall time was
+    assert "cpu_s" not in json.dumps(server.store.works("s1")[0].result)  # never kept
 
 
 def test_a_mission_of_too_many_nodes_is_refused_where_it_starts(served):
@@ -392,10 +439,10 @@ def test_a_mission_of_too_many_nodes_is_refused_where_it_starts(served):
 
 
 def test_guesses_are_counted_by_address_and_an_ipv6_machine_by_its_network():
-    assert _guesser("127.0.0.1") == "127.0.0.1"
-    assert _guesser("2001:db8::1") == _guesser("2001:db8::ffff:1234") == "2001:db8::/64"
-    assert _guesser("2001:db8:0:1::1") != _guesser("2001:db8::1")
-    assert _guesser("::ffff:192.0.2.7") == "192.0.2.7"
+    assert address_group("127.0.0.1") == "127.0.0.1"
+    assert address_group("2001:db8::1") == address_group("2001:db8::ffff:1234") == "2001:db8::/64"
+    assert address_group("2001:db8:0:1::1") != address_group("2001:db8::1")
+    assert address_group("::ffff:192.0.2.7") == "192.0.2.7"
 
 
 def test_the_pages_have_a_strict_policy_and_another_site_s_page_or_name_is_refused(served):
@@ -468,10 +515,11 @@ def test_students_whose_gradings_spin_hold_one_lane_and_the_class_is_graded_in_t
     graded, spinning, released = server._grader, threading.Event(), threading.Event()
 
     def grader(*args, **kwargs):
-        if args[1] == "s1" and not spinning.is_set():  # Ada's first: 30 s of grading
+        if args[1] == "s1" and not spinning.is_set():  # Ada's first: 30 s of CPU time
             spinning.set()
-            clock.advance_to(clock.now() + 30.0)
-        elif args[1] == "s1":  # her next spins until it is released
+            report, page = graded(*args, **kwargs)
+            return dataclasses.replace(report, cpu_s=30.0), page
+        if args[1] == "s1":  # her next spins until it is released
             released.wait(60)
         return graded(*args, **kwargs)
 

@@ -1,0 +1,154 @@
+"""The class's server attacked on loopback, an honest student asking beside each attack.
+
+Each attack here held the whole class before its bound: one student's requests whose bodies never
+end, bodies of a megabyte by the hundred, and one address's connections by the thousand.
+"""
+
+from __future__ import annotations
+
+import http.client
+import json
+import socket
+import threading
+import time
+
+import pytest
+
+from autonomy.liveclass.server import MAX_REQUEST_BYTES, TEACHER_TOKEN, ClassServer
+from autonomy.liveclass.store import ClassStore, token_digest
+from tests.liveclass.test_server import GARAGE, SOLUTION
+
+#: The honest student's machine; the attacker's is 127.0.0.1.
+HONEST = "127.0.0.2"
+
+
+@pytest.fixture
+def crowded(tmp_path):
+    """A class of 40, its server's body deadline made 1 s (15 s when served)."""
+    store = ClassStore(tmp_path)
+    codes = store.enrol([(f"s{n}", f"Student {n}") for n in range(40)])
+    store.set_setting(TEACHER_TOKEN, token_digest("teacher-token"))
+    server = ClassServer(GARAGE, store, tmp_path, port=0)
+    server.body_deadline_s = 1.0
+    server.start()
+    yield server, codes
+    server.stop()
+    store.close()
+
+
+def honest_call(server, path: str, body: object, code: str, method: str = "POST") -> tuple[int, dict]:
+    """One request from the honest student's own address, on a connection of its own."""
+    conn = http.client.HTTPConnection("127.0.0.1", server.port, timeout=60, source_address=(HONEST, 0))
+    try:
+        data = json.dumps(body).encode() if body is not None else None
+        headers = {"Authorization": f"Bearer {code}", "Content-Type": "application/json"}
+        conn.request(method, path, body=data, headers=headers)
+        answer = conn.getresponse()
+        text = answer.read()
+        return answer.status, json.loads(text) if text.startswith(b"{") else {"text": text.decode()}
+    finally:
+        conn.close()
+
+
+def endless(port: int, code: str, declared: int, sent: bytes, path: str = "/api/check") -> socket.socket:
+    """A request whose body declares ``declared`` bytes, of which ``sent`` come and no more."""
+    conn = socket.create_connection(("127.0.0.1", port), timeout=30)
+    head = (
+        f"POST {path} HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\nAuthorization: Bearer {code}\r\n"
+        f"Content-Type: application/json\r\nContent-Length: {declared}\r\n\r\n"
+    )
+    conn.sendall(head.encode() + sent)
+    return conn
+
+
+def status_of(conn: socket.socket) -> int:
+    """The status of the answer on ``conn`` (0: closed without one)."""
+    first = conn.recv(64)
+    return int(first.split(b" ")[1]) if first.startswith(b"HTTP/1.1 ") else 0
+
+
+def test_one_student_s_endless_bodies_hold_one_request_of_theirs_and_the_class_goes_on(crowded):
+    server, codes = crowded
+    started = time.monotonic()
+    attack = [endless(server.port, codes["s0"], 1000, b'{"mission": "') for _ in range(300)]
+    try:
+        honest = [honest_call(server, "/api/check", {"mission": SOLUTION}, codes["s1"])[0] for _ in range(20)]
+        assert honest == [200] * 20
+        answered = [status_of(conn) for conn in attack]
+        took_s = time.monotonic() - started
+        # one at a time is read, until its deadline: 408; the rest are refused before theirs is read
+        assert set(answered) == {408, 429} and answered.count(408) <= 1 + took_s / server.body_deadline_s
+        assert server._reading_bytes == 0 and server._busy == set()
+        status, checked = honest_call(server, "/api/check", {"mission": SOLUTION}, codes["s0"])
+        assert status == 200 and checked["ok"]  # the attacker's own code is served again at once
+    finally:
+        for conn in attack:
+            conn.close()
+
+
+def test_bodies_being_read_are_bounded_in_all_and_each_is_let_go_at_its_deadline(crowded):
+    server, codes = crowded
+    server.bodies_read_bytes = 8 * MAX_REQUEST_BYTES
+    almost = b"x" * (MAX_REQUEST_BYTES - 1)  # a whole megabyte but its last byte, never sent
+    attack = [endless(server.port, codes[f"s{n}"], MAX_REQUEST_BYTES, almost, "/api/run") for n in range(2, 32)]
+    try:
+        deadline = time.monotonic() + 30
+        while server._reading_bytes < 8 * MAX_REQUEST_BYTES and time.monotonic() < deadline:
+            time.sleep(0.01)
+        assert server._reading_bytes == 8 * MAX_REQUEST_BYTES  # eight bodies are read; no more is held
+        status, ran = honest_call(server, "/api/run", {"mission": SOLUTION}, codes["s1"])
+        answered = sorted(status_of(conn) for conn in attack)
+        assert answered == [408] * 8 + [503] * 22
+        assert server._reading_bytes == 0
+        if status == 503:  # it came while eight bodies were being read: asked again, it is graded
+            assert ran["retry_after_s"] == 1
+            status, ran = honest_call(server, "/api/run", {"mission": SOLUTION}, codes["s1"])
+        assert status == 200 and ran["total"] == 10
+    finally:
+        for conn in attack:
+            conn.close()
+
+
+def test_one_address_s_connections_take_its_share_and_another_address_is_served(crowded):
+    server, codes = crowded
+    server.max_connections_per_address = 20
+    held = [socket.create_connection(("127.0.0.1", server.port), timeout=30) for _ in range(20)]
+    try:
+        threading.Event().wait(0.3)
+        for _ in range(10):
+            with socket.create_connection(("127.0.0.1", server.port), timeout=30) as extra:
+                assert extra.recv(200).startswith(b"HTTP/1.1 503 Service Unavailable")
+        assert honest_call(server, "/api/check", {"mission": SOLUTION}, codes["s1"])[0] == 200
+        assert server.connections_from["127.0.0.1"] == 20
+    finally:
+        for conn in held:
+            conn.close()
+    deadline = time.monotonic() + 30
+    while server.connections_from and time.monotonic() < deadline:
+        time.sleep(0.01)
+    assert not server.connections_from  # every connection let go is counted out
+    with socket.create_connection(("127.0.0.1", server.port), timeout=30) as again:
+        again.sendall(f"GET / HTTP/1.1\r\nHost: 127.0.0.1:{server.port}\r\n\r\n".encode())
+        assert again.recv(64).startswith(b"HTTP/1.1 200 OK")
+
+
+def test_malformed_bodies_and_a_deadline_no_float_holds_get_a_400_in_one_line(crowded):
+    server, codes = crowded
+    conn = http.client.HTTPConnection("127.0.0.1", server.port, timeout=30)
+    try:
+        broken = b"\x1f\x8b\x08\x00" + b"not gzip at all" * 10
+        headers = {"Authorization": f"Bearer {codes['s1']}", "Content-Encoding": "gzip"}
+        conn.request("POST", "/api/check", body=broken, headers=headers)
+        answer = conn.getresponse()
+        assert answer.status == 400 and "Content-Encoding" in json.loads(answer.read())["error"]
+    finally:
+        conn.close()
+    for deadline in ("1" + "0" * 400, "1e400", "true", '"soon"'):
+        conn = http.client.HTTPConnection("127.0.0.1", server.port, timeout=30)
+        try:
+            body = f'{{"deadline_s": {deadline}}}'.encode()
+            conn.request("POST", "/api/deadline", body=body, headers={"Authorization": "Bearer teacher-token"})
+            answer = conn.getresponse()
+            assert answer.status == 400 and "deadline_s" in json.loads(answer.read())["error"], deadline
+        finally:
+            conn.close()
