@@ -58,7 +58,7 @@ class MissionInvalid(AutonomyError):
 
 @dataclass
 class NodeSpec:
-    """A validated node: its type, arguments (defaults filled in) and child nodes."""
+    """A validated node: its type, arguments (defaults filled in), child nodes, and the arguments the file gave."""
 
     type: NodeType
     args: dict[str, Any]
@@ -67,6 +67,7 @@ class NodeSpec:
     path: str
     line: int
     column: int
+    given: tuple[str, ...] = ()
 
     @property
     def display_name(self) -> str:
@@ -428,7 +429,8 @@ class _Validator:
             if len(present) != 1:
                 said = "only one of" if present else "one of"
                 self.problem(key_where, path, f"{node_type.name} takes {said} {', '.join(group)}")
-        return NodeSpec(node_type, args, children, name, path, *key_where)
+        written = tuple(key for key in given if key in args)
+        return NodeSpec(node_type, args, children, name, path, *key_where, given=written)
 
     def single(self, located: Located, path: str, key: str) -> bool:
         if isinstance(located.value, list):
