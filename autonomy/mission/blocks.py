@@ -732,9 +732,12 @@ def to_workspace(spec: MissionSpec, text: str = "") -> dict[str, Any]:
 
 
 def workspace_json(workspace: dict[str, Any]) -> str:
-    """The workspace as JSON text, however long its chains of blocks."""
+    """The workspace as JSON text on one line, however long its chains of blocks.
+
+    Chains nest deep: indented, the text would grow with the square of their length.
+    """
     with _deep_json():
-        return json.dumps(workspace, ensure_ascii=False, indent=1) + "\n"
+        return json.dumps(workspace, ensure_ascii=False, separators=(",", ":")) + "\n"
 
 
 # --------------------------------------------------------------------------- back from blocks
