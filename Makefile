@@ -10,7 +10,7 @@ UV_VERSION := 0.13.9
 
 CHROMIUM ?= /usr/bin/chromium
 
-.PHONY: run test test-latest test-pyyaml lock bench fuzz mutation docs clean chromium
+.PHONY: run test test-latest test-pyyaml lock bench fuzz mutation docs clean chromium vendor
 
 # .venv is made anew whenever the lock or pyproject.toml changes, so that it holds the lock and nothing else.
 $(STAMP): $(LOCK) pyproject.toml
@@ -93,9 +93,14 @@ bench: $(STAMP)
 	$(BIN)/python benchmarks/work.py
 	$(BIN)/python benchmarks/liveclass.py
 
+## vendor: the built browser libraries the package ships (Blockly), anew from package-lock.json; needs node and npm
+vendor:
+	npm ci --ignore-scripts --no-audit --no-fund
+	node tools/vendor.cjs
+
 ## docs: make the node reference in docs/missions.md anew from the registry
 docs: $(STAMP)
 	$(BIN)/python -c "from autonomy.mission.catalogue import update_reference; update_reference('docs/missions.md')"
 
 clean:
-	rm -rf $(VENV) .venv-latest .venv-lock .venv-mutation .pyyaml build *.egg-info .pytest_cache .ruff_cache .hypothesis mutants
+	rm -rf $(VENV) .venv-latest .venv-lock .venv-mutation .pyyaml build *.egg-info .pytest_cache .ruff_cache .hypothesis mutants node_modules

@@ -1,4 +1,4 @@
-"""``autonomy check``, ``show``, ``blocks``, ``export``, ``import``, ``behaviours`` and ``schema``: mission files."""
+"""Mission files: ``check``, ``show``, ``blocks``, ``edit``, ``export``, ``import``, ``behaviours``, ``schema``."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import json
 import sys
 from typing import Any
 
-from autonomy.cli.common import EXIT_OK, EXIT_USAGE, _fail, _load, _problems, _shown
+from autonomy.cli.common import EXIT_OK, EXIT_USAGE, _fail, _load, _problems, _shown, _tcp_port
 
 
 def cmd_check(args: argparse.Namespace) -> int:
@@ -104,6 +104,43 @@ def cmd_blocks(args: argparse.Namespace) -> int:
     except MissionInvalid as err:
         return _problems(err.problems)
     return _write_out(mission, args.output)
+
+
+def cmd_edit(args: argparse.Namespace) -> int:
+    """Serves a page with the mission as blocks and as text side by side, that checks and saves the file."""
+    import signal
+    from pathlib import Path
+
+    from autonomy.cli.common import _interrupt, _port_busy
+    from autonomy.mission import MissionInvalid
+    from autonomy.mission.blocks import load_words
+    from autonomy.views.editor import EditorServer
+
+    path = Path(args.mission)
+    if path.is_dir() or (path.exists() and not path.is_file()):
+        return _fail(f"{args.mission} is not a file: name the mission file to edit", EXIT_USAGE)
+    if not path.parent.is_dir():
+        return _fail(f"no folder {path.parent} to keep {path.name} in", EXIT_USAGE)
+    try:
+        words = load_words(args.words) if args.words else None
+    except MissionInvalid as err:
+        return _problems(err.problems)
+    server = EditorServer(path, args.host, args.port, words)
+    try:
+        server.start()
+    except OSError as err:
+        return _fail(f"cannot serve the editor on {args.host}:{args.port}: {_port_busy(err, '--port')}", EXIT_USAGE)
+    made = "" if path.exists() else " (a new file: it is made when you save)"
+    print(f"editing {path}{made}; the page is at (its key is new at each start):", file=sys.stderr)
+    print(server.page_url, flush=True)
+    signal.signal(signal.SIGTERM, _interrupt)
+    try:
+        server.wait()
+    except KeyboardInterrupt:
+        pass
+    finally:
+        server.stop()
+    return EXIT_OK
 
 
 def cmd_export(args: argparse.Namespace) -> int:
@@ -210,6 +247,14 @@ def add_parsers(sub: Any) -> None:
     )
     blocks.add_argument("--words", metavar="WORDS.yaml", help="what the blocks say (default: the English words)")
     blocks.set_defaults(func=cmd_blocks)
+    edit = sub.add_parser(
+        "edit", help="a page with a mission as blocks and as text side by side: check it, and save it to the file"
+    )
+    edit.add_argument("mission", metavar="MISSION.yaml")
+    edit.add_argument("--host", default="127.0.0.1", help="the interface (default 127.0.0.1, this machine only)")
+    edit.add_argument("--port", type=_tcp_port, default=8766, help="the page's port (default 8766; 0: any free one)")
+    edit.add_argument("--words", metavar="WORDS.yaml", help="what the blocks say (default: the English words)")
+    edit.set_defaults(func=cmd_edit)
     behaviours = sub.add_parser("behaviours", help="list every node type and its parameters")
     behaviours.add_argument("mission", nargs="?", metavar="MISSION", help="also list this mission's plugin behaviours")
     behaviours.add_argument("--markdown", action="store_true", help="as the reference of docs/missions.md")

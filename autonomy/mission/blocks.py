@@ -430,15 +430,22 @@ def _walk(spec: MissionSpec) -> Iterator[NodeSpec]:
 _TOP_KEY = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)\s*:")
 
 
+def _tokens(text: str, loader: Any) -> list[Any]:
+    return list(yaml.scan(text, Loader=loader))
+
+
 def comments_in(text: str) -> list[tuple[int, int, str, bool]]:
     """Every comment in a YAML text: (line, column, its words, whether it stands alone on its line); 1-based.
 
     Empty when the text cannot be scanned (a text with problems stays text).
     """
     try:
-        tokens = list(yaml.scan(text, Loader=getattr(yaml, "CSafeLoader", yaml.SafeLoader)))
-    except yaml.YAMLError:
-        return []
+        tokens = _tokens(text, getattr(yaml, "CSafeLoader", yaml.SafeLoader))
+    except yaml.YAMLError:  # libyaml's scanner takes fewer files than PyYAML's: that one, as the file was read
+        try:
+            tokens = _tokens(text, yaml.SafeLoader)
+        except yaml.YAMLError:
+            return []
     covered: dict[int, list[tuple[int, int]]] = {}
     for token in tokens:
         start, end = token.start_mark, token.end_mark
@@ -512,8 +519,8 @@ def key_is_top(key: str) -> bool:
 # --------------------------------------------------------------------------- the canonical text
 
 
-#: libyaml's writer where PyYAML has it (the same text, ten times as fast), else PyYAML's own.
-_BaseDumper: Any = getattr(yaml, "CSafeDumper", yaml.SafeDumper)
+#: PyYAML's own writer, never libyaml's: the canonical text is the same on every machine, with libyaml or not.
+_BaseDumper: Any = yaml.SafeDumper
 
 
 class _Dumper(_BaseDumper):
@@ -534,6 +541,13 @@ _TextDumper.add_representer(str, _folded)
 
 def _scalar(value: Any) -> str:
     """A value as YAML writes it in a flow (``[5, 7, 9]``, ``'a: b'``), on one line."""
+    return _flow(json.dumps(value, ensure_ascii=False))
+
+
+@lru_cache(maxsize=4096)
+def _flow(value_json: str) -> str:
+    """:func:`_scalar` of a value given as JSON (the same values recur: each is written once)."""
+    value = json.loads(value_json)
     text = yaml.dump(value, Dumper=_Dumper, default_flow_style=True, width=10**9, allow_unicode=True, sort_keys=False)
     return text.removesuffix("\n...\n").removesuffix("\n")
 

@@ -1,0 +1,237 @@
+"""``autonomy edit``: a page with a mission as blocks and as text side by side, that checks and saves the file.
+
+The page holds no mapping of its own: it sends the text to be made blocks (``api/blocks``) and the
+blocks to be made text (``api/text``), and both go through :mod:`autonomy.mission.blocks`. Every
+request carries the page's key (``Authorization: Bearer KEY``, from the address's ``#KEY``): a
+page of another site, or another user of the machine, cannot save over the file. The server is a
+:class:`~autonomy.views.web.BoundedServer`, bounded as the run's view is. Blockly is served from
+the package (``static/vendor/blockly``, its version, licence and each file's sha256 in
+``VENDOR.json``): the page loads nothing from the internet.
+
+``GET  /api/mission``  the file's name, its text, the blocks' definitions and toolbox, and its blocks or its problems
+``POST /api/blocks``   ``{"text": TEXT}`` -> ``{"ok": true, "workspace": ...}`` or ``{"ok": false, "problems": [...]}``
+``POST /api/text``     ``{"workspace": ...}`` -> ``{"ok": true, "text": TEXT}`` or the problems, at their blocks
+``POST /api/save``     ``{"text": TEXT}`` -> saved, with the text's problems if it has any (a draft is saved too)
+"""
+
+from __future__ import annotations
+
+import asyncio
+import functools
+import hmac
+import json
+import os
+import re
+import secrets
+from concurrent.futures import ThreadPoolExecutor
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+from aiohttp import web
+
+from autonomy.mission import MissionInvalid, validate_text
+from autonomy.mission.blocks import (
+    block_definitions,
+    from_workspace,
+    load_words,
+    to_workspace,
+    toolbox,
+    workspace_json,
+)
+from autonomy.source import MAX_FILE_BYTES, Problem
+from autonomy.views.page import static_text
+from autonomy.views.web import BoundedServer
+
+#: The editor's own files, and their types.
+EDITOR_FILES = {"editor.js": "text/javascript", "editor.css": "text/css"}
+#: The types of the vendored files served.
+VENDOR_TYPES = {
+    ".js": "text/javascript",
+    ".css": "text/css",
+    ".svg": "image/svg+xml",
+    ".gif": "image/gif",
+    ".cur": "image/x-icon",
+}
+#: Largest request body: a mission file's text (or its workspace, a few times its size) at most.
+MAX_EDIT_BYTES = 8 * MAX_FILE_BYTES
+#: The page's policy: its own scripts and styles and Blockly's pictures; nothing inline, nothing from elsewhere.
+EDITOR_POLICY = (
+    "default-src 'none'; script-src 'self'; style-src 'self'; img-src 'self' data:; connect-src 'self'; "
+    "base-uri 'none'; form-action 'none'; frame-ancestors 'none'"
+)
+
+
+def vendored(library: str = "blockly") -> dict[str, Any]:
+    """A vendored library's record: ``name``, ``version``, ``licence`` and each file's ``sha256`` (``files``)."""
+    root = resources.files("autonomy.views").joinpath("static", "vendor", library)
+    return json.loads(root.joinpath("VENDOR.json").read_text(encoding="utf-8"))
+
+
+def vendor_bytes(library: str, name: str) -> bytes:
+    """A vendored file, as served."""
+    return resources.files("autonomy.views").joinpath("static", "vendor", library, *name.split("/")).read_bytes()
+
+
+def _problems(problems: list[Problem]) -> list[dict[str, Any]]:
+    return [{"line": p.line, "column": p.column, "path": p.path, "message": p.message} for p in problems]
+
+
+class EditorServer(BoundedServer):
+    """Serves the editor of one mission file in a thread of its own.
+
+    Args:
+        path: The mission file (it is made when it does not exist yet, at the first save).
+        host: The interface (127.0.0.1 unless asked otherwise).
+        port: The TCP port (0: any free one).
+        words: What the blocks say (default: the English words).
+    """
+
+    max_request_bytes = MAX_EDIT_BYTES
+
+    def __init__(self, path: Path, host: str = "127.0.0.1", port: int = 8766, words: Any = None) -> None:
+        super().__init__(host, port, "editor")
+        self.path = Path(path)
+        self.key = secrets.token_urlsafe(18)
+        self._words = words or load_words()
+        self._work = ThreadPoolExecutor(1, thread_name_prefix="autonomy-editor")  # conversions, off the loop
+        self._files = vendored()["files"]
+
+    @property
+    def page_url(self) -> str:
+        """The page's address, with its key."""
+        return f"{self.url}#{self.key}"
+
+    def _routes(self, app: web.Application) -> None:
+        app.router.add_get("/", self._index)
+        app.router.add_get("/static/{name}", self._static)
+        app.router.add_get("/vendor/blockly/{name:.+}", self._vendor)
+        app.router.add_get("/api/mission", self._mission)
+        app.router.add_post("/api/blocks", self._blocks)
+        app.router.add_post("/api/text", self._text)
+        app.router.add_post("/api/save", self._save)
+
+    def _closing(self) -> None:
+        self._work.shutdown(wait=False, cancel_futures=True)
+
+    # ------------------------------------------------------------------ pages
+
+    async def _index(self, request: web.Request) -> web.Response:
+        headers = {"Content-Security-Policy": EDITOR_POLICY}
+        return web.Response(text=static_text("editor.html"), content_type="text/html", headers=headers)
+
+    async def _static(self, request: web.Request) -> web.Response:
+        name = request.match_info["name"]
+        if name not in EDITOR_FILES:
+            raise web.HTTPNotFound()
+        return web.Response(text=static_text(name), content_type=EDITOR_FILES[name])
+
+    async def _vendor(self, request: web.Request) -> web.Response:
+        name = request.match_info["name"]
+        kind = VENDOR_TYPES.get(Path(name).suffix)
+        if name not in self._files or kind is None:
+            raise web.HTTPNotFound()
+        body = vendor_bytes("blockly", name)
+        return web.Response(body=body, content_type=kind, headers={"Cache-Control": "max-age=3600"})
+
+    # ------------------------------------------------------------------ the API
+
+    def _allowed(self, request: web.Request) -> bool:
+        given = request.headers.get("Authorization", "").removeprefix("Bearer ").strip()
+        return bool(given) and hmac.compare_digest(given.encode(), self.key.encode())
+
+    async def _body(self, request: web.Request, key: str) -> Any:
+        """The JSON body's ``key``, or a refusal to raise."""
+        if not self._allowed(request):
+            raise web.HTTPUnauthorized(text="this editor's page has a key in its address: open the address printed")
+        try:
+            body = json.loads(await request.read())
+        except (ValueError, RecursionError):
+            body = None
+        except web.HTTPRequestEntityTooLarge:
+            raise web.HTTPRequestEntityTooLarge(MAX_EDIT_BYTES, request.content_length or 0) from None
+        if not isinstance(body, dict) or key not in body:
+            raise web.HTTPBadRequest(text=f'the body is JSON: {{"{key}": ...}}')
+        return body[key]
+
+    async def _off_loop(self, work: Any, *args: Any) -> Any:
+        return await asyncio.get_running_loop().run_in_executor(self._work, functools.partial(work, *args))
+
+    def _as_blocks(self, text: str) -> dict[str, Any]:
+        try:
+            spec = validate_text(text, self.path.name, self.path.parent, check_world=False)
+        except MissionInvalid as err:
+            return {"ok": False, "problems": _problems(err.problems)}
+        return {"ok": True, "workspace": to_workspace(spec, text)}
+
+    def _as_text(self, workspace: Any) -> dict[str, Any]:
+        """The blocks' text, or their problems, each with the id of the block it is at (``block``)."""
+        try:
+            sent = workspace_json(workspace)
+            text, _ = from_workspace(sent, "the blocks", base_dir=self.path.parent)
+        except MissionInvalid as err:
+            lines = sent.splitlines()
+            shown = _problems(err.problems)
+            for problem in shown:
+                at = lines[problem["line"] - 1][problem["column"] - 1 :] if problem["line"] <= len(lines) else ""
+                named = re.match(r'"id":("(?:[^"\\]|\\.)*")', at)
+                problem["block"] = json.loads(named[1]) if named else None
+            return {"ok": False, "problems": shown}
+        except (RecursionError, ValueError, TypeError):
+            return {"ok": False, "problems": [{"line": 1, "column": 1, "path": "", "message": "not a workspace"}]}
+        return {"ok": True, "text": text}
+
+    def _palette(self) -> dict[str, Any]:
+        try:
+            registry = validate_text(self.path.read_text(encoding="utf-8"), check_world=False).registry
+        except (OSError, UnicodeDecodeError, MissionInvalid):
+            registry = None
+        from autonomy.mission import BUILTINS
+
+        registry = registry or BUILTINS
+        return {"blocks": block_definitions(registry, self._words), "toolbox": toolbox(registry, self._words)}
+
+    async def _mission(self, request: web.Request) -> web.Response:
+        if not self._allowed(request):
+            raise web.HTTPUnauthorized(text="this editor's page has a key in its address: open the address printed")
+        try:
+            text = self.path.read_text(encoding="utf-8") if self.path.exists() else ""
+        except (OSError, UnicodeDecodeError) as err:
+            return web.json_response({"error": f"cannot read {self.path.name}: {err}"}, status=500)
+        shown = await self._off_loop(self._as_blocks, text) if text else {"ok": False, "problems": []}
+        palette = await self._off_loop(self._palette)
+        return web.json_response({"file": self.path.name, "text": text, "palette": palette, **shown})
+
+    async def _blocks(self, request: web.Request) -> web.Response:
+        text = await self._body(request, "text")
+        if not isinstance(text, str):
+            raise web.HTTPBadRequest(text='the body is JSON: {"text": "the mission\'s text"}')
+        return web.json_response(await self._off_loop(self._as_blocks, text))
+
+    async def _text(self, request: web.Request) -> web.Response:
+        workspace = await self._body(request, "workspace")
+        return web.json_response(await self._off_loop(self._as_text, workspace))
+
+    async def _save(self, request: web.Request) -> web.Response:
+        text = await self._body(request, "text")
+        try:
+            size = len(text.encode("utf-8")) if isinstance(text, str) else MAX_FILE_BYTES + 1
+        except UnicodeEncodeError:  # half of a surrogate pair: no file holds it
+            size = MAX_FILE_BYTES + 1
+        if size > MAX_FILE_BYTES:
+            raise web.HTTPBadRequest(text=f"the text is a mission file's: at most {MAX_FILE_BYTES:,} bytes of text")
+        try:
+            await self._off_loop(self._write, text)
+        except OSError as err:
+            return web.json_response({"ok": False, "error": f"cannot write {self.path.name}: {err.strerror}"}, 500)
+        checked = await self._off_loop(self._as_blocks, text)
+        return web.json_response({"saved": self.path.name, "problems": checked.get("problems", [])})
+
+    def _write(self, text: str) -> None:
+        """Writes the file whole or not at all: a new file beside it, then put in its place."""
+        made = self.path.with_name(f".{self.path.name}.{secrets.token_hex(4)}.saving")
+        try:
+            made.write_text(text, encoding="utf-8", errors="strict")
+            os.replace(made, self.path)
+        finally:
+            made.unlink(missing_ok=True)

@@ -1,0 +1,177 @@
+"""``autonomy edit``: the mission as blocks and as text side by side, in real Chromium, the command run as a process."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import subprocess
+import sys
+import threading
+import time
+import urllib.error
+import urllib.request
+from pathlib import Path
+
+import pytest
+
+from autonomy.mission import validate_text
+from autonomy.mission.blocks import canonical_text
+from autonomy.views.editor import vendored
+from tests.mission.test_blocks import SHIPPED, shape
+
+ROOT = Path(__file__).resolve().parents[2]
+#: Set before the page's scripts run: every breach of the page's policy is kept to be read.
+WATCH_POLICY = (
+    "window.breaches = []; document.addEventListener('securitypolicyviolation', "
+    "(e) => window.breaches.push(`${e.violatedDirective} ${e.blockedURI}`));"
+)
+
+
+@pytest.fixture
+def editing(tmp_path):
+    """``autonomy edit`` on a copy of the square, as a process; (its page's address, the file)."""
+    opened = []
+
+    def edit(text: str, name: str = "mission.yaml") -> tuple[str, Path]:
+        path = tmp_path / name
+        path.write_text(text)
+        process = subprocess.Popen(
+            [sys.executable, "-m", "autonomy", "edit", str(path), "--port", "0"],
+            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=tmp_path,
+        )  # fmt: skip
+        opened.append(process)
+        url = process.stdout.readline().strip()
+        assert url.startswith("http://127.0.0.1:") and "#" in url, process.stderr.read()
+        return url, path
+
+    yield edit
+    for process in opened:
+        process.terminate()
+        _, err = process.communicate(timeout=30)
+        assert "Traceback" not in err, err
+
+
+def open_page(browser, url: str):
+    page = browser.new_page(viewport={"width": 1400, "height": 900})
+    page.add_init_script(WATCH_POLICY)
+    page.goto(url)
+    page.wait_for_selector("body[data-ready=yes]", timeout=30_000)
+    return page
+
+
+def until(page, expression: str, timeout_s: float = 30.0) -> None:
+    """Waits until ``expression`` holds in the page, asking it every 50 ms (the page's policy runs no eval)."""
+    deadline = time.monotonic() + timeout_s
+    while not page.evaluate(expression):
+        assert time.monotonic() < deadline, f"never held: {expression}"
+        threading.Event().wait(0.05)
+
+
+def test_the_served_blockly_is_the_one_recorded_and_pinned(editing):
+    url, _ = editing((ROOT / "missions" / "square.yaml").read_text())
+    record = vendored()
+    lock = json.loads((ROOT / "package-lock.json").read_text())
+    assert record["name"] == "blockly" and record["licence"] == "Apache-2.0"
+    assert lock["packages"]["node_modules/blockly"]["version"] == record["version"]
+    assert json.loads((ROOT / "package.json").read_text())["devDependencies"]["blockly"] == record["version"]
+    base = url.split("#")[0]
+    for name, digest in record["files"].items():
+        if name == "LICENSE":  # kept beside the files, not served
+            body = (ROOT / "autonomy" / "views" / "static" / "vendor" / "blockly" / name).read_bytes()
+        else:
+            with urllib.request.urlopen(f"{base}vendor/blockly/{name}", timeout=30) as served:
+                body = served.read()
+        assert hashlib.sha256(body).hexdigest() == digest, name
+    with pytest.raises(urllib.error.HTTPError) as missing:
+        urllib.request.urlopen(f"{base}vendor/blockly/../editor.py", timeout=30)
+    assert missing.value.code == 404
+
+
+def test_the_api_needs_the_page_s_key(editing):
+    url, path = editing((ROOT / "missions" / "square.yaml").read_text())
+    base, key = url.split("#")
+    for given in ("", "Bearer wrong", f"Bearer {key}x"):
+        request = urllib.request.Request(f"{base}api/save", data=b'{"text": "mission: x"}', method="POST")
+        if given:
+            request.add_header("Authorization", given)
+        with pytest.raises(urllib.error.HTTPError) as refused:
+            urllib.request.urlopen(request, timeout=30)
+        assert refused.value.code == 401
+    request = urllib.request.Request(f"{base}api/save", data=b'{"text": "mission: x"}', method="POST")
+    request.add_header("Authorization", f"Bearer {key}")
+    request.add_header("Origin", "http://evil.example")
+    with pytest.raises(urllib.error.HTTPError) as foreign:
+        urllib.request.urlopen(request, timeout=30)
+    assert foreign.value.code == 403 and "mission: square" in path.read_text()
+
+
+def test_a_student_edits_blocks_and_text_and_saves_a_file_check_accepts(browser, editing):
+    original = (ROOT / "missions" / "square.yaml").read_text()
+    url, path = editing(original)
+    page = open_page(browser, url)
+    try:
+        canvas = page.locator(".blocklyMainBackground ~ .blocklyBlockCanvas, .blocklyBlockCanvas").last
+        assert canvas.locator(".blocklyDraggable").count() > 5  # the blocks are drawn
+        drawn = "".join(canvas.evaluate("(canvas) => canvas.textContent").replace("▾", "").split())
+        assert "moveforwardatspeed2for300mm" in drawn and "turnleft90degrees" in drawn, drawn  # the sentences
+        # a block changed: the text follows
+        page.evaluate(
+            "Blockly.getMainWorkspace().getAllBlocks(false).find(b => b.type === 'move+distance_mm')"
+            ".setFieldValue(3, 'speed')"
+        )
+        until(page, "document.getElementById('text').value.includes('speed: 3')")
+        # a mistake in the text: it stays text, said at its line and column; the blocks stay as they were
+        text = page.locator("#text")
+        text.fill(text.input_value().replace("- move:", "- mvoe:"))
+        page.wait_for_selector("#problems li", timeout=30_000)
+        problem = page.locator("#problems li").first.inner_text()
+        assert problem.startswith("line 14, column 11:") and "mvoe" in problem, problem
+        assert "line 14, column 11" in page.locator("#blocks-note").inner_text()
+        assert page.evaluate("Blockly.getMainWorkspace().getAllBlocks(false).some(b => b.type === 'move+distance_mm')")
+        # mended: the blocks are the text again
+        text.fill(text.input_value().replace("- mvoe:", "- move:").replace("volume: 3", "volume: 5"))
+        until(page, "document.getElementById('blocks-note').hidden")
+        until(page, "Blockly.getMainWorkspace().getAllBlocks(false).some(b => b.getFieldValue('volume') === 5)")
+        page.get_by_role("button", name="Save").click()
+        until(page, "document.getElementById('status').textContent.startsWith('Saved')")
+        assert page.evaluate("window.breaches") == []  # Blockly ran under the page's strict policy
+    finally:
+        page.close()
+    saved = path.read_text()
+    assert "speed: 3" in saved and "volume: 5" in saved
+    check = subprocess.run([sys.executable, "-m", "autonomy", "check", str(path)], capture_output=True, text=True)
+    assert check.returncode == 0 and "ok" in check.stdout
+    before, after = validate_text(original, check_world=False), validate_text(saved, check_world=False)
+    assert shape(after)[:4] == shape(before)[:4]  # the same mission but what was changed
+
+
+@pytest.mark.parametrize("source", SHIPPED[:4] + SHIPPED[-2:], ids=lambda p: p.name)
+def test_a_shipped_mission_loaded_switched_to_blocks_and_back_and_saved_is_its_canonical_text(browser, editing, source):
+    text = source.read_text()
+    url, path = editing(text, source.name)
+    if source.name == "explore.yaml":
+        (path.parent / "opening_finder.py").write_text((source.parent / "opening_finder.py").read_text())
+    page = open_page(browser, url)
+    try:
+        page.get_by_role("button", name="Blocks to text").click()
+        until(page, "document.getElementById('status').textContent.includes('The text is the blocks')")
+        page.get_by_role("button", name="Text to blocks").click()
+        until(page, "document.getElementById('status').textContent.includes('The blocks are the text')")
+        page.get_by_role("button", name="Blocks to text").click()
+        until(page, "document.getElementById('status').textContent.includes('The text is the blocks')")
+        page.get_by_role("button", name="Save").click()
+        until(page, "document.getElementById('status').textContent.startsWith('Saved')")
+        assert page.evaluate("window.breaches") == []
+    finally:
+        page.close()
+    spec = validate_text(text, str(source), source.parent, check_world=False)
+    assert path.read_text() == canonical_text(spec, text)
+
+
+def test_the_editor_s_script_puts_what_it_receives_in_as_text_never_as_markup():
+    from autonomy.views.page import static_text
+
+    script = static_text("editor.js")
+    for sink in ("innerHTML", "outerHTML", "insertAdjacentHTML", "document.write", "eval(", "srcdoc"):
+        assert sink not in script, sink
+    assert "textContent" in script

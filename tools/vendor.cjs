@@ -1,0 +1,47 @@
+// make vendor: the built browser libraries the package ships, taken from node_modules (npm ci, from
+// package-lock.json), each file with its sha256, its version and its licence in VENDOR.json.
+// Blockly's styles are taken out of its script into blockly.css: the pages' policy runs no inline style.
+'use strict';
+const crypto = require('crypto');
+const fs = require('fs');
+const path = require('path');
+
+const root = path.resolve(__dirname, '..');
+const from = path.join(root, 'node_modules', 'blockly');
+const to = path.join(root, 'autonomy', 'views', 'static', 'vendor', 'blockly');
+const RENDERER = 'thrasos';
+const MEDIA = ['sprites.svg', 'dropdown-arrow.svg', 'delete-icon.svg', 'foldout-icon.svg', 'resize-handle.svg',
+  'handopen.cur', 'handclosed.cur', 'handdelete.cur', '1x1.gif'];
+
+function styles() {
+  const {JSDOM} = require('jsdom');
+  const dom = new JSDOM('<!doctype html><html><head></head><body><div id="b"></div></body></html>');
+  global.window = dom.window;
+  global.document = dom.window.document;
+  const Blockly = require(path.join(from, 'blockly_compressed.js'));
+  Blockly.Css.inject(document.getElementById('b'), true, 'media/');
+  const sheets = [...document.querySelectorAll('style')].map((style) => style.textContent);
+  // The renderer's styles, which Blockly would put in a <style> of its own at inject: one per theme the pages use.
+  for (const theme of [Blockly.Themes.Classic]) {
+    const renderer = Blockly.blockRendering.init(RENDERER, theme);
+    sheets.push(renderer.getConstants().getCSS_(`.${renderer.getClassName()}.${theme.getClassName()}`).join('\n'));
+  }
+  return sheets.join('\n');
+}
+
+fs.rmSync(to, {recursive: true, force: true});
+fs.mkdirSync(path.join(to, 'media'), {recursive: true});
+fs.copyFileSync(path.join(from, 'blockly_compressed.js'), path.join(to, 'blockly_compressed.js'));
+fs.copyFileSync(path.join(from, 'msg', 'en.js'), path.join(to, 'en.js'));
+fs.copyFileSync(path.join(from, 'LICENSE'), path.join(to, 'LICENSE'));
+for (const name of MEDIA) fs.copyFileSync(path.join(from, 'media', name), path.join(to, 'media', name));
+fs.writeFileSync(path.join(to, 'blockly.css'), styles());
+
+const files = {};
+for (const name of ['blockly_compressed.js', 'en.js', 'blockly.css', 'LICENSE', ...MEDIA.map((m) => `media/${m}`)]) {
+  files[name] = crypto.createHash('sha256').update(fs.readFileSync(path.join(to, name))).digest('hex');
+}
+const meta = JSON.parse(fs.readFileSync(path.join(from, 'package.json'), 'utf8'));
+const vendor = {name: meta.name, version: meta.version, licence: meta.license, files};
+fs.writeFileSync(path.join(to, 'VENDOR.json'), JSON.stringify(vendor, null, 1) + '\n');
+console.log(`vendored ${meta.name} ${meta.version} (${meta.license}) into ${path.relative(root, to)}`);
