@@ -1,5 +1,6 @@
-// make vendor: the built browser libraries the package ships, taken from node_modules (npm ci, from
-// package-lock.json), each file with its sha256, its version and its licence in VENDOR.json.
+// make vendor: the built browser libraries the package ships (Blockly) and the tests use (axe-core), taken
+// from node_modules (npm ci, from package-lock.json), each file with its sha256, its version and its licence
+// in VENDOR.json beside it.
 // Blockly's styles are taken out of its script into blockly.css: the pages' policy runs no inline style.
 'use strict';
 const crypto = require('crypto');
@@ -37,11 +38,23 @@ fs.copyFileSync(path.join(from, 'LICENSE'), path.join(to, 'LICENSE'));
 for (const name of MEDIA) fs.copyFileSync(path.join(from, 'media', name), path.join(to, 'media', name));
 fs.writeFileSync(path.join(to, 'blockly.css'), styles());
 
-const files = {};
-for (const name of ['blockly_compressed.js', 'en.js', 'blockly.css', 'LICENSE', ...MEDIA.map((m) => `media/${m}`)]) {
-  files[name] = crypto.createHash('sha256').update(fs.readFileSync(path.join(to, name))).digest('hex');
+function record(library, folder, names) {
+  const files = {};
+  for (const name of names) {
+    files[name] = crypto.createHash('sha256').update(fs.readFileSync(path.join(folder, name))).digest('hex');
+  }
+  const meta = JSON.parse(fs.readFileSync(path.join(root, 'node_modules', library, 'package.json'), 'utf8'));
+  const vendor = {name: meta.name, version: meta.version, licence: meta.license, files};
+  fs.writeFileSync(path.join(folder, 'VENDOR.json'), JSON.stringify(vendor, null, 1) + '\n');
+  console.log(`vendored ${meta.name} ${meta.version} (${meta.license}) into ${path.relative(root, folder)}`);
 }
-const meta = JSON.parse(fs.readFileSync(path.join(from, 'package.json'), 'utf8'));
-const vendor = {name: meta.name, version: meta.version, licence: meta.license, files};
-fs.writeFileSync(path.join(to, 'VENDOR.json'), JSON.stringify(vendor, null, 1) + '\n');
-console.log(`vendored ${meta.name} ${meta.version} (${meta.license}) into ${path.relative(root, to)}`);
+
+record('blockly', to, ['blockly_compressed.js', 'en.js', 'blockly.css', 'LICENSE', ...MEDIA.map((m) => `media/${m}`)]);
+
+// axe-core, for the tests alone: the pages' accessibility checked in Chromium, served from here.
+const axeFrom = path.join(root, 'node_modules', 'axe-core');
+const axeTo = path.join(root, 'tests', 'vendor', 'axe-core');
+fs.rmSync(axeTo, {recursive: true, force: true});
+fs.mkdirSync(axeTo, {recursive: true});
+for (const name of ['axe.min.js', 'LICENSE']) fs.copyFileSync(path.join(axeFrom, name), path.join(axeTo, name));
+record('axe-core', axeTo, ['axe.min.js', 'LICENSE']);

@@ -116,7 +116,7 @@ def _words(text: str, label: str) -> Words:
         return found.value if found is not None and isinstance(found.value, str) else default
 
     words = Words(
-        sentence("mission", "mission %name in world %world, %tick_hz ticks a second: %description"),
+        sentence("mission", "mission %name in world %world, %tick_hz ticks a second"),
         sentence("define", "the steps called %name are"),
         table("nodes"),
         table("params"),
@@ -263,12 +263,11 @@ def block_definitions(registry: Registry, words: Words | None = None) -> list[di
     Each block's tooltip is the node's line of doc, as ``autonomy behaviours`` and docs/missions.md say it.
     """
     words = words or load_words()
-    mission_message, mission_fields = _message(words.mission, ["name", "world", "tick_hz", "description"])
+    mission_message, mission_fields = _message(words.mission, ["name", "world", "tick_hz"])
     mission_params = {
         "name": Param("name", "string", "the mission's name"),
         "world": Param("world", "string", "the world"),
         "tick_hz": Param("tick_hz", "number", "ticks a second", default=DEFAULT_TICK_HZ, minimum=1, maximum=200),
-        "description": Param("description", "string", "what it does"),
     }
     for name in mission_params:
         if name not in mission_fields:
@@ -285,7 +284,7 @@ def block_definitions(registry: Registry, words: Words | None = None) -> list[di
             "message1": "%1",
             "args1": [{"type": "input_statement", "name": "tree"}],
             "colour": 20,
-            "tooltip": "The mission: its name, its world, how often its tree is ticked, what it does, and its tree.",
+            "tooltip": "The mission: its name, its world, how often its tree is ticked, and its tree.",
         },
         {
             "type": DEFINE_BLOCK,
@@ -726,11 +725,11 @@ def outline_workspace(outline: MissionOutline) -> dict[str, Any]:
             "name": outline.name,
             "world": outline.world or "",
             "tick_hz": outline.tick_hz,
-            "description": outline.description,
         },
     }
-    if outline.plugins:
-        mission["data"] = json.dumps({"plugins": outline.plugins}, ensure_ascii=False)
+    kept = {"description": outline.description, "plugins": outline.plugins}  # shown in the text, kept with the block
+    if outline.description or outline.plugins:
+        mission["data"] = json.dumps({k: v for k, v in kept.items() if v}, ensure_ascii=False)
     if outline.comments:
         text = "\n".join(outline.comments)
         mission["icons"] = {"comment": {"text": text, "pinned": False, "height": 80, "width": 240}}
@@ -907,10 +906,11 @@ class _Reader:
         if isinstance(hz, bool) or not isinstance(hz, (int, float)):
             self.problem(state, "mission.tick_hz", f"tick_hz is a number, got {hz!r}"[:200])
             hz = DEFAULT_TICK_HZ
-        plugins = self.data(state, "mission").get("plugins", [])
+        data = self.data(state, "mission")
+        plugins, description = data.get("plugins", []), data.get("description", "")
         outline = MissionOutline(
             self.text_field(state, "name", "mission"),
-            self.text_field(state, "description", "mission"),
+            description if isinstance(description, str) else "",
             hz,
             self.text_field(state, "world", "mission") or None,
             [p for p in plugins if isinstance(p, str)] if isinstance(plugins, list) else [],
@@ -929,8 +929,10 @@ class _Reader:
                 continue
             path = f"blocks[{index}]"
             if not isinstance(other, dict) or other.get("type") != DEFINE_BLOCK:
-                kind = other.get("type") if isinstance(other, dict) else other
-                self.problem(other, path, f"a block ({kind}) lies outside the mission: put it in, or delete it"[:200])
+                kind = other.get("type") if isinstance(other, dict) else None
+                named = str(kind).split(VARIANT_JOIN)[0] if isinstance(kind, str) else "block"
+                said = f"a '{named}' block lies outside the mission: put it in the mission, or delete it"
+                self.problem(other, path, said[:200])
                 continue
             name = self.text_field(other, "name", path)
             held = (other.get("inputs") or {}).get("body")

@@ -234,7 +234,7 @@ def test_a_workspace_s_problems_are_said_at_its_blocks(tmp_path):
     assert "speed must be 1..4, got 7" in problem.message
     loose = json.loads(workspace_json(workspace))
     loose["blocks"]["blocks"].append({"type": "stop", "id": "lost"})
-    with pytest.raises(MissionInvalid, match="lies outside the mission"):
+    with pytest.raises(MissionInvalid, match="a 'stop' block lies outside the mission"):
         from_workspace(json.dumps(loose), "w.json")
     with pytest.raises(MissionInvalid, match="no node makes a block 'flying'"):
         from_workspace(text.replace('"turn+left"', '"flying"'), "w.json")

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import re
 import subprocess
 import sys
 import threading
@@ -17,6 +18,7 @@ import pytest
 from autonomy.mission import validate_text
 from autonomy.mission.blocks import canonical_text
 from autonomy.views.editor import vendored
+from tests.axe import violations
 from tests.mission.test_blocks import SHIPPED, shape
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -175,3 +177,66 @@ def test_the_editor_s_script_puts_what_it_receives_in_as_text_never_as_markup():
     for sink in ("innerHTML", "outerHTML", "insertAdjacentHTML", "document.write", "eval(", "srcdoc"):
         assert sink not in script, sink
     assert "textContent" in script
+
+
+def focused(page) -> str:
+    """What has the keyboard's focus, as a screen reader names it."""
+    return page.evaluate(
+        "(() => { const a = document.activeElement;"
+        " return `${a.tagName} ${a.id} ${a.getAttribute('aria-label') || a.textContent.slice(0, 40)}`; })()"
+    )
+
+
+def press(page, key: str, until_focused: str = "") -> None:
+    """Presses a key; with ``until_focused``, waits until what has the focus is named so."""
+    page.keyboard.press(key)
+    if until_focused:
+        deadline = time.monotonic() + 30
+        while until_focused not in focused(page):
+            assert time.monotonic() < deadline, f"after {key}: {focused(page)}, not {until_focused}"
+            threading.Event().wait(0.05)
+
+
+def test_a_block_is_added_and_the_file_saved_with_the_keyboard_alone(browser, editing):
+    url, path = editing("mission: m\ntree:\n  sequence:\n    - stop\n")
+    page = open_page(browser, url)
+    try:
+        for _ in range(4):  # the three buttons, then the toolbox
+            press(page, "Tab")
+        assert "blocklyToolbox" in page.evaluate("document.activeElement.className")
+        press(page, "w", "stack of blocks")  # the workspace
+        press(page, "ArrowDown", "mission")
+        press(page, "ArrowDown", "do these in order")
+        press(page, "ArrowDown", "stop")
+        press(page, "ArrowDown", "End do these in order")  # the place after the stop
+        press(page, "t")  # the toolbox: Order, Change, Do
+        press(page, "ArrowDown")
+        press(page, "ArrowDown")
+        press(page, "ArrowRight", "move, forward, at speed")  # the first of Do's blocks
+        press(page, "Enter")  # taken, at the place marked
+        press(page, "Enter")  # and left there
+        until(page, "document.getElementById('text').value.includes('- move: {speed: 2}')")
+        page.keyboard.press("Shift+Tab")
+        while "save" not in focused(page):
+            page.keyboard.press("Shift+Tab")
+        press(page, "Enter")
+        until(page, "document.getElementById('status').textContent.startsWith('Saved')")
+        assert violations(page) == []
+    finally:
+        page.close()
+    assert path.read_text() == "mission: m\ntree:\n  sequence:\n    - stop\n    - move: {speed: 2}\n"
+
+
+def test_axe_finds_nothing_on_the_editor_with_blocks_a_problem_and_the_toolbox_open(browser, editing):
+    url, _ = editing((ROOT / "missions" / "patrol.yaml").read_text())
+    page = open_page(browser, url)
+    try:
+        assert violations(page) == []
+        page.locator("#text").fill("mission: m\ntree:\n  sequence:\n    - mvoe: {speed: 2}\n")
+        page.wait_for_selector("#problems li", timeout=30_000)
+        assert violations(page) == []
+        page.locator(".blocklyToolboxCategory").filter(has_text=re.compile("^Do$")).click()  # a category's blocks
+        page.wait_for_selector(".blocklyFlyout .blocklyDraggable", timeout=30_000)
+        assert violations(page) == []
+    finally:
+        page.close()

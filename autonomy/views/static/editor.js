@@ -65,6 +65,10 @@ function load(state) {
 
 async function toText() {
   clearTimeout(blocksTimer);
+  if (workspace.isDragging()) { // a block on its way (by mouse or keys) is not yet where it goes
+    blocksTimer = setTimeout(toText, 400);
+    return false;
+  }
   const state = Blockly.serialization.workspaces.save(workspace);
   const answer = await api('/api/text', {workspace: state});
   if (answer.ok) {
@@ -111,6 +115,16 @@ async function save() {
   }
 }
 
+// In the toolbox's list of blocks, Blockly 13 names each block's places for others ("statement position",
+// role figure) though nothing can be put there: a list of options may hold options alone, and a screen
+// reader would count those places as items. They are made presentation there (not in the workspace).
+function quietFlyoutPlaces(root) {
+  for (const place of root.querySelectorAll('.blocklyFlyout .blocklyHighlightedConnectionPath[role="figure"]')) {
+    place.setAttribute('role', 'none');
+    place.removeAttribute('aria-roledescription');
+  }
+}
+
 async function start() {
   const mission = await api('/api/mission');
   if (mission.error) {
@@ -131,6 +145,13 @@ async function start() {
     theme: Blockly.Themes.Classic,
     trashcan: false,
     move: {scrollbars: true, drag: true, wheel: true},
+  });
+  const blocks = element('blocks');
+  quietFlyoutPlaces(blocks);
+  new MutationObserver(() => quietFlyoutPlaces(blocks)).observe(blocks, {
+    subtree: true,
+    childList: true,
+    attributeFilter: ['role'],
   });
   element('text').value = mission.text;
   if (mission.ok) {
