@@ -5,6 +5,9 @@ sign-in code ``codes.csv`` gives them); the teacher's, the teacher's token. Bodi
 most 1 MB. docs/class.md describes each route.
 
 ``POST /api/check``   ``{"mission": TEXT}`` -> the problems at their lines, or the tree drawn
+``POST /api/blocks``  ``{"mission": TEXT}`` -> the mission as blocks (Blockly's JSON), or its problems
+``POST /api/text``    ``{"workspace": BLOCKS}`` -> the blocks as the mission's text, or their problems, at their blocks
+``GET  /api/palette`` the blocks a page defines, and its toolbox: the exercise's allowed nodes
 ``POST /api/run``     the mission, tried on the public seeds -> the marks of each (runs a minute are limited)
 ``POST /api/handin``  the mission, graded on every seed and kept -> what the student may see
 ``GET  /api/me``      the exercise (text, world picture, criteria), the student, their works and their last mission
@@ -49,7 +52,18 @@ from autonomy.classroom.report import to_csv
 from autonomy.clock import wall_time_s
 from autonomy.errors import AutonomyError
 from autonomy.liveclass.store import ClassStore, Student, Work, code_digest, token_digest
-from autonomy.liveclass.work import MAX_MISSION_CHARS, check, exercise_shown, grade_text, page_file, work_file
+from autonomy.liveclass.work import (
+    MAX_MISSION_CHARS,
+    as_blocks,
+    as_text,
+    check,
+    exercise_shown,
+    grade_text,
+    page_file,
+    palette,
+    work_file,
+)
+from autonomy.views.editor import vendor_response
 from autonomy.views.lines import printable
 from autonomy.views.page import static_text
 from autonomy.views.web import BoundedServer, address_group
@@ -113,10 +127,13 @@ PAGE_FILES = {
     "class.js": "text/javascript",
     "teacher.js": "text/javascript",
     "class.css": "text/css",
+    "blocks.js": "text/javascript",
 }
+#: The pages' files that are the views' (shared with ``autonomy edit``), by name.
+SHARED_FILES = {"blocks.js": "autonomy.views"}
 #: The pages' policy: their own scripts and styles, pictures as data, frames of this server (feedback pages).
 PAGE_POLICY = (
-    "default-src 'none'; script-src 'self'; style-src 'self'; img-src data:; connect-src 'self'; "
+    "default-src 'none'; script-src 'self'; style-src 'self'; img-src 'self' data:; connect-src 'self'; "
     "frame-src 'self'; base-uri 'none'; form-action 'none'; frame-ancestors 'none'"
 )
 #: A feedback page's policy, on top of its own: a sandbox of its own origin, framed by the class's pages alone.
@@ -126,7 +143,7 @@ _PAGE_NAME = re.compile(r"(\d{1,12})-([0-9a-f]{32})\.html")
 
 def page_text(name: str) -> str:
     """One of the pages' files (:data:`PAGE_FILES`), as text."""
-    return static_text(name, "autonomy.liveclass")
+    return static_text(name, SHARED_FILES.get(name, "autonomy.liveclass"))
 
 
 #: Every answer of the API: a student's work is never kept by a browser's cache.
@@ -222,6 +239,7 @@ class ClassServer(BoundedServer):
         super().__init__(host, port, "class")
         self._key = key if key is not None else secrets.token_bytes(32)
         self._exercise_shown = exercise_shown(exercise)  # the same for every student: made once
+        self._palette = json.dumps(palette(exercise)).encode()  # the blocks of the page's Blocks, made once
         self._grader = grader or grade_text
         self._autograder = autograder
         #: Bumped at each change of the class table; teachers' pages wait on it.
@@ -258,10 +276,14 @@ class ClassServer(BoundedServer):
         app.router.add_get("/teacher", functools.partial(self._file, "teacher.html"))
         app.router.add_get("/static/{name}", self._static)
         app.router.add_get("/pages/{name}", self._page)
+        app.router.add_get("/vendor/blockly/{name:.+}", self._vendor)
         app.router.add_post("/api/check", self._check)
+        app.router.add_post("/api/blocks", self._blocks)
+        app.router.add_post("/api/text", self._text)
         app.router.add_post("/api/run", self._run)
         app.router.add_post("/api/handin", self._handin)
         app.router.add_get("/api/me", self._me)
+        app.router.add_get("/api/palette", self._palette_of)
         app.router.add_get("/api/class", self._class)
         app.router.add_post("/api/deadline", self._deadline)
         app.router.add_get("/api/export/{name}", self._export)
@@ -407,6 +429,46 @@ class ClassServer(BoundedServer):
         checked["hand_ins_open"] = self._hand_ins_open()
         body = json.dumps(checked).encode()
         return await self._send_in_pieces(request, body, "application/json", NO_STORE)  # trees are big
+
+    async def _blocks(self, request: web.Request) -> web.Response:
+        """The mission's text as blocks (``{"mission": TEXT}``), or its problems: a text with problems stays text."""
+        student = await self._one_at_a_time(request)
+        if isinstance(student, web.Response):
+            return student
+        try:
+            mission = await self._mission(request)
+            if isinstance(mission, web.Response):
+                return mission
+            shown = await asyncio.get_running_loop().run_in_executor(self._checkers, as_blocks, self.exercise, mission)
+        finally:
+            self._done(student)
+        return await self._send_in_pieces(request, json.dumps(shown).encode(), "application/json", NO_STORE)
+
+    async def _text(self, request: web.Request) -> web.Response:
+        """The blocks as the mission's text (``{"workspace": ...}``), or their problems, each at its block."""
+        student = await self._one_at_a_time(request)
+        if isinstance(student, web.Response):
+            return student
+        try:
+            body = await self._body(request)
+            if isinstance(body, web.Response):
+                return body
+            shown = await asyncio.get_running_loop().run_in_executor(self._checkers, as_text, self.exercise, body)
+        finally:
+            self._done(student)
+        return _json(shown)
+
+    async def _palette_of(self, request: web.Request) -> web.StreamResponse:
+        """The blocks a page defines and its toolbox (the exercise's allowed nodes), to a student or the teacher."""
+        if not self._teacher(request):
+            student = await self._student(request)
+            if isinstance(student, web.Response):
+                return student
+        headers = {"Cache-Control": "private, max-age=3600"}
+        return await self._send_in_pieces(request, self._palette, "application/json", headers)
+
+    async def _vendor(self, request: web.Request) -> web.Response:
+        return vendor_response(request.match_info["name"])
 
     async def _run(self, request: web.Request) -> web.Response:
         return await self._graded(request, hand_in=False)

@@ -12,10 +12,20 @@ from typing import Any
 
 from autonomy.behaviours.tree import describe_tree
 from autonomy.classroom.exercise import Exercise
-from autonomy.classroom.grade import Report, check_text, file_names, grade_class, page_path, refuse_daemon
-from autonomy.mission import BUILTINS, build_tree
+from autonomy.classroom.grade import (
+    PLUGINS_REFUSED,
+    Report,
+    check_text,
+    file_names,
+    grade_class,
+    page_path,
+    refuse_daemon,
+)
+from autonomy.mission import BUILTINS, MissionInvalid, build_tree
+from autonomy.mission.blocks import block_definitions, from_workspace, read_json, to_workspace, toolbox, workspace_json
 from autonomy.mission.catalogue import node_help
 from autonomy.source import Problem
+from autonomy.views.editor import blocks_problems
 from autonomy.views.lines import printable
 from autonomy.views.mapsvg import world_svg
 from autonomy.views.treesvg import svg_tree
@@ -37,13 +47,57 @@ def check(exercise: Exercise, text: str) -> dict[str, Any]:
     """
     if len(text) > MAX_MISSION_CHARS:
         return _refused(f"the mission is {len(text):,} characters long; at most {MAX_MISSION_CHARS:,} are taken")
-    spec, problems = check_text(exercise, text, MISSION_LABEL, Path("/nonexistent-plugins"))
+    spec, problems = check_text(exercise, text, MISSION_LABEL, NO_PLUGINS)
     if spec is None:
         return _refused(*problems)
     nodes = describe_tree(build_tree(spec))
     if len(nodes) > MAX_NODES:
         return _refused(f"the tree has {len(nodes):,} nodes; a class's mission has at most {MAX_NODES:,}", path="tree")
     return {"ok": True, "problems": [], "tree_svg": svg_tree(nodes, spec.name)}
+
+
+#: Where a student's mission's plugins would be: nowhere (they are refused, never imported).
+NO_PLUGINS = Path("/nonexistent-plugins")
+
+
+def as_blocks(exercise: Exercise, text: str) -> dict[str, Any]:
+    """The ``api/blocks`` answer: the mission as Blockly's JSON of a workspace, or its problems (it stays text)."""
+    checked = check(exercise, text)
+    if not checked["ok"]:
+        return {"ok": False, "problems": checked["problems"]}
+    spec, _ = check_text(exercise, text, MISSION_LABEL, NO_PLUGINS)
+    return {"ok": True, "workspace": to_workspace(spec, text)} if spec is not None else _refused("not a mission")
+
+
+def as_text(exercise: Exercise, body: bytes) -> dict[str, Any]:
+    """The ``api/text`` answer to a body ``{"workspace": ...}``: the mission's canonical text, or its problems.
+
+    A problem of the blocks names its block (``block``: its id); one of the text they make (a node the
+    exercise does not allow) is at its line and column of that text.
+    """
+    try:
+        sent = read_json(body)
+    except (ValueError, RecursionError):
+        return _refused('the body is JSON: {"workspace": the blocks, as Blockly saves them}')
+    workspace = sent.get("workspace") if isinstance(sent, dict) else None
+    if not isinstance(workspace, dict):
+        return _refused('the body is JSON: {"workspace": the blocks, as Blockly saves them}')
+    try:
+        written = workspace_json(workspace)
+        text, _ = from_workspace(written, "the blocks", base_dir=NO_PLUGINS, refuse_plugins=PLUGINS_REFUSED)
+    except MissionInvalid as err:
+        return {"ok": False, "problems": blocks_problems(written, err.problems)}
+    except (RecursionError, ValueError, TypeError):
+        return _refused("the blocks are nested deeper than a mission goes")
+    checked = check(exercise, text)
+    if not checked["ok"]:
+        return {"ok": False, "problems": [{**p, "block": None} for p in checked["problems"]], "mission": text}
+    return {"ok": True, "mission": text}
+
+
+def palette(exercise: Exercise) -> dict[str, Any]:
+    """The blocks a student's page defines (every node's, to show any mission) and its toolbox (the exercise's)."""
+    return {"blocks": block_definitions(BUILTINS), "toolbox": toolbox(BUILTINS, allowed=exercise.allowed_nodes)}
 
 
 def _refused(*problems: Problem | str, path: str = "") -> dict[str, Any]:

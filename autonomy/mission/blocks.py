@@ -324,7 +324,8 @@ def toolbox(registry: Registry, words: Words | None = None, allowed: tuple[str, 
     categories = []
     names = {"composite": "Order", "decorator": "Change", "action": "Do", "condition": "Check", "reference": "Steps"}
     for category, title in names.items():
-        contents = [{"kind": "block", "type": DEFINE_BLOCK}] if category == "reference" else []
+        steps = category == "reference" and (allowed is None or "subtree" in allowed)
+        contents = [{"kind": "block", "type": DEFINE_BLOCK}] if steps else []
         for node_type in registry:
             if node_type.category != category or (allowed is not None and node_type.name not in allowed):
                 continue
@@ -746,6 +747,12 @@ def outline_workspace(outline: MissionOutline) -> dict[str, Any]:
 def to_workspace(spec: MissionSpec, text: str = "") -> dict[str, Any]:
     """Blockly's JSON of a workspace that holds the mission ``spec``, and the comments of ``text``, its file's text."""
     return outline_workspace(outline_of(spec, text))
+
+
+def read_json(text: str | bytes) -> Any:
+    """JSON as deep as a workspace's chains of blocks nest (past that: RecursionError; not JSON: ValueError)."""
+    with _deep_json():
+        return json.loads(text)
 
 
 def workspace_json(workspace: dict[str, Any]) -> str:

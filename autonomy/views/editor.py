@@ -44,7 +44,7 @@ from autonomy.views.page import static_text
 from autonomy.views.web import BoundedServer
 
 #: The editor's own files, and their types.
-EDITOR_FILES = {"editor.js": "text/javascript", "editor.css": "text/css"}
+EDITOR_FILES = {"editor.js": "text/javascript", "editor.css": "text/css", "blocks.js": "text/javascript"}
 #: The types of the vendored files served.
 VENDOR_TYPES = {
     ".js": "text/javascript",
@@ -73,8 +73,32 @@ def vendor_bytes(library: str, name: str) -> bytes:
     return resources.files("autonomy.views").joinpath("static", "vendor", library, *name.split("/")).read_bytes()
 
 
+def vendor_response(name: str) -> web.Response:
+    """A vendored Blockly file (``/vendor/blockly/NAME``), or not found: only the files ``VENDOR.json`` lists."""
+    kind = VENDOR_TYPES.get(Path(name).suffix)
+    if name not in vendored()["files"] or kind is None:
+        raise web.HTTPNotFound()
+    return web.Response(
+        body=vendor_bytes("blockly", name), content_type=kind, headers={"Cache-Control": "max-age=3600"}
+    )
+
+
 def _problems(problems: list[Problem]) -> list[dict[str, Any]]:
     return [{"line": p.line, "column": p.column, "path": p.path, "message": p.message} for p in problems]
+
+
+def blocks_problems(sent: str, problems: list[Problem]) -> list[dict[str, Any]]:
+    """A workspace's problems as a page shows them, each with the id of its block (``block``).
+
+    The block is found where the problem stands in ``sent``, the workspace's JSON (None: the whole workspace's).
+    """
+    lines = sent.splitlines()
+    shown = _problems(problems)
+    for problem in shown:
+        at = lines[problem["line"] - 1][problem["column"] - 1 :] if problem["line"] <= len(lines) else ""
+        named = re.match(r'"id":("(?:[^"\\]|\\.)*")', at)
+        problem["block"] = json.loads(named[1]) if named else None
+    return shown
 
 
 class EditorServer(BoundedServer):
@@ -95,7 +119,6 @@ class EditorServer(BoundedServer):
         self.key = secrets.token_urlsafe(18)
         self._words = words or load_words()
         self._work = ThreadPoolExecutor(1, thread_name_prefix="autonomy-editor")  # conversions, off the loop
-        self._files = vendored()["files"]
 
     @property
     def page_url(self) -> str:
@@ -127,12 +150,7 @@ class EditorServer(BoundedServer):
         return web.Response(text=static_text(name), content_type=EDITOR_FILES[name])
 
     async def _vendor(self, request: web.Request) -> web.Response:
-        name = request.match_info["name"]
-        kind = VENDOR_TYPES.get(Path(name).suffix)
-        if name not in self._files or kind is None:
-            raise web.HTTPNotFound()
-        body = vendor_bytes("blockly", name)
-        return web.Response(body=body, content_type=kind, headers={"Cache-Control": "max-age=3600"})
+        return vendor_response(request.match_info["name"])
 
     # ------------------------------------------------------------------ the API
 
@@ -170,13 +188,7 @@ class EditorServer(BoundedServer):
             sent = workspace_json(workspace)
             text, _ = from_workspace(sent, "the blocks", base_dir=self.path.parent)
         except MissionInvalid as err:
-            lines = sent.splitlines()
-            shown = _problems(err.problems)
-            for problem in shown:
-                at = lines[problem["line"] - 1][problem["column"] - 1 :] if problem["line"] <= len(lines) else ""
-                named = re.match(r'"id":("(?:[^"\\]|\\.)*")', at)
-                problem["block"] = json.loads(named[1]) if named else None
-            return {"ok": False, "problems": shown}
+            return {"ok": False, "problems": blocks_problems(sent, err.problems)}
         except (RecursionError, ValueError, TypeError):
             return {"ok": False, "problems": [{"line": 1, "column": 1, "path": "", "message": "not a workspace"}]}
         return {"ok": True, "text": text}

@@ -16,13 +16,15 @@ from tests.views.conftest import ROOT
 SOLUTION = (ROOT / "exercises" / "solutions" / "garage.yaml").read_text()
 
 
-def serve(folder, *more: str, env: dict[str, str] | None = None) -> tuple[subprocess.Popen, int, str]:
-    """``autonomy class serve garage`` of ``folder/roster.csv`` in ``folder/class``: the process, its port, its token.
+def serve(
+    folder, *more: str, env: dict[str, str] | None = None, exercise: str = "garage"
+) -> tuple[subprocess.Popen, int, str]:
+    """``autonomy class serve EXERCISE`` of ``folder/roster.csv`` in ``folder/class``: the process, its port, its token.
 
     Its first two lines on standard error (the class, the teacher's address) are kept as ``process.said``.
     """
     process = subprocess.Popen(
-        [sys.executable, "-m", "autonomy", "class", "serve", "garage", "--roster", str(folder / "roster.csv")]
+        [sys.executable, "-m", "autonomy", "class", "serve", exercise, "--roster", str(folder / "roster.csv")]
         + ["--dir", str(folder / "class"), "--port", "0", *more],
         cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
     )  # fmt: skip

@@ -10,12 +10,8 @@ from __future__ import annotations
 import csv
 import io
 import re
-import signal
 import zipfile
 
-import pytest
-
-from tests.liveclass.test_class_cli import serve
 from tests.views.conftest import until as until_in
 
 #: Longest wait for what the server does (a busy machine grades slowly; a wait that holds returns at once).
@@ -33,19 +29,6 @@ def until(page, expression: str, timeout: float = WAIT_MS) -> None:
 
 MISTAKE = "mission: park\ntree:\n  sequence:\n    - mvoe: {speed: 2, until_obstacle_mm: 150}\n"
 FIXED = MISTAKE.replace("mvoe", "move")
-
-
-@pytest.fixture
-def classroom(tmp_path):
-    """``autonomy class serve garage`` for Ada and Bob: (student's URL, teacher's URL, codes)."""
-    (tmp_path / "roster.csv").write_text("id,name,submission\n1001,Ada Lovelace,ada\n1002,Bob <b>Jones</b>,bob\n")
-    process, port, token = serve(tmp_path)
-    with (tmp_path / "class" / "codes.csv").open() as stream:
-        codes = {row["id"]: row["code"] for row in csv.DictReader(stream)}
-    yield f"http://127.0.0.1:{port}/", f"http://127.0.0.1:{port}/teacher#{token}", codes
-    process.send_signal(signal.SIGINT)
-    _, err = process.communicate(timeout=30)
-    assert process.returncode == 0 and "Traceback" not in err, err
 
 
 def watching(browser, teacher_url: str, errors: list[str]):

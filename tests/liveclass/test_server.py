@@ -474,7 +474,7 @@ def test_the_pages_scripts_put_what_they_receive_in_as_text_never_as_markup():
             text = page_text(name)
             for sink in ("innerHTML", "outerHTML", "insertAdjacentHTML", "document.write", "eval(", "srcdoc"):
                 assert sink not in text, (name, sink)
-            assert "textContent" in text
+            assert "textContent" in text or name == "blocks.js"  # it puts nothing received in the page
 
 
 def test_a_long_history_is_listed_without_its_texts(served):

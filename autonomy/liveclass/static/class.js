@@ -104,6 +104,7 @@ function show(me) {
   $("handins").replaceChildren();
   for (const work of me.works) if (work.kind === "handin" && work.page) addHandIn(work);
   if (me.mission) check();
+  if (localStorage.getItem(MODE_KEY) === "blocks") toBlocks();
 }
 
 /** The hand-ins' deadline, as the server's last answer says it (the teacher may change it at any time). */
@@ -201,9 +202,148 @@ function check() {
   });
 }
 
+// ------------------------------------------------------------------ blocks
+
+// The mission may be written as blocks: the server turns the text into blocks and the blocks into text
+// (the text is what is checked, run and handed in); Blockly is loaded the first time blocks are asked for.
+const MODE_KEY = "autonomy-class-mode";
+const BLOCKS_AFTER_MS = 400; // the text is made this long after the last change of the blocks
+const EMPTY_MISSION = {
+  blocks: {
+    languageVersion: 0,
+    blocks: [{ type: "@mission", x: 20, y: 20, fields: { name: "my-mission", world: "", tick_hz: 20 } }],
+  },
+};
+let palette = null; // the exercise's blocks and toolbox
+let workspace = null;
+let mode = "text";
+let blocksTimer = 0;
+let loadingBlocks = false;
+
+function loadScript(src) {
+  return new Promise((resolve, reject) => {
+    const script = document.createElement("script");
+    script.src = src;
+    script.onload = resolve;
+    script.onerror = () => reject(new Error(`${src} could not be loaded`));
+    document.head.append(script);
+  });
+}
+
+async function blocklyReady() {
+  if (typeof Blockly === "undefined") {
+    await loadScript("/vendor/blockly/blockly_compressed.js");
+    await loadScript("/vendor/blockly/en.js");
+  }
+  if (typeof blocksInject === "undefined") await loadScript("/static/blocks.js");
+  if (!palette) {
+    const { status, data } = await api("GET", "/api/palette");
+    if (status !== 200) throw new Error(data.error || `the server answered ${status}`);
+    palette = data;
+  }
+}
+
+function setMode(next) {
+  mode = next;
+  localStorage.setItem(MODE_KEY, next);
+  $("mode-blocks").setAttribute("aria-pressed", String(next === "blocks"));
+  $("mode-text").setAttribute("aria-pressed", String(next === "text"));
+  $("blocks-panel").hidden = next !== "blocks";
+  $("text-panel").hidden = next !== "text";
+  $("text-keys").hidden = next !== "text";
+}
+
+function showBlockProblems(problems) {
+  $("problems").replaceChildren(
+    ...problems.map((p) => element("li", p.block ? p.message : `line ${p.line}, column ${p.column}: ${p.message}`)),
+  );
+}
+
+/** Shows the mission as blocks; a text with problems stays text (they are said). Whether it is blocks now. */
+async function toBlocks() {
+  try {
+    await blocklyReady();
+  } catch (error) {
+    $("status").textContent = `The blocks could not be loaded: ${error.message}`;
+    return false;
+  }
+  const text = $("mission").value;
+  let state = EMPTY_MISSION;
+  if (text.trim()) {
+    const { status, data } = await inTurn(() => api("POST", "/api/blocks", { mission: text }));
+    if (status !== 200) {
+      $("status").textContent = data.error || `the server answered ${status}`;
+      return false;
+    }
+    if (!data.ok) {
+      showProblems(data.problems);
+      const first = data.problems[0];
+      $("status").textContent =
+        `Your text has a problem at line ${first.line}, column ${first.column}: it stays text until it is mended.`;
+      $("status").className = "error";
+      return false;
+    }
+    state = data.workspace;
+  }
+  setMode("blocks");
+  if (!workspace) {
+    workspace = blocksInject($("blocks"), palette);
+    blocksOnChange(workspace, () => {
+      if (loadingBlocks) return;
+      clearTimeout(blocksTimer);
+      blocksTimer = setTimeout(toText, BLOCKS_AFTER_MS);
+    });
+  }
+  loadingBlocks = true;
+  try {
+    blocksLoad(workspace, state);
+  } finally {
+    loadingBlocks = false;
+  }
+  Blockly.svgResize(workspace);
+  $("status").textContent = "Your mission as blocks: the toolbox on the left has the blocks you may use.";
+  $("status").className = "quiet";
+  return true;
+}
+
+/** Writes the blocks as the mission's text (what is checked, run and handed in). Whether they had no problem. */
+async function toText() {
+  clearTimeout(blocksTimer);
+  blocksTimer = 0;
+  if (!workspace || mode !== "blocks") return true;
+  if (workspace.isDragging()) {
+    blocksTimer = setTimeout(toText, BLOCKS_AFTER_MS); // a block on its way is not yet where it goes
+    return false;
+  }
+  const state = Blockly.serialization.workspaces.save(workspace);
+  const { status, data } = await inTurn(() => api("POST", "/api/text", { workspace: state }));
+  if (status !== 200) {
+    $("status").textContent = data.error || `the server answered ${status}`;
+    return false;
+  }
+  blocksWarn(workspace, data.ok ? [] : data.problems);
+  if (!data.ok) {
+    showBlockProblems(data.problems);
+    const count = data.problems.length;
+    $("status").textContent = `Your blocks have ${count} problem${count > 1 ? "s" : ""}: each is marked on its block.`;
+    $("status").className = "error";
+    return false;
+  }
+  if ($("mission").value !== data.mission) {
+    $("mission").value = data.mission;
+    lines();
+  }
+  await check();
+  return true;
+}
+
 // ------------------------------------------------------------------ running and handing in
 
 async function send(kind) {
+  if (mode === "blocks" && !(await toText())) {
+    say("Mend the blocks first: each problem is marked on its block.", true);
+    return;
+  }
   const text = $("mission").value;
   if (!text.trim()) {
     say("Write a mission first.", true);
@@ -314,6 +454,14 @@ $("mission").addEventListener("keydown", (event) => {
   const mission = $("mission");
   mission.setRangeText("  ", mission.selectionStart, mission.selectionEnd, "end");
   mission.dispatchEvent(new Event("input"));
+});
+$("mode-blocks").addEventListener("click", () => {
+  if (mode !== "blocks") toBlocks();
+});
+$("mode-text").addEventListener("click", async () => {
+  if (mode === "text") return;
+  await toText();
+  setMode("text");
 });
 $("run").addEventListener("click", () => send("run"));
 $("handin").addEventListener("click", () => send("handin"));

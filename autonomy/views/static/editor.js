@@ -8,7 +8,6 @@ let workspace = null;
 let loading = false;
 let blocksTimer = null;
 let textTimer = null;
-let warned = [];
 
 async function api(path, body) {
   const options = {headers: {Authorization: `Bearer ${key}`}};
@@ -37,28 +36,14 @@ function showProblems(problems, where) {
       : problem.message;
     list.append(item);
   }
-  for (const block of warned) block.setWarningText(null);
-  warned = [];
-  if (where === 'blocks' && workspace) {
-    for (const problem of problems) {
-      const block = problem.block ? workspace.getBlockById(problem.block) : null;
-      if (block) {
-        block.setWarningText(problem.message);
-        warned.push(block);
-      }
-    }
-  }
+  if (workspace) blocksWarn(workspace, where === 'blocks' ? problems : []);
 }
 
 function load(state) {
   loading = true;
   try {
-    Blockly.Events.disable();
-    workspace.clear();
-    Blockly.serialization.workspaces.load(state, workspace);
-    workspace.cleanUp(); // the mission and its named steps one under the other: where blocks stand is not kept
+    blocksLoad(workspace, state);
   } finally {
-    Blockly.Events.enable();
     loading = false;
   }
 }
@@ -115,16 +100,6 @@ async function save() {
   }
 }
 
-// In the toolbox's list of blocks, Blockly 13 names each block's places for others ("statement position",
-// role figure) though nothing can be put there: a list of options may hold options alone, and a screen
-// reader would count those places as items. They are made presentation there (not in the workspace).
-function quietFlyoutPlaces(root) {
-  for (const place of root.querySelectorAll('.blocklyFlyout .blocklyHighlightedConnectionPath[role="figure"]')) {
-    place.setAttribute('role', 'none');
-    place.removeAttribute('aria-roledescription');
-  }
-}
-
 async function start() {
   const mission = await api('/api/mission');
   if (mission.error) {
@@ -133,26 +108,7 @@ async function start() {
   }
   element('file').textContent = mission.file;
   document.title = `${mission.file}: autonomy edit`;
-  Blockly.common.defineBlocksWithJsonArray(mission.palette.blocks);
-  // The renderer's styles are in blockly.css, served as a file: the page's policy takes no inline style.
-  Blockly.blockRendering.ConstantProvider.prototype.injectCSS_ = () => {};
-  workspace = Blockly.inject(element('blocks'), {
-    toolbox: mission.palette.toolbox,
-    css: false,
-    media: '/vendor/blockly/media/',
-    sounds: false,
-    renderer: 'thrasos',
-    theme: Blockly.Themes.Classic,
-    trashcan: false,
-    move: {scrollbars: true, drag: true, wheel: true},
-  });
-  const blocks = element('blocks');
-  quietFlyoutPlaces(blocks);
-  new MutationObserver(() => quietFlyoutPlaces(blocks)).observe(blocks, {
-    subtree: true,
-    childList: true,
-    attributeFilter: ['role'],
-  });
+  workspace = blocksInject(element('blocks'), mission.palette);
   element('text').value = mission.text;
   if (mission.ok) {
     load(mission.workspace);
@@ -160,8 +116,8 @@ async function start() {
   } else if (mission.problems.length) {
     await toBlocks();
   }
-  workspace.addChangeListener((event) => {
-    if (loading || event.isUiEvent) return;
+  blocksOnChange(workspace, () => {
+    if (loading) return;
     clearTimeout(blocksTimer);
     blocksTimer = setTimeout(toText, 400);
   });

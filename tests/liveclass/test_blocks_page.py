@@ -1,0 +1,156 @@
+"""A student writes their mission as blocks in the class's page: with the keyboard alone, run for full marks.
+
+The page is served by ``autonomy class serve`` as a teacher starts it, in real headless Chromium.
+"""
+
+from __future__ import annotations
+
+import json
+import urllib.error
+import urllib.request
+
+from autonomy.classroom.exercise import load_exercise
+from autonomy.liveclass.work import as_text, palette
+from autonomy.mission.blocks import DEFINE_BLOCK
+from tests.axe import violations
+from tests.liveclass.test_pages import FIXED, MISTAKE, WAIT_MS, new_page, sign_in, until
+from tests.views.conftest import ROOT
+
+#: Set before the page's scripts run: every breach of the page's policy is kept to be read.
+WATCH_POLICY = (
+    "window.breaches = []; document.addEventListener('securitypolicyviolation', "
+    "(e) => window.breaches.push(`${e.violatedDirective} ${e.blockedURI}`));"
+)
+
+
+def focused(page) -> str:
+    return page.evaluate(
+        "(() => { const a = document.activeElement;"
+        " return `${a.tagName} ${a.id} ${a.getAttribute('aria-label') || a.textContent.slice(0, 40)}`; })()"
+    )
+
+
+def keys(page, *pressed: str) -> None:
+    """Presses keys one after another, each once what the last did has been drawn."""
+    for key in pressed:
+        page.keyboard.press(key)
+        page.wait_for_timeout(50)
+
+
+def press_until(page, key: str, wanted: str, most: int = 30) -> None:
+    """Presses ``key`` until what has the focus is named with ``wanted``."""
+    for _ in range(most):
+        if wanted in focused(page):
+            return
+        page.keyboard.press(key)
+        page.wait_for_timeout(50)
+    raise AssertionError(f"{wanted!r} never had the focus; {focused(page)!r} has it")
+
+
+def test_a_student_builds_the_garage_solution_with_the_keyboard_alone_and_runs_it_for_full_marks(browser, classroom):
+    student_url, _, codes = classroom
+    errors: list[str] = []
+    page = new_page(browser, errors)
+    page.add_init_script(WATCH_POLICY)
+    try:
+        page.goto(student_url)
+        page.keyboard.type(codes["1001"])
+        page.keyboard.press("Enter")
+        until(page, "!document.getElementById('desk').hidden")
+        press_until(page, "Tab", "mode-blocks")
+        page.keyboard.press("Enter")
+        until(page, "document.getElementById('mode-blocks').getAttribute('aria-pressed') === 'true'")
+        press_until(page, "Tab", "Order")  # the toolbox
+        keys(page, "w")  # the workspace: the mission's block, empty
+        press_until(page, "ArrowDown", "End mission")  # the place inside it
+        keys(page, "t", "ArrowDown", "ArrowDown", "ArrowRight")  # the toolbox's Do, its first block
+        press_until(page, "ArrowDown", "until an obstacle is within")
+        keys(page, "Enter", "Enter")  # taken, and left at the place marked
+        press_until(page, "ArrowRight", "Edit number: 1")  # its distance
+        keys(page, "Enter", "Control+a", "1", "5", "0", "Enter")
+        until(page, "document.getElementById('mission').value.includes('until_obstacle_mm: 150')")
+        assert (
+            page.input_value("#mission") == "mission: my-mission\ntree:\n  move: {speed: 2, until_obstacle_mm: 150}\n"
+        )
+        until(page, "!document.getElementById('tree').hidden")  # checked, and its tree drawn, as a text is
+        assert violations(page) == []
+        keys(page, "Escape")
+        press_until(page, "Tab", "run")
+        keys(page, "Enter")
+        until(page, "document.getElementById('result-title').textContent.includes('/ 10')", WAIT_MS)
+        assert page.text_content("#result-title") == "Your run, on the public seeds: 10 / 10"
+        assert page.evaluate("window.breaches") == [] and errors == []
+    finally:
+        page.close()
+
+
+def test_a_text_with_a_problem_stays_text_and_blocks_changed_are_the_text(browser, classroom):
+    student_url, _, codes = classroom
+    errors: list[str] = []
+    page = new_page(browser, errors)
+    page.add_init_script(WATCH_POLICY)
+    try:
+        page.goto(student_url)
+        sign_in(page, codes["1002"])
+        until(page, "!document.getElementById('desk').hidden")
+        page.fill("#mission", MISTAKE)
+        page.click("#mode-blocks")
+        until(page, "document.getElementById('status').textContent.includes('stays text')")
+        assert "line 4, column 7" in page.text_content("#status")
+        assert page.get_attribute("#mode-text", "aria-pressed") == "true" and page.is_visible("#mission")
+        page.fill("#mission", FIXED)
+        page.click("#mode-blocks")
+        until(page, "document.getElementById('mode-blocks').getAttribute('aria-pressed') === 'true'")
+        assert page.is_hidden("#mission") and page.is_visible("#blocks")
+        page.evaluate(
+            "Blockly.getMainWorkspace().getAllBlocks(false).find((b) => b.type === 'move+until_obstacle_mm')"
+            ".setFieldValue(3, 'speed')"
+        )
+        until(page, "document.getElementById('mission').value.includes('speed: 3')")
+        page.click("#mode-text")
+        until(page, "!document.getElementById('text-panel').hidden")
+        assert page.input_value("#mission") == (
+            "mission: park\ntree:\n  sequence:\n    - move: {speed: 3, until_obstacle_mm: 150}\n"
+        )
+        assert violations(page) == [] and page.evaluate("window.breaches") == [] and errors == []
+    finally:
+        page.close()
+
+
+def test_the_toolbox_holds_the_exercise_s_allowed_nodes_alone():
+    square = load_exercise(ROOT / "exercises" / "square.yaml")
+    shown = {block["type"].split("+")[0] for c in palette(square)["toolbox"]["contents"] for block in c["contents"]}
+    assert shown == {*square.allowed_nodes, DEFINE_BLOCK}
+    assert {b["type"] for b in palette(square)["blocks"]} >= {"while", "obstacle_within"}  # any mission is shown
+
+
+def test_blocks_of_a_node_the_exercise_does_not_allow_are_said_so():
+    square = load_exercise(ROOT / "exercises" / "square.yaml")
+    workspace = {
+        "blocks": {
+            "languageVersion": 0,
+            "blocks": [
+                {"type": "@mission", "id": "m", "fields": {"name": "m", "world": "", "tick_hz": 20},
+                 "inputs": {"tree": {"block": {"type": "wait", "id": "w", "fields": {"seconds": 1}}}}},
+            ],
+        }
+    }  # fmt: skip
+    answer = as_text(square, json.dumps({"workspace": workspace}).encode())
+    assert not answer["ok"] and "'wait' is not allowed in this exercise" in answer["problems"][0]["message"]
+    assert as_text(square, b"[" * 100_000)["problems"][0]["message"].startswith("the body is JSON")
+
+
+def test_the_blocks_routes_take_a_student_s_code_and_one_request_at_a_time(classroom):
+    student_url, _, codes = classroom
+    for path, body in (("api/blocks", {"mission": FIXED}), ("api/text", {"workspace": {}}), ("api/palette", None)):
+        data = json.dumps(body).encode() if body is not None else None
+        request = urllib.request.Request(student_url + path, data=data, method="POST" if data else "GET")
+        try:
+            urllib.request.urlopen(request, timeout=30)
+            raise AssertionError(f"{path} answered without a code")
+        except urllib.error.HTTPError as refused:
+            assert refused.code == 401
+        request.add_header("Authorization", f"Bearer {codes['1001']}")
+        with urllib.request.urlopen(request, timeout=30) as answer:
+            shown = json.loads(answer.read())
+        assert shown.get("ok", "toolbox" in shown) == (path != "api/text"), shown
