@@ -94,8 +94,9 @@ class Move(RobotAction):
             unit="mm",
             positive=True,
             maximum=MAX_DISTANCE_MM,
+            example=300,
         ),
-        Param("seconds", "number", "stop after this long", unit="s", positive=True, maximum=MAX_SECONDS),
+        Param("seconds", "number", "stop after this long", unit="s", positive=True, maximum=MAX_SECONDS, example=2),
         Param(
             "until_obstacle_mm",
             "int",
@@ -103,6 +104,7 @@ class Move(RobotAction):
             unit="mm",
             minimum=1,
             maximum=255,
+            example=150,
             range_why=SENSOR_REACH,
         ),
     )
@@ -203,7 +205,7 @@ class Turn(RobotAction):
     doc = "Turn in place (T) left or right by 0..999 degrees; succeeds within 3 degrees once stopped."
     params = (
         Param("left", "int", "turn counter-clockwise by this much", unit="deg", minimum=0, maximum=999, example=90),
-        Param("right", "int", "turn clockwise by this much", unit="deg", minimum=0, maximum=999),
+        Param("right", "int", "turn clockwise by this much", unit="deg", minimum=0, maximum=999, example=90),
     )
     exactly_one_of = (("left", "right"),)
 
@@ -332,8 +334,8 @@ class Servo(RobotAction):
     doc = "Move servo id to an absolute angle (M) or by a step (D); done when accepted (add a wait to let it arrive)."
     params = (
         Param("id", "int", "which servo", required=True, minimum=0, maximum=2),
-        Param("angle", "int", "absolute angle from centre", unit="deg", minimum=-99, maximum=99),
-        Param("by", "int", "step from where it is", unit="deg", minimum=-9, maximum=9),
+        Param("angle", "int", "absolute angle from centre", unit="deg", minimum=-99, maximum=99, example=45),
+        Param("by", "int", "step from where it is", unit="deg", minimum=-9, maximum=9, example=5),
     )
     exactly_one_of = (("angle", "by"),)
 

@@ -131,9 +131,12 @@ PAGE_FILES = {
 }
 #: The pages' files that are the views' (shared with ``autonomy edit``), by name.
 SHARED_FILES = {"blocks.js": "autonomy.views"}
-#: The pages' policy: their own scripts and styles, pictures as data, frames of this server (feedback pages).
+#: The pages' policy: their own scripts and styles, pictures as data or the server's, frames of this server (feedback
+#: pages). Blockly writes one style attribute (the direction of a bubble's text): style attributes are allowed, and
+#: nothing else inline (no <style> element, no script but the server's).
 PAGE_POLICY = (
-    "default-src 'none'; script-src 'self'; style-src 'self'; img-src 'self' data:; connect-src 'self'; "
+    "default-src 'none'; script-src 'self'; style-src 'self'; style-src-attr 'unsafe-inline'; img-src 'self' data:; "
+    "connect-src 'self'; "
     "frame-src 'self'; base-uri 'none'; form-action 'none'; frame-ancestors 'none'"
 )
 #: A feedback page's policy, on top of its own: a sandbox of its own origin, framed by the class's pages alone.

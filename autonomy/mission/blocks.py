@@ -17,16 +17,19 @@ text to blocks and back gives that text, and the same tree. What the canonical t
 - a parameter is written when the file gave it, or when its value is not the default;
 - ``tick_hz`` is written when it is not 20; a whole number written ``1.0`` is written ``1``;
 - a comment stands on its own line before the node it stood before or beside (one beside a node's
-  parameter, before that node); comments before the top-level keys other than ``subtrees`` and
-  ``tree``, beside them, or after the last node, go to the top of the file;
+  parameter, before that node; one beside a key whose node is below it, before that node); comments
+  before or beside the top-level keys other than ``subtrees`` and ``tree``, or after the last node,
+  go to the top of the file; an XML mission's comments are not kept;
 - keys, indentation and quoting are as the canonical writer puts them.
 """
 
 from __future__ import annotations
 
+import bisect
 import contextlib
 import itertools
 import json
+import math
 import re
 import sys
 import threading
@@ -49,11 +52,20 @@ MISSION_BLOCK = "@mission"
 DEFINE_BLOCK = "@define"
 #: Joins a node's name and the optional parameters its block has: ``move+distance_mm``.
 VARIANT_JOIN = "+"
-#: Blockly's colour (hue) of each category's blocks.
-COLOURS = {"composite": 120, "decorator": 290, "action": 210, "condition": 60, "reference": 330}
+#: The colour of each category's blocks: dark enough for their white words (at least 6:1, WCAG AA asks 4.5:1).
+COLOURS = {
+    "composite": "#2f6b34",
+    "decorator": "#6b3fa0",
+    "action": "#2b5f91",
+    "condition": "#7a5a00",
+    "reference": "#8c3a5e",
+}
+MISSION_COLOUR = "#7a4424"
 #: What the nested chains of a large mission need of Python's recursion limit to be read and written as JSON.
 _DEEP_JSON_LIMIT = 20_000
 _deep_json_lock = threading.Lock()
+#: What YAML takes for the end of a line: a comment's text is cut at each (a comment is never more than a comment).
+LINE_BREAKS = re.compile("\r\n|[\r\n\x85\u2028\u2029]")
 
 
 # --------------------------------------------------------------------------- the words
@@ -116,7 +128,7 @@ def _words(text: str, label: str) -> Words:
         return found.value if found is not None and isinstance(found.value, str) else default
 
     words = Words(
-        sentence("mission", "mission %name in world %world, %tick_hz ticks a second"),
+        sentence("mission", "mission %name in the world %world (%tick_hz ticks a second)"),
         sentence("define", "the steps called %name are"),
         table("nodes"),
         table("params"),
@@ -222,9 +234,12 @@ def _sentence(node_type: NodeType, chosen: tuple[str, ...], words: Words) -> tup
         for p in node_type.params
         if p.kind not in ("node", "nodes") and (p.required or p.default is not None or p.name in chosen)
     ]
-    said_words = words.nodes.get(node_type.name, node_type.name.replace("_", " "))
-    fixed = [p.name for p in fields if p.name not in chosen]
-    message, said = _message(said_words, fixed)
+    form = block_type(node_type, chosen)
+    if form in words.nodes:  # words of this form of the node: "repeat %times times", not "repeat forever"
+        message, said = _message(words.nodes[form], [p.name for p in fields])
+    else:
+        said_words = words.nodes.get(node_type.name, node_type.name.replace("_", " "))
+        message, said = _message(said_words, [p.name for p in fields if p.name not in chosen])
     parts = [message]
     for param in fields:
         if param.name in said:
@@ -283,7 +298,7 @@ def block_definitions(registry: Registry, words: Words | None = None) -> list[di
             "args0": [_field(mission_params[n], words)[0] for n in mission_fields],
             "message1": "%1",
             "args1": [{"type": "input_statement", "name": "tree"}],
-            "colour": 20,
+            "colour": MISSION_COLOUR,
             "tooltip": "The mission: its name, its world, how often its tree is ticked, and its tree.",
         },
         {
@@ -306,7 +321,7 @@ def block_definitions(registry: Registry, words: Words | None = None) -> list[di
                 "args0": [f for name in names for f in _field(params[name], words)],
                 "previousStatement": None,
                 "nextStatement": None,
-                "colour": COLOURS.get(node_type.category, 0),
+                "colour": COLOURS.get(node_type.category, "#555555"),
                 "tooltip": node_type.doc,
             }
             inputs = [p for p in node_type.params if p.kind in ("node", "nodes")]
@@ -325,15 +340,14 @@ def toolbox(registry: Registry, words: Words | None = None, allowed: tuple[str, 
     names = {"composite": "Order", "decorator": "Change", "action": "Do", "condition": "Check", "reference": "Steps"}
     for category, title in names.items():
         steps = category == "reference" and (allowed is None or "subtree" in allowed)
-        contents = [{"kind": "block", "type": DEFINE_BLOCK}] if steps else []
+        contents = [{"kind": "block", "type": MISSION_BLOCK}] if category == "reference" else []
+        contents += [{"kind": "block", "type": DEFINE_BLOCK}] if steps else []
         for node_type in registry:
             if node_type.category != category or (allowed is not None and node_type.name not in allowed):
                 continue
             contents += [{"kind": "block", "type": block_type(node_type, chosen)} for chosen in variants(node_type)]
         if contents:
-            categories.append(
-                {"kind": "category", "name": title, "colour": str(COLOURS[category]), "contents": contents}
-            )
+            categories.append({"kind": "category", "name": title, "colour": COLOURS[category], "contents": contents})
     return {"kind": "categoryToolbox", "contents": categories}
 
 
@@ -373,6 +387,21 @@ class MissionOutline:
     subtrees: dict[str, Outline] = field(default_factory=dict)
     tree: Outline | None = None
     comments: list[str] = field(default_factory=list)
+
+
+def _finite(value: Any) -> bool:
+    """Whether ``value`` is a number a float holds, not a flag (1e400 written whole is not)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return False
+    try:
+        return math.isfinite(float(value))
+    except OverflowError:
+        return False
+
+
+def _whole(value: Any) -> bool:
+    """Whether ``value`` is a whole number (not a flag): 3, or 3.0 as a page may send it."""
+    return (isinstance(value, int) and not isinstance(value, bool)) or (isinstance(value, float) and value.is_integer())
 
 
 def _written(value: Any, param: Param) -> Any:
@@ -437,8 +466,11 @@ def _tokens(text: str, loader: Any) -> list[Any]:
 def comments_in(text: str) -> list[tuple[int, int, str, bool]]:
     """Every comment in a YAML text: (line, column, its words, whether it stands alone on its line); 1-based.
 
-    Empty when the text cannot be scanned (a text with problems stays text).
+    Empty when the text cannot be scanned (a text with problems stays text), and for an XML mission
+    (its comments are XML's, and are not kept).
     """
+    if text.lstrip("\ufeff \t\r\n").startswith("<"):
+        return []
     try:
         tokens = _tokens(text, getattr(yaml, "CSafeLoader", yaml.SafeLoader))
     except yaml.YAMLError:  # libyaml's scanner takes fewer files than PyYAML's: that one, as the file was read
@@ -458,9 +490,9 @@ def comments_in(text: str) -> list[tuple[int, int, str, bool]]:
         at = line.find("#")
         while at >= 0:
             inside = any(begin <= at < stop for begin, stop in covered.get(number, ()))
-            if not inside and (at == 0 or line[at - 1] in " \t"):
+            if not inside and (at == 0 or line[at - 1] in " \t\ufeff"):
                 words = line[at + 1 :]
-                alone = not line[:at].strip()
+                alone = not line[:at].strip(" \t\ufeff")
                 found.append((number + 1, at + 1, words[1:] if words.startswith(" ") else words, alone))
                 break
             at = line.find("#", at + 1)
@@ -468,42 +500,51 @@ def comments_in(text: str) -> list[tuple[int, int, str, bool]]:
 
 
 def _attach(text: str, nodes: list[NodeSpec]) -> tuple[dict[int, list[str]], list[str]]:
-    """Each node's comments (by the node's ``id``), and the mission's own (the top of the file)."""
+    """Each node's comments (by the node's ``id``), and the mission's own (the top of the file).
+
+    A comment on its own line goes with the node after it; one beside a node, with that node; one
+    beside a key whose value is below it (``tree:``, ``do:``, ``-``), with the node below; one
+    beside a parameter, with the node the parameter is of. Those of the top-level keys but
+    ``tree`` and ``subtrees``, or after the last node, are the mission's.
+    """
     found = comments_in(text)
     if not found:
         return {}, []
     lines = text.splitlines()
     order = sorted(nodes, key=lambda n: (n.line, n.column))
-    starts = [(n.line, n.column) for n in order]
+    start_lines = [n.line for n in order]
+    following = [""] * len(lines)  # each line's next line that is neither blank nor a comment
+    after = ""
+    for index in range(len(lines) - 1, -1, -1):
+        following[index] = after
+        stripped = lines[index].strip(" \t\ufeff")
+        if stripped and not stripped.startswith("#"):
+            after = lines[index]
     attached: dict[int, list[str]] = {}
     top: list[str] = []
-    for line, _, words, alone in found:
+
+    def node_after(line: int) -> NodeSpec | None:
+        index = bisect.bisect_right(start_lines, line)
+        return order[index] if index < len(order) else None
+
+    for line, column, words, alone in found:
         target: NodeSpec | None = None
         if alone:
-            following = next(
-                (
-                    text_line
-                    for text_line in lines[line:]
-                    if text_line.strip() and not text_line.lstrip().startswith("#")
-                ),
-                "",
-            )
-            key = _TOP_KEY.match(following)
-            if key and key[1] not in ("tree", "subtrees"):  # before mission:, world:, ...: the mission's
-                top.append(words)
-                continue
-            target = next((order[i] for i, start in enumerate(starts) if start[0] > line), None)
+            key = _TOP_KEY.match(following[line - 1])
+            if not (key and key_is_top(key[1]) and key[1] not in ("tree", "subtrees")):
+                target = node_after(line)
         else:
-            same = [order[i] for i, start in enumerate(starts) if start[0] == line]
-            before = [order[i] for i, start in enumerate(starts) if start[0] < line]
-            first_key = _TOP_KEY.match(lines[line - 1])
-            if same:
-                target = same[0]
-            elif first_key and key_is_top(first_key[1]):
-                top.append(words)
-                continue
-            elif before:
-                target = before[-1]
+            index = bisect.bisect_left(start_lines, line)
+            code = lines[line - 1][: column - 1].rstrip(" \t")
+            key = _TOP_KEY.match(code.lstrip("\ufeff"))
+            if index < len(order) and start_lines[index] == line:
+                target = order[index]  # beside a node (the outermost that starts there)
+            elif key and key_is_top(key[1]) and key[1] not in ("tree", "subtrees"):
+                target = None  # beside mission:, world:...: the mission's
+            elif code.endswith((":", "-")):
+                target = node_after(line)  # beside a key whose node is below
+            elif index > 0:
+                target = order[index - 1]  # beside a parameter: its node's
         if target is None:
             top.append(words)
         else:
@@ -533,6 +574,8 @@ class _TextDumper(_BaseDumper):
 
 def _folded(dumper: Any, value: str) -> yaml.ScalarNode:
     style = ">" if len(value) > 80 and value == value.strip(" ") and "\n\n" not in value else None
+    if style and any(line[:1] in (" ", "\t") for line in value.split("\n")):
+        style = None  # an indented line is kept as it is only quoted
     return dumper.represent_scalar("tag:yaml.org,2002:str", value, style=style)
 
 
@@ -560,7 +603,8 @@ class _Writer:
         self.starts: list[tuple[int, Outline]] = []
 
     def comments(self, comments: list[str], indent: int) -> None:
-        self.lines += [f"{' ' * indent}#{' ' + c if c else ''}" for c in comments]
+        lines = [line for comment in comments for line in LINE_BREAKS.split(comment)]
+        self.lines += [f"{' ' * indent}#{' ' + c if c else ''}" for c in lines]
 
     def node(self, node: Outline, indent: int, lead: str = "") -> None:
         """The node as a block at ``indent``: ``lead`` (``key: `` or ``- ``) before its first line."""
@@ -612,9 +656,7 @@ def _write(outline: MissionOutline) -> _Writer:
     lines = writer.lines
     lines.append(f"mission: {_scalar(outline.name)}")
     if outline.description:
-        lines += yaml.dump(
-            {"description": outline.description}, Dumper=_TextDumper, width=100, allow_unicode=True, sort_keys=False
-        ).splitlines()
+        lines += _description(outline.description)
     if float(outline.tick_hz) != DEFAULT_TICK_HZ:
         hz = int(outline.tick_hz) if float(outline.tick_hz).is_integer() else outline.tick_hz
         lines.append(f"tick_hz: {_scalar(hz)}")
@@ -629,6 +671,18 @@ def _write(outline: MissionOutline) -> _Writer:
     if outline.tree is not None:
         writer.value("tree", outline.tree, 0)
     return writer
+
+
+def _description(text: str) -> list[str]:
+    """The ``description:`` lines: folded over lines when that reads back the same, else quoted."""
+    for dumper in (_TextDumper, _Dumper):
+        written = yaml.dump({"description": text}, Dumper=dumper, width=100, allow_unicode=True, sort_keys=False)
+        try:
+            if yaml.load(written, Loader=yaml.SafeLoader) == {"description": text}:  # noqa: S506 - the safe loader
+                return written.splitlines()
+        except yaml.YAMLError:
+            continue
+    return [f"description: {_scalar(text)}"]
 
 
 def outline_text(outline: MissionOutline) -> str:
@@ -780,24 +834,49 @@ class _Reader:
             if node_type.category == "reference":
                 self.types[node_type.name] = (node_type, ())
         self.block_at: dict[int, tuple[int, int]] = {}
+        self.mission_at = (1, 1)
+        self._ids: dict[str, int] | None = None
 
     def where(self, state: Any) -> tuple[int, int]:
-        """Where a block stands in the workspace's text: its ``"id"``, found in the text."""
+        """Where a block stands in the workspace's text: its ``"id"`` (the first that names it)."""
         block_id = state.get("id") if isinstance(state, dict) else None
-        if isinstance(block_id, str):
-            found = re.search(r'"id"\s*:\s*' + re.escape(json.dumps(block_id, ensure_ascii=False)), self.text)
-            if found is None:
-                found = re.search(r'"id"\s*:\s*' + re.escape(json.dumps(block_id)), self.text)
-            if found is not None:
-                before = self.text[: found.start()]
-                return before.count("\n") + 1, found.start() - (before.rfind("\n") + 1) + 1
-        return 1, 1
+        if self._ids is None:  # every id's place, found once
+            self._ids = {}
+            for found in re.finditer(r'"id"\s*:\s*("(?:[^"\\]|\\.)*")', self.text):
+                try:
+                    self._ids.setdefault(json.loads(found[1]), found.start())
+                except ValueError:
+                    continue
+        at = self._ids.get(block_id) if isinstance(block_id, str) else None
+        if at is None:
+            return 1, 1
+        line = self.text.count("\n", 0, at) + 1
+        return line, at - (self.text.rfind("\n", 0, at) + 1) + 1
+
+    def fields(self, state: dict[str, Any], path: str) -> dict[str, Any]:
+        fields = state.get("fields") or {}
+        if not isinstance(fields, dict):
+            self.problem(state, f"{path}.fields", "the block's fields are not what Blockly saves")
+            return {}
+        return fields
+
+    def inputs(self, state: dict[str, Any], path: str) -> dict[str, Any]:
+        inputs = state.get("inputs") or {}
+        if not isinstance(inputs, dict):
+            self.problem(state, f"{path}.inputs", "the block's inputs are not what Blockly saves")
+            return {}
+        return inputs
+
+    def held(self, state: dict[str, Any], name: str, path: str) -> Any:
+        """The first block in the block's input ``name`` (None: none)."""
+        held = self.inputs(state, path).get(name)
+        return held.get("block") if isinstance(held, dict) else None
 
     def problem(self, state: Any, path: str, message: str) -> None:
         self.problems.append(Problem(self.source, *self.where(state), path, message))
 
     def text_field(self, state: dict[str, Any], name: str, path: str) -> str:
-        value = (state.get("fields") or {}).get(name, "")
+        value = self.fields(state, path).get(name, "")
         if not isinstance(value, str):
             self.problem(state, f"{path}.fields.{name}", f"{name} is text, got {value!r}"[:200])
             return ""
@@ -817,9 +896,10 @@ class _Reader:
         return data
 
     def comments(self, state: dict[str, Any]) -> list[str]:
-        comment = (state.get("icons") or {}).get("comment")
+        icons = state.get("icons")
+        comment = icons.get("comment") if isinstance(icons, dict) else None
         text = comment.get("text") if isinstance(comment, dict) else None
-        return text.split("\n") if isinstance(text, str) and text else []
+        return LINE_BREAKS.split(text) if isinstance(text, str) else []
 
     def chain(self, first: Any, path: str) -> list[Outline]:
         nodes, state, index = [], first, 0
@@ -844,12 +924,13 @@ class _Reader:
             return None
         node_type, chosen = found
         path = f"{path}.{node_type.name}"
-        fields = state.get("fields") or {}
-        if not isinstance(fields, dict):
-            fields = {}
+        fields = self.fields(state, path)
         params: dict[str, Any] = {}
         data = self.data(state, path)
         given = data.get("given", [])
+        if not isinstance(given, list):
+            self.problem(state, f"{path}.data", "the block's data is not what autonomy keeps there")
+            given = []
         for param in node_type.params:
             if param.kind in ("node", "nodes"):
                 continue
@@ -865,20 +946,20 @@ class _Reader:
             if value is None or (isinstance(value, list) and None in value):
                 self.problem(state, f"{path}.{param.name}", f"the block has no {param.name}")
                 continue
+            if param.kind == "tones" and not all(_whole(tone) and 1 <= tone <= 9 for tone in value):
+                self.problem(state, f"{path}.{param.name}", f"{param.name} are three whole numbers from 1 to 9")
+                continue
             if param.required or param.name in chosen or param.name in given or value != param.default:
                 params[param.name] = _written(value, param)
         name = data.get("name")
         if name is not None and not isinstance(name, str):
             self.problem(state, f"{path}.data", "the block's name is text")
             name = None
-        inputs = state.get("inputs") or {}
         children: list[Outline] = []
         for param in node_type.params:
             if param.kind not in ("node", "nodes"):
                 continue
-            held = inputs.get(param.name) if isinstance(inputs, dict) else None
-            first = held.get("block") if isinstance(held, dict) else None
-            kids = self.chain(first, f"{path}.{param.name}")
+            kids = self.chain(self.held(state, param.name, path), f"{path}.{param.name}")
             if param.kind == "nodes":
                 if not kids:
                     self.problem(state, f"{path}.{param.name}", f"{node_type.name} needs at least one block inside it")
@@ -903,28 +984,34 @@ class _Reader:
             return None
         missions = [state for state in top if isinstance(state, dict) and state.get("type") == MISSION_BLOCK]
         if len(missions) != 1:
-            said = "no mission block" if not missions else f"{len(missions)} mission blocks"
+            said = "there is no 'mission' block" if not missions else f"there are {len(missions)} 'mission' blocks"
             where = self.where(missions[1]) if len(missions) > 1 else (1, 1)
-            self.problems.append(Problem(self.source, *where, "blocks", f"{said}: a workspace holds exactly one"))
+            why = f"{said}: the blocks need exactly one, holding the mission's first block"
+            self.problems.append(Problem(self.source, *where, "blocks", why))
             return None
         state = missions[0]
-        fields = state.get("fields") or {}
-        hz = fields.get("tick_hz", DEFAULT_TICK_HZ) if isinstance(fields, dict) else DEFAULT_TICK_HZ
-        if isinstance(hz, bool) or not isinstance(hz, (int, float)):
+        self.mission_at = self.where(state)
+        hz = self.fields(state, "mission").get("tick_hz", DEFAULT_TICK_HZ)
+        if not _finite(hz):
             self.problem(state, "mission.tick_hz", f"tick_hz is a number, got {hz!r}"[:200])
             hz = DEFAULT_TICK_HZ
         data = self.data(state, "mission")
         plugins, description = data.get("plugins", []), data.get("description", "")
+        if not isinstance(plugins, list) or not all(isinstance(p, str) for p in plugins):
+            self.problem(state, "mission.data", "the mission's plugins are a list of module names")
+            plugins = []
+        if not isinstance(description, str):
+            self.problem(state, "mission.data", "the mission's description is text")
+            description = ""
         outline = MissionOutline(
             self.text_field(state, "name", "mission"),
-            description if isinstance(description, str) else "",
+            description,
             hz,
             self.text_field(state, "world", "mission") or None,
-            [p for p in plugins if isinstance(p, str)] if isinstance(plugins, list) else [],
+            plugins,
             comments=self.comments(state),
         )
-        held = (state.get("inputs") or {}).get("tree")
-        roots = self.chain(held.get("block") if isinstance(held, dict) else None, "mission.tree")
+        roots = self.chain(self.held(state, "tree", "mission"), "mission.tree")
         if not roots:
             self.problem(state, "mission.tree", "the mission has no blocks: put its first block inside it")
         elif len(roots) == 1:
@@ -942,8 +1029,9 @@ class _Reader:
                 self.problem(other, path, said[:200])
                 continue
             name = self.text_field(other, "name", path)
-            held = (other.get("inputs") or {}).get("body")
-            body = self.chain(held.get("block") if isinstance(held, dict) else None, f"{path}.{name}")
+            body = self.chain(self.held(other, "body", path), f"{path}.{name}")
+            if body:
+                body[0].comments[:0] = self.comments(other)  # a comment on the steps' block: before their first
             if name in outline.subtrees:
                 self.problem(other, path, f"two sets of steps are called '{name}': rename one")
             elif not body:
@@ -996,7 +1084,10 @@ def from_workspace(
         with contextlib.suppress(MissionInvalid):
             reading = validate_text(stub, source, base_dir, registry=registry, check_world=False).registry
     reader = _Reader(text, source, reading)
-    outline = reader.mission(workspace)
+    try:
+        outline = reader.mission(workspace)
+    except RecursionError:
+        raise MissionInvalid([Problem(source, 1, 1, "", "the blocks are nested deeper than a mission goes")]) from None
     if reader.problems or outline is None:
         raise MissionInvalid(reader.problems or [Problem(source, 1, 1, "", "not a workspace of blocks")])
     mission = outline_text(outline)
@@ -1009,7 +1100,7 @@ def from_workspace(
         problems = []
         for problem in err.problems:
             node = lines.get(problem.line)
-            where = reader.block_at.get(id(node), (1, 1)) if node is not None else (1, 1)
+            where = reader.block_at.get(id(node), reader.mission_at) if node is not None else reader.mission_at
             problems.append(Problem(source, *where, problem.path, problem.message))
         raise MissionInvalid(problems) from None
     return mission, spec

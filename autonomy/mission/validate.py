@@ -46,6 +46,8 @@ MAX_TREE_DEPTH = 50
 MAX_TREE_NODES = 3_000
 #: Longest text (a name, a message, a description) a mission may hold.
 MAX_TEXT_CHARS = 1_000
+#: Longest name of a subtree (it is a key of the file, and what its calls name).
+MAX_NAME_CHARS = 200
 
 
 class MissionInvalid(AutonomyError):
@@ -175,6 +177,10 @@ class _Validator:
                         self.problem(where, "subtrees", "a subtree needs a name that is not blank")
                         continue
                     if self.plain_text(sub_name, where, "subtrees") is None:
+                        continue
+                    if len(sub_name) > MAX_NAME_CHARS or "\n" in sub_name or "\r" in sub_name:
+                        why = f"a subtree's name is one line of at most {MAX_NAME_CHARS} characters"
+                        self.problem(where, "subtrees", why)
                         continue
                     known.append(sub_name)
                     spec = self.node(sub, f"subtrees.{sub_name}", owner=sub_name)

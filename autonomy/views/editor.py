@@ -23,6 +23,7 @@ import json
 import os
 import re
 import secrets
+import stat
 from concurrent.futures import ThreadPoolExecutor
 from importlib import resources
 from pathlib import Path
@@ -55,9 +56,12 @@ VENDOR_TYPES = {
 }
 #: Largest request body: a mission file's text (or its workspace, a few times its size) at most.
 MAX_EDIT_BYTES = 8 * MAX_FILE_BYTES
-#: The page's policy: its own scripts and styles and Blockly's pictures; nothing inline, nothing from elsewhere.
+#: The page's policy: its own scripts and styles and Blockly's pictures; nothing from elsewhere. Blockly writes one
+#: style attribute (the direction of a bubble's text): style attributes are allowed, and nothing else inline (no
+#: <style> element, no script but the server's).
 EDITOR_POLICY = (
-    "default-src 'none'; script-src 'self'; style-src 'self'; img-src 'self' data:; connect-src 'self'; "
+    "default-src 'none'; script-src 'self'; style-src 'self'; style-src-attr 'unsafe-inline'; img-src 'self' data:; "
+    "connect-src 'self'; "
     "base-uri 'none'; form-action 'none'; frame-ancestors 'none'"
 )
 
@@ -195,7 +199,8 @@ class EditorServer(BoundedServer):
 
     def _palette(self) -> dict[str, Any]:
         try:
-            registry = validate_text(self.path.read_text(encoding="utf-8"), check_world=False).registry
+            text = self.path.read_text(encoding="utf-8")
+            registry = validate_text(text, self.path.name, self.path.parent, check_world=False).registry
         except (OSError, UnicodeDecodeError, MissionInvalid):
             registry = None
         from autonomy.mission import BUILTINS
@@ -226,24 +231,36 @@ class EditorServer(BoundedServer):
 
     async def _save(self, request: web.Request) -> web.Response:
         text = await self._body(request, "text")
+        if not isinstance(text, str):
+            raise web.HTTPBadRequest(text='the body is JSON: {"text": "the mission\'s text"}')
         try:
-            size = len(text.encode("utf-8")) if isinstance(text, str) else MAX_FILE_BYTES + 1
-        except UnicodeEncodeError:  # half of a surrogate pair: no file holds it
-            size = MAX_FILE_BYTES + 1
+            size = len(text.encode("utf-8"))
+        except UnicodeEncodeError:
+            raise web.HTTPBadRequest(
+                text="the text holds a character that is not text (half of a surrogate pair)"
+            ) from None
         if size > MAX_FILE_BYTES:
-            raise web.HTTPBadRequest(text=f"the text is a mission file's: at most {MAX_FILE_BYTES:,} bytes of text")
+            raise web.HTTPBadRequest(text=f"a mission file is at most {MAX_FILE_BYTES:,} bytes; this text is {size:,}")
         try:
             await self._off_loop(self._write, text)
         except OSError as err:
-            return web.json_response({"ok": False, "error": f"cannot write {self.path.name}: {err.strerror}"}, 500)
+            return web.json_response(
+                {"ok": False, "error": f"cannot write {self.path.name}: {err.strerror}"}, status=500
+            )
         checked = await self._off_loop(self._as_blocks, text)
         return web.json_response({"saved": self.path.name, "problems": checked.get("problems", [])})
 
     def _write(self, text: str) -> None:
-        """Writes the file whole or not at all: a new file beside it, then put in its place."""
-        made = self.path.with_name(f".{self.path.name}.{secrets.token_hex(4)}.saving")
+        """Writes the file whole or not at all: a new file beside it, then put in its place.
+
+        A link is followed (the file it names is written), and the file keeps who may read it.
+        """
+        target = self.path.resolve()
+        made = target.with_name(f".{target.name}.{secrets.token_hex(4)}.saving")
         try:
             made.write_text(text, encoding="utf-8", errors="strict")
-            os.replace(made, self.path)
+            if target.exists():
+                os.chmod(made, stat.S_IMODE(target.stat().st_mode))
+            os.replace(made, target)
         finally:
             made.unlink(missing_ok=True)

@@ -11,7 +11,7 @@ import urllib.request
 
 from autonomy.classroom.exercise import load_exercise
 from autonomy.liveclass.work import as_text, palette
-from autonomy.mission.blocks import DEFINE_BLOCK
+from autonomy.mission.blocks import DEFINE_BLOCK, MISSION_BLOCK
 from tests.axe import violations
 from tests.liveclass.test_pages import FIXED, MISTAKE, WAIT_MS, new_page, sign_in, until
 from tests.views.conftest import ROOT
@@ -66,7 +66,7 @@ def test_a_student_builds_the_garage_solution_with_the_keyboard_alone_and_runs_i
         keys(page, "t", "ArrowDown", "ArrowDown", "ArrowRight")  # the toolbox's Do, its first block
         press_until(page, "ArrowDown", "until an obstacle is within")
         keys(page, "Enter", "Enter")  # taken, and left at the place marked
-        press_until(page, "ArrowRight", "Edit number: 1")  # its distance
+        press_until(page, "ArrowRight", "Edit number: 150")  # its distance (typed again, from the keyboard)
         keys(page, "Enter", "Control+a", "1", "5", "0", "Enter")
         until(page, "document.getElementById('mission').value.includes('until_obstacle_mm: 150')")
         assert (
@@ -120,7 +120,7 @@ def test_a_text_with_a_problem_stays_text_and_blocks_changed_are_the_text(browse
 def test_the_toolbox_holds_the_exercise_s_allowed_nodes_alone():
     square = load_exercise(ROOT / "exercises" / "square.yaml")
     shown = {block["type"].split("+")[0] for c in palette(square)["toolbox"]["contents"] for block in c["contents"]}
-    assert shown == {*square.allowed_nodes, DEFINE_BLOCK}
+    assert shown == {*square.allowed_nodes, DEFINE_BLOCK, MISSION_BLOCK}
     assert {b["type"] for b in palette(square)["blocks"]} >= {"while", "obstacle_within"}  # any mission is shown
 
 

@@ -357,3 +357,120 @@ def test_random_missions_go_to_blocks_and_back_losing_nothing(text):
         return
     canonical, back = round_trip(text)
     assert back == canonical
+
+
+# --------------------------------------------------------------------------- what an attacker sent
+
+
+def workspace_of(*blocks: dict) -> str:
+    return json.dumps({"blocks": {"languageVersion": 0, "blocks": list(blocks)}})
+
+
+def mission_block(tree: dict | None = None, **more) -> dict:
+    block = {"type": "@mission", "id": "m", "fields": {"name": "m", "world": "", "tick_hz": 20}, **more}
+    if tree is not None:
+        block["inputs"] = {"tree": {"block": tree}}
+    return block
+
+
+def test_a_comment_of_the_blocks_stays_a_comment_whatever_line_breaks_it_holds():
+    stop = {"type": "stop", "id": "s", "icons": {"comment": {"text": "x\r    - log: {message: injected}"}}}
+    text, spec = from_workspace(workspace_of(mission_block(stop, icons={"comment": {"text": "note\rworld: box"}})))
+    assert spec.world is None and spec.tree.type.name == "stop", text
+    assert text == "# note\n# world: box\nmission: m\ntree:\n  # x\n  #     - log: {message: injected}\n  stop\n"
+
+
+def test_a_subtree_s_name_is_one_line_of_at_most_200_characters():
+    for name in ("a\nb", "'" * 201):
+        text = f"mission: m\nsubtrees: {{{json.dumps(name)}: stop}}\ntree: {{subtree: {json.dumps(name)}}}\n"
+        with pytest.raises(MissionInvalid, match="a subtree's name is one line of at most 200 characters"):
+            validate_text(text)
+    round_trip("mission: m\nsubtrees: {\"'''\": stop}\ntree: {subtree: \"'''\"}\n")
+
+
+def test_a_description_with_indented_lines_comes_back_as_it_was():
+    text = "mission: m\ndescription: |\n  first line\n    indented " + "word " * 20 + "end\ntree: stop\n"
+    canonical, back = round_trip(text)
+    assert validate_text(back).description == validate_text(text).description
+
+
+def beep(**tones) -> dict:
+    return {"type": "beep", "id": "b", "fields": {"tones.0": 5, "tones.1": 5, "tones.2": 5, "volume": 3, **tones}}
+
+
+STOP = {"type": "stop", "id": "s"}
+
+
+@pytest.mark.parametrize(
+    "blocks",
+    [
+        [mission_block(fields="x")],
+        [mission_block(inputs="x")],
+        [mission_block(STOP), {"type": "@define", "id": "d", "fields": {"name": "a"}, "inputs": "x"}],
+        [mission_block({"type": "subtree", "id": "c", "fields": ["s"]})],
+        [{**mission_block(STOP), "fields": {"name": "m", "tick_hz": 10**400}}],
+        [mission_block(beep(**{"tones.0": "x"}))],
+        [mission_block(beep(**{"tones.0": []}))],
+        [mission_block(beep(**{"tones.0": 1.9, "tones.1": True, "tones.2": "9"}))],
+        [mission_block({**STOP, "data": json.dumps({"given": 5})})],
+        [mission_block(STOP, data=json.dumps({"plugins": 5, "description": 3}))],
+    ],
+    ids=["fields", "inputs", "define inputs", "subtree fields", "tick_hz", "tone text", "tone list", "tone kinds",
+         "given", "mission data"],
+)  # fmt: skip
+def test_a_workspace_of_the_wrong_shapes_is_said_wrong_at_its_blocks_never_a_traceback(blocks):
+    with pytest.raises(MissionInvalid) as raised:
+        from_workspace(workspace_of(*blocks), "w.json")
+    assert all(str(problem).startswith("w.json:") for problem in raised.value.problems)
+
+
+def test_blocks_nested_deeper_than_a_mission_goes_are_said_so():
+    block: dict = {"type": "stop", "id": "s"}
+    for n in range(1000):
+        block = {"type": "sequence", "id": f"q{n}", "inputs": {"children": {"block": block}}}
+    deep = workspace_json({"blocks": {"languageVersion": 0, "blocks": [mission_block(block)]}})
+    with pytest.raises(MissionInvalid, match="nested deeper"):
+        from_workspace(deep, "w.json")
+
+
+def test_empty_comments_a_byte_order_mark_and_comments_beside_keys_are_kept_where_they_were():
+    for text in ("mission: m\ntree:\n  #\n  stop\n", "\ufeff# top comment\nmission: m\ntree: stop\n"):
+        canonical, back = round_trip(text)
+        assert back == canonical and "#" in back, back
+    text = (
+        "mission: m\nsubtrees:  # the steps\n  a:  # about a\n    sequence: [stop]\ntree:  # main tree\n"
+        "  sequence:\n    - stop\n    -  # about wait\n      wait: {seconds: 1}\n    - subtree: a\n"
+    )
+    canonical, back = round_trip(text)
+    assert back == canonical
+    assert "  a:\n    # the steps\n    # about a\n    sequence:" in canonical
+    assert "tree:\n  # main tree\n  sequence:\n    - stop\n    # about wait\n    - wait:" in canonical
+
+
+def test_an_xml_mission_s_text_is_not_read_for_yaml_comments():
+    text = (
+        '<root BTCPP_format="4">\n<!-- drive, then stop -->\n<BehaviorTree ID="m">\n<Sequence>\n'
+        '<log message="step #1"/>\n<stop/>\n</Sequence>\n</BehaviorTree>\n</root>\n'
+    )
+    spec = validate_text(text, "m.xml", check_world=False)
+    canonical = canonical_text(spec, text)
+    assert "\n#" not in canonical and "# " not in canonical and comments_in(text) == []
+    assert "log: {message: 'step #1'}" in canonical
+
+
+def test_a_comment_on_named_steps_comes_back_before_them():
+    spec = validate_text("mission: m\nsubtrees:\n  a: stop\ntree: {subtree: a}\n", check_world=False)
+    workspace = json.loads(workspace_json(to_workspace(spec)))
+    workspace["blocks"]["blocks"][1]["icons"] = {"comment": {"text": "the steps"}}
+    back, _ = from_workspace(json.dumps(workspace))
+    assert "subtrees:\n  a:\n    # the steps\n    stop\n" in back
+
+
+def test_a_problem_of_the_mission_block_is_said_at_the_mission_block():
+    text = workspace_json(to_workspace(validate_text("mission: m\ntree: stop\n"))).replace(
+        '"tick_hz":20.0', '"tick_hz":500'
+    )
+    with pytest.raises(MissionInvalid) as raised:
+        from_workspace(text, "w.json")
+    (problem,) = raised.value.problems
+    assert text.splitlines()[0][problem.column - 1 :].startswith('"id":"b1"') and "tick_hz" in problem.message

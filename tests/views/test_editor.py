@@ -155,11 +155,11 @@ def test_a_shipped_mission_loaded_switched_to_blocks_and_back_and_saved_is_its_c
         (path.parent / "opening_finder.py").write_text((source.parent / "opening_finder.py").read_text())
     page = open_page(browser, url)
     try:
-        page.get_by_role("button", name="Blocks to text").click()
+        page.get_by_role("button", name="Write the blocks as text").click()
         until(page, "document.getElementById('status').textContent.includes('The text is the blocks')")
-        page.get_by_role("button", name="Text to blocks").click()
+        page.get_by_role("button", name="Show the text as blocks").click()
         until(page, "document.getElementById('status').textContent.includes('The blocks are the text')")
-        page.get_by_role("button", name="Blocks to text").click()
+        page.get_by_role("button", name="Write the blocks as text").click()
         until(page, "document.getElementById('status').textContent.includes('The text is the blocks')")
         page.get_by_role("button", name="Save").click()
         until(page, "document.getElementById('status').textContent.startsWith('Saved')")
@@ -206,9 +206,9 @@ def test_a_block_is_added_and_the_file_saved_with_the_keyboard_alone(browser, ed
         assert "blocklyToolbox" in page.evaluate("document.activeElement.className")
         press(page, "w", "stack of blocks")  # the workspace
         press(page, "ArrowDown", "mission")
-        press(page, "ArrowDown", "do these in order")
+        press(page, "ArrowDown", "do these one after another")
         press(page, "ArrowDown", "stop")
-        press(page, "ArrowDown", "End do these in order")  # the place after the stop
+        press(page, "ArrowDown", "End do these one after another")  # the place after the stop
         press(page, "t")  # the toolbox: Order, Change, Do
         press(page, "ArrowDown")
         press(page, "ArrowDown")
@@ -232,11 +232,57 @@ def test_axe_finds_nothing_on_the_editor_with_blocks_a_problem_and_the_toolbox_o
     page = open_page(browser, url)
     try:
         assert violations(page) == []
-        page.locator("#text").fill("mission: m\ntree:\n  sequence:\n    - mvoe: {speed: 2}\n")
-        page.wait_for_selector("#problems li", timeout=30_000)
-        assert violations(page) == []
         page.locator(".blocklyToolboxCategory").filter(has_text=re.compile("^Do$")).click()  # a category's blocks
         page.wait_for_selector(".blocklyFlyout .blocklyDraggable", timeout=30_000)
         assert violations(page) == []
+        page.locator("#text").fill("mission: m\ntree:\n  sequence:\n    - mvoe: {speed: 2}\n")
+        page.wait_for_selector("#problems li", timeout=30_000)
+        assert violations(page) == []
+    finally:
+        page.close()
+
+
+def test_the_text_waits_untouched_while_it_has_a_problem_and_a_warned_block_is_deleted_cleanly(browser, editing):
+    url, path = editing("mission: m\ntree:\n  sequence:\n    - stop\n")
+    errors: list[str] = []
+    page = open_page(browser, url)
+    page.on("pageerror", lambda error: errors.append(str(error)))
+    try:
+        typed = "mission: m\ntree:\n  sequence:\n    - trun: {left: 90}\n    - wait: {seconds: 2}\n"
+        page.locator("#text").fill(typed)
+        until(page, "!document.getElementById('blocks-note').hidden")
+        assert page.evaluate("document.getElementById('blocks').inert")  # the blocks take no change meanwhile
+        assert page.input_value("#text") == typed
+        page.locator("#text").fill(typed.replace("trun", "turn"))
+        until(page, "!document.getElementById('blocks').inert")
+        # a block left outside the mission is a problem on its block; Save says so, and saves nothing
+        page.evaluate(
+            "(() => { const b = Blockly.getMainWorkspace().newBlock('stop'); b.initSvg(); b.render();"
+            " b.moveBy(300, 300); })()"
+        )
+        until(page, "document.getElementById('status').textContent.includes('problem')")
+        page.get_by_role("button", name="Save").click()
+        until(page, "document.getElementById('status').textContent.startsWith('Not saved')")
+        assert path.read_text() == "mission: m\ntree:\n  sequence:\n    - stop\n"
+        page.evaluate(
+            "(() => { const b = Blockly.getMainWorkspace().getAllBlocks(false).find((b) => b.type === 'stop'"
+            " && !b.getParent()); Blockly.getFocusManager().focusNode(b); })()"
+        )
+        page.keyboard.press("Delete")
+        until(page, "document.getElementById('status').textContent === 'The text is the blocks.'")
+        page.keyboard.press("Control+s")
+        until(page, "document.getElementById('status').textContent.startsWith('Saved')")
+        assert errors == [] and page.evaluate("window.breaches") == []
+    finally:
+        page.close()
+    assert "turn: {left: 90}" in path.read_text() and "wait: {seconds: 2}" in path.read_text()
+
+
+def test_a_new_file_starts_with_the_mission_s_block(browser, editing, tmp_path):
+    url, path = editing("", "new.yaml")
+    page = open_page(browser, url)
+    try:
+        assert "is new" in page.text_content("#status")
+        assert page.evaluate("Blockly.getMainWorkspace().getAllBlocks(false).map((b) => b.type)") == ["@mission"]
     finally:
         page.close()

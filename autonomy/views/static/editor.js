@@ -1,13 +1,23 @@
 'use strict';
 // The editor's page: the mission as blocks and as text, side by side. Every conversion is the
-// server's (autonomy.mission.blocks): the page keeps no mapping of its own.
+// server's (autonomy.mission.blocks): the page keeps no mapping of its own. The text is what is
+// saved: a change of the blocks is written into it, and a change of the text is shown as blocks once
+// the text has no problem (until then the blocks wait, and take no change: the text is not lost).
 
 const key = location.hash.slice(1);
 const element = (id) => document.getElementById(id);
+const EMPTY_MISSION = {
+  blocks: {
+    languageVersion: 0,
+    blocks: [{type: '@mission', x: 20, y: 20, fields: {name: 'my-mission', world: '', tick_hz: 20}}],
+  },
+};
 let workspace = null;
 let loading = false;
 let blocksTimer = null;
 let textTimer = null;
+let blocksChanged = false; // the blocks changed since the text was last made of them
+let savedText = null; // the text as the file has it
 
 async function api(path, body) {
   const options = {headers: {Authorization: `Bearer ${key}`}};
@@ -46,8 +56,19 @@ function load(state) {
   } finally {
     loading = false;
   }
+  blocksChanged = false;
 }
 
+/** The blocks wait (and take no change) while the text has a problem: what is typed is never overwritten. */
+function blocksWait(problem) {
+  const note = element('blocks-note');
+  note.hidden = !problem;
+  note.textContent = problem || '';
+  element('blocks').inert = Boolean(problem);
+  element('blocks').classList.toggle('waiting', Boolean(problem));
+}
+
+/** Writes the blocks as the text; whether they had no problem. */
 async function toText() {
   clearTimeout(blocksTimer);
   if (workspace.isDragging()) { // a block on its way (by mouse or keys) is not yet where it goes
@@ -58,31 +79,37 @@ async function toText() {
   const answer = await api('/api/text', {workspace: state});
   if (answer.ok) {
     element('text').value = answer.text;
-    element('blocks-note').hidden = true;
+    blocksChanged = false;
     showProblems([], 'blocks');
     say('The text is the blocks.');
   } else {
     showProblems(answer.problems, 'blocks');
-    say(`The blocks have ${answer.problems.length} problem(s): the text stays as it was.`);
+    say(`The blocks have ${answer.problems.length} problem(s), each on its block: the text stays as it was.`);
   }
   return answer.ok;
 }
 
+/** Shows the text as blocks; a text with problems stays text, and the blocks wait. Whether it had none. */
 async function toBlocks() {
   clearTimeout(textTimer);
-  const answer = await api('/api/blocks', {text: element('text').value});
-  const note = element('blocks-note');
+  const text = element('text').value;
+  if (!text.trim()) {
+    load(EMPTY_MISSION);
+    blocksWait('');
+    showProblems([], 'text');
+    return true;
+  }
+  const answer = await api('/api/blocks', {text});
   if (answer.ok) {
     load(answer.workspace);
-    note.hidden = true;
+    blocksWait('');
     showProblems([], 'text');
     say('The blocks are the text.');
   } else {
     const first = answer.problems[0];
-    note.textContent = first
-      ? `The text has a problem at line ${first.line}, column ${first.column}: the blocks show it as it was before.`
-      : 'The text is empty.';
-    note.hidden = false;
+    blocksWait(first
+      ? `The text has a problem at line ${first.line}, column ${first.column}: the blocks wait until it is mended.`
+      : 'The text is not a mission yet: the blocks wait.');
     showProblems(answer.problems, 'text');
     say(`The text has ${answer.problems.length} problem(s): it stays text until they are mended.`);
   }
@@ -90,8 +117,14 @@ async function toBlocks() {
 }
 
 async function save() {
-  const answer = await api('/api/save', {text: element('text').value});
+  if (blocksChanged && !(await toText())) {
+    say('Not saved: the blocks have problems, each on its block. Mend them (or delete the blocks outside the mission).');
+    return;
+  }
+  const text = element('text').value;
+  const answer = await api('/api/save', {text});
   if (answer.saved) {
+    savedText = text;
     const problems = answer.problems || [];
     say(problems.length ? `Saved ${answer.saved}, with ${problems.length} problem(s).` : `Saved ${answer.saved}.`);
     showProblems(problems, 'text');
@@ -110,14 +143,17 @@ async function start() {
   document.title = `${mission.file}: autonomy edit`;
   workspace = blocksInject(element('blocks'), mission.palette);
   element('text').value = mission.text;
+  savedText = mission.text;
   if (mission.ok) {
     load(mission.workspace);
     say(`${mission.file}: the blocks and the text are the same mission.`);
-  } else if (mission.problems.length) {
+  } else {
     await toBlocks();
+    if (!mission.text.trim()) say(`${mission.file} is new: build it from blocks, or write it as text, then save.`);
   }
   blocksOnChange(workspace, () => {
     if (loading) return;
+    blocksChanged = true;
     clearTimeout(blocksTimer);
     blocksTimer = setTimeout(toText, 400);
   });
@@ -128,6 +164,15 @@ async function start() {
   element('to-text').addEventListener('click', toText);
   element('to-blocks').addEventListener('click', toBlocks);
   element('save').addEventListener('click', save);
+  document.addEventListener('keydown', (event) => {
+    if (event.key === 's' && (event.ctrlKey || event.metaKey)) {
+      event.preventDefault();
+      save();
+    }
+  });
+  window.addEventListener('beforeunload', (event) => {
+    if (blocksChanged || element('text').value !== savedText) event.preventDefault(); // asks before work is lost
+  });
   document.body.dataset.ready = 'yes';
 }
 
