@@ -92,6 +92,7 @@ bench: $(STAMP)
 	$(BIN)/python benchmarks/cluster.py
 	$(BIN)/python benchmarks/work.py
 	$(BIN)/python benchmarks/liveclass.py
+	$(BIN)/python benchmarks/blocks.py
 
 ## vendor: the built browser libraries the package ships (Blockly), anew from package-lock.json; needs node and npm
 vendor:

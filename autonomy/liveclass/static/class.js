@@ -460,7 +460,18 @@ $("mode-blocks").addEventListener("click", () => {
 });
 $("mode-text").addEventListener("click", async () => {
   if (mode === "text") return;
-  await toText();
+  let written = false;
+  try {
+    written = await toText();
+  } catch (error) {
+    $("status").textContent = `Your blocks could not be written as text: ${error.message}`;
+    return;
+  }
+  if (!written) {
+    // the text is the blocks' last one without problems: what was built since would be lost
+    $("status").textContent = "Mend your blocks first (each problem is marked on its block): then switch to text.";
+    return;
+  }
   setMode("text");
 });
 $("run").addEventListener("click", () => send("run"));
