@@ -129,6 +129,10 @@ def _serve(
         file=sys.stderr,
         flush=True,
     )
+    first = (_addresses(args.host) or ["127.0.0.1"])[0]
+    links = _write_links(folder / "codes.csv", f"http://{f'[{first}]' if ':' in first else first}:{server.port}/")
+    if links is not None:
+        print(f"each student's sign-in link (no code to type) is in {links}", file=sys.stderr)
     print(f"http://{shown}:{server.port}/", flush=True)
     signal.signal(signal.SIGTERM, _interrupt)
     try:
@@ -208,6 +212,25 @@ def _write_codes(path: Path, roster: list[Any], codes: dict[str, str], replace: 
         fresh.chmod(0o600)
         csv.writer(stream).writerows(rows)
     fresh.replace(path)
+
+
+def _write_links(codes: Path, address: str) -> Path | None:
+    """Writes ``links.csv`` beside ``codes.csv``: each student's sign-in link, ``ADDRESS#code=CODE`` (None: no codes).
+
+    A link signs its student in with no code to type (WCAG 3.3.8): the teacher sends it, or makes a QR
+    code of it. It is as secret as the code, and the file is the teacher's alone.
+    """
+    if not codes.exists():
+        return None
+    with codes.open(encoding="utf-8", newline="") as stream:
+        rows = [row for row in csv.reader(stream) if len(row) >= 3][1:]
+    path = codes.with_name("links.csv")
+    fresh = path.with_name(path.name + ".new")
+    with fresh.open("w", encoding="utf-8", newline="") as stream:
+        fresh.chmod(0o600)
+        csv.writer(stream).writerows([["id", "name", "link"], *([i, n, f"{address}#code={c}"] for i, n, c, *_ in rows)])
+    fresh.replace(path)
+    return path
 
 
 def add_parsers(sub: Any) -> None:

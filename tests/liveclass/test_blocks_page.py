@@ -5,6 +5,7 @@ The page is served by ``autonomy class serve`` as a teacher starts it, in real h
 
 from __future__ import annotations
 
+import csv
 import json
 import urllib.error
 import urllib.request
@@ -95,8 +96,8 @@ def test_a_text_with_a_problem_stays_text_and_blocks_changed_are_the_text(browse
         until(page, "!document.getElementById('desk').hidden")
         page.fill("#mission", MISTAKE)
         page.click("#mode-blocks")
-        until(page, "document.getElementById('status').textContent.includes('stays text')")
-        assert "line 4, column 7" in page.text_content("#status")
+        until(page, "document.getElementById('message').textContent.includes('stays text')")
+        assert "line 4, column 7" in page.text_content("#message")
         assert page.get_attribute("#mode-text", "aria-pressed") == "true" and page.is_visible("#mission")
         page.fill("#mission", FIXED)
         page.click("#mode-blocks")
@@ -154,3 +155,20 @@ def test_the_blocks_routes_take_a_student_s_code_and_one_request_at_a_time(class
         with urllib.request.urlopen(request, timeout=30) as answer:
             shown = json.loads(answer.read())
         assert shown.get("ok", "toolbox" in shown) == (path != "api/text"), shown
+
+
+def test_a_student_signs_in_from_their_link_with_no_code_typed(browser, classroom, tmp_path):
+    student_url, _, codes = classroom
+    with (tmp_path / "class" / "links.csv").open() as stream:
+        links = {row["id"]: row["link"] for row in csv.DictReader(stream)}
+    assert links["1001"] == f"{student_url}#code={codes['1001']}"
+    assert (tmp_path / "class" / "links.csv").stat().st_mode & 0o777 == 0o600
+    errors: list[str] = []
+    page = new_page(browser, errors)
+    try:
+        page.goto(links["1001"])
+        until(page, "!document.getElementById('desk').hidden")
+        assert page.text_content("#who") == "Ada Lovelace" and "#" not in page.url  # the code left the address
+        assert errors == []
+    finally:
+        page.close()

@@ -278,11 +278,11 @@ async function toBlocks() {
     if (!data.ok) {
       showProblems(data.problems);
       const first = data.problems[0];
-      $("status").textContent =
-        `Your text has a problem at line ${first.line}, column ${first.column}: it stays text until it is mended.`;
-      $("status").className = "error";
+      // said where a check's answer, which may come after, does not write over it
+      say(`Your text has a problem at line ${first.line}, column ${first.column}: it stays text until it is mended.`, true);
       return false;
     }
+    say("", false);
     state = data.workspace;
   }
   setMode("blocks");
@@ -476,5 +476,10 @@ $("mode-text").addEventListener("click", async () => {
 });
 $("run").addEventListener("click", () => send("run"));
 $("handin").addEventListener("click", () => send("handin"));
-if (code) signIn(code);
+// A sign-in link (`/#code=CODE`, from links.csv) signs in with no code typed; the code leaves the address at once.
+const linked = new URLSearchParams(location.hash.slice(1)).get("code");
+if (linked) {
+  history.replaceState(null, "", location.pathname + location.search);
+  signIn(linked);
+} else if (code) signIn(code);
 else $("code").focus();
