@@ -30,6 +30,7 @@ import msgspec
 
 from autonomy.protocol import STATUS_LENGTH
 from autonomy.protocol import Status as Packet
+from autonomy.source import finite_number
 
 #: The version of the record format; a reader refuses records of a newer version. Version 2
 #: writes numbers in full (version 1 rounded them), a packet's bytes in base64 (1: hex), and
@@ -91,7 +92,7 @@ class Pose(NamedTuple):
     @classmethod
     def from_json(cls, value: Any) -> Pose:
         """The inverse of :meth:`to_json`: each number as it was (a whole one stays whole)."""
-        if not isinstance(value, list) or len(value) != 3 or not all(_is_finite(v) for v in value):
+        if not isinstance(value, list) or len(value) != 3 or not all(finite_number(v) for v in value):
             raise RecordError(f"a pose is [x_mm, y_mm, heading_deg], three finite numbers; got {_short(value)}")
         return cls(*value)
 
@@ -486,16 +487,6 @@ def _node_state(value: Any) -> NodeState:
     return NodeState(value[0], value[1] if len(value) > 1 else "")
 
 
-def _is_finite(value: Any) -> bool:
-    """A JSON number that a float holds, NaN and infinity left out (a 400-digit whole number too)."""
-    if type(value) not in (int, float):
-        return False
-    try:
-        return math.isfinite(value)
-    except OverflowError:
-        return False
-
-
 def _whole(value: Any, what: str) -> int:
     if type(value) is not int:
         raise RecordError(f"{what} must be a whole number, got {_short(value)}")
@@ -522,13 +513,13 @@ def _finite_numbers(value: Any, what: str) -> Any:
     elif isinstance(value, list):
         for item in value:
             _finite_numbers(item, what)
-    elif type(value) in (int, float) and not _is_finite(value):
+    elif type(value) in (int, float) and not finite_number(value):
         raise RecordError(f"{what} must be a finite number, got {_short(value)}")
     return value
 
 
 def _finite(value: Any, what: str) -> float:
-    if not _is_finite(value):
+    if not finite_number(value):
         raise RecordError(f"{what} must be a finite number, got {_short(value)}")
     return float(value)
 

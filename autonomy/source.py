@@ -132,6 +132,16 @@ MAX_FILE_BYTES = 500_000
 MAX_DEPTH = 100
 
 
+def finite_number(value: Any) -> bool:
+    """Whether ``value`` is a number a float holds: not a flag, not NaN or infinity, not a 400-digit whole number."""
+    if type(value) not in (int, float):
+        return False
+    try:
+        return math.isfinite(value)
+    except OverflowError:
+        return False
+
+
 def is_file(path: Path) -> bool:
     """Whether ``path`` is a file; False, not an error, for a name no file can have (too long, a NUL)."""
     try:

@@ -63,6 +63,7 @@ from autonomy.liveclass.work import (
     palette,
     work_file,
 )
+from autonomy.source import finite_number
 from autonomy.views.editor import vendor_response
 from autonomy.views.lines import printable
 from autonomy.views.page import static_text
@@ -172,16 +173,6 @@ def _come_back(status: int, why: str, wait_s: float) -> web.Response:
 def _bearer(request: web.Request) -> str:
     """What a request's ``Authorization: Bearer ...`` carries, as sent."""
     return request.headers.get("Authorization", "").removeprefix("Bearer ")
-
-
-def _seconds(value: Any) -> bool:
-    """Whether ``value`` is a finite number of seconds (not a boolean, not 10**400, which no float holds)."""
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        return False
-    try:
-        return math.isfinite(float(value))
-    except OverflowError:
-        return False
 
 
 def seen_by_student(exercise: Exercise, report: Report) -> dict[str, Any]:
@@ -417,49 +408,41 @@ class ClassServer(BoundedServer):
     def _done(self, student: Student) -> None:
         self._busy.discard(student.id)
 
-    async def _check(self, request: web.Request) -> web.Response:
+    async def _student_work(
+        self, request: web.Request, read: Callable[[web.Request], Any], work: Callable[[Exercise, Any], Any]
+    ) -> Any:
+        """One request of a student's at a time: what it sends (``read``), worked on off the loop; or the refusal."""
         student = await self._one_at_a_time(request)
         if isinstance(student, web.Response):
             return student
         try:
-            mission = await self._mission(request)
-            if isinstance(mission, web.Response):
-                return mission
-            # off the server's loop: a tree of 3,000 nodes takes a third of a second to draw
-            checked = await asyncio.get_running_loop().run_in_executor(self._checkers, check, self.exercise, mission)
+            sent = await read(request)
+            if isinstance(sent, web.Response):
+                return sent
+            return await asyncio.get_running_loop().run_in_executor(self._checkers, work, self.exercise, sent)
         finally:
             self._done(student)
+
+    async def _check(self, request: web.Request) -> web.StreamResponse:
+        # off the server's loop: a tree of 3,000 nodes takes a third of a second to draw
+        checked = await self._student_work(request, self._mission, check)
+        if isinstance(checked, web.Response):
+            return checked
         checked["hand_ins_open"] = self._hand_ins_open()
         body = json.dumps(checked).encode()
         return await self._send_in_pieces(request, body, "application/json", NO_STORE)  # trees are big
 
-    async def _blocks(self, request: web.Request) -> web.Response:
+    async def _blocks(self, request: web.Request) -> web.StreamResponse:
         """The mission's text as blocks (``{"mission": TEXT}``), or its problems: a text with problems stays text."""
-        student = await self._one_at_a_time(request)
-        if isinstance(student, web.Response):
-            return student
-        try:
-            mission = await self._mission(request)
-            if isinstance(mission, web.Response):
-                return mission
-            shown = await asyncio.get_running_loop().run_in_executor(self._checkers, as_blocks, self.exercise, mission)
-        finally:
-            self._done(student)
+        shown = await self._student_work(request, self._mission, as_blocks)
+        if isinstance(shown, web.Response):
+            return shown
         return await self._send_in_pieces(request, json.dumps(shown).encode(), "application/json", NO_STORE)
 
     async def _text(self, request: web.Request) -> web.Response:
         """The blocks as the mission's text (``{"workspace": ...}``), or their problems, each at its block."""
-        student = await self._one_at_a_time(request)
-        if isinstance(student, web.Response):
-            return student
-        try:
-            body = await self._body(request)
-            if isinstance(body, web.Response):
-                return body
-            shown = await asyncio.get_running_loop().run_in_executor(self._checkers, as_text, self.exercise, body)
-        finally:
-            self._done(student)
-        return _json(shown)
+        shown = await self._student_work(request, self._body, as_text)
+        return shown if isinstance(shown, web.Response) else _json(shown)
 
     async def _palette_of(self, request: web.Request) -> web.StreamResponse:
         """The blocks a page defines and its toolbox (the exercise's allowed nodes), to a student or the teacher."""
@@ -706,7 +689,7 @@ class ClassServer(BoundedServer):
         deadline = body.get("deadline_s", "missing") if isinstance(body, dict) else "missing"
         if deadline == "now":  # the server's clock: the teacher's page may be on a machine whose clock is off
             deadline = wall_time_s()
-        if deadline is not None and not _seconds(deadline):
+        if deadline is not None and not finite_number(deadline):
             return _refusal(400, 'the body is JSON: {"deadline_s": seconds since the epoch, "now", or null for none}')
         self.store.set_setting(DEADLINE, "" if deadline is None else repr(float(deadline)))
         self._change()

@@ -29,7 +29,6 @@ import bisect
 import contextlib
 import itertools
 import json
-import math
 import re
 import sys
 import threading
@@ -45,7 +44,7 @@ import yaml
 from autonomy.behaviours import Param
 from autonomy.mission.registry import NodeType, Registry
 from autonomy.mission.validate import DEFAULT_TICK_HZ, MissionInvalid, MissionSpec, NodeSpec, validate_text
-from autonomy.source import Problem
+from autonomy.source import Problem, finite_number
 
 #: The mission's block, and a definition of named steps (a subtree): no node type's name has a ``@``.
 MISSION_BLOCK = "@mission"
@@ -387,16 +386,6 @@ class MissionOutline:
     subtrees: dict[str, Outline] = field(default_factory=dict)
     tree: Outline | None = None
     comments: list[str] = field(default_factory=list)
-
-
-def _finite(value: Any) -> bool:
-    """Whether ``value`` is a number a float holds, not a flag (1e400 written whole is not)."""
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        return False
-    try:
-        return math.isfinite(float(value))
-    except OverflowError:
-        return False
 
 
 def _whole(value: Any) -> bool:
@@ -992,7 +981,7 @@ class _Reader:
         state = missions[0]
         self.mission_at = self.where(state)
         hz = self.fields(state, "mission").get("tick_hz", DEFAULT_TICK_HZ)
-        if not _finite(hz):
+        if not finite_number(hz):
             self.problem(state, "mission.tick_hz", f"tick_hz is a number, got {hz!r}"[:200])
             hz = DEFAULT_TICK_HZ
         data = self.data(state, "mission")
