@@ -23,6 +23,7 @@ from autonomy.errors import AutonomyError
 from autonomy.mission.registry import BUILTINS, NodeType, Registry, leaf_classes_in, leaf_type
 from autonomy.mission.xml_read import AttributeText, parse_xml
 from autonomy.source import (
+    MAX_FILE_BYTES,
     Located,
     Problem,
     UnreadableFile,
@@ -727,6 +728,11 @@ def validate_text(
     Raises:
         MissionInvalid: with every problem found.
     """
+    if len(text) > MAX_FILE_BYTES or len(text.encode("utf-8", "surrogatepass")) > MAX_FILE_BYTES:
+        # refused before anything reads it: a text of megabytes would take seconds to parse
+        size = len(text.encode("utf-8", "surrogatepass"))
+        why = f"the text is {size:,} bytes long; a mission file is at most {MAX_FILE_BYTES:,}"
+        raise MissionInvalid([Problem(source, 1, 1, "", why)])
     xml = source.lower().endswith(".xml") or text.lstrip("\ufeff \t\r\n").startswith("<")
     root, errors = parse_xml(text) if xml else parse(text)
     problems = [Problem(source, e.line, e.column, "", e.message) for e in errors]

@@ -229,8 +229,8 @@ def test_a_line_separator_in_a_name_is_refused(separator):
 def test_text_is_at_most_1000_characters_and_problems_quote_it_short():
     [found] = problems(f"mission: {'n' * 900_00}\ntree: stop\n")
     assert found.endswith("is 90,000 characters long; at most 1,000")
-    [key] = problems(f"mission: t\n? {'k' * 500_000}\n: 1\ntree: stop\n")
-    assert len(key) < 1000 and "(500,000 characters)" in key
+    [key] = problems(f"mission: t\n? {'k' * 450_000}\n: 1\ntree: stop\n")  # within a file's size
+    assert len(key) < 1000 and "(450,000 characters)" in key
 
 
 @pytest.mark.parametrize(

@@ -278,3 +278,13 @@ def test_a_subtree_that_includes_itself_through_a_decorator_is_found():
     assert found == [
         "m.yaml:3:40: subtrees.s.repeat.do.subtree: subtree 's' includes itself (directly or through other subtrees)"
     ]
+
+
+def test_a_text_larger_than_a_mission_file_is_refused_before_it_is_read():
+    from autonomy.source import MAX_FILE_BYTES
+
+    for text in ("x" * 2_000_000, "mission: m\ntree: {log: {message: '" + "é" * (MAX_FILE_BYTES // 2) + "'}}\n"):
+        with pytest.raises(MissionInvalid) as refused:
+            validate_text(text, "big.yaml")
+        (problem,) = refused.value.problems
+        assert (problem.line, problem.column) == (1, 1) and f"at most {MAX_FILE_BYTES:,}" in problem.message

@@ -679,3 +679,17 @@ def test_a_name_of_a_megabyte_is_shown_clipped_and_times_past_a_float_s_resoluti
     labels = [label.get_text() for label in ax.get_yticklabels()]
     assert len(labels[1]) == 2 + MAX_LABEL_CHARS and labels[1].endswith("\u2026")  # indented, clipped
     assert mean_over([0.0, 1e17, 1e17 + 16], [1.0, 2.0, 4.0], 0.25) == [1.0, 2.0, 4.0]  # 1e17 - 0.25 is 1e17
+
+
+def test_a_run_killed_at_any_moment_loses_at_most_the_tenth_of_a_second_the_docs_promise(tmp_path):
+    """docs/trace.md and the README promise a run killed outright loses at most 0.1 s of its trace."""
+    _, recorder = run_and_record(tmp_path)
+    header, ticks = recorder.records[0], recorder.ticks
+    clock = VirtualClock()
+    stream = io.StringIO()
+    writer = TraceWriter(stream, clock)
+    writer(header)
+    writer(ticks[0])
+    clock.sleep(0.1)  # the promise itself, not the writer's own setting
+    writer(ticks[1])
+    assert stream.getvalue().splitlines() == [to_line(r) for r in [header, ticks[0], ticks[1]]]
