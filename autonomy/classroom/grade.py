@@ -922,17 +922,9 @@ def _bundle(path: Path) -> list[tuple[str, bytes]]:
     return []  # missing, or a link: graded where it lands, which says so
 
 
-def refuse_daemon() -> None:
-    """Says why a Dask worker that runs as a daemon cannot grade (it may not start a submission's process).
-
-    Raises:
-        RuntimeError: this process is a daemon.
-    """
-    if multiprocessing.current_process().daemon:
-        raise RuntimeError(
-            "the Dask worker runs as a daemon, which may not start the process a submission is graded in: "
-            "start the workers with the Dask setting distributed.worker.daemon: false"
-        )
+def in_a_daemon() -> bool:
+    """Whether this process is a daemon (a Dask worker by default): it may start subprocesses, not multiprocessing's."""
+    return bool(multiprocessing.current_process().daemon)
 
 
 def _dask_job(
@@ -948,7 +940,10 @@ def _dask_job(
     """
     import tempfile
 
-    refuse_daemon()
+    if in_a_daemon():  # graded in a process of its own, which may start the submissions' (see child.py)
+        from autonomy.classroom.child import call_in_child
+
+        return call_in_child(_dask_job, exercise, jobs, options)
     with tempfile.TemporaryDirectory(prefix="autonomy-grade-") as folder:
         places: list[Path] = []
         for index, (_, given, files, is_folder) in enumerate(jobs):

@@ -18,8 +18,8 @@ from autonomy.classroom.grade import (
     check_text,
     file_names,
     grade_class,
+    in_a_daemon,
     page_path,
-    refuse_daemon,
 )
 from autonomy.mission import BUILTINS, MissionInvalid, build_tree
 from autonomy.mission.blocks import block_definitions, from_workspace, read_json, to_workspace, toolbox, workspace_json
@@ -195,7 +195,10 @@ def grade_on_worker(
     exercise: Exercise, student: str, text: str, number: int, hand_in: bool, label: str = ""
 ) -> tuple[Report, bytes]:
     """:func:`grade_text` on a Dask worker, in a folder of its own there: the report, and the feedback page's bytes."""
-    refuse_daemon()
+    if in_a_daemon():  # graded in a process of its own, which may start the submission's (see child.py)
+        from autonomy.classroom.child import call_in_child
+
+        return call_in_child(grade_on_worker, exercise, student, text, number, hand_in, label)
     with tempfile.TemporaryDirectory(prefix="autonomy-class-") as folder:
         report, page = grade_text(exercise, student, text, Path(folder), number, hand_in, label)
         return report, page.read_bytes()
@@ -204,8 +207,8 @@ def grade_on_worker(
 class DaskGrader:
     """Grades the class's works on a Dask cluster, as :func:`grade_text` does here (the same marks, the same page).
 
-    The workers need ``autonomy`` installed, and the Dask setting ``distributed.worker.daemon: false``
-    (a submission is graded in a process of its own, as here).
+    The workers need ``autonomy`` installed; as Dask starts them, with its defaults, is as good as any
+    (a worker that runs as a daemon grades in a process of its own: see :mod:`autonomy.classroom.child`).
 
     Args:
         address: The scheduler's address (``tcp://host:8786``).

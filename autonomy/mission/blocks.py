@@ -781,7 +781,7 @@ def outline_workspace(outline: MissionOutline) -> dict[str, Any]:
         mission["inputs"] = {"tree": {"block": _state(outline.tree, ids)}}
     blocks = [mission]
     for index, (name, root) in enumerate(outline.subtrees.items()):
-        defined = {"type": DEFINE_BLOCK, "id": next(ids), "x": 520, "y": 20 + 200 * index, "fields": {"name": name}}
+        defined = {"type": DEFINE_BLOCK, "id": next(ids), "x": 20, "y": 220 + 200 * index, "fields": {"name": name}}
         defined["inputs"] = {"body": {"block": _state(root, ids)}}
         blocks.append(defined)
     return {"blocks": {"languageVersion": 0, "blocks": blocks}}

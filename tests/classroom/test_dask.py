@@ -21,8 +21,18 @@ ENV = {**os.environ, "PYTHONPATH": str(ROOT)}
 @pytest.fixture(scope="module")
 def cluster():
     """The scheduler's address of a LocalCluster run in a process of its own (not this one: see dask_cluster.py)."""
+    yield from _cluster()
+
+
+@pytest.fixture(scope="module")
+def default_cluster():
+    """A LocalCluster as Dask starts one by default: its workers are daemons."""
+    yield from _cluster("daemon")
+
+
+def _cluster(*how: str):
     process = subprocess.Popen(
-        [sys.executable, str(Path(__file__).with_name("dask_cluster.py"))],
+        [sys.executable, str(Path(__file__).with_name("dask_cluster.py")), *how],
         stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True, env=ENV,
     )  # fmt: skip
     try:
@@ -89,3 +99,15 @@ def test_autonomy_grade_dask_writes_the_same_gradebook_and_says_what_is_wrong(cl
     assert missing.returncode == 2 and missing.stderr.strip().endswith(
         "--dask needs dask.distributed: pip install 'autonomy[cluster]'"
     )
+
+
+def test_a_default_cluster_whose_workers_are_daemons_grades_the_same_bytes(default_cluster, tmp_path):
+    exercise = str(ROOT / "exercises" / "garage.yaml")
+    files = [
+        str(ROOT / "exercises" / "solutions" / "garage.yaml"),
+        str(ROOT / "exercises" / "wrong" / "garage_full_speed.yaml"),
+    ]
+    here = _grade(tmp_path, exercise, *files, "--csv", "here.csv", "--quiet")
+    there = _grade(tmp_path, exercise, *files, "--dask", default_cluster, "--csv", "there.csv", "--quiet")
+    assert here.returncode == there.returncode == 0 and "Traceback" not in there.stderr, there.stderr
+    assert (tmp_path / "there.csv").read_bytes() == (tmp_path / "here.csv").read_bytes()

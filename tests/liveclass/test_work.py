@@ -83,3 +83,27 @@ def test_what_a_student_is_shown_of_the_exercise_keeps_its_lines_and_shows_no_co
     text = "Park.\nThen stop.\u202e\x07"
     shown = exercise_shown(dataclasses.replace(exercise, description=text))
     assert shown["description"] == "Park.\nThen stop.\ufffd\ufffd"
+
+
+def _graded_in_a_daemon(answers, exercise, text: str) -> None:
+    from autonomy.liveclass.work import grade_on_worker
+
+    report, page = grade_on_worker(exercise, "s1", text, 1, False, "run 1")
+    answers.put((report.to_json(), page))
+
+
+def test_a_dask_worker_that_is_a_daemon_grades_through_a_process_of_its_own(tmp_path):
+    import multiprocessing
+
+    from autonomy.liveclass.work import grade_text
+
+    garage = GARAGE
+    text = (ROOT / "exercises" / "solutions" / "garage.yaml").read_text()
+    context = multiprocessing.get_context("spawn")
+    answers = context.Queue()
+    daemon = context.Process(target=_graded_in_a_daemon, args=(answers, garage, text), daemon=True)
+    daemon.start()  # a daemon may not start a multiprocessing child: as a Dask worker is by default
+    there, page = answers.get(timeout=120)
+    daemon.join(30)
+    report, path = grade_text(garage, "s1", text, tmp_path, 1, False, "run 1")
+    assert there == report.to_json() and there["total"] == 10 and page == path.read_bytes()

@@ -48,7 +48,16 @@ function blocksLoad(workspace, state) {
   try {
     workspace.clear();
     Blockly.serialization.workspaces.load(state, workspace);
-    workspace.cleanUp(); // where blocks stand is not kept: the mission and its named steps one under the other
+    // where blocks stand is not kept: the mission where it was loaded, its named steps one under another below
+    // it (cleanUp() would move every block, which takes as long again as the load)
+    const tops = workspace.getTopBlocks(false);
+    const mission = tops.find((block) => block.type === '@mission');
+    let y = mission ? mission.getRelativeToSurfaceXY().y + mission.getHeightWidth().height + 40 : 20;
+    for (const block of tops) {
+      if (block === mission) continue;
+      block.moveTo(new Blockly.utils.Coordinate(20, y));
+      y += block.getHeightWidth().height + 40;
+    }
   } finally {
     Blockly.Events.enable();
   }

@@ -1,0 +1,55 @@
+"""A call run in a new Python process of its own: what a Dask worker that runs as a daemon grades through.
+
+A daemonic process (a Dask worker, by default) may not start a multiprocessing child, so it cannot
+grade as this machine does, in limited worker processes of its own. It may start a subprocess: the
+call is sent there, pickled on standard input; the child, an ordinary process, grades as here (its
+own limited worker processes, the same marks) and sends the result back, pickled on standard output.
+Nothing but the grader's own objects crosses: the pickles come from, and go to, the grader alone.
+"""
+
+from __future__ import annotations
+
+import os
+import pickle
+import subprocess
+import sys
+from collections.abc import Callable
+from typing import Any, TypeVar
+
+T = TypeVar("T")
+
+
+class ChildFailed(RuntimeError):
+    """The child process ended without a result: its exit code and the last line it said."""
+
+
+def call_in_child(function: Callable[..., T], *args: Any) -> T:
+    """``function(*args)``, called in a new Python process (a subprocess, which a daemon may start).
+
+    Raises:
+        ChildFailed: the child ended without a result.
+    """
+    done = subprocess.run(  # noqa: S603 - this interpreter, this module, the grader's own call
+        [sys.executable, "-m", "autonomy.classroom.child"],
+        input=pickle.dumps((function, args)),
+        capture_output=True,
+        check=False,
+    )
+    if done.returncode != 0 or not done.stdout:
+        said = done.stderr.decode("utf-8", "replace").strip().splitlines()
+        raise ChildFailed(f"the grading process ended with code {done.returncode}: {said[-1] if said else 'no word'}")
+    return pickle.loads(done.stdout)  # noqa: S301 - written by the child this call started
+
+
+def _serve() -> None:
+    """The child's body: the call from standard input, its result to standard output (nothing else goes there)."""
+    out = os.fdopen(os.dup(sys.stdout.fileno()), "wb")
+    sys.stdout = sys.stderr  # whatever the call prints is not the result
+    function, args = pickle.load(sys.stdin.buffer)  # noqa: S301 - sent by the grader that started this process
+    result = function(*args)
+    pickle.dump(result, out)
+    out.close()
+
+
+if __name__ == "__main__":
+    _serve()
