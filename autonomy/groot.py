@@ -120,8 +120,9 @@ class GrootPublisher:
         self.blackboards = set(tree.blackboards)
         self._stopped = False
         self._thread = threading.Thread(target=self._serve, name="groot2", daemon=True)
-        #: Requests answered, for the curious.
+        #: Requests answered, and requests dropped (a client past its share), for the curious.
         self.requests = 0
+        self.dropped = 0
         #: Changed by every tick that changed a status: the ``S`` answer is made once per change.
         self._version = 0
         self._status_answer: tuple[int, bytes] = (-1, b"")
@@ -223,6 +224,7 @@ class GrootPublisher:
                     second_s, asked = now_s, {}
                 count = asked[frames[0]] = asked.get(frames[0], 0) + 1
                 if count > PEER_REQUESTS_PER_S:
+                    self.dropped += 1
                     continue  # dropped: a flood costs a receive a request, never an answer
                 try:
                     reply = self.answer(frames[2:])

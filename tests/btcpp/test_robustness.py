@@ -61,7 +61,7 @@ def test_a_client_asking_past_its_share_is_dropped_and_groot2_is_answered_throug
 
     context = zmq.Context()
     greedy = context.socket(zmq.REQ)  # one client that asks faster than its share: each over it goes unanswered
-    greedy.setsockopt(zmq.RCVTIMEO, 5000)  # an answer comes within it even on a busy machine; a dropped one never
+    greedy.setsockopt(zmq.RCVTIMEO, 250)  # then the publisher is asked whether it dropped the request, or is slow
     greedy.setsockopt(zmq.LINGER, 0)
     greedy.setsockopt(zmq.REQ_RELAXED, 1)  # may ask again without its answer
     greedy.connect(f"tcp://127.0.0.1:{publisher.port}")
@@ -72,14 +72,19 @@ def test_a_client_asking_past_its_share_is_dropped_and_groot2_is_answered_throug
         dealer.connect(f"tcp://127.0.0.1:{publisher.port}")
         flood.append(dealer)
     try:
-        answered, refused = 0, False
+        answered, refused, dropped = 0, False, publisher.dropped
+        give_up = time.monotonic() + 120
         while not refused and answered <= 3 * PEER_REQUESTS_PER_S:
             greedy.send(b"\x02S\x00\x00\x00\x00")
-            try:
-                greedy.recv_multipart()
-                answered += 1
-            except zmq.Again:
-                refused = True  # its request went unanswered
+            while time.monotonic() < give_up:
+                try:
+                    greedy.recv_multipart()
+                    answered += 1
+                    break
+                except zmq.Again:
+                    if publisher.dropped > dropped:  # its request went unanswered: dropped, not late (a busy machine)
+                        refused = True
+                        break
         # its share of a second (of two, when a second ended while it asked), then nothing
         assert refused and PEER_REQUESTS_PER_S <= answered <= 2 * PEER_REQUESTS_PER_S
         for _ in range(50):

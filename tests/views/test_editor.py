@@ -20,6 +20,7 @@ from autonomy.mission.blocks import canonical_text
 from autonomy.views.editor import vendored
 from tests.axe import violations
 from tests.mission.test_blocks import SHIPPED, shape
+from tests.views.conftest import until as wait_until
 
 ROOT = Path(__file__).resolve().parents[2]
 #: Set before the page's scripts run: every breach of the page's policy is kept to be read.
@@ -61,12 +62,9 @@ def open_page(browser, url: str):
     return page
 
 
-def until(page, expression: str, timeout_s: float = 30.0) -> None:
-    """Waits until ``expression`` holds in the page, asking it every 50 ms (the page's policy runs no eval)."""
-    deadline = time.monotonic() + timeout_s
-    while not page.evaluate(expression):
-        assert time.monotonic() < deadline, f"never held: {expression}"
-        threading.Event().wait(0.05)
+def until(page, expression: str) -> None:
+    """Waits until ``expression`` holds in the page (30 s at most, as a busy machine may need)."""
+    wait_until(page, expression, 30_000)
 
 
 def test_the_served_blockly_is_the_one_recorded_and_pinned(editing):
@@ -76,6 +74,8 @@ def test_the_served_blockly_is_the_one_recorded_and_pinned(editing):
     assert record["name"] == "blockly" and record["licence"] == "Apache-2.0"
     assert lock["packages"]["node_modules/blockly"]["version"] == record["version"]
     assert json.loads((ROOT / "package.json").read_text())["devDependencies"]["blockly"] == record["version"]
+    axe = json.loads((ROOT / "tests" / "vendor" / "axe-core" / "VENDOR.json").read_text())  # the tests' axe-core too
+    assert lock["packages"]["node_modules/axe-core"]["version"] == axe["version"] and axe["licence"] == "MPL-2.0"
     base = url.split("#")[0]
     for name, digest in record["files"].items():
         if name == "LICENSE":  # kept beside the files, not served
