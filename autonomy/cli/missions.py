@@ -86,7 +86,7 @@ def cmd_blocks(args: argparse.Namespace) -> int:
         registry = BUILTINS if args.input is None else _registry(args.input)
         if registry is None:
             return EXIT_USAGE
-        palette = {"blocks": block_definitions(registry, words), "toolbox": toolbox(registry, words)}
+        palette = {"blocks": block_definitions(registry, words), "toolbox": toolbox(registry)}
         return _write_out(json.dumps(palette, indent=1, ensure_ascii=False) + "\n", args.output)
     if args.input is None:
         return _fail("autonomy blocks: give a mission (to blocks) or a workspace .json (to a mission)", EXIT_USAGE)

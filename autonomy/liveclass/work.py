@@ -22,10 +22,17 @@ from autonomy.classroom.grade import (
     page_path,
 )
 from autonomy.mission import BUILTINS, MissionInvalid, build_tree
-from autonomy.mission.blocks import block_definitions, from_workspace, read_json, to_workspace, toolbox, workspace_json
+from autonomy.mission.blocks import (
+    block_definitions,
+    from_workspace,
+    problems_at_blocks,
+    read_json,
+    to_workspace,
+    toolbox,
+    workspace_json,
+)
 from autonomy.mission.catalogue import node_help
 from autonomy.source import Problem
-from autonomy.views.editor import blocks_problems
 from autonomy.views.lines import printable
 from autonomy.views.mapsvg import world_svg
 from autonomy.views.treesvg import svg_tree
@@ -86,7 +93,7 @@ def as_text(exercise: Exercise, body: bytes) -> dict[str, Any]:
         written = workspace_json(workspace)
         text, _ = from_workspace(written, "the blocks", base_dir=NO_PLUGINS, refuse_plugins=PLUGINS_REFUSED)
     except MissionInvalid as err:
-        return {"ok": False, "problems": blocks_problems(written, err.problems)}
+        return {"ok": False, "problems": problems_at_blocks(written, err.problems)}
     except (RecursionError, ValueError, TypeError):
         return _refused("the blocks are nested deeper than a mission goes")
     checked = check(exercise, text)

@@ -332,9 +332,8 @@ def block_definitions(registry: Registry, words: Words | None = None) -> list[di
     return blocks
 
 
-def toolbox(registry: Registry, words: Words | None = None, allowed: tuple[str, ...] | None = None) -> dict[str, Any]:
+def toolbox(registry: Registry, allowed: tuple[str, ...] | None = None) -> dict[str, Any]:
     """Blockly's toolbox: a category per kind of node, each node's forms in it (``allowed``: only those nodes)."""
-    del words
     categories = []
     names = {"composite": "Order", "decorator": "Change", "action": "Do", "condition": "Check", "reference": "Steps"}
     for category, title in names.items():
@@ -842,30 +841,24 @@ class _Reader:
         line = self.text.count("\n", 0, at) + 1
         return line, at - (self.text.rfind("\n", 0, at) + 1) + 1
 
-    def fields(self, state: dict[str, Any], path: str) -> dict[str, Any]:
-        fields = state.get("fields") or {}
-        if not isinstance(fields, dict):
-            self.problem(state, f"{path}.fields", "the block's fields are not what Blockly saves")
+    def part(self, state: dict[str, Any], key: str, path: str) -> dict[str, Any]:
+        """A block's ``fields`` or ``inputs`` (empty when it has none, or they are not what Blockly saves)."""
+        found = state.get(key) or {}
+        if not isinstance(found, dict):
+            self.problem(state, f"{path}.{key}", f"the block's {key} are not what Blockly saves")
             return {}
-        return fields
-
-    def inputs(self, state: dict[str, Any], path: str) -> dict[str, Any]:
-        inputs = state.get("inputs") or {}
-        if not isinstance(inputs, dict):
-            self.problem(state, f"{path}.inputs", "the block's inputs are not what Blockly saves")
-            return {}
-        return inputs
+        return found
 
     def held(self, state: dict[str, Any], name: str, path: str) -> Any:
         """The first block in the block's input ``name`` (None: none)."""
-        held = self.inputs(state, path).get(name)
+        held = self.part(state, "inputs", path).get(name)
         return held.get("block") if isinstance(held, dict) else None
 
     def problem(self, state: Any, path: str, message: str) -> None:
         self.problems.append(Problem(self.source, *self.where(state), path, message))
 
     def text_field(self, state: dict[str, Any], name: str, path: str) -> str:
-        value = self.fields(state, path).get(name, "")
+        value = self.part(state, "fields", path).get(name, "")
         if not isinstance(value, str):
             self.problem(state, f"{path}.fields.{name}", f"{name} is text, got {value!r}"[:200])
             return ""
@@ -913,7 +906,7 @@ class _Reader:
             return None
         node_type, chosen = found
         path = f"{path}.{node_type.name}"
-        fields = self.fields(state, path)
+        fields = self.part(state, "fields", path)
         params: dict[str, Any] = {}
         data = self.data(state, path)
         given = data.get("given", [])
@@ -980,7 +973,7 @@ class _Reader:
             return None
         state = missions[0]
         self.mission_at = self.where(state)
-        hz = self.fields(state, "mission").get("tick_hz", DEFAULT_TICK_HZ)
+        hz = self.part(state, "fields", "mission").get("tick_hz", DEFAULT_TICK_HZ)
         if not finite_number(hz):
             self.problem(state, "mission.tick_hz", f"tick_hz is a number, got {hz!r}"[:200])
             hz = DEFAULT_TICK_HZ
@@ -1093,6 +1086,23 @@ def from_workspace(
             problems.append(Problem(source, *where, problem.path, problem.message))
         raise MissionInvalid(problems) from None
     return mission, spec
+
+
+def problems_at_blocks(sent: str, problems: list[Problem]) -> list[dict[str, Any]]:
+    """A workspace's problems as a page shows them, each with the id of its block (``block``).
+
+    The block is the one whose ``"id"`` the problem stands at in ``sent``, the workspace's JSON
+    (None: the whole workspace's, or the text's).
+    """
+    lines = sent.splitlines()
+    shown = []
+    for problem in problems:
+        at = lines[problem.line - 1][problem.column - 1 :] if problem.line <= len(lines) else ""
+        named = re.match(r'"id":("(?:[^"\\]|\\.)*")', at)
+        block = json.loads(named[1]) if named else None
+        shown.append({"line": problem.line, "column": problem.column, "path": problem.path, "message": problem.message,
+                      "block": block})  # fmt: skip
+    return shown
 
 
 def _plugins_named(workspace: Any) -> list[str]:

@@ -21,7 +21,6 @@ import functools
 import hmac
 import json
 import os
-import re
 import secrets
 import stat
 from concurrent.futures import ThreadPoolExecutor
@@ -36,13 +35,14 @@ from autonomy.mission.blocks import (
     block_definitions,
     from_workspace,
     load_words,
+    problems_at_blocks,
     to_workspace,
     toolbox,
     workspace_json,
 )
 from autonomy.source import MAX_FILE_BYTES, Problem
 from autonomy.views.page import static_text
-from autonomy.views.web import BoundedServer
+from autonomy.views.web import BoundedServer, page_file
 
 #: The editor's own files, and their types.
 EDITOR_FILES = {"editor.js": "text/javascript", "editor.css": "text/css", "blocks.js": "text/javascript"}
@@ -91,20 +91,6 @@ def _problems(problems: list[Problem]) -> list[dict[str, Any]]:
     return [{"line": p.line, "column": p.column, "path": p.path, "message": p.message} for p in problems]
 
 
-def blocks_problems(sent: str, problems: list[Problem]) -> list[dict[str, Any]]:
-    """A workspace's problems as a page shows them, each with the id of its block (``block``).
-
-    The block is found where the problem stands in ``sent``, the workspace's JSON (None: the whole workspace's).
-    """
-    lines = sent.splitlines()
-    shown = _problems(problems)
-    for problem in shown:
-        at = lines[problem["line"] - 1][problem["column"] - 1 :] if problem["line"] <= len(lines) else ""
-        named = re.match(r'"id":("(?:[^"\\]|\\.)*")', at)
-        problem["block"] = json.loads(named[1]) if named else None
-    return shown
-
-
 class EditorServer(BoundedServer):
     """Serves the editor of one mission file in a thread of its own.
 
@@ -148,10 +134,7 @@ class EditorServer(BoundedServer):
         return web.Response(text=static_text("editor.html"), content_type="text/html", headers=headers)
 
     async def _static(self, request: web.Request) -> web.Response:
-        name = request.match_info["name"]
-        if name not in EDITOR_FILES:
-            raise web.HTTPNotFound()
-        return web.Response(text=static_text(name), content_type=EDITOR_FILES[name])
+        return page_file(request.match_info["name"], EDITOR_FILES)
 
     async def _vendor(self, request: web.Request) -> web.Response:
         return vendor_response(request.match_info["name"])
@@ -192,7 +175,7 @@ class EditorServer(BoundedServer):
             sent = workspace_json(workspace)
             text, _ = from_workspace(sent, "the blocks", base_dir=self.path.parent)
         except MissionInvalid as err:
-            return {"ok": False, "problems": blocks_problems(sent, err.problems)}
+            return {"ok": False, "problems": problems_at_blocks(sent, err.problems)}
         except (RecursionError, ValueError, TypeError):
             return {"ok": False, "problems": [{"line": 1, "column": 1, "path": "", "message": "not a workspace"}]}
         return {"ok": True, "text": text}
@@ -206,7 +189,7 @@ class EditorServer(BoundedServer):
         from autonomy.mission import BUILTINS
 
         registry = registry or BUILTINS
-        return {"blocks": block_definitions(registry, self._words), "toolbox": toolbox(registry, self._words)}
+        return {"blocks": block_definitions(registry, self._words), "toolbox": toolbox(registry)}
 
     async def _mission(self, request: web.Request) -> web.Response:
         if not self._allowed(request):

@@ -100,6 +100,15 @@ class _Refusing(asyncio.Protocol):
         self._transport.close()
 
 
+def page_file(
+    name: str, files: dict[str, str], package: str = "autonomy.views", headers: dict[str, str] | None = None
+) -> web.Response:
+    """One of a page's own files (``files``: their names and types), from ``package``'s ``static/``; else not found."""
+    if name not in files:
+        raise web.HTTPNotFound()
+    return web.Response(text=static_text(name, package), content_type=files[name], headers=headers)
+
+
 def address_group(address: str) -> str:
     """Who a connection is counted as: an IPv4 address, or an IPv6 address's /64 network (one machine may hold all)."""
     try:
@@ -617,10 +626,7 @@ class ViewServer(BoundedServer):
         return web.Response(text=static_text("index.html"), content_type="text/html")
 
     async def _static(self, request: web.Request) -> web.Response:
-        name = request.match_info["name"]
-        if name not in STATIC_FILES:
-            raise web.HTTPNotFound()
-        return web.Response(text=static_text(name), content_type=STATIC_FILES[name])
+        return page_file(request.match_info["name"], STATIC_FILES)
 
     async def _run(self, request: web.Request) -> web.StreamResponse:
         """The whole run so far: one encoded answer for every page, sent a piece at a time as each page reads it."""

@@ -48,13 +48,19 @@ def press_until(page, key: str, wanted: str, most: int = 30) -> None:
     raise AssertionError(f"{wanted!r} never had the focus; {focused(page)!r} has it")
 
 
+def student_page(browser, url: str, errors: list[str]):
+    """A new student's page at ``url``, every breach of its policy kept (``window.breaches``)."""
+    page = new_page(browser, errors)
+    page.add_init_script(WATCH_POLICY)
+    page.goto(url)
+    return page
+
+
 def test_a_student_builds_the_garage_solution_with_the_keyboard_alone_and_runs_it_for_full_marks(browser, classroom):
     student_url, _, codes = classroom
     errors: list[str] = []
-    page = new_page(browser, errors)
-    page.add_init_script(WATCH_POLICY)
+    page = student_page(browser, student_url, errors)
     try:
-        page.goto(student_url)
         page.keyboard.type(codes["1001"])
         page.keyboard.press("Enter")
         until(page, "!document.getElementById('desk').hidden")
@@ -88,10 +94,8 @@ def test_a_student_builds_the_garage_solution_with_the_keyboard_alone_and_runs_i
 def test_a_text_with_a_problem_stays_text_and_blocks_changed_are_the_text(browser, classroom):
     student_url, _, codes = classroom
     errors: list[str] = []
-    page = new_page(browser, errors)
-    page.add_init_script(WATCH_POLICY)
+    page = student_page(browser, student_url, errors)
     try:
-        page.goto(student_url)
         sign_in(page, codes["1002"])
         until(page, "!document.getElementById('desk').hidden")
         page.fill("#mission", MISTAKE)

@@ -208,12 +208,6 @@ function check() {
 // (the text is what is checked, run and handed in); Blockly is loaded the first time blocks are asked for.
 const MODE_KEY = "autonomy-class-mode";
 const BLOCKS_AFTER_MS = 400; // the text is made this long after the last change of the blocks
-const EMPTY_MISSION = {
-  blocks: {
-    languageVersion: 0,
-    blocks: [{ type: "@mission", x: 20, y: 20, fields: { name: "my-mission", world: "", tick_hz: 20 } }],
-  },
-};
 let palette = null; // the exercise's blocks and toolbox
 let workspace = null;
 let mode = "text";
@@ -268,7 +262,7 @@ async function toBlocks() {
     return false;
   }
   const text = $("mission").value;
-  let state = EMPTY_MISSION;
+  let state = BLOCKS_NEW_MISSION;
   if (text.trim()) {
     const { status, data } = await inTurn(() => api("POST", "/api/blocks", { mission: text }));
     if (status !== 200) {

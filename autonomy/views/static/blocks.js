@@ -14,6 +14,14 @@ function quietFlyoutPlaces(root) {
   }
 }
 
+/** The blocks of a mission not written yet: the mission's block, empty. */
+const BLOCKS_NEW_MISSION = {
+  blocks: {
+    languageVersion: 0,
+    blocks: [{type: '@mission', x: 20, y: 20, fields: {name: 'my-mission', world: '', tick_hz: 20}}],
+  },
+};
+
 let blocksDefined = false;
 
 /** Blockly in `element`, with the blocks and toolbox of `palette` ({blocks, toolbox}); its workspace. */

@@ -6,12 +6,6 @@
 
 const key = location.hash.slice(1);
 const element = (id) => document.getElementById(id);
-const EMPTY_MISSION = {
-  blocks: {
-    languageVersion: 0,
-    blocks: [{type: '@mission', x: 20, y: 20, fields: {name: 'my-mission', world: '', tick_hz: 20}}],
-  },
-};
 let workspace = null;
 let loading = false;
 let blocksTimer = null;
@@ -94,7 +88,7 @@ async function toBlocks() {
   clearTimeout(textTimer);
   const text = element('text').value;
   if (!text.trim()) {
-    load(EMPTY_MISSION);
+    load(BLOCKS_NEW_MISSION);
     blocksWait('');
     showProblems([], 'text');
     return true;
