@@ -40,7 +40,7 @@ from autonomy.mission.blocks import (
     toolbox,
     workspace_json,
 )
-from autonomy.source import MAX_FILE_BYTES, Problem
+from autonomy.source import MAX_FILE_BYTES, Problem, UnreadableFile, read_text
 from autonomy.views.page import static_text
 from autonomy.views.web import BoundedServer, page_file
 
@@ -182,9 +182,9 @@ class EditorServer(BoundedServer):
 
     def _palette(self) -> dict[str, Any]:
         try:
-            text = self.path.read_text(encoding="utf-8")
+            text = read_text(self.path)
             registry = validate_text(text, self.path.name, self.path.parent, check_world=False).registry
-        except (OSError, UnicodeDecodeError, MissionInvalid):
+        except (UnreadableFile, MissionInvalid):
             registry = None
         from autonomy.mission import BUILTINS
 
@@ -194,10 +194,10 @@ class EditorServer(BoundedServer):
     async def _mission(self, request: web.Request) -> web.Response:
         if not self._allowed(request):
             raise web.HTTPUnauthorized(text="this editor's page has a key in its address: open the address printed")
-        try:
-            text = self.path.read_text(encoding="utf-8") if self.path.exists() else ""
-        except (OSError, UnicodeDecodeError) as err:
-            return web.json_response({"error": f"cannot read {self.path.name}: {err}"}, status=500)
+        try:  # as every mission file is read: at most 500,000 bytes of UTF-8 text
+            text = await self._off_loop(read_text, self.path) if self.path.exists() else ""
+        except UnreadableFile as err:
+            return web.json_response({"error": f"cannot read {self.path.name}: {err.reason}"}, status=422)
         shown = await self._off_loop(self._as_blocks, text) if text else {"ok": False, "problems": []}
         palette = await self._off_loop(self._palette)
         return web.json_response({"file": self.path.name, "text": text, "palette": palette, **shown})

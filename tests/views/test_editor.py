@@ -54,6 +54,14 @@ def editing(tmp_path):
         assert "Traceback" not in err, err
 
 
+def open_page_unready(browser, url: str):
+    """The editor's page, as soon as it is loaded (whether or not the editor could start)."""
+    page = browser.new_page(viewport={"width": 1400, "height": 900})
+    page.add_init_script(WATCH_POLICY)
+    page.goto(url)
+    return page
+
+
 def open_page(browser, url: str):
     page = browser.new_page(viewport={"width": 1400, "height": 900})
     page.add_init_script(WATCH_POLICY)
@@ -284,5 +292,15 @@ def test_a_new_file_starts_with_the_mission_s_block(browser, editing, tmp_path):
     try:
         assert "is new" in page.text_content("#status")
         assert page.evaluate("Blockly.getMainWorkspace().getAllBlocks(false).map((b) => b.type)") == ["@mission"]
+    finally:
+        page.close()
+
+
+def test_a_file_larger_than_a_mission_file_is_said_so_on_the_page_and_not_read_whole(browser, editing):
+    url, path = editing("mission: m\ntree:\n  sequence:\n" + "    - stop\n" * 70_000, "huge.yaml")
+    page = open_page_unready(browser, url)
+    try:
+        until(page, "document.getElementById('status').textContent.includes('cannot read huge.yaml')")
+        assert page.text_content("#status") == "cannot read huge.yaml: larger than 500,000 bytes"
     finally:
         page.close()
