@@ -5,7 +5,8 @@ a wait of 6 s, then driving 12 s) in real time at 20 Hz on the built-in emulator
 (``--view``) and the Groot2 publisher (``--groot``) served and a trace written, in rounds:
 
 - alone;
-- under a crowd, which comes during the wait: 3,000 WebSockets open on ``api/next`` and idle,
+- under a crowd, which comes during the wait: 3,000 WebSockets open on ``api/next`` and idle (from
+  8 loopback addresses: the view takes at most an eighth of its connections from one),
   and 60 connections that each ask ``api/run`` 20 times and never read;
 - the same crowd, and 200 ZeroMQ clients that ask Groot2 for the tree and the statuses 20
   times a second each and never read a reply.
@@ -49,7 +50,7 @@ def one_run(folder: Path, case: str, websockets: int) -> dict[str, float]:
     peak = PeakMemory(run.process.pid)
     try:
         if case != "alone":
-            sockets = IdleWebSockets(run.view_port, websockets)
+            sockets = IdleWebSockets(run.view_port, websockets, addresses=8)  # an address takes an eighth at most
             attackers.extend(non_readers(run.view_port, 60))
             if case == "crowd and Groot2":
                 attackers.append(GrootCrowd(run.groot_port, 200))

@@ -157,9 +157,14 @@ def non_readers(port: int, clients: int, requests: int = 20, path: str = "/api/r
 
 
 class IdleWebSockets:
-    """WebSockets open on ``api/next`` that wait and say nothing, in a thread of their own."""
+    """WebSockets open on ``api/next`` that wait and say nothing, in a thread of their own.
 
-    def __init__(self, port: int, count: int, run: str = "watched") -> None:
+    They come from ``addresses`` loopback addresses in turn (127.0.0.10 and on): a server takes only
+    its share of connections from one address.
+    """
+
+    def __init__(self, port: int, count: int, run: str = "watched", addresses: int = 1) -> None:
+        self._addresses = addresses
         self.opened = 0
         self._loop = asyncio.new_event_loop()
         self._ready = threading.Event()
@@ -172,13 +177,16 @@ class IdleWebSockets:
 
     async def _hold(self, port: int, count: int, run: str) -> None:
         self._done = asyncio.Event()
-        connector = aiohttp.TCPConnector(limit=0)
-        async with aiohttp.ClientSession(connector=connector) as session:
+        many = [(f"127.0.0.{10 + n}", 0) for n in range(self._addresses)]
+        local = [("127.0.0.1", 0)] if self._addresses == 1 else many
+        sessions = [aiohttp.ClientSession(connector=aiohttp.TCPConnector(limit=0, local_addr=a)) for a in local]
+        try:
             sockets = []
             url = f"http://127.0.0.1:{port}/api/next?run={run}"
             for start in range(0, count, 200):
+                batch = range(start, min(start + 200, count))
                 opened = await asyncio.gather(
-                    *(session.ws_connect(url, autoping=False) for _ in range(min(200, count - start)))
+                    *(sessions[n % len(sessions)].ws_connect(url, autoping=False) for n in batch)
                 )
                 sockets += opened
                 self.opened = len(sockets)
@@ -186,6 +194,9 @@ class IdleWebSockets:
             await self._done.wait()
             for ws in sockets:
                 await ws.close()
+        finally:
+            for session in sessions:
+                await session.close()
 
     def close(self) -> None:
         if self._done is not None:
