@@ -94,7 +94,7 @@ bench: $(STAMP)
 	$(BIN)/python benchmarks/liveclass.py
 	$(BIN)/python benchmarks/blocks.py
 
-## vendor: the built browser libraries the package ships (Blockly), anew from package-lock.json; needs node and npm
+## vendor: the built browser libraries the package ships (Blockly, CodeMirror), anew from package-lock.json; needs node and npm
 vendor:
 	npm ci --ignore-scripts --no-audit --no-fund
 	node tools/vendor.cjs

@@ -67,7 +67,7 @@ from autonomy.source import finite_number
 from autonomy.views.editor import vendor_response
 from autonomy.views.lines import printable
 from autonomy.views.page import static_text
-from autonomy.views.web import BoundedServer, address_group
+from autonomy.views.web import BoundedServer, address_group, nonced_page, query_line, query_selected
 
 #: Runs one student may start in a minute; past that they are told when they can run again.
 RUNS_PER_MINUTE = 10
@@ -129,12 +129,14 @@ PAGE_FILES = {
     "teacher.js": "text/javascript",
     "class.css": "text/css",
     "blocks.js": "text/javascript",
+    "text.js": "text/javascript",
 }
 #: The pages' files that are the views' (shared with ``autonomy edit``), by name.
-SHARED_FILES = {"blocks.js": "autonomy.views"}
+SHARED_FILES = {"blocks.js": "autonomy.views", "text.js": "autonomy.views"}
 #: The pages' policy: their own scripts and styles, pictures as data or the server's, frames of this server (feedback
-#: pages). Blockly writes one style attribute (the direction of a bubble's text): style attributes are allowed, and
-#: nothing else inline (no <style> element, no script but the server's).
+#: pages). Blockly writes one style attribute (the direction of a bubble's text): style attributes are allowed.
+#: CodeMirror puts its themes in a <style> element of its own, with the response's nonce (``nonced_page``): no other
+#: <style> element, and no script but the server's, is taken.
 PAGE_POLICY = (
     "default-src 'none'; script-src 'self'; style-src 'self'; style-src-attr 'unsafe-inline'; img-src 'self' data:; "
     "connect-src 'self'; "
@@ -270,7 +272,7 @@ class ClassServer(BoundedServer):
         app.router.add_get("/teacher", functools.partial(self._file, "teacher.html"))
         app.router.add_get("/static/{name}", self._static)
         app.router.add_get("/pages/{name}", self._page)
-        app.router.add_get("/vendor/blockly/{name:.+}", self._vendor)
+        app.router.add_get("/vendor/{library}/{name:.+}", self._vendor)
         app.router.add_post("/api/check", self._check)
         app.router.add_post("/api/blocks", self._blocks)
         app.router.add_post("/api/text", self._text)
@@ -433,15 +435,23 @@ class ClassServer(BoundedServer):
         return await self._send_in_pieces(request, body, "application/json", NO_STORE)  # trees are big
 
     async def _blocks(self, request: web.Request) -> web.StreamResponse:
-        """The mission's text as blocks (``{"mission": TEXT}``), or its problems: a text with problems stays text."""
-        shown = await self._student_work(request, self._mission, as_blocks)
+        """The mission's text as blocks (``{"mission": TEXT}``), or its problems: a text with problems stays text.
+
+        ``?line=N``: the line the text's cursor is on; the answer's ``selected`` is the block of its node.
+        """
+        line = query_line(request)
+        shown = await self._student_work(request, self._mission, functools.partial(as_blocks, line=line))
         if isinstance(shown, web.Response):
             return shown
         return await self._send_in_pieces(request, json.dumps(shown).encode(), "application/json", NO_STORE)
 
     async def _text(self, request: web.Request) -> web.Response:
-        """The blocks as the mission's text (``{"workspace": ...}``), or their problems, each at its block."""
-        shown = await self._student_work(request, self._body, as_text)
+        """The blocks as the mission's text (``{"workspace": ...}``), or their problems, each at its block.
+
+        ``?selected=ID``: the block selected; the answer's ``line`` is where its node begins in the text.
+        """
+        selected = query_selected(request)
+        shown = await self._student_work(request, self._body, functools.partial(as_text, selected=selected))
         return shown if isinstance(shown, web.Response) else _json(shown)
 
     async def _palette_of(self, request: web.Request) -> web.StreamResponse:
@@ -454,7 +464,7 @@ class ClassServer(BoundedServer):
         return await self._send_in_pieces(request, self._palette, "application/json", headers)
 
     async def _vendor(self, request: web.Request) -> web.Response:
-        return vendor_response(request.match_info["name"])
+        return vendor_response(request.match_info["library"], request.match_info["name"])
 
     async def _run(self, request: web.Request) -> web.Response:
         return await self._graded(request, hand_in=False)
@@ -580,6 +590,8 @@ class ClassServer(BoundedServer):
     # ------------------------------------------------------------------ pages
 
     async def _file(self, name: str, request: web.Request) -> web.Response:
+        if name.endswith(".html"):
+            return nonced_page(page_text(name), PAGE_POLICY)
         return web.Response(
             text=page_text(name), content_type=PAGE_FILES[name], headers={"Content-Security-Policy": PAGE_POLICY}
         )

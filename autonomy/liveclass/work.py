@@ -23,6 +23,7 @@ from autonomy.classroom.grade import (
 )
 from autonomy.mission import BUILTINS, MissionInvalid, build_tree
 from autonomy.mission.blocks import (
+    block_at_line,
     block_definitions,
     from_workspace,
     problems_at_blocks,
@@ -31,7 +32,7 @@ from autonomy.mission.blocks import (
     toolbox,
     workspace_json,
 )
-from autonomy.mission.catalogue import node_help
+from autonomy.mission.catalogue import json_schema, node_help
 from autonomy.source import Problem
 from autonomy.views.lines import printable
 from autonomy.views.mapsvg import world_svg
@@ -67,20 +68,28 @@ def check(exercise: Exercise, text: str) -> dict[str, Any]:
 NO_PLUGINS = Path("/nonexistent-plugins")
 
 
-def as_blocks(exercise: Exercise, text: str) -> dict[str, Any]:
-    """The ``api/blocks`` answer: the mission as Blockly's JSON of a workspace, or its problems (it stays text)."""
+def as_blocks(exercise: Exercise, text: str, line: int | None = None) -> dict[str, Any]:
+    """The ``api/blocks`` answer: the mission as Blockly's JSON of a workspace, or its problems (it stays text).
+
+    With the ``line`` the text's cursor is on, ``selected`` is the block of the node there (None: none).
+    """
     checked = check(exercise, text)
     if not checked["ok"]:
         return {"ok": False, "problems": checked["problems"]}
     spec, _ = check_text(exercise, text, MISSION_LABEL, NO_PLUGINS)
-    return {"ok": True, "workspace": to_workspace(spec, text)} if spec is not None else _refused("not a mission")
+    if spec is None:
+        return _refused("not a mission")
+    placed: dict[str, tuple[int, int]] = {}
+    workspace = to_workspace(spec, text, placed)
+    return {"ok": True, "workspace": workspace, "selected": None if line is None else block_at_line(placed, line)}
 
 
-def as_text(exercise: Exercise, body: bytes) -> dict[str, Any]:
+def as_text(exercise: Exercise, body: bytes, selected: str | None = None) -> dict[str, Any]:
     """The ``api/text`` answer to a body ``{"workspace": ...}``: the mission's canonical text, or its problems.
 
     A problem of the blocks names its block (``block``: its id); one of the text they make (a node the
-    exercise does not allow) is at its line and column of that text.
+    exercise does not allow) is at its line and column of that text. With the ``selected`` block's id,
+    ``line`` is the line of the text its node begins on (None: no such block).
     """
     try:
         sent = read_json(body)
@@ -91,7 +100,10 @@ def as_text(exercise: Exercise, body: bytes) -> dict[str, Any]:
         return _refused('the body is JSON: {"workspace": the blocks, as Blockly saves them}')
     try:
         written = workspace_json(workspace)
-        text, _ = from_workspace(written, "the blocks", base_dir=NO_PLUGINS, refuse_plugins=PLUGINS_REFUSED)
+        lines: dict[str, int] = {}
+        text, _ = from_workspace(
+            written, "the blocks", base_dir=NO_PLUGINS, refuse_plugins=PLUGINS_REFUSED, lines=lines
+        )
     except MissionInvalid as err:
         return {"ok": False, "problems": problems_at_blocks(written, err.problems)}
     except (RecursionError, ValueError, TypeError):
@@ -99,12 +111,20 @@ def as_text(exercise: Exercise, body: bytes) -> dict[str, Any]:
     checked = check(exercise, text)
     if not checked["ok"]:
         return {"ok": False, "problems": [{**p, "block": None} for p in checked["problems"]], "mission": text}
-    return {"ok": True, "mission": text}
+    return {"ok": True, "mission": text, "line": lines.get(selected) if selected else None}
 
 
 def palette(exercise: Exercise) -> dict[str, Any]:
-    """The blocks a student's page defines (every node's, to show any mission) and its toolbox (the exercise's)."""
-    return {"blocks": block_definitions(BUILTINS), "toolbox": toolbox(BUILTINS, allowed=exercise.allowed_nodes)}
+    """What a student's page writes a mission with: its blocks, its toolbox, its text's completions.
+
+    The blocks are every node's (to show any mission); the toolbox and the JSON Schema the text's completions
+    come from hold the exercise's nodes alone.
+    """
+    return {
+        "blocks": block_definitions(BUILTINS),
+        "toolbox": toolbox(BUILTINS, allowed=exercise.allowed_nodes),
+        "schema": json_schema(BUILTINS, allowed=exercise.allowed_nodes),
+    }
 
 
 def _refused(*problems: Problem | str, path: str = "") -> dict[str, Any]:

@@ -716,9 +716,10 @@ def _field_values(node: Outline, chosen: tuple[str, ...]) -> dict[str, Any]:
     return values
 
 
-def _state(node: Outline, ids: Iterator[str]) -> dict[str, Any]:
+def _state(node: Outline, ids: Iterator[str], placed: dict[str, tuple[int, int]]) -> dict[str, Any]:
     chosen = tuple(p.name for p in free_params(node.type) if p.name in node.params)
     state: dict[str, Any] = {"type": block_type(node.type, chosen), "id": next(ids)}
+    placed[state["id"]] = node.where
     if node.type.category == "reference":
         state["type"] = node.type.name
     values = _field_values(node, chosen)
@@ -737,27 +738,33 @@ def _state(node: Outline, ids: Iterator[str]) -> dict[str, Any]:
     inputs = {}
     child_params = [p for p in node.type.params if p.kind in ("node", "nodes")]
     if node.type.category == "composite":
-        chain = _chain(node.children, ids)
+        chain = _chain(node.children, ids, placed)
         if chain is not None:
             inputs[child_params[0].name] = {"block": chain}
     else:
         for param, child in zip(child_params, node.children, strict=False):
-            inputs[param.name] = {"block": _state(child, ids)}
+            inputs[param.name] = {"block": _state(child, ids, placed)}
     if inputs:
         state["inputs"] = inputs
     return state
 
 
-def _chain(nodes: list[Outline], ids: Iterator[str]) -> dict[str, Any] | None:
+def _chain(nodes: list[Outline], ids: Iterator[str], placed: dict[str, tuple[int, int]]) -> dict[str, Any] | None:
     """Blocks one after another: each holds the next (``"next": {"block": ...}``)."""
-    states = [_state(node, ids) for node in nodes]
+    states = [_state(node, ids, placed) for node in nodes]
     for before, after in zip(states, states[1:], strict=False):
         before["next"] = {"block": after}
     return states[0] if states else None
 
 
-def outline_workspace(outline: MissionOutline) -> dict[str, Any]:
-    """Blockly's JSON of a workspace holding the mission's blocks (the ids numbered in order: the same each time)."""
+def outline_workspace(outline: MissionOutline, placed: dict[str, tuple[int, int]] | None = None) -> dict[str, Any]:
+    """Blockly's JSON of a workspace holding the mission's blocks (the ids numbered in order: the same each time).
+
+    Args:
+        outline: The mission.
+        placed: Filled, when given, with where each block's node was written: its id -> (line, column).
+    """
+    placed = {} if placed is None else placed
     ids = (f"b{n}" for n in itertools.count(1))
     mission: dict[str, Any] = {
         "type": MISSION_BLOCK,
@@ -777,18 +784,27 @@ def outline_workspace(outline: MissionOutline) -> dict[str, Any]:
         text = "\n".join(outline.comments)
         mission["icons"] = {"comment": {"text": text, "pinned": False, "height": 80, "width": 240}}
     if outline.tree is not None:
-        mission["inputs"] = {"tree": {"block": _state(outline.tree, ids)}}
+        mission["inputs"] = {"tree": {"block": _state(outline.tree, ids, placed)}}
     blocks = [mission]
     for index, (name, root) in enumerate(outline.subtrees.items()):
         defined = {"type": DEFINE_BLOCK, "id": next(ids), "x": 20, "y": 220 + 200 * index, "fields": {"name": name}}
-        defined["inputs"] = {"body": {"block": _state(root, ids)}}
+        defined["inputs"] = {"body": {"block": _state(root, ids, placed)}}
         blocks.append(defined)
     return {"blocks": {"languageVersion": 0, "blocks": blocks}}
 
 
-def to_workspace(spec: MissionSpec, text: str = "") -> dict[str, Any]:
-    """Blockly's JSON of a workspace that holds the mission ``spec``, and the comments of ``text``, its file's text."""
-    return outline_workspace(outline_of(spec, text))
+def to_workspace(spec: MissionSpec, text: str = "", placed: dict[str, tuple[int, int]] | None = None) -> dict[str, Any]:
+    """Blockly's JSON of a workspace that holds the mission ``spec``, and the comments of ``text``, its file's text.
+
+    ``placed``, when given, is filled with where each block's node is in ``text``: its id -> (line, column).
+    """
+    return outline_workspace(outline_of(spec, text), placed)
+
+
+def block_at_line(placed: dict[str, tuple[int, int]], line: int) -> str | None:
+    """The block of the node a line of the text is part of: the last node begun on or before it (None: none is)."""
+    begun = [(where, block) for block, where in placed.items() if where[0] <= line]
+    return max(begun)[1] if begun else None
 
 
 def read_json(text: str | bytes) -> Any:
@@ -822,6 +838,7 @@ class _Reader:
             if node_type.category == "reference":
                 self.types[node_type.name] = (node_type, ())
         self.block_at: dict[int, tuple[int, int]] = {}
+        self.block_ids: dict[int, str] = {}  # each node's block's id
         self.mission_at = (1, 1)
         self._ids: dict[str, int] | None = None
 
@@ -956,6 +973,8 @@ class _Reader:
             params = {"subtree": self.text_field(state, "subtree", path)}
         node = Outline(node_type, params, name or None, children, self.comments(state))
         self.block_at[id(node)] = self.where(state)
+        if isinstance(state.get("id"), str):
+            self.block_ids[id(node)] = state["id"]
         return node
 
     def mission(self, workspace: Any) -> MissionOutline | None:
@@ -1034,6 +1053,7 @@ def from_workspace(
     registry: Registry | None = None,
     base_dir: Path | None = None,
     refuse_plugins: str | None = None,
+    lines: dict[str, int] | None = None,
 ) -> tuple[str, MissionSpec]:
     """The mission a workspace's JSON holds: its canonical text, checked as every mission is.
 
@@ -1043,6 +1063,7 @@ def from_workspace(
         registry: The node types known besides its plugins' (default: the built-in ones).
         base_dir: Where its plugins are looked for (default: the working folder).
         refuse_plugins: When given, the mission's plugins are a problem with this message, never imported.
+        lines: Filled, when given, with the line of the canonical text each block's node begins on (by its id).
 
     Raises:
         MissionInvalid: the workspace is not one, or the mission it holds has problems; each at the
@@ -1072,7 +1093,12 @@ def from_workspace(
         raise MissionInvalid([Problem(source, 1, 1, "", "the blocks are nested deeper than a mission goes")]) from None
     if reader.problems or outline is None:
         raise MissionInvalid(reader.problems or [Problem(source, 1, 1, "", "not a workspace of blocks")])
-    mission = outline_text(outline)
+    writer = _write(outline)
+    mission = "\n".join(writer.lines) + "\n"
+    if lines is not None:
+        for line, node in writer.starts:
+            if id(node) in reader.block_ids:
+                lines.setdefault(reader.block_ids[id(node)], line)
     try:
         spec = validate_text(
             mission, source, base_dir, registry=registry, check_world=False, refuse_plugins=refuse_plugins

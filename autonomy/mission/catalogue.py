@@ -193,11 +193,12 @@ def _node_schema(node_type: NodeType) -> dict[str, Any]:
     }
 
 
-def json_schema(registry: Registry) -> dict[str, Any]:
-    """A JSON Schema (2020-12) of the mission format, for editors."""
-    bare = sorted(name for t in registry if not t.needs_parameters for name in (t.name, *t.aliases))
+def json_schema(registry: Registry, allowed: tuple[str, ...] | None = None) -> dict[str, Any]:
+    """A JSON Schema (2020-12) of the mission format, for editors (``allowed``: of those nodes alone)."""
+    types = [t for t in registry if allowed is None or t.name in allowed]
+    bare = sorted(name for t in types if not t.needs_parameters for name in (t.name, *t.aliases))
     defs: dict[str, Any] = {"bare": {"enum": bare, "description": "a node without parameters, written by name"}}
-    for node_type in registry:
+    for node_type in types:
         defs[node_type.name] = _node_schema(node_type)
     defs["node"] = {"anyOf": [{"$ref": f"#/$defs/{name}"} for name in defs]}
     return {

@@ -6,11 +6,14 @@ request carries the page's key (``Authorization: Bearer KEY``, from the address'
 page of another site, or another user of the machine, cannot save over the file. The server is a
 :class:`~autonomy.views.web.BoundedServer`, bounded as the run's view is. Blockly is served from
 the package (``static/vendor/blockly``, its version, licence and each file's sha256 in
-``VENDOR.json``): the page loads nothing from the internet.
+``VENDOR.json``), and so is CodeMirror, the text's editor (``static/vendor/codemirror``, one file
+bundled from its packages by ``make vendor``): the page loads nothing from the internet.
 
 ``GET  /api/mission``  the file's name, its text, the blocks' definitions and toolbox, and its blocks or its problems
-``POST /api/blocks``   ``{"text": TEXT}`` -> ``{"ok": true, "workspace": ...}`` or ``{"ok": false, "problems": [...]}``
-``POST /api/text``     ``{"workspace": ...}`` -> ``{"ok": true, "text": TEXT}`` or the problems, at their blocks
+``POST /api/blocks``   ``{"text": TEXT}`` -> ``{"ok": true, "workspace": ...}`` or ``{"ok": false, "problems": [...]}``;
+                       ``?line=N``: ``selected`` is the block of the node on the text's line N
+``POST /api/text``     ``{"workspace": ...}`` -> ``{"ok": true, "text": TEXT}`` or the problems, at their blocks;
+                       ``?selected=ID``: ``line`` is where that block's node begins in the text
 ``POST /api/save``     ``{"text": TEXT}`` -> saved, with the text's problems if it has any (a draft is saved too)
 """
 
@@ -32,6 +35,7 @@ from aiohttp import web
 
 from autonomy.mission import MissionInvalid, validate_text
 from autonomy.mission.blocks import (
+    block_at_line,
     block_definitions,
     from_workspace,
     load_words,
@@ -40,12 +44,20 @@ from autonomy.mission.blocks import (
     toolbox,
     workspace_json,
 )
+from autonomy.mission.catalogue import json_schema
 from autonomy.source import MAX_FILE_BYTES, Problem, UnreadableFile, read_text
 from autonomy.views.page import static_text
-from autonomy.views.web import BoundedServer, page_file
+from autonomy.views.web import BoundedServer, nonced_page, page_file, query_line, query_selected
 
 #: The editor's own files, and their types.
-EDITOR_FILES = {"editor.js": "text/javascript", "editor.css": "text/css", "blocks.js": "text/javascript"}
+EDITOR_FILES = {
+    "editor.js": "text/javascript",
+    "editor.css": "text/css",
+    "blocks.js": "text/javascript",
+    "text.js": "text/javascript",
+}
+#: The libraries served from the package, each in ``static/vendor/NAME`` with its ``VENDOR.json``.
+VENDORED = ("blockly", "codemirror")
 #: The types of the vendored files served.
 VENDOR_TYPES = {
     ".js": "text/javascript",
@@ -57,8 +69,9 @@ VENDOR_TYPES = {
 #: Largest request body: a mission file's text (or its workspace, a few times its size) at most.
 MAX_EDIT_BYTES = 8 * MAX_FILE_BYTES
 #: The page's policy: its own scripts and styles and Blockly's pictures; nothing from elsewhere. Blockly writes one
-#: style attribute (the direction of a bubble's text): style attributes are allowed, and nothing else inline (no
-#: <style> element, no script but the server's).
+#: style attribute (the direction of a bubble's text): style attributes are allowed. CodeMirror puts its themes in
+#: a <style> element of its own: it carries the response's nonce (:func:`~autonomy.views.web.nonced_page`), and
+#: no other <style> element, and no script but the server's, is taken.
 EDITOR_POLICY = (
     "default-src 'none'; script-src 'self'; style-src 'self'; style-src-attr 'unsafe-inline'; img-src 'self' data:; "
     "connect-src 'self'; "
@@ -77,14 +90,12 @@ def vendor_bytes(library: str, name: str) -> bytes:
     return resources.files("autonomy.views").joinpath("static", "vendor", library, *name.split("/")).read_bytes()
 
 
-def vendor_response(name: str) -> web.Response:
-    """A vendored Blockly file (``/vendor/blockly/NAME``), or not found: only the files ``VENDOR.json`` lists."""
+def vendor_response(library: str, name: str) -> web.Response:
+    """A vendored file (``/vendor/LIBRARY/NAME``), or not found: only the files its ``VENDOR.json`` lists."""
     kind = VENDOR_TYPES.get(Path(name).suffix)
-    if name not in vendored()["files"] or kind is None:
+    if library not in VENDORED or name not in vendored(library)["files"] or kind is None:
         raise web.HTTPNotFound()
-    return web.Response(
-        body=vendor_bytes("blockly", name), content_type=kind, headers={"Cache-Control": "max-age=3600"}
-    )
+    return web.Response(body=vendor_bytes(library, name), content_type=kind, headers={"Cache-Control": "max-age=3600"})
 
 
 def _problems(problems: list[Problem]) -> list[dict[str, Any]]:
@@ -118,7 +129,7 @@ class EditorServer(BoundedServer):
     def _routes(self, app: web.Application) -> None:
         app.router.add_get("/", self._index)
         app.router.add_get("/static/{name}", self._static)
-        app.router.add_get("/vendor/blockly/{name:.+}", self._vendor)
+        app.router.add_get("/vendor/{library}/{name:.+}", self._vendor)
         app.router.add_get("/api/mission", self._mission)
         app.router.add_post("/api/blocks", self._blocks)
         app.router.add_post("/api/text", self._text)
@@ -130,14 +141,13 @@ class EditorServer(BoundedServer):
     # ------------------------------------------------------------------ pages
 
     async def _index(self, request: web.Request) -> web.Response:
-        headers = {"Content-Security-Policy": EDITOR_POLICY}
-        return web.Response(text=static_text("editor.html"), content_type="text/html", headers=headers)
+        return nonced_page(static_text("editor.html"), EDITOR_POLICY)
 
     async def _static(self, request: web.Request) -> web.Response:
         return page_file(request.match_info["name"], EDITOR_FILES)
 
     async def _vendor(self, request: web.Request) -> web.Response:
-        return vendor_response(request.match_info["name"])
+        return vendor_response(request.match_info["library"], request.match_info["name"])
 
     # ------------------------------------------------------------------ the API
 
@@ -162,23 +172,30 @@ class EditorServer(BoundedServer):
     async def _off_loop(self, work: Any, *args: Any) -> Any:
         return await asyncio.get_running_loop().run_in_executor(self._work, functools.partial(work, *args))
 
-    def _as_blocks(self, text: str) -> dict[str, Any]:
+    def _as_blocks(self, text: str, line: int | None = None) -> dict[str, Any]:
+        """The text's blocks, or its problems; ``selected``: the block of the node on ``line`` (None: none)."""
         try:
             spec = validate_text(text, self.path.name, self.path.parent, check_world=False)
         except MissionInvalid as err:
             return {"ok": False, "problems": _problems(err.problems)}
-        return {"ok": True, "workspace": to_workspace(spec, text)}
+        placed: dict[str, tuple[int, int]] = {}
+        workspace = to_workspace(spec, text, placed)
+        return {"ok": True, "workspace": workspace, "selected": None if line is None else block_at_line(placed, line)}
 
-    def _as_text(self, workspace: Any) -> dict[str, Any]:
-        """The blocks' text, or their problems, each with the id of the block it is at (``block``)."""
+    def _as_text(self, workspace: Any, selected: str | None = None) -> dict[str, Any]:
+        """The blocks' text, or their problems, each with the id of the block it is at (``block``).
+
+        ``line``: where the ``selected`` block's node begins in the text (None: no such block).
+        """
+        lines: dict[str, int] = {}
         try:
             sent = workspace_json(workspace)
-            text, _ = from_workspace(sent, "the blocks", base_dir=self.path.parent)
+            text, _ = from_workspace(sent, "the blocks", base_dir=self.path.parent, lines=lines)
         except MissionInvalid as err:
             return {"ok": False, "problems": problems_at_blocks(sent, err.problems)}
         except (RecursionError, ValueError, TypeError):
             return {"ok": False, "problems": [{"line": 1, "column": 1, "path": "", "message": "not a workspace"}]}
-        return {"ok": True, "text": text}
+        return {"ok": True, "text": text, "line": lines.get(selected) if selected else None}
 
     def _palette(self) -> dict[str, Any]:
         try:
@@ -189,7 +206,11 @@ class EditorServer(BoundedServer):
         from autonomy.mission import BUILTINS
 
         registry = registry or BUILTINS
-        return {"blocks": block_definitions(registry, self._words), "toolbox": toolbox(registry)}
+        return {
+            "blocks": block_definitions(registry, self._words),
+            "toolbox": toolbox(registry),
+            "schema": json_schema(registry),
+        }
 
     async def _mission(self, request: web.Request) -> web.Response:
         if not self._allowed(request):
@@ -206,11 +227,11 @@ class EditorServer(BoundedServer):
         text = await self._body(request, "text")
         if not isinstance(text, str):
             raise web.HTTPBadRequest(text='the body is JSON: {"text": "the mission\'s text"}')
-        return web.json_response(await self._off_loop(self._as_blocks, text))
+        return web.json_response(await self._off_loop(self._as_blocks, text, query_line(request)))
 
     async def _text(self, request: web.Request) -> web.Response:
         workspace = await self._body(request, "workspace")
-        return web.json_response(await self._off_loop(self._as_text, workspace))
+        return web.json_response(await self._off_loop(self._as_text, workspace, query_selected(request)))
 
     async def _save(self, request: web.Request) -> web.Response:
         text = await self._body(request, "text")

@@ -21,6 +21,7 @@ import ipaddress
 import logging
 import os
 import resource
+import secrets
 import threading
 import uuid
 from collections.abc import Awaitable, Callable
@@ -107,6 +108,33 @@ def page_file(
     if name not in files:
         raise web.HTTPNotFound()
     return web.Response(text=static_text(name, package), content_type=files[name], headers=headers)
+
+
+#: Where a page's HTML has the nonce of its response's styles (``<meta name="style-nonce" content="...">``).
+STYLE_NONCE_MARK = "{{style-nonce}}"
+
+
+def nonced_page(text: str, policy: str) -> web.Response:
+    """A page whose own scripts add ``<style>`` elements (CodeMirror's themes): a new nonce at each response.
+
+    The nonce is put in the policy's ``style-src`` and in the page (at :data:`STYLE_NONCE_MARK`), where the
+    page's scripts read it; a style put in the page by anything else (received markup) has none and is refused.
+    """
+    nonce = secrets.token_urlsafe(18)
+    policy = policy.replace("style-src 'self'", f"style-src 'self' 'nonce-{nonce}'", 1)
+    headers = {"Content-Security-Policy": policy, "Cache-Control": "no-store"}
+    return web.Response(text=text.replace(STYLE_NONCE_MARK, nonce), content_type="text/html", headers=headers)
+
+
+def query_line(request: web.Request) -> int | None:
+    """The ``line`` of a request's query (a text's cursor's: 1 and on), or None."""
+    given = request.query.get("line", "")
+    return int(given) if given.isdigit() and len(given) <= 7 else None
+
+
+def query_selected(request: web.Request) -> str | None:
+    """The ``selected`` of a request's query (a block's id, at most 64 characters), or None."""
+    return request.query.get("selected", "")[:64] or None
 
 
 def address_group(address: str) -> str:

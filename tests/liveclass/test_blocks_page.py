@@ -75,10 +75,9 @@ def test_a_student_builds_the_garage_solution_with_the_keyboard_alone_and_runs_i
         keys(page, "Enter", "Enter")  # taken, and left at the place marked
         press_until(page, "ArrowRight", "Edit number: 150")  # its distance (typed again, from the keyboard)
         keys(page, "Enter", "Control+a", "1", "5", "0", "Enter")
-        until(page, "document.getElementById('mission').value.includes('until_obstacle_mm: 150')")
-        assert (
-            page.input_value("#mission") == "mission: my-mission\ntree:\n  move: {speed: 2, until_obstacle_mm: 150}\n"
-        )
+        until(page, "missionText.value.includes('until_obstacle_mm: 150')")
+        built = page.evaluate("missionText.value")
+        assert built == "mission: my-mission\ntree:\n  move: {speed: 2, until_obstacle_mm: 150}\n"
         until(page, "!document.getElementById('tree').hidden")  # checked, and its tree drawn, as a text is
         assert violations(page) == []
         keys(page, "Escape")
@@ -98,12 +97,12 @@ def test_a_text_with_a_problem_stays_text_and_blocks_changed_are_the_text(browse
     try:
         sign_in(page, codes["1002"])
         until(page, "!document.getElementById('desk').hidden")
-        page.fill("#mission", MISTAKE)
+        page.fill("#mission .cm-content", MISTAKE)
         page.click("#mode-blocks")
         until(page, "document.getElementById('message').textContent.includes('stays text')")
         assert "line 4, column 7" in page.text_content("#message")
         assert page.get_attribute("#mode-text", "aria-pressed") == "true" and page.is_visible("#mission")
-        page.fill("#mission", FIXED)
+        page.fill("#mission .cm-content", FIXED)
         page.click("#mode-blocks")
         until(page, "document.getElementById('mode-blocks').getAttribute('aria-pressed') === 'true'")
         assert page.is_hidden("#mission") and page.is_visible("#blocks")
@@ -111,10 +110,10 @@ def test_a_text_with_a_problem_stays_text_and_blocks_changed_are_the_text(browse
             "Blockly.getMainWorkspace().getAllBlocks(false).find((b) => b.type === 'move+until_obstacle_mm')"
             ".setFieldValue(3, 'speed')"
         )
-        until(page, "document.getElementById('mission').value.includes('speed: 3')")
+        until(page, "missionText.value.includes('speed: 3')")
         page.click("#mode-text")
         until(page, "!document.getElementById('text-panel').hidden")
-        assert page.input_value("#mission") == (
+        assert page.evaluate("missionText.value") == (
             "mission: park\ntree:\n  sequence:\n    - move: {speed: 3, until_obstacle_mm: 150}\n"
         )
         assert violations(page) == [] and page.evaluate("window.breaches") == [] and errors == []
@@ -174,5 +173,32 @@ def test_a_student_signs_in_from_their_link_with_no_code_typed(browser, classroo
         until(page, "!document.getElementById('desk').hidden")
         assert page.text_content("#who") == "Ada Lovelace" and "#" not in page.url  # the code left the address
         assert errors == []
+    finally:
+        page.close()
+
+
+def test_switching_between_text_and_blocks_keeps_the_cursor_s_node(browser, classroom):
+    student_url, _, codes = classroom
+    errors: list[str] = []
+    page = student_page(browser, student_url, errors)
+    try:
+        sign_in(page, codes["1001"])
+        until(page, "!document.getElementById('desk').hidden")
+        text = "mission: park\ntree:\n  sequence:\n    - beep\n    - move: {speed: 2, until_obstacle_mm: 150}\n"
+        text += "    - stop\n"
+        page.fill("#mission .cm-content", text)
+        page.evaluate("missionText.goTo(5, 9)")  # the cursor on the move's line
+        page.click("#mode-blocks")
+        until(page, "document.getElementById('mode-blocks').getAttribute('aria-pressed') === 'true'")
+        until(page, "Blockly.getFocusManager().getFocusedNode()?.type === 'move+until_obstacle_mm'")  # its block
+        keys(page, "ArrowDown")  # with the keys, to the next block: the stop
+        until(page, "Blockly.getFocusManager().getFocusedNode()?.type === 'stop'")
+        page.click("#mode-text")
+        until(page, "!document.getElementById('text-panel').hidden")
+        assert page.evaluate("missionText.cursorLine()") == 6  # the stop's line, the cursor on its word
+        assert page.evaluate("document.activeElement.classList.contains('cm-content')")
+        page.keyboard.type("x")
+        assert page.evaluate("missionText.value").endswith("    - xstop\n")
+        assert errors == [] and page.evaluate("window.breaches") == []
     finally:
         page.close()

@@ -85,18 +85,20 @@ def test_a_student_writes_runs_and_hands_in_while_the_teacher_watches(browser, c
     student.click("#node-help summary")  # the nodes, each with an example, for a first-timer
     assert "move: {speed: 2}" in student.locator("#nodes dt").all_text_contents()
 
-    student.click("#mission")
-    student.keyboard.type(MISTAKE)
-    until(student, "document.querySelectorAll('#gutter div.problem').length > 0")
-    marked = student.locator("#gutter div.problem")
-    assert marked.all_text_contents() == ["4"]  # at its line
-    assert "mvoe" in marked.get_attribute("title")
+    student.click("#mission .cm-content")
+    student.keyboard.insert_text(MISTAKE)  # as pasted (typed, each new line would be indented as the last)
+    until(student, "document.querySelectorAll('#mission .cm-lintRange-error').length > 0")
+    marked = student.evaluate(
+        "[...document.querySelectorAll('#mission .cm-line')].flatMap((line, i) =>"
+        " [...line.querySelectorAll('.cm-lintRange-error')].map((mark) => `${i + 1} ${mark.textContent}`))"
+    )
+    assert marked == ["4 mvoe"]  # at its line and column, the word marked
+    assert student.locator("#mission .cm-gutter-lint .cm-lint-marker-error").count() == 1  # and in the gutter
     assert student.text_content("#problems li").startswith("line 4, column 7:")
     assert student.locator("#tree").is_hidden()
 
-    student.fill("#mission", FIXED)
-    student.dispatch_event("#mission", "input")
-    until(student, "!document.querySelector('#gutter div.problem') && !document.getElementById('tree').hidden")
+    student.fill("#mission .cm-content", FIXED)
+    until(student, "!document.querySelector('#mission .cm-lintRange-error') && !document.getElementById('tree').hidden")
     assert student.evaluate("document.getElementById('tree').naturalWidth") > 50  # the tree is drawn
 
     student.click("#run")
@@ -158,7 +160,7 @@ def test_a_student_writes_runs_and_hands_in_while_the_teacher_watches(browser, c
     # a student signed in again gets their mission and hand-ins back
     student.reload()
     until(student, "!document.getElementById('desk').hidden")
-    assert student.input_value("#mission") == FIXED
+    assert student.evaluate("missionText.value") == FIXED
     assert len(student.locator("#handins li").all()) == 1
     assert [e for e in errors if "status of 401" not in e] == [] and len(errors) == 1  # the wrong code's refusal
 
@@ -174,8 +176,7 @@ def test_the_teacher_closes_hand_ins_and_the_student_is_told(browser, classroom)
     assert student.text_content("#who") == "Bob <b>Jones</b>"
     teacher.click("#close-now")
     until(teacher, "document.getElementById('deadline-state').textContent.includes('closed')")
-    student.fill("#mission", FIXED)
-    student.dispatch_event("#mission", "input")  # the next check's answer tells the page
+    student.fill("#mission .cm-content", FIXED)
     until(student, "document.getElementById('handin').disabled")
     assert "Hand-ins are closed" in student.text_content("#deadline")
     student.evaluate("document.getElementById('handin').disabled = false")  # a page that was not told
@@ -184,8 +185,7 @@ def test_the_teacher_closes_hand_ins_and_the_student_is_told(browser, classroom)
     assert student.locator("#handins li").count() == 0 and student.locator("#handin").is_disabled()
     teacher.click("#reopen")
     until(teacher, "document.getElementById('deadline-state').textContent === 'Hand-ins are open.'")
-    student.fill("#mission", FIXED + "\n")
-    student.dispatch_event("#mission", "input")
+    student.fill("#mission .cm-content", FIXED + "\n")
     until(student, "!document.getElementById('handin').disabled")
     assert [e for e in errors if "status of 403" not in e] == []  # the refused hand-in's line
 

@@ -18,6 +18,7 @@ from autonomy.mission import BUILTINS, MissionInvalid, validate_text
 from autonomy.mission.blocks import (
     DEFINE_BLOCK,
     MISSION_BLOCK,
+    block_at_line,
     block_definitions,
     block_type,
     canonical_text,
@@ -474,3 +475,41 @@ def test_a_problem_of_the_mission_block_is_said_at_the_mission_block():
         from_workspace(text, "w.json")
     (problem,) = raised.value.problems
     assert text.splitlines()[0][problem.column - 1 :].startswith('"id":"b1"') and "tick_hz" in problem.message
+
+
+def blocks_of(workspace: dict) -> dict[str, dict]:
+    """Every block of a workspace, by its id."""
+    found: dict[str, dict] = {}
+    stack = list(workspace["blocks"]["blocks"])
+    while stack:
+        state = stack.pop()
+        found[state["id"]] = state
+        stack += [held["block"] for held in state.get("inputs", {}).values()]
+        stack += [state["next"]["block"]] if "next" in state else []
+    return found
+
+
+def test_the_cursor_s_node_is_the_same_node_as_blocks_and_back_as_text():
+    text = (ROOT / "missions" / "square.yaml").read_text()
+    lines = text.splitlines()
+    spec = validate_text(text, check_world=False)
+    placed: dict[str, tuple[int, int]] = {}
+    workspace = to_workspace(spec, text, placed)
+    blocks = blocks_of(workspace)
+    move_line = next(n for n, line in enumerate(lines, 1) if "- move:" in line)
+    turn_line = next(n for n, line in enumerate(lines, 1) if "- turn:" in line)
+    assert blocks[block_at_line(placed, move_line)]["type"] == "move+distance_mm"
+    assert blocks[block_at_line(placed, turn_line)]["type"] == "turn+left"
+    assert blocks[block_at_line(placed, turn_line + 1)]["type"] == "beep"  # the beep's line
+    assert block_at_line(placed, 1) is None  # the mission's name: no node there
+    # and back: each block's node begins on its line of the text the blocks give
+    written: dict[str, int] = {}
+    back, _ = from_workspace(workspace_json(workspace), lines=written)
+    back_lines = back.splitlines()
+    for block_id, state in blocks.items():
+        if state["type"] in (MISSION_BLOCK, DEFINE_BLOCK):
+            assert block_id not in written
+            continue
+        node = state["type"].split("+")[0]
+        assert back_lines[written[block_id] - 1].lstrip("- ").startswith(node), (block_id, state["type"])
+    assert len(written) == len(placed)

@@ -23,6 +23,8 @@ from tests.mission.test_blocks import SHIPPED, shape
 from tests.views.conftest import until as wait_until
 
 ROOT = Path(__file__).resolve().parents[2]
+#: The text's editor (CodeMirror's), where keys and pasted text go.
+TEXT = "#text .cm-content"
 #: Set before the page's scripts run: every breach of the page's policy is kept to be read.
 WATCH_POLICY = (
     "window.breaches = []; document.addEventListener('securitypolicyviolation', "
@@ -129,17 +131,17 @@ def test_a_student_edits_blocks_and_text_and_saves_a_file_check_accepts(browser,
             "Blockly.getMainWorkspace().getAllBlocks(false).find(b => b.type === 'move+distance_mm')"
             ".setFieldValue(3, 'speed')"
         )
-        until(page, "document.getElementById('text').value.includes('speed: 3')")
+        until(page, "text.value.includes('speed: 3')")
         # a mistake in the text: it stays text, said at its line and column; the blocks stay as they were
-        text = page.locator("#text")
-        text.fill(text.input_value().replace("- move:", "- mvoe:"))
-        page.wait_for_selector("#problems li", timeout=30_000)
+        text = page.locator(TEXT)
+        text.fill(page.evaluate("text.value").replace("- move:", "- mvoe:"))
+        until(page, "document.getElementById('problems').textContent.includes('mvoe')")
         problem = page.locator("#problems li").first.inner_text()
         assert problem.startswith("line 14, column 11:") and "mvoe" in problem, problem
         assert "line 14, column 11" in page.locator("#blocks-note").inner_text()
         assert page.evaluate("Blockly.getMainWorkspace().getAllBlocks(false).some(b => b.type === 'move+distance_mm')")
         # mended: the blocks are the text again
-        text.fill(text.input_value().replace("- mvoe:", "- move:").replace("volume: 3", "volume: 5"))
+        text.fill(page.evaluate("text.value").replace("- mvoe:", "- move:").replace("volume: 3", "volume: 5"))
         until(page, "document.getElementById('blocks-note').hidden")
         until(page, "Blockly.getMainWorkspace().getAllBlocks(false).some(b => b.getFieldValue('volume') === 5)")
         page.get_by_role("button", name="Save").click()
@@ -223,7 +225,7 @@ def test_a_block_is_added_and_the_file_saved_with_the_keyboard_alone(browser, ed
         press(page, "ArrowRight", "move, forward, at speed")  # the first of Do's blocks
         press(page, "Enter")  # taken, at the place marked
         press(page, "Enter")  # and left there
-        until(page, "document.getElementById('text').value.includes('- move: {speed: 2}')")
+        until(page, "text.value.includes('- move: {speed: 2}')")
         page.keyboard.press("Shift+Tab")
         while "save" not in focused(page):
             page.keyboard.press("Shift+Tab")
@@ -243,7 +245,7 @@ def test_axe_finds_nothing_on_the_editor_with_blocks_a_problem_and_the_toolbox_o
         page.locator(".blocklyToolboxCategory").filter(has_text=re.compile("^Do$")).click()  # a category's blocks
         page.wait_for_selector(".blocklyFlyout .blocklyDraggable", timeout=30_000)
         assert violations(page) == []
-        page.locator("#text").fill("mission: m\ntree:\n  sequence:\n    - mvoe: {speed: 2}\n")
+        page.locator(TEXT).fill("mission: m\ntree:\n  sequence:\n    - mvoe: {speed: 2}\n")
         page.wait_for_selector("#problems li", timeout=30_000)
         assert violations(page) == []
     finally:
@@ -257,11 +259,11 @@ def test_the_text_waits_untouched_while_it_has_a_problem_and_a_warned_block_is_d
     page.on("pageerror", lambda error: errors.append(str(error)))
     try:
         typed = "mission: m\ntree:\n  sequence:\n    - trun: {left: 90}\n    - wait: {seconds: 2}\n"
-        page.locator("#text").fill(typed)
+        page.locator(TEXT).fill(typed)
         until(page, "!document.getElementById('blocks-note').hidden")
         assert page.evaluate("document.getElementById('blocks').inert")  # the blocks take no change meanwhile
-        assert page.input_value("#text") == typed
-        page.locator("#text").fill(typed.replace("trun", "turn"))
+        assert page.evaluate("text.value") == typed
+        page.locator(TEXT).fill(typed.replace("trun", "turn"))
         until(page, "!document.getElementById('blocks').inert")
         # a block left outside the mission is a problem on its block; Save says so, and saves nothing
         page.evaluate(
@@ -302,5 +304,26 @@ def test_a_file_larger_than_a_mission_file_is_said_so_on_the_page_and_not_read_w
     try:
         until(page, "document.getElementById('status').textContent.includes('cannot read huge.yaml')")
         assert page.text_content("#status") == "cannot read huge.yaml: larger than 500,000 bytes"
+    finally:
+        page.close()
+
+
+def test_the_buttons_keep_the_cursor_s_node_between_text_and_blocks(browser, editing):
+    original = (ROOT / "missions" / "square.yaml").read_text()
+    turn = next(n for n, line in enumerate(original.splitlines(), 1) if "- turn:" in line)
+    url, _ = editing(original)
+    page = open_page(browser, url)
+    try:
+        page.evaluate(f"text.goTo({turn}, 12)")
+        page.get_by_role("button", name="Show the text as blocks").click()
+        until(page, "Blockly.getFocusManager().getFocusedNode()?.type === 'turn+left'")
+        page.evaluate(
+            "Blockly.getFocusManager().focusNode("
+            "Blockly.getMainWorkspace().getAllBlocks(false).find((b) => b.type === 'move+distance_mm'))"
+        )
+        page.get_by_role("button", name="Write the blocks as text").click()
+        until(page, "document.activeElement.classList.contains('cm-content')")
+        line = page.evaluate("text.value").splitlines()[page.evaluate("text.cursorLine()") - 1]
+        assert line.strip().startswith("- move:"), line  # the move's line of the text the blocks wrote
     finally:
         page.close()

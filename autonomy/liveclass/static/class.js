@@ -13,7 +13,6 @@ let handInsOpen = true;
 let busy = false; // a run or a hand-in under way
 let checkTimer = 0;
 let checkedText = null; // the text the problems and the tree shown are of
-let shownProblems = []; // marked at their lines until the next check has its answer
 let queue = Promise.resolve(); // one request under way at a time: the server takes no second one
 
 /** Runs `task` after every request before it has had its answer. */
@@ -98,9 +97,7 @@ function show(me) {
     ...exercise.nodes.flatMap((n) => [element("dt", n.example), element("dd", `${n.doc} (${n.category})`)]),
   );
   deadline(me);
-  const mission = $("mission");
-  mission.value = me.mission;
-  lines();
+  missionText.value = me.mission;
   $("handins").replaceChildren();
   for (const work of me.works) if (work.kind === "handin" && work.page) addHandIn(work);
   if (me.mission) check();
@@ -123,27 +120,23 @@ function deadline(answer) {
 
 // ------------------------------------------------------------------ the editor
 
-/** The gutter's line numbers, one per line of the text, those with a problem marked. */
-function lines(problems = shownProblems) {
-  const count = $("mission").value.split("\n").length;
-  const marked = new Map();
-  for (const p of problems) marked.set(p.line, [...(marked.get(p.line) || []), p.message]);
-  const numbers = [];
-  for (let line = 1; line <= count; line++) {
-    const row = element("div", String(line));
-    if (marked.has(line)) {
-      row.className = "problem";
-      row.title = marked.get(line).join("\n");
-    }
-    numbers.push(row);
-  }
-  $("gutter").replaceChildren(...numbers);
-  $("gutter").scrollTop = $("mission").scrollTop;
-}
+// The text is CodeMirror's (text.js): YAML highlighted, node names and parameters completed from the exercise's
+// schema, each problem marked at its line and column. Tab writes two spaces; Escape then Tab leaves; Ctrl+Enter runs.
+const missionText = textEditor($("mission"), {
+  label: "your mission file",
+  placeholder: "mission: my-mission\ntree:\n  move: {speed: 2, seconds: 1}",
+  onChange: () => {
+    clearTimeout(checkTimer);
+    checkTimer = setTimeout(check, CHECK_AFTER_MS);
+  },
+  onRun: () => {
+    if (!$("run").disabled) send("run");
+  },
+  schema: async () => (await paletteReady()).schema,
+});
 
 function showProblems(problems) {
-  shownProblems = problems;
-  lines(problems);
+  missionText.setProblems(problems);
   $("problems").replaceChildren(
     ...problems.map((p) => {
       const item = element("li");
@@ -152,7 +145,9 @@ function showProblems(problems) {
       item.tabIndex = 0;
       item.addEventListener("click", () => goTo(p.line, p.column));
       item.addEventListener("keydown", (event) => {
-        if (event.key === "Enter") goTo(p.line, p.column);
+        if (event.key !== "Enter") return;
+        event.preventDefault(); // the Enter would go on to the text, a new line at the problem
+        goTo(p.line, p.column);
       });
       return item;
     }),
@@ -160,19 +155,13 @@ function showProblems(problems) {
 }
 
 function goTo(line, column) {
-  const mission = $("mission");
-  const rows = mission.value.split("\n");
-  let at = 0;
-  for (let i = 0; i < line - 1 && i < rows.length; i++) at += rows[i].length + 1;
-  at += Math.max(0, Math.min(column - 1, (rows[line - 1] || "").length));
-  mission.focus();
-  mission.setSelectionRange(at, at);
+  missionText.goTo(line, column);
 }
 
 function check() {
   clearTimeout(checkTimer);
   checkTimer = 0;
-  const text = $("mission").value;
+  const text = missionText.value;
   if (!text.trim()) {
     checkedText = text;
     showProblems([]);
@@ -182,7 +171,7 @@ function check() {
     return Promise.resolve();
   }
   return inTurn(async () => {
-    if (text !== $("mission").value || text === checkedText) return; // typed on since, or checked already
+    if (text !== missionText.value || text === checkedText) return; // typed on since, or checked already
     $("status").textContent = "checking...";
     const { status, data } = await api("POST", "/api/check", { mission: text });
     if (status !== 200) {
@@ -191,7 +180,7 @@ function check() {
     }
     checkedText = text;
     deadline(data);
-    if (text !== $("mission").value) return; // a newer text has its own check on its way
+    if (text !== missionText.value) return; // a newer text has its own check on its way
     showProblems(data.problems);
     $("tree").hidden = !data.ok;
     $("no-tree").hidden = data.ok;
@@ -210,9 +199,11 @@ const MODE_KEY = "autonomy-class-mode";
 const BLOCKS_AFTER_MS = 400; // the text is made this long after the last change of the blocks
 let palette = null; // the exercise's blocks and toolbox
 let workspace = null;
+let selectedBlock = () => null; // the block last selected
 let mode = "text";
 let blocksTimer = 0;
 let loadingBlocks = false;
+let cursorLine = null; // where the text's cursor goes when it is shown again
 
 function loadScript(src) {
   return new Promise((resolve, reject) => {
@@ -230,11 +221,17 @@ async function blocklyReady() {
     await loadScript("/vendor/blockly/en.js");
   }
   if (typeof blocksInject === "undefined") await loadScript("/static/blocks.js");
+  await paletteReady();
+}
+
+/** The exercise's blocks, toolbox and schema, asked of the server once. */
+async function paletteReady() {
   if (!palette) {
-    const { status, data } = await api("GET", "/api/palette");
+    const { status, data } = await inTurn(() => api("GET", "/api/palette"));
     if (status !== 200) throw new Error(data.error || `the server answered ${status}`);
     palette = data;
   }
+  return palette;
 }
 
 function setMode(next) {
@@ -261,10 +258,13 @@ async function toBlocks() {
     $("status").textContent = `The blocks could not be loaded: ${error.message}`;
     return false;
   }
-  const text = $("mission").value;
+  const text = missionText.value;
   let state = BLOCKS_NEW_MISSION;
+  let selected = null;
   if (text.trim()) {
-    const { status, data } = await inTurn(() => api("POST", "/api/blocks", { mission: text }));
+    // the cursor's line: its node's block is the one focused among the blocks
+    const line = missionText.cursorLine();
+    const { status, data } = await inTurn(() => api("POST", `/api/blocks?line=${line}`, { mission: text }));
     if (status !== 200) {
       $("status").textContent = data.error || `the server answered ${status}`;
       return false;
@@ -278,10 +278,12 @@ async function toBlocks() {
     }
     say("", false);
     state = data.workspace;
+    selected = data.selected;
   }
   setMode("blocks");
   if (!workspace) {
     workspace = blocksInject($("blocks"), palette);
+    selectedBlock = blocksSelection(workspace);
     blocksOnChange(workspace, () => {
       if (loadingBlocks) return;
       clearTimeout(blocksTimer);
@@ -295,13 +297,17 @@ async function toBlocks() {
     loadingBlocks = false;
   }
   Blockly.svgResize(workspace);
+  blocksFocus(workspace, selected);
   $("status").textContent = "Your mission as blocks: the toolbox on the left has the blocks you may use.";
   $("status").className = "quiet";
   return true;
 }
 
-/** Writes the blocks as the mission's text (what is checked, run and handed in). Whether they had no problem. */
-async function toText() {
+/**
+ * Writes the blocks as the mission's text (what is checked, run and handed in). Whether they had no problem.
+ * With `keepCursor`, the text's cursor goes to the line of the block last selected.
+ */
+async function toText(keepCursor) {
   clearTimeout(blocksTimer);
   blocksTimer = 0;
   if (!workspace || mode !== "blocks") return true;
@@ -310,7 +316,9 @@ async function toText() {
     return false;
   }
   const state = Blockly.serialization.workspaces.save(workspace);
-  const { status, data } = await inTurn(() => api("POST", "/api/text", { workspace: state }));
+  const selected = keepCursor ? selectedBlock() : null;
+  const path = selected ? `/api/text?selected=${encodeURIComponent(selected)}` : "/api/text";
+  const { status, data } = await inTurn(() => api("POST", path, { workspace: state }));
   if (status !== 200) {
     $("status").textContent = data.error || `the server answered ${status}`;
     return false;
@@ -323,10 +331,8 @@ async function toText() {
     $("status").className = "error";
     return false;
   }
-  if ($("mission").value !== data.mission) {
-    $("mission").value = data.mission;
-    lines();
-  }
+  missionText.value = data.mission;
+  cursorLine = data.line || null;
   await check();
   return true;
 }
@@ -338,7 +344,7 @@ async function send(kind) {
     say("Mend the blocks first: each problem is marked on its block.", true);
     return;
   }
-  const text = $("mission").value;
+  const text = missionText.value;
   if (!text.trim()) {
     say("Write a mission first.", true);
     return;
@@ -422,33 +428,6 @@ $("sign-out").addEventListener("click", () => {
   sessionStorage.removeItem(CODE_KEY);
   location.reload();
 });
-$("mission").addEventListener("input", () => {
-  lines();
-  clearTimeout(checkTimer);
-  checkTimer = setTimeout(check, CHECK_AFTER_MS);
-});
-$("mission").addEventListener("scroll", () => {
-  $("gutter").scrollTop = $("mission").scrollTop;
-});
-let leaving = false; // Escape was pressed: the next Tab leaves the editor
-$("mission").addEventListener("keydown", (event) => {
-  if (event.key === "Enter" && (event.ctrlKey || event.metaKey)) {
-    event.preventDefault();
-    if (!$("run").disabled) send("run");
-    return;
-  }
-  if (event.key === "Escape") {
-    leaving = true;
-    return;
-  }
-  const leave = leaving;
-  leaving = false;
-  if (event.key !== "Tab" || event.shiftKey || leave) return; // Tab writes two spaces (YAML takes no tabs)
-  event.preventDefault();
-  const mission = $("mission");
-  mission.setRangeText("  ", mission.selectionStart, mission.selectionEnd, "end");
-  mission.dispatchEvent(new Event("input"));
-});
 $("mode-blocks").addEventListener("click", () => {
   if (mode !== "blocks") toBlocks();
 });
@@ -456,7 +435,7 @@ $("mode-text").addEventListener("click", async () => {
   if (mode === "text") return;
   let written = false;
   try {
-    written = await toText();
+    written = await toText(true);
   } catch (error) {
     $("status").textContent = `Your blocks could not be written as text: ${error.message}`;
     return;
@@ -467,6 +446,7 @@ $("mode-text").addEventListener("click", async () => {
     return;
   }
   setMode("text");
+  if (cursorLine) missionText.goToLine(cursorLine); // the selected block's node
 });
 $("run").addEventListener("click", () => send("run"));
 $("handin").addEventListener("click", () => send("handin"));

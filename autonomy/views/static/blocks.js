@@ -86,3 +86,20 @@ function blocksOnChange(workspace, changed) {
     if (!event.isUiEvent && Blockly.Events.isEnabled()) changed();
   });
 }
+
+/** Keeps the id of the block last selected (by mouse or keys) in `workspace`; a function that gives it. */
+function blocksSelection(workspace) {
+  let selected = null;
+  workspace.addChangeListener((event) => {
+    if (event.type === Blockly.Events.SELECTED && event.newElementId) selected = event.newElementId;
+    if (event.type === Blockly.Events.BLOCK_DELETE && event.blockId === selected) selected = null;
+  });
+  return () => (selected && workspace.getBlockById(selected) ? selected : null);
+}
+
+/** Gives the keyboard's focus to the block `id` (shown, scrolled to); whether there is one. */
+function blocksFocus(workspace, id) {
+  const block = id ? workspace.getBlockById(id) : null;
+  if (block) Blockly.getFocusManager().focusNode(block);
+  return Boolean(block);
+}

@@ -7,6 +7,8 @@
 const key = location.hash.slice(1);
 const element = (id) => document.getElementById(id);
 let workspace = null;
+let text = null; // the text's editor (text.js)
+let selectedBlock = () => null; // the block last selected
 let loading = false;
 let blocksTimer = null;
 let textTimer = null;
@@ -35,11 +37,20 @@ function showProblems(problems, where) {
   list.replaceChildren();
   for (const problem of problems) {
     const item = document.createElement('li');
-    item.textContent = where === 'text'
-      ? `line ${problem.line}, column ${problem.column}: ${problem.message}`
-      : problem.message;
+    if (where === 'text') {
+      // a button: it takes the cursor to the problem, in the text
+      const go = document.createElement('button');
+      go.type = 'button';
+      go.className = 'where';
+      go.textContent = `line ${problem.line}, column ${problem.column}`;
+      go.addEventListener('click', () => text.goTo(problem.line, problem.column));
+      item.append(go, `: ${problem.message}`);
+    } else {
+      item.textContent = problem.message;
+    }
     list.append(item);
   }
+  if (where === 'text' && text) text.setProblems(problems);
   if (workspace) blocksWarn(workspace, where === 'blocks' ? problems : []);
 }
 
@@ -62,17 +73,19 @@ function blocksWait(problem) {
   element('blocks').classList.toggle('waiting', Boolean(problem));
 }
 
-/** Writes the blocks as the text; whether they had no problem. */
-async function toText() {
+/** Writes the blocks as the text; whether they had no problem. `keepCursor`: the text's cursor to the selected block. */
+async function toText(keepCursor) {
   clearTimeout(blocksTimer);
   if (workspace.isDragging()) { // a block on its way (by mouse or keys) is not yet where it goes
     blocksTimer = setTimeout(toText, 400);
     return false;
   }
   const state = Blockly.serialization.workspaces.save(workspace);
-  const answer = await api('/api/text', {workspace: state});
+  const selected = keepCursor === true ? selectedBlock() : null;
+  const answer = await api(selected ? `/api/text?selected=${encodeURIComponent(selected)}` : '/api/text', {workspace: state});
   if (answer.ok) {
-    element('text').value = answer.text;
+    text.value = answer.text;
+    if (answer.line) text.goToLine(answer.line);
     blocksChanged = false;
     showProblems([], 'blocks');
     say('The text is the blocks.');
@@ -83,19 +96,21 @@ async function toText() {
   return answer.ok;
 }
 
-/** Shows the text as blocks; a text with problems stays text, and the blocks wait. Whether it had none. */
-async function toBlocks() {
+/** Shows the text as blocks; a text with problems stays text, and the blocks wait. Whether it had none.
+ * `keepCursor`: the block of the cursor's node gets the focus. */
+async function toBlocks(keepCursor) {
   clearTimeout(textTimer);
-  const text = element('text').value;
-  if (!text.trim()) {
+  const written = text.value;
+  if (!written.trim()) {
     load(BLOCKS_NEW_MISSION);
     blocksWait('');
     showProblems([], 'text');
     return true;
   }
-  const answer = await api('/api/blocks', {text});
+  const answer = await api(`/api/blocks?line=${text.cursorLine()}`, {text: written});
   if (answer.ok) {
     load(answer.workspace);
+    if (keepCursor === true) blocksFocus(workspace, answer.selected);
     blocksWait('');
     showProblems([], 'text');
     say('The blocks are the text.');
@@ -115,10 +130,10 @@ async function save() {
     say('Not saved: the blocks have problems, each on its block. Mend them (or delete the blocks outside the mission).');
     return;
   }
-  const text = element('text').value;
-  const answer = await api('/api/save', {text});
+  const saving = text.value;
+  const answer = await api('/api/save', {text: saving});
   if (answer.saved) {
-    savedText = text;
+    savedText = saving;
     const problems = answer.problems || [];
     say(problems.length ? `Saved ${answer.saved}, with ${problems.length} problem(s).` : `Saved ${answer.saved}.`);
     showProblems(problems, 'text');
@@ -136,7 +151,17 @@ async function start() {
   element('file').textContent = mission.file;
   document.title = `${mission.file}: autonomy edit`;
   workspace = blocksInject(element('blocks'), mission.palette);
-  element('text').value = mission.text;
+  selectedBlock = blocksSelection(workspace);
+  text = textEditor(element('text'), {
+    label: `the text of ${mission.file}`,
+    value: mission.text,
+    placeholder: 'mission: my-mission',
+    schema: async () => mission.palette.schema,
+    onChange: () => {
+      clearTimeout(textTimer);
+      textTimer = setTimeout(toBlocks, 800);
+    },
+  });
   savedText = mission.text;
   if (mission.ok) {
     load(mission.workspace);
@@ -151,12 +176,8 @@ async function start() {
     clearTimeout(blocksTimer);
     blocksTimer = setTimeout(toText, 400);
   });
-  element('text').addEventListener('input', () => {
-    clearTimeout(textTimer);
-    textTimer = setTimeout(toBlocks, 800);
-  });
-  element('to-text').addEventListener('click', toText);
-  element('to-blocks').addEventListener('click', toBlocks);
+  element('to-text').addEventListener('click', () => toText(true));
+  element('to-blocks').addEventListener('click', () => toBlocks(true));
   element('save').addEventListener('click', save);
   document.addEventListener('keydown', (event) => {
     if (event.key === 's' && (event.ctrlKey || event.metaKey)) {
@@ -165,7 +186,7 @@ async function start() {
     }
   });
   window.addEventListener('beforeunload', (event) => {
-    if (blocksChanged || element('text').value !== savedText) event.preventDefault(); // asks before work is lost
+    if (blocksChanged || text.value !== savedText) event.preventDefault(); // asks before work is lost
   });
   document.body.dataset.ready = 'yes';
 }
