@@ -130,9 +130,11 @@ PAGE_FILES = {
     "class.css": "text/css",
     "blocks.js": "text/javascript",
     "text.js": "text/javascript",
+    "contrast.js": "text/javascript",
+    "contrast.css": "text/css",
 }
 #: The pages' files that are the views' (shared with ``autonomy edit``), by name.
-SHARED_FILES = {"blocks.js": "autonomy.views", "text.js": "autonomy.views"}
+SHARED_FILES = {name: "autonomy.views" for name in ("blocks.js", "text.js", "contrast.js", "contrast.css")}
 #: The pages' policy: their own scripts and styles, pictures as data or the server's, frames of this server (feedback
 #: pages). Blockly writes one style attribute (the direction of a bubble's text): style attributes are allowed.
 #: CodeMirror puts its themes in a <style> element of its own, with the response's nonce (``nonced_page``): no other

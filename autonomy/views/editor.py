@@ -55,6 +55,8 @@ EDITOR_FILES = {
     "editor.css": "text/css",
     "blocks.js": "text/javascript",
     "text.js": "text/javascript",
+    "contrast.js": "text/javascript",
+    "contrast.css": "text/css",
 }
 #: The libraries served from the package, each in ``static/vendor/NAME`` with its ``VENDOR.json``.
 VENDORED = ("blockly", "codemirror")

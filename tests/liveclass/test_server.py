@@ -476,8 +476,8 @@ def test_the_pages_scripts_put_what_they_receive_in_as_text_never_as_markup():
             text = page_text(name)
             for sink in ("innerHTML", "outerHTML", "insertAdjacentHTML", "document.write", "eval(", "srcdoc"):
                 assert sink not in text, (name, sink)
-            # blocks.js and text.js hand what they get to Blockly and CodeMirror, and put nothing in the page
-            assert "textContent" in text or name in ("blocks.js", "text.js")
+            # blocks.js and text.js hand what they get to Blockly and CodeMirror; contrast.js gets nothing
+            assert "textContent" in text or name in ("blocks.js", "text.js", "contrast.js")
 
 
 def test_a_long_history_is_listed_without_its_texts(served):

@@ -141,3 +141,55 @@ def test_each_page_s_style_nonce_is_new_and_in_its_policy(classroom):
         assert len(nonce) >= 24 and answer.headers["Cache-Control"] == "no-store"
         seen.add(nonce)
     assert len(seen) == 2
+
+
+def colour_of(page, selector: str, prop: str = "color") -> str:
+    return page.evaluate(f"getComputedStyle(document.querySelector({selector!r})).{prop}")
+
+
+def test_high_contrast_is_a_button_away_on_the_text_and_the_blocks_and_axe_finds_nothing(browser, classroom):
+    errors: list[str] = []
+    page = signed_in(browser, classroom, errors)
+    try:
+        page.fill(TEXT, FIXED)
+        until(page, "!document.getElementById('tree').hidden")
+        assert colour_of(page, "body", "backgroundColor") != "rgb(0, 0, 0)"
+        page.get_by_role("button", name="High contrast").click()
+        assert page.get_attribute("#contrast", "aria-pressed") == "true"
+        assert colour_of(page, "body", "backgroundColor") == "rgb(0, 0, 0)"
+        assert colour_of(page, "#mission .cm-editor", "backgroundColor") == "rgb(0, 0, 0)"
+        keys_colour = page.evaluate(
+            "getComputedStyle([...document.querySelectorAll('#mission .cm-line span')]"
+            ".find((s) => s.textContent === 'mission')).color"
+        )
+        assert keys_colour == "rgb(255, 235, 59)"  # the text's keys yellow on black
+        assert violations(page) == []
+        page.click("#mode-blocks")
+        until(page, "document.getElementById('mode-blocks').getAttribute('aria-pressed') === 'true'")
+        assert colour_of(page, "#blocks .blocklyBlockCanvas .blocklyPath", "fill") == "rgb(0, 0, 0)"
+        assert colour_of(page, "#blocks .blocklyBlockCanvas .blocklyPath", "stroke") == "rgb(255, 235, 59)"
+        assert colour_of(page, "#blocks .blocklyBlockCanvas .blocklyText", "fill") == "rgb(255, 255, 255)"
+        assert colour_of(page, "#blocks .blocklyMainBackground", "fill") == "rgb(0, 0, 0)"
+        assert violations(page) == []
+        page.reload()  # kept in the browser
+        until(page, "!document.getElementById('desk').hidden")
+        assert page.get_attribute("#contrast", "aria-pressed") == "true"
+        page.get_by_role("button", name="High contrast").click()
+        assert colour_of(page, "body", "backgroundColor") != "rgb(0, 0, 0)"
+        assert page.evaluate("window.breaches") == [] and errors == []
+    finally:
+        page.close()
+
+
+def test_a_system_that_asks_for_more_contrast_gets_it_with_no_choice_made(browser, classroom):
+    student_url, teacher_url, _ = classroom
+    context = browser.new_context(contrast="more")
+    try:
+        for url in (student_url, teacher_url):
+            page = context.new_page()
+            page.goto(url)
+            until(page, "document.documentElement.classList.contains('contrast')")
+            assert page.get_attribute("#contrast", "aria-pressed") == "true"
+            assert violations(page) == []
+    finally:
+        context.close()

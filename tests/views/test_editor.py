@@ -211,7 +211,7 @@ def test_a_block_is_added_and_the_file_saved_with_the_keyboard_alone(browser, ed
     url, path = editing("mission: m\ntree:\n  sequence:\n    - stop\n")
     page = open_page(browser, url)
     try:
-        for _ in range(4):  # the three buttons, then the toolbox
+        for _ in range(5):  # the four buttons, then the toolbox
             press(page, "Tab")
         assert "blocklyToolbox" in page.evaluate("document.activeElement.className")
         press(page, "w", "stack of blocks")  # the workspace
@@ -247,6 +247,9 @@ def test_axe_finds_nothing_on_the_editor_with_blocks_a_problem_and_the_toolbox_o
         assert violations(page) == []
         page.locator(TEXT).fill("mission: m\ntree:\n  sequence:\n    - mvoe: {speed: 2}\n")
         page.wait_for_selector("#problems li", timeout=30_000)
+        assert violations(page) == []
+        page.get_by_role("button", name="High contrast").click()  # and in high contrast
+        assert page.evaluate("document.documentElement.classList.contains('contrast')")
         assert violations(page) == []
     finally:
         page.close()

@@ -116,6 +116,7 @@ function textEditor(parent, options) {
     return true;
   };
   let quiet = false; // a value set by the page is no change of the student's
+  const colours = new CM.Compartment(); // the highlighting's colours: high contrast or not (contrast.js)
   // CodeMirror's themes go in a <style> element: the page's policy takes it with the response's nonce alone
   const nonce = document.querySelector('meta[name="style-nonce"]')?.content || '';
   const view = new CM.EditorView({
@@ -133,7 +134,7 @@ function textEditor(parent, options) {
         CM.bracketMatching(),
         CM.indentUnit.of('  '),
         CM.EditorState.tabSize.of(2),
-        CM.syntaxHighlighting(TEXT_HIGHLIGHT),
+        colours.of(CM.syntaxHighlighting(highContrast() ? TEXT_HIGHLIGHT_CONTRAST : TEXT_HIGHLIGHT)),
         CM.yaml(),
         CM.autocompletion({override: [missionCompletions(schemaOf)], activateOnTyping: true}),
         CM.lintGutter(),
@@ -154,6 +155,10 @@ function textEditor(parent, options) {
         }),
       ],
     }),
+  });
+  document.addEventListener('autonomy-contrast', (event) => {
+    const style = event.detail ? TEXT_HIGHLIGHT_CONTRAST : TEXT_HIGHLIGHT;
+    view.dispatch({effects: colours.reconfigure(CM.syntaxHighlighting(style))});
   });
   const positionOf = (line, column) => {
     const doc = view.state.doc;
@@ -211,6 +216,11 @@ function textEditor(parent, options) {
   };
 }
 
+/** Whether the page is in high contrast (contrast.js). */
+function highContrast() {
+  return document.documentElement.classList.contains('contrast');
+}
+
 /** The text's colours (keys blue, values green): each at least 4.5:1 on white and on the active line (WCAG 1.4.3). */
 const TEXT_HIGHLIGHT = CM.HighlightStyle.define([
   {tag: CM.tags.definition(CM.tags.propertyName), color: '#1c4e80'},
@@ -220,4 +230,14 @@ const TEXT_HIGHLIGHT = CM.HighlightStyle.define([
   {tag: [CM.tags.bool, CM.tags.null, CM.tags.atom, CM.tags.keyword], color: '#6b2490'},
   {tag: [CM.tags.comment, CM.tags.lineComment], color: '#5c636a', fontStyle: 'italic'},
   {tag: CM.tags.invalid, color: '#b00020'},
+]);
+
+/** The text's colours in high contrast: light on black, 10:1 and more. */
+const TEXT_HIGHLIGHT_CONTRAST = CM.HighlightStyle.define([
+  {tag: [CM.tags.definition(CM.tags.propertyName), CM.tags.propertyName], color: '#ffeb3b'},
+  {tag: [CM.tags.string, CM.tags.special(CM.tags.string)], color: '#ffccbc'},
+  {tag: [CM.tags.content, CM.tags.number], color: '#b9f6ca'},
+  {tag: [CM.tags.bool, CM.tags.null, CM.tags.atom, CM.tags.keyword], color: '#e1bee7'},
+  {tag: [CM.tags.comment, CM.tags.lineComment], color: '#e0e0e0', fontStyle: 'italic'},
+  {tag: CM.tags.invalid, color: '#ffeb3b'},
 ]);
