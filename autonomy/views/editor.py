@@ -15,6 +15,11 @@ bundled from its packages by ``make vendor``): the page loads nothing from the i
 ``POST /api/text``     ``{"workspace": ...}`` -> ``{"ok": true, "text": TEXT}`` or the problems, at their blocks;
                        ``?selected=ID``: ``line`` is where that block's node begins in the text
 ``POST /api/save``     ``{"text": TEXT}`` -> saved, with the text's problems if it has any (a draft is saved too)
+``POST /api/run``      ``{"text": TEXT}`` -> run on the emulator in real time (its world, at most 5 minutes), shown
+                       in the live view (``view``: a :class:`~autonomy.views.web.ViewServer` beside the editor,
+                       framed in its page); or the text's problems, or why not (a run is under way)
+``GET  /api/run``      the run's state: ``running``, then its ``outcome`` and ``summary``
+``POST /api/stop``     ``{"stop": true}`` -> the run under way ends after its tick, the robot stopped
 """
 
 from __future__ import annotations
@@ -26,13 +31,17 @@ import json
 import os
 import secrets
 import stat
+import threading
 from concurrent.futures import ThreadPoolExecutor
 from importlib import resources
 from pathlib import Path
 from typing import Any
+from urllib.parse import quote
 
 from aiohttp import web
 
+from autonomy.client import Client
+from autonomy.errors import AutonomyError
 from autonomy.mission import MissionInvalid, validate_text
 from autonomy.mission.blocks import (
     block_at_line,
@@ -45,9 +54,10 @@ from autonomy.mission.blocks import (
     workspace_json,
 )
 from autonomy.mission.catalogue import json_schema
+from autonomy.runner import Runner
 from autonomy.source import MAX_FILE_BYTES, Problem, UnreadableFile, read_text
 from autonomy.views.page import static_text
-from autonomy.views.web import BoundedServer, nonced_page, page_file, query_line, query_selected
+from autonomy.views.web import BoundedServer, ViewServer, nonced_page, page_file, query_line, query_selected
 
 #: The editor's own files, and their types.
 EDITOR_FILES = {
@@ -68,6 +78,8 @@ VENDOR_TYPES = {
     ".gif": "image/gif",
     ".cur": "image/x-icon",
 }
+#: A run from the editor ends after this long at most (Stop ends it sooner).
+MAX_RUN_S = 300.0
 #: Largest request body: a mission file's text (or its workspace, a few times its size) at most.
 MAX_EDIT_BYTES = 8 * MAX_FILE_BYTES
 #: The page's policy: its own scripts and styles and Blockly's pictures; nothing from elsewhere. Blockly writes one
@@ -122,6 +134,34 @@ class EditorServer(BoundedServer):
         self.key = secrets.token_urlsafe(18)
         self._words = words or load_words()
         self._work = ThreadPoolExecutor(1, thread_name_prefix="autonomy-editor")  # conversions, off the loop
+        self.view: ViewServer | None = None  # the runs' live view, on a port of its own
+        self._running: tuple[Runner, threading.Thread] | None = None
+        self._last_run: dict[str, Any] = {}
+        self._run_lock = threading.Lock()
+
+    def start(self) -> None:
+        """Serves the editor, and beside it the live view its runs are shown in (framed in the editor's page).
+
+        Raises:
+            OSError: a port cannot be bound.
+        """
+        super().start()
+        self.view = ViewServer(self.host, 0, framed_by=f"http://*:{self.port}")
+        try:
+            self.view.start()
+        except OSError:
+            super().stop()
+            raise
+
+    def stop(self) -> None:
+        """Stops a run under way (the robot stopped), then the view and the editor."""
+        running = self._running
+        if running is not None:
+            running[0].request_stop("the editor stopped")
+            running[1].join(timeout=30)
+        if self.view is not None:
+            self.view.stop()
+        super().stop()
 
     @property
     def page_url(self) -> str:
@@ -136,6 +176,9 @@ class EditorServer(BoundedServer):
         app.router.add_post("/api/blocks", self._blocks)
         app.router.add_post("/api/text", self._text)
         app.router.add_post("/api/save", self._save)
+        app.router.add_post("/api/run", self._run)
+        app.router.add_post("/api/stop", self._stop_run)
+        app.router.add_get("/api/run", self._run_state)
 
     def _closing(self) -> None:
         self._work.shutdown(wait=False, cancel_futures=True)
@@ -143,7 +186,8 @@ class EditorServer(BoundedServer):
     # ------------------------------------------------------------------ pages
 
     async def _index(self, request: web.Request) -> web.Response:
-        return nonced_page(static_text("editor.html"), EDITOR_POLICY)
+        view_port = self.view.port if self.view is not None else 0
+        return nonced_page(static_text("editor.html"), f"{EDITOR_POLICY}; frame-src http://*:{view_port}")
 
     async def _static(self, request: web.Request) -> web.Response:
         return page_file(request.match_info["name"], EDITOR_FILES)
@@ -255,6 +299,58 @@ class EditorServer(BoundedServer):
             )
         checked = await self._off_loop(self._as_blocks, text)
         return web.json_response({"saved": self.path.name, "problems": checked.get("problems", [])})
+
+    # ------------------------------------------------------------------ runs
+
+    async def _run(self, request: web.Request) -> web.Response:
+        text = await self._body(request, "text")
+        if not isinstance(text, str):
+            raise web.HTTPBadRequest(text='the body is JSON: {"text": "the mission\'s text"}')
+        return web.json_response(await self._off_loop(self._start_run, text))
+
+    def _start_run(self, text: str) -> dict[str, Any]:
+        """Runs the text on the emulator, in real time, shown in the live view; or why not."""
+        with self._run_lock:
+            if self._running is not None and self._running[1].is_alive():
+                return {"ok": False, "error": "a run is under way: stop it first"}
+            try:  # checked as `autonomy run` checks it: its world too, its plugins from the file's folder
+                spec = validate_text(text, self.path.name, self.path.parent)
+            except MissionInvalid as err:
+                return {"ok": False, "problems": _problems(err.problems)}
+            world = spec.world or "box"
+            try:
+                client = Client.open(f"emu://?world={quote(world, safe='/')}", guardian=True)
+            except AutonomyError as err:
+                return {"ok": False, "error": str(err)}
+            assert self.view is not None  # noqa: S101 - started with the editor
+            runner = Runner.for_mission(spec, client, max_seconds=MAX_RUN_S, listeners=[self.view.hub])
+            thread = threading.Thread(target=self._go, args=(runner, client), name="autonomy-edit-run", daemon=True)
+            self._running = (runner, thread)
+            self._last_run = {"running": True, "world": world}
+            thread.start()
+        return {"ok": True, "view": f"{self.view.url}", "world": world, "max_s": MAX_RUN_S}
+
+    def _go(self, runner: Runner, client: Client) -> None:
+        """The run, on its thread; the robot is stopped at its end, however it ends."""
+        try:
+            summary = runner.run()
+            self._last_run = {"running": False, "outcome": summary.outcome, "summary": summary.paragraph}
+        except Exception as err:  # noqa: BLE001 - said on the page; the runner stopped the robot
+            self._last_run = {"running": False, "outcome": "failed", "summary": f"the run failed: {err}"}
+        finally:
+            client.close()
+
+    async def _stop_run(self, request: web.Request) -> web.Response:
+        await self._body(request, "stop")
+        running = self._running
+        if running is not None and running[1].is_alive():
+            running[0].request_stop("stopped from the editor")
+        return web.json_response({"stopping": running is not None and running[1].is_alive()})
+
+    async def _run_state(self, request: web.Request) -> web.Response:
+        if not self._allowed(request):
+            raise web.HTTPUnauthorized(text="this editor's page has a key in its address: open the address printed")
+        return web.json_response(self._last_run or {"running": False})
 
     def _write(self, text: str) -> None:
         """Writes the file whole or not at all: a new file beside it, then put in its place.

@@ -625,11 +625,14 @@ class ViewServer(BoundedServer):
         host: The interface (127.0.0.1 unless asked otherwise).
         port: The TCP port (0: any free one).
         mode: ``live`` or ``replay``.
+        framed_by: An origin (``http://127.0.0.1:8766``) whose pages may show the page in a frame.
     """
 
-    def __init__(self, host: str = "127.0.0.1", port: int = 8765, mode: str = "live") -> None:
+    def __init__(self, host: str = "127.0.0.1", port: int = 8765, mode: str = "live", framed_by: str = "") -> None:
         super().__init__(host, port, "view")
         self.hub = RecordHub(mode)
+        #: The one origin whose pages may show this page in a frame (``autonomy edit``'s); none when empty.
+        self.framed_by = framed_by
 
     def _routes(self, app: web.Application) -> None:
         app.router.add_get("/", self._index)
@@ -651,7 +654,11 @@ class ViewServer(BoundedServer):
     # ------------------------------------------------------------------ handlers
 
     async def _index(self, request: web.Request) -> web.Response:
-        return web.Response(text=static_text("index.html"), content_type="text/html")
+        headers = {}
+        if self.framed_by:
+            policy = CONTENT_SECURITY_POLICY.replace("frame-ancestors 'none'", f"frame-ancestors {self.framed_by}")
+            headers["Content-Security-Policy"] = policy
+        return web.Response(text=static_text("index.html"), content_type="text/html", headers=headers)
 
     async def _static(self, request: web.Request) -> web.Response:
         return page_file(request.match_info["name"], STATIC_FILES)

@@ -211,7 +211,7 @@ def test_a_block_is_added_and_the_file_saved_with_the_keyboard_alone(browser, ed
     url, path = editing("mission: m\ntree:\n  sequence:\n    - stop\n")
     page = open_page(browser, url)
     try:
-        for _ in range(5):  # the four buttons, then the toolbox
+        for _ in range(6):  # the buttons (Stop is off: no run), then the toolbox
             press(page, "Tab")
         assert "blocklyToolbox" in page.evaluate("document.activeElement.className")
         press(page, "w", "stack of blocks")  # the workspace
@@ -330,3 +330,39 @@ def test_the_buttons_keep_the_cursor_s_node_between_text_and_blocks(browser, edi
         assert line.strip().startswith("- move:"), line  # the move's line of the text the blocks wrote
     finally:
         page.close()
+
+
+def test_the_editor_runs_its_mission_on_the_emulator_in_the_live_view_and_stops_it(browser, editing):
+    url, path = editing("mission: short\ntree:\n  sequence:\n    - beep\n    - move: {speed: 2, seconds: 1}\n")
+    page = open_page(browser, url)
+    try:
+        page.get_by_role("button", name="Run on the emulator").click()
+        until(page, "!document.getElementById('run-pane').hidden")
+        view = page.frame_locator("#view")
+        view.locator("#mission").filter(has_text="short").wait_for(timeout=30_000)  # the live view, framed
+        until(page, "document.getElementById('run-state').textContent.includes('succeeded')")
+        assert page.evaluate("document.getElementById('stop').disabled")
+        shown = page.text_content("#run-state")
+        page.keyboard.press("Control+s")  # saved, the file runs as the page's run did
+        until(page, "document.getElementById('status').textContent.startsWith('Saved')")
+        ran = subprocess.run(
+            [sys.executable, "-m", "autonomy", "run", "--fast", str(path)], capture_output=True, text=True, timeout=120
+        )
+        assert ran.returncode == 0 and "succeeded" in ran.stdout and "succeeded" in shown, (ran.stdout, shown)
+        # a long run is stopped from the page: the robot stopped, the run said interrupted
+        page.locator(TEXT).fill("mission: long\ntree:\n  move: {speed: 1, seconds: 200}\n")
+        until(page, "document.getElementById('blocks-note').hidden")
+        page.keyboard.press("Control+Enter")
+        view.locator("#mission").filter(has_text="long").wait_for(timeout=30_000)  # the view follows the new run
+        until(page, "!document.getElementById('stop').disabled")
+        page.get_by_role("button", name="Stop").click()
+        until(page, "document.getElementById('run-state').textContent.includes('stopped from the editor')")
+        assert violations(page) == [] and page.evaluate("window.breaches") == []
+        # a text that cannot run is said so, and not run
+        page.locator(TEXT).fill("mission: m\nworld: nowhere\ntree: stop\n")
+        page.get_by_role("button", name="Run on the emulator").click()
+        until(page, "document.getElementById('status').textContent.startsWith('Not run')")
+        assert "nowhere" in page.text_content("#problems")
+    finally:
+        page.close()
+    assert path.read_text().startswith("mission: short")  # the runs after the save saved nothing

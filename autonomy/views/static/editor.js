@@ -142,6 +142,42 @@ async function save() {
   }
 }
 
+/** Runs the mission as the page has it on the emulator, in real time, shown in the live view below. */
+async function run() {
+  if (blocksChanged && !(await toText())) {
+    say('Not run: the blocks have problems, each on its block.');
+    return;
+  }
+  const answer = await api('/api/run', {text: text.value});
+  if (!answer.ok) {
+    if (answer.problems) {
+      showProblems(answer.problems, 'text');
+      say(`Not run: the text has ${answer.problems.length} problem(s).`);
+    } else {
+      say(`Not run: ${answer.error}`);
+    }
+    return;
+  }
+  element('run-pane').hidden = false;
+  const view = element('view');
+  if (!view.src) view.src = answer.view; // the view follows each new run by itself
+  element('stop').disabled = false;
+  element('run-state').textContent = `Running in the world '${answer.world}' (at most ${answer.max_s} s)...`;
+  say('Running on the emulator: the live view is below.');
+  watchRun();
+}
+
+/** Follows the run until it ends, then says how it ended. */
+async function watchRun() {
+  const state = await api('/api/run');
+  if (state.running) {
+    setTimeout(watchRun, 500);
+    return;
+  }
+  element('stop').disabled = true;
+  element('run-state').textContent = state.summary || 'The run is over.';
+}
+
 async function start() {
   const mission = await api('/api/mission');
   if (mission.error) {
@@ -156,6 +192,7 @@ async function start() {
     label: `the text of ${mission.file}`,
     value: mission.text,
     placeholder: 'mission: my-mission',
+    onRun: run,
     schema: async () => mission.palette.schema,
     onChange: () => {
       clearTimeout(textTimer);
@@ -179,6 +216,8 @@ async function start() {
   element('to-text').addEventListener('click', () => toText(true));
   element('to-blocks').addEventListener('click', () => toBlocks(true));
   element('save').addEventListener('click', save);
+  element('run').addEventListener('click', run);
+  element('stop').addEventListener('click', () => api('/api/stop', {stop: true}));
   document.addEventListener('keydown', (event) => {
     if (event.key === 's' && (event.ctrlKey || event.metaKey)) {
       event.preventDefault();
