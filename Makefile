@@ -10,7 +10,7 @@ UV_VERSION := 0.13.9
 
 CHROMIUM ?= /usr/bin/chromium
 
-.PHONY: run test test-latest test-pyyaml lock bench fuzz mutation docs clean chromium vendor
+.PHONY: run test test-latest test-pyyaml lock bench fuzz mutation docs clean chromium vendor pictures
 
 # .venv is made anew whenever the lock or pyproject.toml changes, so that it holds the lock and nothing else.
 $(STAMP): $(LOCK) pyproject.toml
@@ -98,6 +98,10 @@ bench: $(STAMP)
 vendor:
 	npm ci --ignore-scripts --no-audit --no-fund
 	node tools/vendor.cjs
+
+## pictures: take the docs' pictures of the blocks and the text anew (docs/images), in Chromium
+pictures: .venv/.installed
+	AUTONOMY_PICTURES=docs/images AUTONOMY_CHROMIUM="$(CHROMIUM)" $(BIN)/python -m pytest -q tests/views/test_docs_pictures.py -k taken
 
 ## docs: make the node reference in docs/missions.md anew from the registry
 docs: $(STAMP)

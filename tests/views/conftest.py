@@ -79,3 +79,27 @@ def serve() -> Iterator:
         if served.process.poll() is None:
             served.process.kill()
             served.process.communicate()
+
+
+@pytest.fixture
+def editing(tmp_path):
+    """``autonomy edit`` on a copy of the square, as a process; (its page's address, the file)."""
+    opened = []
+
+    def edit(text: str, name: str = "mission.yaml") -> tuple[str, Path]:
+        path = tmp_path / name
+        path.write_text(text)
+        process = subprocess.Popen(
+            [sys.executable, "-m", "autonomy", "edit", str(path), "--port", "0"],
+            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=tmp_path,
+        )  # fmt: skip
+        opened.append(process)
+        url = process.stdout.readline().strip()
+        assert url.startswith("http://127.0.0.1:") and "#" in url, process.stderr.read()
+        return url, path
+
+    yield edit
+    for process in opened:
+        process.terminate()
+        _, err = process.communicate(timeout=30)
+        assert "Traceback" not in err, err

@@ -32,30 +32,6 @@ WATCH_POLICY = (
 )
 
 
-@pytest.fixture
-def editing(tmp_path):
-    """``autonomy edit`` on a copy of the square, as a process; (its page's address, the file)."""
-    opened = []
-
-    def edit(text: str, name: str = "mission.yaml") -> tuple[str, Path]:
-        path = tmp_path / name
-        path.write_text(text)
-        process = subprocess.Popen(
-            [sys.executable, "-m", "autonomy", "edit", str(path), "--port", "0"],
-            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=tmp_path,
-        )  # fmt: skip
-        opened.append(process)
-        url = process.stdout.readline().strip()
-        assert url.startswith("http://127.0.0.1:") and "#" in url, process.stderr.read()
-        return url, path
-
-    yield edit
-    for process in opened:
-        process.terminate()
-        _, err = process.communicate(timeout=30)
-        assert "Traceback" not in err, err
-
-
 def open_page_unready(browser, url: str):
     """The editor's page, as soon as it is loaded (whether or not the editor could start)."""
     page = browser.new_page(viewport={"width": 1400, "height": 900})
