@@ -72,7 +72,7 @@ def student_page(browser, rounds: int) -> tuple[list[float], list[float]]:
                 page.fill("#code", code)
                 page.click("#sign-in-form button")
                 until(page, "!document.getElementById('desk').hidden", 30_000)
-                page.fill("#mission", "mission: park\ntree:\n  move: {speed: 2, until_obstacle_mm: 150}\n")
+                page.fill("#mission .cm-content", "mission: park\ntree:\n  move: {speed: 2, until_obstacle_mm: 150}\n")
                 for times in (first, again):
                     started = time.perf_counter()
                     page.click("#mode-blocks")

@@ -20,6 +20,7 @@ from autonomy.classroom.grade import Report, SeedResult, page_path
 from autonomy.classroom.gradebook import RosterMatch, similar
 from autonomy.record import RunHeader
 from autonomy.source import UnreadableFile, read_text
+from autonomy.views.blocksvg import mission_blocks_svg
 from autonomy.views.lines import printable
 from autonomy.views.mapsvg import world_svg
 from autonomy.views.page import ReplayMaker, runs_host_head, script_json
@@ -337,6 +338,8 @@ def to_gradescope(exercise: Exercise, report: Report) -> str:
     return json.dumps(document, indent=1, ensure_ascii=False) + "\n"
 
 
+#: Opens the mission's blocks of a page opened at ``#as-blocks``.
+_OPEN_BLOCKS = "if (location.hash === '#as-blocks') document.getElementById('as-blocks').open = true;"
 _FEEDBACK_STYLE = """
 body { font-family: "DejaVu Sans", sans-serif; margin: 1em 2em; color: #212529; }
 pre.source { background: #f8f9fa; padding: .5em 0; border: 1px solid #dee2e6; overflow-x: auto; }
@@ -410,6 +413,11 @@ def feedback_page(
             why = "".join(f'<span class="why">{escape(printable(m))}</span>' for m in problems.get(number, []))
             lines.append(f'<span class="line{marked}" data-line="{number}">{escape(printable(text))}{why}</span>')
         yield '<pre class="source">' + "".join(lines) + "</pre>\n"
+        # the same mission as its blocks: open at once on a page opened at #as-blocks (one built from blocks)
+        drawn = mission_blocks_svg(source, f"{printable(report.student)}'s mission as blocks")
+        if drawn is not None:
+            yield f'<details id="as-blocks"><summary>Your mission as blocks</summary>{drawn}</details>\n'
+            yield f"<script>{_OPEN_BLOCKS}</script>\n"
     for number, (seed, run) in enumerate(zip(report.seeds, runs, strict=True), start=1):
         verdicts = "".join(
             f'<li class="{"yes" if held else "no"}">{"&#10003;" if held else "&#10007;"} {escape(printable(line))}</li>'

@@ -149,6 +149,16 @@ FEEDBACK_POLICY = "sandbox allow-scripts; frame-ancestors 'self'"
 _PAGE_NAME = re.compile(r"(\d{1,12})-([0-9a-f]{32})\.html")
 
 
+def _as_seen(page: str | None, written_as: str | None) -> str | None:
+    """A work's page's address, opening on its blocks when the work was made from blocks."""
+    return f"{page}#as-blocks" if page and written_as == "blocks" else page
+
+
+def _report_of(result: dict[str, Any]) -> Report:
+    """The report a work's result keeps (how the work was written apart)."""
+    return Report.from_json({key: value for key, value in result.items() if key != "written_as"})
+
+
 def page_text(name: str) -> str:
     """One of the pages' files (:data:`PAGE_FILES`), as text."""
     return static_text(name, SHARED_FILES.get(name, "autonomy.liveclass"))
@@ -501,11 +511,11 @@ class ClassServer(BoundedServer):
             if isinstance(mission, web.Response):
                 return mission
             done.append(self._clock.now())
-            return await self._grade(student, mission, kind)
+            return await self._grade(student, mission, kind, request.query.get("as") == "blocks")
         finally:
             self._done(student)
 
-    async def _grade(self, student: Student, mission: str, kind: str) -> web.Response:
+    async def _grade(self, student: Student, mission: str, kind: str, from_blocks: bool = False) -> web.Response:
         loop = asyncio.get_running_loop()
         checked = await loop.run_in_executor(self._checkers, check, self.exercise, mission)
         if not checked["ok"]:
@@ -529,7 +539,8 @@ class ClassServer(BoundedServer):
             return _refusal(500, why)
         shown = seen_by_student(self.exercise, report)
         problem = report.problems[0] if report.problems else ""
-        self.store.finish_work(number, report.to_json(), report.total, report.max_points, problem)
+        kept_result = {**report.to_json(), **({"written_as": "blocks"} if from_blocks else {})}
+        self.store.finish_work(number, kept_result, report.total, report.max_points, problem)
         self._change()
         kept = await loop.run_in_executor(self._checkers, self._bound_disk, student.id, number, kind, page)
         return _json(
@@ -538,7 +549,7 @@ class ClassServer(BoundedServer):
                 "number": number,
                 "kind": kind,
                 "count": self.store.count(student.id, kind),  # their own: hand-in 3 is their third
-                "page": self._page_url(number) if kept else None,
+                "page": _as_seen(self._page_url(number), "blocks" if from_blocks else None) if kept else None,
                 "page_problem": "" if kept else f"its replay is over {MAX_PAGE_BYTES // 2**20} MB: too large to keep",
                 **shown,
             }
@@ -635,7 +646,7 @@ class ClassServer(BoundedServer):
         works = self.store.work_list(student.id)  # without their texts: a class's hour may hold hundreds
         for work in works:
             graded = work["total"] is not None and page_file(self.folder, student.id, work["number"]).is_file()
-            work["page"] = self._page_url(work["number"]) if graded else None
+            work["page"] = _as_seen(self._page_url(work["number"]), work.pop("written_as")) if graded else None
         me = {
             "exercise": self._exercise_shown,
             "deadline_s": self._deadline_s(),
@@ -675,8 +686,9 @@ class ClassServer(BoundedServer):
         students = self.store.summary()
         for row in students:
             row["id"], row["name"] = printable(row["id"]), printable(row["name"])
-            row["latest_page"] = self._page_url(row.pop("last_graded"))
-            row["handin_page"] = self._page_url(row.pop("last_handin"))
+            # a work made from blocks: its page opens with them (#as-blocks), as its student last saw it
+            row["latest_page"] = _as_seen(self._page_url(row.pop("last_graded")), row.pop("last_graded_as"))
+            row["handin_page"] = _as_seen(self._page_url(row.pop("last_handin")), row.pop("last_handin_as"))
         return _json(
             {
                 "version": self._version,
@@ -741,7 +753,7 @@ class ClassServer(BoundedServer):
         """The gradebook, as ``autonomy grade --roster --csv`` writes it: ids first, each student's last hand-in."""
         listed: list[tuple[RosterEntry, Report | None]] = []
         for line, (student, work) in enumerate(self._handed_in(), start=2):
-            report = Report.from_json(work.result) if work is not None and "seeds" in work.result else None
+            report = _report_of(work.result) if work is not None and "seeds" in work.result else None
             listed.append((RosterEntry(student.id, student.name, "", line), report))
         return to_csv(self.exercise, [r for _, r in listed if r is not None], RosterMatch(listed, []))
 

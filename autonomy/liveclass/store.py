@@ -28,6 +28,9 @@ DATABASE = "class.sqlite"
 CODE_ALPHABET = "23456789abcdefghjkmnpqrstuvwxyz"
 CODE_LENGTH = 8
 
+#: How a work was written (``blocks``, or NULL for text), kept in its result.
+_WRITTEN_AS = "json_extract(result, '$.written_as')"
+
 _SCHEMA = """
 CREATE TABLE IF NOT EXISTS students (
     id TEXT PRIMARY KEY,
@@ -276,14 +279,14 @@ class ClassStore:
         """A student's runs and hand-ins, oldest first, without their texts or results: what a page lists.
 
         Each has ``number``, ``kind``, ``count`` (the how-manieth of its kind, theirs), ``at``, ``total``,
-        ``max_points``, ``problem``.
+        ``max_points``, ``problem``, ``written_as`` (``blocks`` for one made from blocks, else None).
         """
         rows = self._read(
-            "SELECT id, kind, ROW_NUMBER() OVER (PARTITION BY kind ORDER BY id), at, total, max_points, problem "
-            "FROM works WHERE student = ? ORDER BY id",
+            "SELECT id, kind, ROW_NUMBER() OVER (PARTITION BY kind ORDER BY id), at, total, max_points, problem, "
+            f"{_WRITTEN_AS} FROM works WHERE student = ? ORDER BY id",  # noqa: S608 - our own text
             (student,),
         )
-        keys = ("number", "kind", "count", "at", "total", "max_points", "problem")
+        keys = ("number", "kind", "count", "at", "total", "max_points", "problem", "written_as")
         return [dict(zip(keys, row, strict=True)) for row in rows]
 
     def last_source(self, student: str) -> str:
@@ -314,6 +317,10 @@ class ClassStore:
         The last problem is their last run's or hand-in's: empty once one has none.
         """
         last_handin = "FROM works w WHERE w.student = s.id AND w.kind = 'handin' ORDER BY w.id DESC LIMIT 1"
+        last_graded_handin = (
+            "FROM works w WHERE w.student = s.id AND w.kind = 'handin' AND w.total IS NOT NULL "
+            "ORDER BY w.id DESC LIMIT 1"
+        )
         rows = self._read(
             "SELECT s.id, s.name, s.signed_in, "
             "(SELECT COUNT(*) FROM works w WHERE w.student = s.id AND w.kind = 'run'), "
@@ -322,12 +329,15 @@ class ClassStore:
             "(SELECT w.problem FROM works w WHERE w.student = s.id ORDER BY w.id DESC LIMIT 1), "
             "(SELECT MAX(w.id) FROM works w WHERE w.student = s.id), "
             "(SELECT MAX(w.id) FROM works w WHERE w.student = s.id AND w.total IS NOT NULL), "
-            "(SELECT MAX(w.id) FROM works w WHERE w.student = s.id AND w.kind = 'handin' AND w.total IS NOT NULL) "
+            "(SELECT MAX(w.id) FROM works w WHERE w.student = s.id AND w.kind = 'handin' AND w.total IS NOT NULL), "
+            f"(SELECT {_WRITTEN_AS} FROM works w WHERE w.student = s.id AND w.total IS NOT NULL "
+            "ORDER BY w.id DESC LIMIT 1), "
+            f"(SELECT {_WRITTEN_AS} {last_graded_handin}) "
             "FROM students s WHERE s.on_roster = 1 ORDER BY s.rowid"
         )
         keys = (
             "id", "name", "signed_in", "runs", "handins", "total", "max_points", "last_problem", "last_work",
-            "last_graded", "last_handin",
+            "last_graded", "last_handin", "last_graded_as", "last_handin_as",
         )  # fmt: skip
         return [dict(zip(keys, row, strict=True)) for row in rows]
 

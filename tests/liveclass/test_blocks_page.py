@@ -14,6 +14,7 @@ from autonomy.classroom.exercise import load_exercise
 from autonomy.liveclass.work import as_text, palette
 from autonomy.mission.blocks import DEFINE_BLOCK, MISSION_BLOCK
 from tests.axe import violations
+from tests.liveclass.test_class_cli import table
 from tests.liveclass.test_pages import FIXED, MISTAKE, WAIT_MS, new_page, sign_in, until
 from tests.views.conftest import ROOT
 
@@ -57,7 +58,7 @@ def student_page(browser, url: str, errors: list[str]):
 
 
 def test_a_student_builds_the_garage_solution_with_the_keyboard_alone_and_runs_it_for_full_marks(browser, classroom):
-    student_url, _, codes = classroom
+    student_url, teacher_url, codes = classroom
     errors: list[str] = []
     page = student_page(browser, student_url, errors)
     try:
@@ -85,6 +86,14 @@ def test_a_student_builds_the_garage_solution_with_the_keyboard_alone_and_runs_i
         keys(page, "Enter")
         until(page, "document.getElementById('result-title').textContent.includes('/ 10')", WAIT_MS)
         assert page.text_content("#result-title") == "Your run, on the public seeds: 10 / 10"
+        # made from blocks: its page opens on them, drawn as the student saw them, for the teacher too
+        assert page.get_attribute("#replay", "src").endswith("#as-blocks")
+        frame = page.frame_locator("#replay")
+        frame.locator("#as-blocks[open] svg").wait_for(timeout=30_000)
+        assert "until an obstacle is within" in frame.locator("#as-blocks svg").text_content()
+        port, token = int(teacher_url.split(":")[2].split("/")[0]), teacher_url.split("#")[1]
+        rows = table(port, token)["students"]
+        assert next(r for r in rows if r["name"] == "Ada Lovelace")["latest_page"].endswith("#as-blocks")
         assert page.evaluate("window.breaches") == [] and errors == []
     finally:
         page.close()

@@ -142,11 +142,18 @@ def test_a_student_s_feedback_page_shows_their_file_their_runs_at_their_end_and_
     first.locator("#play").click()
     expect(first.locator("#slider-label")).to_have_text(re.compile(r"tick ([6-9]|\d\d+) / "))  # it plays
     assert fetched == [zed]  # nothing fetched but the page itself
+    # the same mission as its blocks: closed, and open at once on the page opened at #as-blocks
+    assert page.locator("#as-blocks").get_attribute("open") is None
+    page.goto("about:blank")
+    page.goto(zed + "#as-blocks")
+    expect(page.locator("#as-blocks[open] svg")).to_be_visible()
+    assert "the robot has bumped into something" in page.locator("#as-blocks svg").text_content()
     oops = (tmp_path / "pages" / "oops.html").as_uri()
     page.goto(oops)
     marked = page.locator("pre.source span.problem")
     assert marked.count() == 1 and marked.get_attribute("data-line") == "3"
     assert "unknown node 'mvoe' (did you mean 'move'?)" in marked.inner_text()
+    assert page.locator("#as-blocks").count() == 0  # a file with problems is no blocks
 
 
 def test_a_feedback_replay_marks_each_beep_and_turn_as_it_reaches_it(page, tmp_path):

@@ -354,7 +354,9 @@ async function send(kind) {
   const what = kind === "handin" ? "grading it on every seed" : "running it on the public seeds";
   say(`${what}...`, false);
   try {
-    const { status, data } = await inTurn(() => api("POST", `/api/${kind}`, { mission: text }));
+    // made from blocks: its page opens on them, as the student saw it (and so for the teacher)
+    const path = `/api/${kind}${mode === "blocks" ? "?as=blocks" : ""}`;
+    const { status, data } = await inTurn(() => api("POST", path, { mission: text }));
     deadline(data);
     if (status === 422) {
       showProblems(data.problems);
