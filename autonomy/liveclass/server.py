@@ -523,6 +523,8 @@ class ClassServer(BoundedServer):
             problem = f"line {first['line']}, column {first['column']}: {first['message']}"
             kept = {"problems": checked["problems"][:PROBLEMS_KEPT]}
             self.store.add_work(student.id, kind, mission[:MAX_MISSION_CHARS], kept, problem=problem)
+            if kind == "run":  # a refused run's text is one of the runs' texts kept: the last ones alone
+                await loop.run_in_executor(self._checkers, self.store.forget_old_runs, student.id, RUN_TEXTS_KEPT)
             self._change()
             return _json({"ok": False, "problems": checked["problems"]}, 422)
         number = self.store.add_work(student.id, kind, mission, {"grading": True})

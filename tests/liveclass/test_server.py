@@ -553,3 +553,18 @@ def test_a_run_s_text_is_kept_in_the_database_alone_and_only_the_last_ones(serve
     assert [w.source for w in server.store.works("s1", "handin")] == [SOLUTION]  # a hand-in's, for good
     assert not any(work_file(server.folder, "s1", n, hand_in=False).exists() for n in numbers)
     assert work_file(server.folder, "s1", handed["number"], hand_in=True).read_text() == SOLUTION
+
+
+def test_a_refused_run_s_text_counts_among_the_runs_texts_kept(served, monkeypatch):
+    import autonomy.liveclass.server as server_module
+
+    server, codes = served
+    monkeypatch.setattr(server_module, "RUN_TEXTS_KEPT", 2)
+    wrong = "mission: m\ntree:\n  mvoe: {speed: 2}\n" + "# a long text\n" * 1000
+    refused = []
+    for _ in range(4):
+        status, _ = call(server, "/api/run", {"mission": wrong}, codes["s1"])
+        assert status == 422
+        refused.append(max(work["number"] for work in server.store.work_list("s1")))
+    assert [server.store.work(n).source != "" for n in refused] == [False, False, True, True]
+    assert [server.store.work(n).problem for n in refused] == [server.store.work(refused[-1]).problem] * 4
