@@ -6,7 +6,8 @@ reports = grade_class(exercise, find_submissions(["class/alice.yaml", "class/bob
 """
 
 from autonomy.classroom.exercise import CRITERIA, Criterion, Exercise, ExerciseInvalid, Seed, load_exercise
-from autonomy.classroom.grade import Report, SeedResult, find_submissions, grade_class, grade_one
+from autonomy.classroom.grade import find_submissions, grade_class, grade_one
+from autonomy.classroom.results import Report, SeedResult
 
 __all__ = [
     "CRITERIA",

@@ -22,7 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from autonomy.classroom.exercise import Exercise
-from autonomy.classroom.grade import Report
+from autonomy.classroom.results import Report
 from autonomy.errors import AutonomyError
 from autonomy.source import UnreadableFile, control_character, read_text
 from autonomy.words import plural

@@ -16,8 +16,8 @@ from pathlib import Path
 from typing import Any
 
 from autonomy.classroom.exercise import Exercise
-from autonomy.classroom.grade import Report, SeedResult, page_path
 from autonomy.classroom.gradebook import RosterMatch, similar
+from autonomy.classroom.results import Report, SeedResult, page_path
 from autonomy.record import RunHeader
 from autonomy.source import UnreadableFile, read_text
 from autonomy.views.blocksvg import mission_blocks_svg

@@ -130,7 +130,7 @@ def cmd_grade(args: argparse.Namespace) -> int:
     chosen: set[Path] = set()
     student_pages: set[Path] = set()
     if args.feedback:  # each student's page is an output too
-        from autonomy.classroom.grade import file_names, page_path
+        from autonomy.classroom.results import file_names, page_path
 
         student_pages = {page_path(Path(args.feedback), name).resolve() for name in file_names(known).values()}
     for target, _ in targets:  # before hours of grading, not after
@@ -234,7 +234,7 @@ def cmd_grade(args: argparse.Namespace) -> int:
     code = EXIT_USAGE if alone and reports[0].problems else EXIT_OK
     pages: dict[str, str] = {}
     if args.feedback:  # written by the workers, as they graded
-        from autonomy.classroom.grade import file_names, page_path
+        from autonomy.classroom.results import file_names, page_path
 
         names = file_names([r.student for r in reports])
         pages = {r.student: str(page_path(Path(args.feedback), names[r.student])) for r in reports}

@@ -46,9 +46,9 @@ from typing import Any
 from aiohttp import web
 
 from autonomy.classroom.exercise import Exercise
-from autonomy.classroom.grade import Report, file_names
 from autonomy.classroom.gradebook import RosterEntry, RosterMatch
 from autonomy.classroom.report import to_csv
+from autonomy.classroom.results import Report, file_names
 from autonomy.clock import wall_time_s
 from autonomy.errors import AutonomyError
 from autonomy.liveclass.store import ClassStore, Student, Work, code_digest, token_digest

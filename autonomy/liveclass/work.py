@@ -12,15 +12,8 @@ from typing import Any
 
 from autonomy.behaviours.tree import describe_tree
 from autonomy.classroom.exercise import Exercise
-from autonomy.classroom.grade import (
-    PLUGINS_REFUSED,
-    Report,
-    check_text,
-    file_names,
-    grade_class,
-    in_a_daemon,
-    page_path,
-)
+from autonomy.classroom.grade import PLUGINS_REFUSED, check_text, grade_class, in_a_daemon
+from autonomy.classroom.results import Report, file_names, page_path
 from autonomy.mission import BUILTINS, MissionInvalid, build_tree
 from autonomy.mission.blocks import (
     block_at_line,
