@@ -10,7 +10,7 @@ most 1 MB. docs/class.md describes each route.
 ``GET  /api/palette`` the blocks a page defines, and its toolbox: the exercise's allowed nodes
 ``POST /api/run``     the mission, tried on the public seeds -> the marks of each (runs a minute are limited)
 ``POST /api/handin``  the mission, graded on every seed and kept -> what the student may see
-``GET  /api/me``      the exercise (text, world picture, criteria), the student, their works and their last mission
+``GET  /api/me``      the exercise (text, world picture, criteria), the student, their hand-ins and their last mission
 ``GET  /api/class``   (the teacher) every student's sign-in, runs, hand-ins, marks, last problem
                       (``?after=V``: once it is newer than version V)
 ``POST /api/deadline`` (the teacher) ``{"deadline_s": EPOCH_S, "now" or null}``: when hand-ins close
@@ -592,8 +592,8 @@ class ClassServer(BoundedServer):
             if page.stat().st_size > MAX_PAGE_BYTES:
                 page.unlink()
             last = self.store.count(student, kind) - (HANDIN_PAGES_KEPT if kind == "handin" else RUN_PAGES_KEPT)
-            for work in self.store.work_list(student):
-                if work["kind"] == kind and work["count"] <= last:
+            for work in self.store.work_list(student, kind):
+                if work["count"] <= last:
                     page_file(self.folder, student, work["number"]).unlink(missing_ok=True)
             if kind == "run":
                 work_file(self.folder, student, number, hand_in=False).unlink(missing_ok=True)
@@ -638,6 +638,14 @@ class ClassServer(BoundedServer):
 
     # ------------------------------------------------------------------ the student's
 
+    def _hand_ins_of(self, student: str) -> list[dict[str, Any]]:
+        """A student's hand-ins as their page lists them, without their texts, each with its page if it has one."""
+        works = self.store.work_list(student, "handin")
+        for work in works:
+            graded = work["total"] is not None and page_file(self.folder, student, work["number"]).is_file()
+            work["page"] = _as_seen(self._page_url(work["number"]), work.pop("written_as")) if graded else None
+        return works
+
     async def _me(self, request: web.Request) -> web.Response:
         """The exercise, and (to a student) who they are, their works, and their last mission's text."""
         if self._teacher(request):
@@ -645,10 +653,8 @@ class ClassServer(BoundedServer):
         student = await self._student(request)
         if isinstance(student, web.Response):
             return student
-        works = self.store.work_list(student.id)  # without their texts: a class's hour may hold hundreds
-        for work in works:
-            graded = work["total"] is not None and page_file(self.folder, student.id, work["number"]).is_file()
-            work["page"] = _as_seen(self._page_url(work["number"]), work.pop("written_as")) if graded else None
+        # their hand-ins alone (runs are not listed: an hour of them is hundreds), read off the loop
+        works = await asyncio.get_running_loop().run_in_executor(self._checkers, self._hand_ins_of, student.id)
         me = {
             "exercise": self._exercise_shown,
             "deadline_s": self._deadline_s(),

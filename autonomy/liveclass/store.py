@@ -275,16 +275,16 @@ class ClassStore:
         rows = self._read(f"SELECT {_WORK} FROM works WHERE {where} ORDER BY id", values)  # noqa: S608
         return [_work(row) for row in rows]
 
-    def work_list(self, student: str) -> list[dict[str, Any]]:
-        """A student's runs and hand-ins, oldest first, without their texts or results: what a page lists.
+    def work_list(self, student: str, kind: str | None = None) -> list[dict[str, Any]]:
+        """A student's runs and hand-ins (or those of one ``kind``), oldest first, without their texts or results.
 
         Each has ``number``, ``kind``, ``count`` (the how-manieth of its kind, theirs), ``at``, ``total``,
         ``max_points``, ``problem``, ``written_as`` (``blocks`` for one made from blocks, else None).
         """
         rows = self._read(
             "SELECT id, kind, ROW_NUMBER() OVER (PARTITION BY kind ORDER BY id), at, total, max_points, problem, "
-            f"{_WRITTEN_AS} FROM works WHERE student = ? ORDER BY id",  # noqa: S608 - our own text
-            (student,),
+            f"{_WRITTEN_AS} FROM works WHERE student = ? AND kind IN (?, ?) ORDER BY id",  # noqa: S608 - our own
+            (student, kind or "run", kind or "handin"),
         )
         keys = ("number", "kind", "count", "at", "total", "max_points", "problem", "written_as")
         return [dict(zip(keys, row, strict=True)) for row in rows]
