@@ -7,14 +7,17 @@ from __future__ import annotations
 
 import csv
 import json
+import signal
 import urllib.error
 import urllib.request
+
+import pytest
 
 from autonomy.classroom.exercise import load_exercise
 from autonomy.liveclass.work import as_text, palette
 from autonomy.mission.blocks import DEFINE_BLOCK, MISSION_BLOCK
 from tests.axe import violations
-from tests.liveclass.test_class_cli import table
+from tests.liveclass.test_class_cli import serve, table
 from tests.liveclass.test_pages import FIXED, MISTAKE, WAIT_MS, new_page, sign_in, until
 from tests.views.conftest import ROOT
 
@@ -209,5 +212,67 @@ def test_switching_between_text_and_blocks_keeps_the_cursor_s_node(browser, clas
         page.keyboard.type("x")
         assert page.evaluate("missionText.value").endswith("    - xstop\n")
         assert errors == [] and page.evaluate("window.breaches") == []
+    finally:
+        page.close()
+
+
+@pytest.fixture
+def square_class(tmp_path):
+    """``autonomy class serve square`` for Ada: (student's URL, her code)."""
+    (tmp_path / "roster.csv").write_text("id,name,submission\n1001,Ada Lovelace,ada\n")
+    process, port, _ = serve(tmp_path, exercise="square")
+    with (tmp_path / "class" / "codes.csv").open() as stream:
+        code = next(csv.DictReader(stream))["code"]
+    yield f"http://127.0.0.1:{port}/", code
+    process.send_signal(signal.SIGINT)
+    _, err = process.communicate(timeout=30)
+    assert process.returncode == 0 and "Traceback" not in err, err
+
+
+def test_a_student_builds_the_square_with_the_keyboard_alone_and_runs_it_for_full_marks(browser, square_class):
+    student_url, code = square_class
+    errors: list[str] = []
+    page = student_page(browser, student_url, errors)
+
+    def from_toolbox(category: str, block: str) -> None:
+        """Opens the toolbox at ``category``, and takes ``block`` from it to the place marked."""
+        keys(page, "t", *["ArrowUp"] * 5)
+        press_until(page, "ArrowDown", category)
+        keys(page, "ArrowRight")
+        press_until(page, "ArrowDown", block)
+        keys(page, "Enter", "Enter")  # taken, and left at the place marked
+
+    try:
+        page.keyboard.type(code)
+        page.keyboard.press("Enter")
+        until(page, "!document.getElementById('desk').hidden")
+        press_until(page, "Tab", "mode-blocks")
+        page.keyboard.press("Enter")
+        until(page, "document.getElementById('mode-blocks').getAttribute('aria-pressed') === 'true'")
+        press_until(page, "Tab", "Order")  # the toolbox
+        keys(page, "w")  # the workspace: the mission's block, empty
+        press_until(page, "ArrowDown", "End mission")
+        from_toolbox("Change", "repeat, 4, times")
+        press_until(page, "ArrowDown", "End repeat, 4, times, do")
+        from_toolbox("Order", "do these one after another")
+        press_until(page, "ArrowDown", "End do these one after another")
+        from_toolbox("Do", "for, 300, mm")
+        press_until(page, "ArrowRight", "Edit number: 300")  # a side is 50 cm
+        keys(page, "Enter", "Control+a", "5", "0", "0", "Enter")
+        press_until(page, "ArrowDown", "End do these one after another")
+        from_toolbox("Do", "beep the tones")
+        press_until(page, "ArrowDown", "End do these one after another")
+        from_toolbox("Do", "turn left, 90")
+        until(page, "missionText.value.includes('turn: {left: 90}')")
+        assert page.evaluate("missionText.value") == (
+            "mission: my-mission\ntree:\n  repeat:\n    times: 4\n    do:\n      sequence:\n"
+            "        - move: {speed: 2, distance_mm: 500}\n        - beep\n        - turn: {left: 90}\n"
+        )
+        keys(page, "Escape")
+        press_until(page, "Tab", "run")
+        keys(page, "Enter")
+        until(page, "document.getElementById('result-title').textContent.includes('/ 10')", WAIT_MS)
+        assert page.text_content("#result-title") == "Your run, on the public seeds: 10 / 10"
+        assert page.evaluate("window.breaches") == [] and errors == []
     finally:
         page.close()
