@@ -414,7 +414,9 @@ def feedback_page(
             lines.append(f'<span class="line{marked}" data-line="{number}">{escape(printable(text))}{why}</span>')
         yield '<pre class="source">' + "".join(lines) + "</pre>\n"
         # the same mission as its blocks: open at once on a page opened at #as-blocks (one built from blocks)
-        drawn = mission_blocks_svg(source, f"{printable(report.student)}'s mission as blocks")
+        drawn = (
+            None if report.problems else mission_blocks_svg(source, f"{printable(report.student)}'s mission as blocks")
+        )
         if drawn is not None:
             yield f'<details id="as-blocks"><summary>Your mission as blocks</summary>{drawn}</details>\n'
             yield f"<script>{_OPEN_BLOCKS}</script>\n"

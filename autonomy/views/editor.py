@@ -112,6 +112,13 @@ def vendor_response(library: str, name: str) -> web.Response:
     return web.Response(body=vendor_bytes(library, name), content_type=kind, headers={"Cache-Control": "max-age=3600"})
 
 
+def _origins(host: str, port: int) -> list[str]:
+    """The origins the editor's page is opened at: on a loopback address, as every browser names this machine."""
+    if host in ("127.0.0.1", "localhost", "::1"):
+        return [f"http://127.0.0.1:{port}", f"http://localhost:{port}", f"http://[::1]:{port}"]
+    return [f"http://{host}:{port}" if ":" not in host else f"http://[{host}]:{port}"]
+
+
 def _problems(problems: list[Problem]) -> list[dict[str, Any]]:
     return [{"line": p.line, "column": p.column, "path": p.path, "message": p.message} for p in problems]
 
@@ -138,6 +145,7 @@ class EditorServer(BoundedServer):
         self._running: tuple[Runner, threading.Thread] | None = None
         self._last_run: dict[str, Any] = {}
         self._run_lock = threading.Lock()
+        self._runs_closed = False  # the editor is stopping: no run starts any more
 
     def start(self) -> None:
         """Serves the editor, and beside it the live view its runs are shown in (framed in the editor's page).
@@ -146,7 +154,7 @@ class EditorServer(BoundedServer):
             OSError: a port cannot be bound.
         """
         super().start()
-        self.view = ViewServer(self.host, 0, framed_by=f"http://*:{self.port}")
+        self.view = ViewServer(self.host, 0, framed_by=" ".join(_origins(self.host, self.port)))
         try:
             self.view.start()
         except OSError:
@@ -154,8 +162,10 @@ class EditorServer(BoundedServer):
             raise
 
     def stop(self) -> None:
-        """Stops a run under way (the robot stopped), then the view and the editor."""
-        running = self._running
+        """Stops a run under way (the robot stopped), then the view and the editor; no run starts after."""
+        with self._run_lock:  # a run being checked now is refused: it would start after the robot's stop
+            self._runs_closed = True
+            running = self._running
         if running is not None:
             running[0].request_stop("the editor stopped")
             running[1].join(timeout=30)
@@ -187,7 +197,8 @@ class EditorServer(BoundedServer):
 
     async def _index(self, request: web.Request) -> web.Response:
         view_port = self.view.port if self.view is not None else 0
-        return nonced_page(static_text("editor.html"), f"{EDITOR_POLICY}; frame-src http://*:{view_port}")
+        frames = " ".join(_origins(self.host, view_port))  # the run's live view, and nothing else
+        return nonced_page(static_text("editor.html"), f"{EDITOR_POLICY}; frame-src {frames}")
 
     async def _static(self, request: web.Request) -> web.Response:
         return page_file(request.match_info["name"], EDITOR_FILES)
@@ -311,11 +322,16 @@ class EditorServer(BoundedServer):
     def _start_run(self, text: str) -> dict[str, Any]:
         """Runs the text on the emulator, in real time, shown in the live view; or why not."""
         with self._run_lock:
+            if self._runs_closed:
+                return {"ok": False, "error": "the editor is stopping"}
             if self._running is not None and self._running[1].is_alive():
                 return {"ok": False, "error": "a run is under way: stop it first"}
             try:  # checked as `autonomy run` checks it: its world too, its plugins from the file's folder
                 spec = validate_text(text, self.path.name, self.path.parent)
             except MissionInvalid as err:
+                theirs = [p for p in err.problems if p.file == self.path.name]
+                if len(theirs) < len(err.problems):  # its world's (or another file's): said with their file
+                    return {"ok": False, "error": "; ".join(str(p) for p in err.problems if p not in theirs)}
                 return {"ok": False, "problems": _problems(err.problems)}
             world = spec.world or "box"
             try:
@@ -323,7 +339,14 @@ class EditorServer(BoundedServer):
             except AutonomyError as err:
                 return {"ok": False, "error": str(err)}
             assert self.view is not None  # noqa: S101 - started with the editor
-            runner = Runner.for_mission(spec, client, max_seconds=MAX_RUN_S, listeners=[self.view.hub])
+            try:  # a plugin's node is made here: whatever it raises (sys.exit too) is said, not a 500
+                runner = Runner.for_mission(spec, client, max_seconds=MAX_RUN_S, listeners=[self.view.hub])
+            except MissionInvalid as err:  # a node that cannot be made: said at its line
+                client.close()
+                return {"ok": False, "problems": _problems(err.problems)}
+            except (Exception, SystemExit, KeyboardInterrupt) as err:  # noqa: BLE001 - said on the page
+                client.close()
+                return {"ok": False, "error": f"the mission's tree could not be made: {type(err).__name__}: {err}"}
             thread = threading.Thread(target=self._go, args=(runner, client), name="autonomy-edit-run", daemon=True)
             self._running = (runner, thread)
             self._last_run = {"running": True, "world": world}

@@ -129,7 +129,7 @@ def nonced_page(text: str, policy: str) -> web.Response:
 def query_line(request: web.Request) -> int | None:
     """The ``line`` of a request's query (a text's cursor's: 1 and on), or None."""
     given = request.query.get("line", "")
-    return int(given) if given.isdigit() and len(given) <= 7 else None
+    return int(given) if given.isascii() and given.isdigit() and len(given) <= 7 else None
 
 
 def query_selected(request: web.Request) -> str | None:

@@ -342,3 +342,43 @@ def test_the_editor_runs_its_mission_on_the_emulator_in_the_live_view_and_stops_
     finally:
         page.close()
     assert path.read_text().startswith("mission: short")  # the runs after the save saved nothing
+
+
+def test_a_run_that_cannot_start_says_why_in_one_line_and_the_view_is_framed_by_the_editor_alone(editing):
+    url, path = editing("mission: m\ntree: stop\n")
+    base, key = url.split("#")
+    port = int(base.rstrip("/").rsplit(":", 1)[1])
+
+    def run(text: str) -> dict:
+        request = urllib.request.Request(
+            f"{base}api/run", data=json.dumps({"text": text}).encode(), method="POST"
+        )  # fmt: skip
+        request.add_header("Authorization", f"Bearer {key}")
+        with urllib.request.urlopen(request, timeout=30) as answer:
+            assert answer.headers["Content-Type"].startswith("application/json")
+            return json.loads(answer.read())
+
+    (path.parent / "w.yaml").write_text("name: w\narena_mm: [.nan, 2000]\n")
+    answer = run("mission: m\nworld: w.yaml\ntree: stop\n")  # the world's problem: said with its file
+    assert answer["ok"] is False and "problems" not in answer and "w.yaml:2:" in answer["error"], answer
+    (path.parent / "broken.py").write_text(
+        "import sys\nfrom autonomy.behaviours import RobotAction\n\n\n"
+        "class Broken(RobotAction):\n    node_type = 'broken'\n    doc = 'never made'\n    params = ()\n\n"
+        "    def __init__(self, name, **args):\n        sys.exit(7)\n\n"
+        "    def update(self):\n        return None\n"
+    )
+    answer = run("mission: m\nplugins: [broken]\ntree: broken\n")  # a node that cannot be made: at its line
+    assert answer["ok"] is False and answer["problems"][0]["line"] == 3, answer
+    assert "SystemExit: 7" in answer["problems"][0]["message"]
+    # the view's page may be framed by the editor's page alone (by this machine's names of it)
+    view = run("mission: m\ntree: stop\n")["view"]
+    with urllib.request.urlopen(view, timeout=30) as answer:
+        policy = answer.headers["Content-Security-Policy"]
+    ancestors = policy.split("frame-ancestors ")[1].split(";")[0].split()
+    assert ancestors == [f"http://127.0.0.1:{port}", f"http://localhost:{port}", f"http://[::1]:{port}"]
+    for wrong in ("%C2%B2", "-1", "abc", "1e3"):  # a line that is no line is no line, never a 500
+        body = b'{"text": "mission: m\\ntree: stop\\n"}'
+        request = urllib.request.Request(f"{base}api/blocks?line={wrong}", data=body)
+        request.add_header("Authorization", f"Bearer {key}")
+        with urllib.request.urlopen(request, timeout=30) as answer:
+            assert json.loads(answer.read())["selected"] is None
