@@ -4,8 +4,9 @@ Measures, each a median (and the slowest) over the rounds:
   - the class's student page (``autonomy class serve garage``): from the click on "Blocks" to the
     mission's blocks drawn, the first time (Blockly loaded, the palette fetched) and again;
   - ``autonomy edit`` of a mission of 200 nodes: the text shown as blocks (the server's conversion,
-    the answer, Blockly's drawing), and the blocks written as text (Blockly's saving, the server's
-    conversion and check, the answer);
+    the answer, Blockly's drawing) after a value changed in the text (the same blocks: the fields
+    changed in place) and after a block was added or taken away (the workspace loaded whole), and
+    the blocks written as text (Blockly's saving, the server's conversion and check, the answer);
   - the same two conversions in this process alone (``autonomy.mission.blocks``), without the page.
 
 Targets (issue 39): the student's page with blocks shows in < 1 s; switching blocks <-> text on a
@@ -87,9 +88,11 @@ def student_page(browser, rounds: int) -> tuple[list[float], list[float]]:
     return first, again
 
 
-def editor_switching(browser, rounds: int) -> tuple[list[float], list[float]]:
-    """``autonomy edit`` of the 200-node mission: seconds for text -> blocks, and blocks -> text."""
-    to_blocks, to_text = [], []
+def editor_switching(browser, rounds: int) -> tuple[list[float], list[float], list[float]]:
+    """``autonomy edit`` of the 200-node mission: seconds for text -> blocks with a value changed (the same
+    blocks: their fields changed in place), text -> blocks with a block more or less (loaded whole), and
+    blocks -> text."""
+    changed, whole, to_text = [], [], []
     with tempfile.TemporaryDirectory() as folder:
         path = Path(folder) / "big.yaml"
         path.write_text(BIG)
@@ -102,12 +105,21 @@ def editor_switching(browser, rounds: int) -> tuple[list[float], list[float]]:
             page = browser.new_page(viewport={"width": 1400, "height": 1000})
             page.goto(url)
             page.wait_for_selector("body[data-ready=yes]", timeout=30_000)
-            for _ in range(rounds):
+
+            def to_blocks(times: list[float]) -> None:
                 started = time.perf_counter()
                 page.get_by_role("button", name="Show the text as blocks").click()
                 until(page, "document.getElementById('status').textContent === 'The blocks are the text.'", 30_000)
-                to_blocks.append(time.perf_counter() - started)
+                times.append(time.perf_counter() - started)
                 page.evaluate("document.getElementById('status').textContent = ''")
+
+            for round_ in range(rounds):
+                # the text as a student changes it (set here without the editor's own conversion)
+                page.evaluate(f"text.value = text.value.replace(/distance_mm: \\d+/, 'distance_mm: {301 + round_}')")
+                to_blocks(changed)
+                ending = "" if round_ % 2 else "    - stop\n"
+                page.evaluate(f"text.value = text.value.replace(/(    - stop\\n)?$/, {ending!r})")
+                to_blocks(whole)
                 started = time.perf_counter()
                 page.get_by_role("button", name="Write the blocks as text").click()
                 until(page, "document.getElementById('status').textContent === 'The text is the blocks.'", 30_000)
@@ -117,7 +129,7 @@ def editor_switching(browser, rounds: int) -> tuple[list[float], list[float]]:
         finally:
             process.terminate()
             process.communicate(timeout=30)
-    return to_blocks, to_text
+    return changed, whole, to_text
 
 
 def in_process(rounds: int) -> tuple[list[float], list[float]]:
@@ -143,13 +155,14 @@ def main() -> None:
         browser = playwright.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
         try:
             first, again = student_page(browser, args.rounds)
-            to_blocks, to_text = editor_switching(browser, args.rounds)
+            changed, whole, to_text = editor_switching(browser, args.rounds)
         finally:
             browser.close()
     there, back = in_process(args.rounds)
     print(f"student page, Blocks the first time (Blockly loaded): {figures(first)}  [target < 1,000 ms]")
     print(f"student page, Blocks again:                            {figures(again)}")
-    print(f"200 nodes in the editor, text -> blocks:               {figures(to_blocks)}  [target < 200 ms]")
+    print(f"200 nodes in the editor, text -> blocks, a value changed: {figures(changed)}  [target < 200 ms]")
+    print(f"200 nodes in the editor, text -> blocks, a block more:    {figures(whole)}  (loaded whole)")
     print(f"200 nodes in the editor, blocks -> text:               {figures(to_text)}  [target < 200 ms]")
     print(f"200 nodes in this process, text -> blocks:             {figures(there)}")
     print(f"200 nodes in this process, blocks -> text:             {figures(back)}")

@@ -382,3 +382,31 @@ def test_a_run_that_cannot_start_says_why_in_one_line_and_the_view_is_framed_by_
         request.add_header("Authorization", f"Bearer {key}")
         with urllib.request.urlopen(request, timeout=30) as answer:
             assert json.loads(answer.read())["selected"] is None
+
+
+def test_a_value_changed_in_the_text_changes_its_field_and_new_blocks_load_the_whole(browser, editing):
+    url, _ = editing((ROOT / "missions" / "square.yaml").read_text())
+    page = open_page(browser, url)
+    find = "Blockly.getMainWorkspace().getAllBlocks(false).find((b) => b.type === 'move+distance_mm')"
+    try:
+        page.evaluate(f"{find}.kept = 'the same block'")  # a mark on the block object itself
+        page.locator(TEXT).fill(page.evaluate("text.value").replace("speed: 2", "speed: 3"))
+        until(page, f"{find}.getFieldValue('speed') === 3")
+        assert page.evaluate(f"{find}.kept") == "the same block"  # changed in place, not made again
+        # a block more: the whole workspace is loaded again, the new block in it
+        lines = page.evaluate("text.value").splitlines()
+        at = next(n for n, line in enumerate(lines) if "- subtree: corner" in line)
+        lines.insert(at + 1, lines[at].replace("subtree: corner", "stop"))
+        page.locator(TEXT).fill("\n".join(lines) + "\n")
+        until(page, "Blockly.getMainWorkspace().getAllBlocks(false).some((b) => b.type === 'stop')")
+        assert page.evaluate(f"{find}.kept") is None
+        # a change made on the blocks: the next text is loaded whole too (the blocks are not what was loaded)
+        page.evaluate(f"{find}.kept = 'again'")
+        page.evaluate(f"{find}.setFieldValue(4, 'speed')")
+        until(page, "text.value.includes('speed: 4')")
+        page.locator(TEXT).fill(page.evaluate("text.value").replace("speed: 4", "speed: 1"))
+        until(page, f"{find}.getFieldValue('speed') === 1")
+        assert page.evaluate(f"{find}.kept") is None
+        assert page.evaluate("window.breaches") == []
+    finally:
+        page.close()
