@@ -111,7 +111,7 @@ def cmd_edit(args: argparse.Namespace) -> int:
     import signal
     from pathlib import Path
 
-    from autonomy.cli.common import _interrupt, _port_busy
+    from autonomy.cli.common import _interrupt, _port_busy, _warn_if_public
     from autonomy.mission import MissionInvalid
     from autonomy.mission.blocks import load_words
     from autonomy.views.editor import EditorServer
@@ -130,6 +130,8 @@ def cmd_edit(args: argparse.Namespace) -> int:
         server.start()
     except OSError as err:
         return _fail(f"cannot serve the editor on {args.host}:{args.port}: {_port_busy(err, '--port')}", EXIT_USAGE)
+    # the page needs its key, but its runs' live view (read-only) has none
+    _warn_if_public(args.host, "the editor's runs are", "watch them")
     made = "" if path.exists() else " (a new file: it is made when you save)"
     print(f"editing {path}{made}; the page is at (its key is new at each start):", file=sys.stderr)
     print(server.page_url, flush=True)

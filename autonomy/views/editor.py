@@ -116,6 +116,8 @@ def _origins(host: str, port: int) -> list[str]:
     """The origins the editor's page is opened at: on a loopback address, as every browser names this machine."""
     if host in ("127.0.0.1", "localhost", "::1"):
         return [f"http://127.0.0.1:{port}", f"http://localhost:{port}", f"http://[::1]:{port}"]
+    if host in ("", "0.0.0.0", "::"):  # every interface: the machine's names are the browser's to choose
+        return [f"http://*:{port}"]
     return [f"http://{host}:{port}" if ":" not in host else f"http://[{host}]:{port}"]
 
 
@@ -209,8 +211,9 @@ class EditorServer(BoundedServer):
     # ------------------------------------------------------------------ the API
 
     def _allowed(self, request: web.Request) -> bool:
-        given = request.headers.get("Authorization", "").removeprefix("Bearer ").strip()
-        return bool(given) and hmac.compare_digest(given.encode(), self.key.encode())
+        sent = request.headers.get("Authorization", "")
+        given = sent.removeprefix("Bearer ").strip()  # "Bearer KEY", nothing else
+        return sent.startswith("Bearer ") and bool(given) and hmac.compare_digest(given.encode(), self.key.encode())
 
     async def _body(self, request: web.Request, key: str) -> Any:
         """The JSON body's ``key``, or a refusal to raise."""
@@ -351,7 +354,7 @@ class EditorServer(BoundedServer):
             self._running = (runner, thread)
             self._last_run = {"running": True, "world": world}
             thread.start()
-        return {"ok": True, "view": f"{self.view.url}", "world": world, "max_s": MAX_RUN_S}
+        return {"ok": True, "view": f"{self.view.url}", "view_port": self.view.port, "world": world, "max_s": MAX_RUN_S}
 
     def _go(self, runner: Runner, client: Client) -> None:
         """The run, on its thread; the robot is stopped at its end, however it ends."""

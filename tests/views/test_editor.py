@@ -78,7 +78,7 @@ def test_the_served_blockly_is_the_one_recorded_and_pinned(editing):
 def test_the_api_needs_the_page_s_key(editing):
     url, path = editing((ROOT / "missions" / "square.yaml").read_text())
     base, key = url.split("#")
-    for given in ("", "Bearer wrong", f"Bearer {key}x"):
+    for given in ("", "Bearer wrong", f"Bearer {key}x", key, f"Basic {key}"):
         request = urllib.request.Request(f"{base}api/save", data=b'{"text": "mission: x"}', method="POST")
         if given:
             request.add_header("Authorization", given)
@@ -410,3 +410,19 @@ def test_a_value_changed_in_the_text_changes_its_field_and_new_blocks_load_the_w
         assert page.evaluate("window.breaches") == []
     finally:
         page.close()
+
+
+def test_an_editor_served_on_every_interface_says_its_runs_can_be_watched_by_anyone(tmp_path):
+    path = tmp_path / "m.yaml"
+    path.write_text("mission: m\ntree: stop\n")
+    process = subprocess.Popen(
+        [sys.executable, "-m", "autonomy", "edit", str(path), "--host", "0.0.0.0", "--port", "0"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    try:
+        warned = process.stderr.readline()
+        assert warned.startswith("warning: the editor's runs are served on 0.0.0.0: anyone"), warned
+    finally:
+        process.terminate()
+        _, err = process.communicate(timeout=30)
+    assert "Traceback" not in err

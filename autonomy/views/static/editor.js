@@ -160,7 +160,8 @@ async function run() {
   }
   element('run-pane').hidden = false;
   const view = element('view');
-  if (!view.src) view.src = answer.view; // the view follows each new run by itself
+  // the view follows each new run by itself; it is at the name this page was opened at, on its own port
+  if (!view.src) view.src = `${location.protocol}//${location.hostname}:${answer.view_port}/`;
   element('stop').disabled = false;
   element('run-state').textContent = `Running in the world '${answer.world}' (at most ${answer.max_s} s)...`;
   say('Running on the emulator: the live view is below.');
