@@ -284,7 +284,7 @@ class ClassStore:
         rows = self._read(
             "SELECT id, kind, ROW_NUMBER() OVER (PARTITION BY kind ORDER BY id), at, total, max_points, problem, "
             f"{_WRITTEN_AS} FROM works WHERE student = ? AND kind IN (?, ?) ORDER BY id",  # noqa: S608 - our own
-            (student, kind or "run", kind or "handin"),
+            (student, *((kind, kind) if kind else ("run", "handin"))),
         )
         keys = ("number", "kind", "count", "at", "total", "max_points", "problem", "written_as")
         return [dict(zip(keys, row, strict=True)) for row in rows]

@@ -625,13 +625,13 @@ class ViewServer(BoundedServer):
         host: The interface (127.0.0.1 unless asked otherwise).
         port: The TCP port (0: any free one).
         mode: ``live`` or ``replay``.
-        framed_by: An origin (``http://127.0.0.1:8766``) whose pages may show the page in a frame.
+        framed_by: The origins (``http://127.0.0.1:8766 http://localhost:8766``) whose pages may show the page in a
+            frame; none when empty.
     """
 
     def __init__(self, host: str = "127.0.0.1", port: int = 8765, mode: str = "live", framed_by: str = "") -> None:
         super().__init__(host, port, "view")
         self.hub = RecordHub(mode)
-        #: The one origin whose pages may show this page in a frame (``autonomy edit``'s); none when empty.
         self.framed_by = framed_by
 
     def _routes(self, app: web.Application) -> None:

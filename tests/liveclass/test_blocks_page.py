@@ -52,6 +52,15 @@ def press_until(page, key: str, wanted: str, most: int = 30) -> None:
     raise AssertionError(f"{wanted!r} never had the focus; {focused(page)!r} has it")
 
 
+def signed_in(browser, classroom, errors: list[str], student: str = "1001"):
+    """A student's page of the ``classroom`` fixture's class, signed in with the code of ``student``."""
+    student_url, _, codes = classroom
+    page = student_page(browser, student_url, errors)
+    sign_in(page, codes[student])
+    until(page, "!document.getElementById('desk').hidden")
+    return page
+
+
 def student_page(browser, url: str, errors: list[str]):
     """A new student's page at ``url``, every breach of its policy kept (``window.breaches``)."""
     page = new_page(browser, errors)
@@ -103,12 +112,9 @@ def test_a_student_builds_the_garage_solution_with_the_keyboard_alone_and_runs_i
 
 
 def test_a_text_with_a_problem_stays_text_and_blocks_changed_are_the_text(browser, classroom):
-    student_url, _, codes = classroom
     errors: list[str] = []
-    page = student_page(browser, student_url, errors)
+    page = signed_in(browser, classroom, errors, "1002")
     try:
-        sign_in(page, codes["1002"])
-        until(page, "!document.getElementById('desk').hidden")
         page.fill("#mission .cm-content", MISTAKE)
         page.click("#mode-blocks")
         until(page, "document.getElementById('message').textContent.includes('stays text')")
@@ -190,12 +196,9 @@ def test_a_student_signs_in_from_their_link_with_no_code_typed(browser, classroo
 
 
 def test_switching_between_text_and_blocks_keeps_the_cursor_s_node(browser, classroom):
-    student_url, _, codes = classroom
     errors: list[str] = []
-    page = student_page(browser, student_url, errors)
+    page = signed_in(browser, classroom, errors, "1001")
     try:
-        sign_in(page, codes["1001"])
-        until(page, "!document.getElementById('desk').hidden")
         text = "mission: park\ntree:\n  sequence:\n    - beep\n    - move: {speed: 2, until_obstacle_mm: 150}\n"
         text += "    - stop\n"
         page.fill("#mission .cm-content", text)

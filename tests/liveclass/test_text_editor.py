@@ -14,8 +14,8 @@ from autonomy.mission import BUILTINS
 from autonomy.mission.catalogue import json_schema
 from autonomy.views.editor import vendored
 from tests.axe import violations
-from tests.liveclass.test_blocks_page import focused, keys, student_page
-from tests.liveclass.test_pages import FIXED, WAIT_MS, sign_in, until
+from tests.liveclass.test_blocks_page import focused, keys, signed_in
+from tests.liveclass.test_pages import FIXED, WAIT_MS, until
 from tests.views.conftest import ROOT
 
 TEXT = "#mission .cm-content"
@@ -25,14 +25,6 @@ def offered(page) -> list[str]:
     """The completions the editor offers now, once it offers some."""
     until(page, "document.querySelectorAll('.cm-tooltip-autocomplete li').length > 0")
     return page.locator(".cm-tooltip-autocomplete li .cm-completionLabel").all_text_contents()
-
-
-def signed_in(browser, classroom, errors):
-    student_url, _, codes = classroom
-    page = student_page(browser, student_url, errors)
-    sign_in(page, codes["1001"])
-    until(page, "!document.getElementById('desk').hidden")
-    return page
 
 
 def test_the_served_codemirror_is_the_one_recorded_and_pinned(classroom):

@@ -116,7 +116,7 @@ function textEditor(parent, options) {
     return true;
   };
   let quiet = false; // a value set by the page is no change of the student's
-  const colours = new CM.Compartment(); // the highlighting's colours: high contrast or not (contrast.js)
+  const colours = new CM.Compartment(); // the highlighting's colours: high contrast or not (contrast.js's contrastOn)
   // CodeMirror's themes go in a <style> element: the page's policy takes it with the response's nonce alone
   const nonce = document.querySelector('meta[name="style-nonce"]')?.content || '';
   const view = new CM.EditorView({
@@ -134,7 +134,7 @@ function textEditor(parent, options) {
         CM.bracketMatching(),
         CM.indentUnit.of('  '),
         CM.EditorState.tabSize.of(2),
-        colours.of(CM.syntaxHighlighting(highContrast() ? TEXT_HIGHLIGHT_CONTRAST : TEXT_HIGHLIGHT)),
+        colours.of(CM.syntaxHighlighting(contrastOn() ? TEXT_HIGHLIGHT_CONTRAST : TEXT_HIGHLIGHT)),
         CM.yaml(),
         CM.autocompletion({override: [missionCompletions(schemaOf)], activateOnTyping: true}),
         CM.lintGutter(),
@@ -198,9 +198,7 @@ function textEditor(parent, options) {
     /** Puts the cursor at the first word of `line`, and the focus in the text. */
     goToLine(line) {
       const row = view.state.doc.line(Math.max(1, Math.min(line, view.state.doc.lines)));
-      const at = row.from + /^\s*(?:-\s+)?/.exec(row.text)[0].length;
-      view.dispatch({selection: {anchor: at}, scrollIntoView: true});
-      view.focus();
+      this.goTo(row.number, /^\s*(?:-\s+)?/.exec(row.text)[0].length + 1);
     },
     focus() {
       view.focus();
@@ -214,11 +212,6 @@ function textEditor(parent, options) {
       return view.state.doc.lineAt(view.state.selection.main.head).number;
     },
   };
-}
-
-/** Whether the page is in high contrast (contrast.js). */
-function highContrast() {
-  return document.documentElement.classList.contains('contrast');
 }
 
 /** The text's colours (keys blue, values green): each at least 4.5:1 on white and on the active line (WCAG 1.4.3). */
