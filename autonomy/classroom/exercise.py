@@ -115,7 +115,7 @@ CRITERIA = {
             "turns",
             "degrees",
             "the robot turns in place by this much (left positive, as a heading changes), at least count times "
-            "(only after a drive of after_drive_mm, if set)",
+            "(only at least after_drive_mm from where it turned before, in a straight line, if set)",
             {"count": 1.0, "tolerance_deg": 10.0, "after_drive_mm": 0.0},
         ),
         CriterionKind("max_nodes", "count", "the mission's tree has at most this many nodes"),

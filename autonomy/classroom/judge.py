@@ -57,13 +57,17 @@ class Verdict:
 
 @dataclass(frozen=True)
 class Turn:
-    """A turn in place: when, where, by how much (left positive), and how far the robot drove since the turn before."""
+    """A turn in place: when, where, by how much (left positive), and how far it is from where the robot turned before.
+
+    ``away_mm`` is a straight line from the place of the turn before (or of the start): a drive out and
+    back again, however long, is no side of a square.
+    """
 
     time_s: float
     x_mm: float
     y_mm: float
     degrees: float
-    driven_mm: float = 0.0
+    away_mm: float = 0.0
 
 
 @dataclass
@@ -105,13 +109,16 @@ class RunFacts:
     @property
     def turns(self) -> list[Turn]:
         """Every turn in place, where the path changed heading."""
-        out, driven_mm = [], 0.0
+        if not self.path:
+            return []
+        out: list[Turn] = []
+        last = self.path[0][1]  # where it last turned, or started
         for (_, before), (time_s, pose) in pairwise(self.path):
-            driven_mm += math.hypot(pose.x_mm - before.x_mm, pose.y_mm - before.y_mm)
             delta = pose.heading_deg - before.heading_deg
             if abs(delta) >= 0.5:
-                out.append(Turn(time_s, pose.x_mm, pose.y_mm, delta, driven_mm))
-                driven_mm = 0.0
+                away_mm = math.hypot(pose.x_mm - last.x_mm, pose.y_mm - last.y_mm)
+                out.append(Turn(time_s, pose.x_mm, pose.y_mm, delta, away_mm))
+                last = pose
         return out
 
 
@@ -479,13 +486,16 @@ def _turn_text(degrees: float) -> str:
 def _turns(criterion: Criterion, facts: RunFacts) -> Verdict:
     """Turns in place by the criterion's degrees, give or take its tolerance, as a change of heading.
 
+    With ``after_drive_mm``, a turn counts only that far (in a straight line) from where the robot
+    turned before, or started: at the end of a side, not after a drive out and back again.
+
     A turn is the change of heading at one place (turns there one after another add up), taken
     within a half-turn either way: 450 degrees left is a quarter-turn left, as the path sees it.
     """
     wanted, tolerance = float(criterion.value), float(criterion.options["tolerance_deg"])
     count, after_mm = int(criterion.options["count"]), float(criterion.options.get("after_drive_mm") or 0.0)
     turns = facts.turns
-    matching = [t for t in turns if abs(heading_delta_deg(wanted, t.degrees)) <= tolerance and t.driven_mm >= after_mm]
+    matching = [t for t in turns if abs(heading_delta_deg(wanted, t.degrees)) <= tolerance and t.away_mm >= after_mm]
     asked = f"{_turn_text(wanted)} ± {tolerance:g} degrees" + (f" after a drive of {after_mm:g} mm" if after_mm else "")
     found = f"turned {asked} {plural(len(matching), 'time')}, needed {count}"
     others = [t for t in turns if t not in matching]

@@ -143,6 +143,9 @@ SECOND_CLASS = {
     "sq_45x2": 10,  # each corner turned as two turns of 45 degrees: the same path and beeps
     "sq_40cm": 7,  # 40 cm sides: corner 2 never visited nor beeped at; the rest right
     "sq_slow": 5,  # 720-degree spins use up the 40 s: stopped at corner 3, never home
+    "sq_nohomebeep": 9,  # the square right, but no beep at home: one beep of four missing
+    "sq_shuttle": 0,  # three left turns at home, each after 30 cm out and back: no square, no corner
+    "sq_30cm": 3,  # a true square counter-clockwise, 30 cm sides: home reached, no corner
     "gar_255": 3,  # stops 3 cm short of the garage, touching nothing: a near miss, a part of the parking points
     "gar_fast": 0,  # ends at 6 cm at full speed, rolls on into the end wall after the mission
     "gar_while": 8,  # parks right, but its mission ends as failed
@@ -1093,6 +1096,11 @@ def test_a_turn_counts_for_a_square_only_after_a_side_was_driven():
     assert verdict.share == 0 and verdict.line.startswith(
         "turned left 90 ± 10 degrees after a drive of 300 mm 0 times, needed 3"
     )
+    shuttle = [(0.0, Pose(700, 700, 0))]  # 30 cm out and back again before each quarter-turn, at home
+    for k in range(1, 4):
+        shuttle += [(3 * k - 2.0, Pose(700 + 300, 700, 90 * (k - 1))), (3 * k - 1.0, Pose(700, 700, 90 * (k - 1)))]
+        shuttle.append((3.0 * k, Pose(700, 700, 90 * k)))
+    assert judge(corners, _facts(shuttle), world).share == 0
     sides = [(0.0, Pose(700, 700, 0)), (2.0, Pose(1200, 700, 90)), (4.0, Pose(1200, 1200, 180))]
     sides += [(6.0, Pose(700, 1200, 270))]
     assert judge(corners, _facts(sides), world).held
