@@ -11,6 +11,7 @@ import sys
 import urllib.error
 import urllib.request
 
+from autonomy.classroom.exercise import read_secret
 from tests.views.conftest import ROOT
 
 SOLUTION = (ROOT / "exercises" / "solutions" / "garage.yaml").read_text()
@@ -150,11 +151,15 @@ def test_a_lost_code_is_replaced_and_the_old_one_signs_in_no_more(tmp_path):
     assert not (tmp_path / "nowhere").exists()
 
 
-def test_a_class_folder_is_of_one_exercise(tmp_path):
+def test_a_class_folder_is_of_one_exercise_and_keeps_its_secret_as_text(tmp_path):
     (tmp_path / "roster.csv").write_text("id,name,submission\n1001,Ada Lovelace,ada\n")
     server, _, _ = serve(tmp_path)
     server.send_signal(signal.SIGINT)
     server.communicate(timeout=30)
+    # text, as autonomy grade --secret-file takes it: all of it is the secret (random bytes could end in a
+    # line end or a vertical tab, which a secret file's reader lets go, and draw other hidden seeds than kept)
+    kept = (tmp_path / "class" / "secret").read_bytes()
+    assert re.fullmatch(rb"[0-9a-f]{64}\n", kept) and read_secret(tmp_path / "class" / "secret") == kept[:-1]
     other = run_autonomy(
         "class", "serve", "slalom", "--roster", str(tmp_path / "roster.csv"), "--dir", str(tmp_path / "class")
     )

@@ -15,7 +15,7 @@ import pytest
 if importlib.util.find_spec("distributed") is None:  # the optional extra: autonomy[cluster]
     pytest.skip("dask.distributed is not installed", allow_module_level=True)
 
-from autonomy.classroom.exercise import load_exercise
+from autonomy.classroom.exercise import load_exercise, read_secret
 from autonomy.liveclass.work import grade_text
 from tests.classroom.test_dask import ENV, ROOT, cluster  # noqa: F401 - the cluster fixture, shared
 from tests.liveclass.test_class_cli import SOLUTION, post, serve
@@ -37,7 +37,7 @@ def test_a_class_graded_on_a_cluster_gets_the_marks_and_pages_graded_here_would(
         process.send_signal(signal.SIGINT)
         _, err = process.communicate(timeout=60)
     assert process.returncode == 0 and "Traceback" not in err, err
-    secret = (tmp_path / "class" / "secret").read_bytes()
+    secret = read_secret(tmp_path / "class" / "secret")  # as the server read it
     exercise = load_exercise(ROOT / "exercises" / "garage.yaml").with_secret(secret)
     here = tmp_path / "here"
     for given, number, hand_in in ((ran, ran["number"], False), (handed, handed["number"], True)):
