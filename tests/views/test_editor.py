@@ -384,7 +384,7 @@ def test_a_run_that_cannot_start_says_why_in_one_line_and_the_view_is_framed_by_
             assert json.loads(answer.read())["selected"] is None
 
 
-def test_a_value_changed_in_the_text_changes_its_field_and_new_blocks_load_the_whole(browser, editing):
+def test_a_value_changed_in_the_text_or_on_the_blocks_changes_that_field_alone(browser, editing):
     url, _ = editing((ROOT / "missions" / "square.yaml").read_text())
     page = open_page(browser, url)
     find = "Blockly.getMainWorkspace().getAllBlocks(false).find((b) => b.type === 'move+distance_mm')"
@@ -393,20 +393,12 @@ def test_a_value_changed_in_the_text_changes_its_field_and_new_blocks_load_the_w
         page.locator(TEXT).fill(page.evaluate("text.value").replace("speed: 2", "speed: 3"))
         until(page, f"{find}.getFieldValue('speed') === 3")
         assert page.evaluate(f"{find}.kept") == "the same block"  # changed in place, not made again
-        # a block more: the whole workspace is loaded again, the new block in it
-        lines = page.evaluate("text.value").splitlines()
-        at = next(n for n, line in enumerate(lines) if "- subtree: corner" in line)
-        lines.insert(at + 1, lines[at].replace("subtree: corner", "stop"))
-        page.locator(TEXT).fill("\n".join(lines) + "\n")
-        until(page, "Blockly.getMainWorkspace().getAllBlocks(false).some((b) => b.type === 'stop')")
-        assert page.evaluate(f"{find}.kept") is None
-        # a change made on the blocks: the next text is loaded whole too (the blocks are not what was loaded)
-        page.evaluate(f"{find}.kept = 'again'")
+        # a change made on the blocks, written as text; the text's next change is put in place all the same
         page.evaluate(f"{find}.setFieldValue(4, 'speed')")
         until(page, "text.value.includes('speed: 4')")
         page.locator(TEXT).fill(page.evaluate("text.value").replace("speed: 4", "speed: 1"))
         until(page, f"{find}.getFieldValue('speed') === 1")
-        assert page.evaluate(f"{find}.kept") is None
+        assert page.evaluate(f"{find}.kept") == "the same block"
         assert page.evaluate("window.breaches") == []
     finally:
         page.close()
@@ -426,3 +418,77 @@ def test_an_editor_served_on_every_interface_says_its_runs_can_be_watched_by_any
         process.terminate()
         _, err = process.communicate(timeout=30)
     assert "Traceback" not in err
+
+
+#: The blocks of the workspace as Blockly saves them, bar ids and places: what a student sees.
+SHOWN = """(space) => {
+  const bare = (value) => {
+    if (Array.isArray(value)) return value.map(bare);
+    if (value && typeof value === 'object') {
+      return Object.fromEntries(Object.entries(value).filter(([key]) => !['id', 'x', 'y'].includes(key))
+        .map(([key, inner]) => [key, bare(inner)]));
+    }
+    return value;
+  };
+  return bare(Blockly.serialization.workspaces.save(space));
+}"""
+
+#: The same text loaded whole in a workspace of its own (the server's conversion, Blockly's load).
+LOADED_WHOLE = """async () => {
+  const answer = await api('/api/blocks', {text: text.value});
+  const space = new Blockly.Workspace();
+  Blockly.serialization.workspaces.load(answer.workspace, space);
+  const shown = (SHOWN)(space);
+  space.dispose();
+  return shown;
+}""".replace("SHOWN", SHOWN)
+
+
+def test_a_text_changed_anywhere_is_put_in_place_as_the_blocks_a_whole_load_makes(browser, editing):
+    """Each change of the text (a node more, fewer, another, nested, a comment, a named step) changes those blocks
+    alone; the blocks are then those of the text loaded whole, and the cursor's node is found among the blocks kept."""
+    url, _ = editing((ROOT / "missions" / "square.yaml").read_text())
+    page = open_page(browser, url)
+    mission = "Blockly.getMainWorkspace().getTopBlocks(true)[0]"
+    move = "Blockly.getMainWorkspace().getAllBlocks(false).find((b) => b.type === 'move+distance_mm')"
+    edits = [  # each a change of the text before it
+        (
+            "        - move: {speed: 2, distance_mm: 300}\n",
+            "        - beep\n        - move: {speed: 2, distance_mm: 300}\n",
+        ),
+        ("      - turn: {left: 90}\n", ""),  # the step's first node gone
+        ("        - beep\n", "        - wait: {seconds: 1}\n"),  # a node of another kind
+        ("        - subtree: corner\n", "        - subtree: corner\n        - selector:\n            - stop\n"),
+        ("            - stop\n", "            - stop\n            - beep\n"),  # inside a new composite
+        ("        - wait: {seconds: 1}\n", "        # first, a pause\n        - wait: {seconds: 1}\n"),  # a comment
+        ("        - selector:\n            - stop\n            - beep\n", ""),
+        ("times: 4", "times: 3"),
+    ]
+    try:
+        page.evaluate(f"{mission}.kept = 'kept'; {move}.kept = 'kept'")
+        for old, new in edits:
+            written = page.evaluate("text.value")
+            assert old in written, old
+            changed = written.replace(old, new, 1)
+            page.evaluate(f"text.value = {json.dumps(changed)}")
+            cursor = next(n for n, line in enumerate(changed.splitlines(), 1) if "- move:" in line)
+            page.evaluate(f"text.goTo({cursor}, 12)")
+            page.evaluate("document.getElementById('status').textContent = ''")
+            page.get_by_role("button", name="Show the text as blocks").click()
+            until(page, "document.getElementById('status').textContent === 'The blocks are the text.'")
+            assert page.evaluate(f"({SHOWN})(Blockly.getMainWorkspace())") == page.evaluate(LOADED_WHOLE), new
+            assert page.evaluate(f"[{mission}.kept, {move}.kept]") == ["kept", "kept"], new  # not made again
+            until(page, f"Blockly.getFocusManager().getFocusedNode() === {move}")  # the cursor's node, kept
+        # a named step more, then fewer: a stack of its own made, or disposed
+        for old, new in (("subtrees:", "subtrees:\n  idle: stop"), ("  corner:", "  turning:"), ("  idle: stop\n", "")):
+            changed = page.evaluate("text.value").replace(old, new, 1)
+            changed = changed.replace("subtree: corner", "subtree: turning") if "turning:" in changed else changed
+            page.evaluate(f"text.value = {json.dumps(changed)}")
+            page.evaluate("document.getElementById('status').textContent = ''")
+            page.get_by_role("button", name="Show the text as blocks").click()
+            until(page, "document.getElementById('status').textContent === 'The blocks are the text.'")
+            assert page.evaluate(f"({SHOWN})(Blockly.getMainWorkspace())") == page.evaluate(LOADED_WHOLE), new
+            assert page.evaluate(f"[{mission}.kept, {move}.kept]") == ["kept", "kept"], new
+        assert page.evaluate("window.breaches") == []
+    finally:
+        page.close()

@@ -42,10 +42,6 @@ function blocksInject(element, palette) {
     move: {scrollbars: true, drag: true, wheel: true},
   });
   quietFlyoutPlaces(element);
-  workspace.addChangeListener((event) => { // a change of the student's: the next load is whole
-    const last = blocksLoaded.get(workspace);
-    if (last && !event.isUiEvent && Blockly.Events.isEnabled()) last.changed = true;
-  });
   new MutationObserver(() => quietFlyoutPlaces(element)).observe(element, {
     subtree: true,
     childList: true,
@@ -54,52 +50,161 @@ function blocksInject(element, palette) {
   return workspace;
 }
 
-// What each workspace last loaded, and whether its blocks were changed since (by the student): a new state of the
-// same blocks (the same ids, types and nesting: a number, a choice, a name changed in the text) only changes those
-// fields, where loading the whole workspace again would take Blockly a second for 200 blocks.
+// For each workspace, which of its blocks stands for each block id of the state last put in it. A new state is put
+// in place of the blocks shown where they differ (compared with the blocks themselves, whoever changed them): a
+// number changed in the text changes that field, a node added or taken away makes or disposes that block alone.
+// Loading the whole workspace again would take Blockly a second for 200 blocks; it is done only when the stacks
+// themselves differ (a named step more or less).
 const blocksLoaded = new WeakMap();
 
-/** Whether two states of blocks (or of chains of blocks) are the same blocks, nested the same, bar their fields. */
-function sameBlocks(a, b) {
-  if (!a || !b) return a === b;
-  if (a.type !== b.type || a.id !== b.id || Boolean(a.next) !== Boolean(b.next)) return false;
-  if (JSON.stringify(a.icons || null) !== JSON.stringify(b.icons || null)) return false;
-  const inputsA = Object.keys(a.inputs || {}).sort();
-  const inputsB = Object.keys(b.inputs || {}).sort();
-  if (inputsA.join() !== inputsB.join()) return false;
-  if (!inputsA.every((name) => sameBlocks(a.inputs[name].block, b.inputs[name].block))) return false;
-  return !a.next || sameBlocks(a.next.block, b.next.block);
+/** A block's state as one chain: it, then the blocks under it. */
+function blocksChain(state) {
+  const chain = [];
+  for (let at = state; at; at = at.next && at.next.block) chain.push(at);
+  return chain;
 }
 
-/** Sets the fields and data of `b`'s blocks that differ from `a`'s (the same blocks, as sameBlocks says). */
-function changeFields(workspace, a, b) {
-  if (!a) return;
-  const block = workspace.getBlockById(b.id);
-  for (const [name, value] of Object.entries(b.fields || {})) {
-    if (JSON.stringify(value) !== JSON.stringify((a.fields || {})[name])) block.setFieldValue(value, name);
+/** What must be the same for a block to be kept (its fields, data and what it holds may change): its type, and its
+ * comment (a comment's bubble is made with its block). */
+function blocksKind(state) {
+  const comment = state.icons && state.icons.comment ? state.icons.comment.text : null;
+  return JSON.stringify([state.type, state.extraState || null, comment]);
+}
+
+/** Makes `state`'s block in `workspace`, with the blocks it holds (and, `under`, the blocks under it); notes the id
+ * each is given in `ids`, by its id in `state` (Blockly gives a new one where the id is taken). */
+function blocksMake(workspace, state, ids, under = false) {
+  const made = {...state};
+  if (!under) delete made.next;
+  delete made.x;
+  delete made.y;
+  const block = Blockly.serialization.blocks.append(made, workspace, {recordUndo: false});
+  const note = (states, blocks) => {
+    states.forEach((at, i) => {
+      ids.set(at.id, blocks[i].id);
+      for (const [name, input] of Object.entries(at.inputs || {})) {
+        note(blocksChain(input.block), blocksUnder(blocks[i].getInputTargetBlock(name)));
+      }
+    });
+  };
+  note(under ? blocksChain(state) : [state], [...(under ? blocksUnder(block) : [block])]);
+  return block;
+}
+
+/** The chain of blocks from `first`: it, then the blocks under it. */
+function blocksUnder(first) {
+  const blocks = [];
+  for (let at = first; at; at = at.getNextBlock()) blocks.push(at);
+  return blocks;
+}
+
+/** Puts the states `states` in place of `blocks`: a chain that hangs from `connection`, or (no connection) stacks
+ * of their own. The blocks kept, first and last, are changed in place; those between are made again. */
+function blocksPatchChain(workspace, connection, blocks, states, ids) {
+  const same = (block, state) => blocksKind(blocksLoadedStateOf(block)) === blocksKind(state);
+  let head = 0;
+  while (head < blocks.length && head < states.length && same(blocks[head], states[head])) head += 1;
+  let tail = 0;
+  while (tail < blocks.length - head && tail < states.length - head
+         && same(blocks[blocks.length - 1 - tail], states[states.length - 1 - tail])) tail += 1;
+  for (let i = 0; i < head; i += 1) blocksPatchStack(workspace, blocks[i], states[i], ids, !connection);
+  for (let i = 1; i <= tail; i += 1) {
+    blocksPatchStack(workspace, blocks[blocks.length - i], states[states.length - i], ids, !connection);
   }
-  if ((a.data || null) !== (b.data || null)) block.data = b.data || null;
-  for (const name of Object.keys(b.inputs || {})) changeFields(workspace, a.inputs[name].block, b.inputs[name].block);
-  if (b.next) changeFields(workspace, a.next.block, b.next.block);
+  const gone = blocks.slice(head, blocks.length - tail);
+  const coming = states.slice(head, states.length - tail);
+  if (!gone.length && !coming.length) return;
+  const rest = connection ? blocks[blocks.length - tail] || null : null; // the first block kept after the others
+  if (rest) rest.unplug(false);
+  for (const block of gone) block.dispose(false);
+  let at = head ? blocks[head - 1].nextConnection : connection;
+  for (const state of coming) {
+    const block = blocksMake(workspace, state, ids, !connection); // alone: a stack of its own, made whole
+    if (!connection) continue;
+    at.connect(block.previousConnection || block.outputConnection);
+    at = block.nextConnection;
+  }
+  if (rest) at.connect(rest.previousConnection);
+}
+
+/** {@link blocksPatch}, and for a stack of its own (`alone`), the blocks under it too. */
+function blocksPatchStack(workspace, block, state, ids, alone) {
+  blocksPatch(workspace, block, state, ids);
+  if (alone) blocksPatchChain(workspace, block.nextConnection, blocksUnder(block.getNextBlock()), blocksChain(state).slice(1), ids);
+}
+
+/** Changes `block` (of the same kind as `state`'s) into `state`'s: its fields, its data, the blocks it holds. */
+function blocksPatch(workspace, block, state, ids) {
+  ids.set(state.id, block.id);
+  const had = blocksLoadedStateOf(block);
+  for (const [name, value] of Object.entries(state.fields || {})) {
+    if (JSON.stringify(value) !== JSON.stringify((had.fields || {})[name])) block.setFieldValue(value, name);
+  }
+  block.data = state.data || null;
+  const names = new Set([...Object.keys(state.inputs || {}), ...block.inputList.map((input) => input.name)]);
+  for (const name of names) {
+    const input = block.getInput(name);
+    if (!input || !input.connection) continue;
+    const given = state.inputs && state.inputs[name] ? blocksChain(state.inputs[name].block) : [];
+    blocksPatchChain(workspace, input.connection, blocksUnder(input.connection.targetBlock()), given, ids);
+  }
+}
+
+// What each block showed when a state was last put in place (saved once a load: saving is what a diff costs most).
+let blocksShown = new WeakMap();
+
+/** What a block shows, as a state of its own (its fields and look; not what it holds). */
+function blocksLoadedStateOf(block) {
+  let shown = blocksShown.get(block);
+  if (!shown) {
+    shown = Blockly.serialization.blocks.save(block, {addInputBlocks: false, addNextBlocks: false, addCoordinates: false});
+    blocksShown.set(block, shown);
+  }
+  return shown;
+}
+
+/** Lays the named steps one under another below the mission (where blocks stand is not kept). */
+function blocksLayOut(workspace) {
+  // cleanUp() would move every block, which takes as long again as a load
+  const tops = workspace.getTopBlocks(false);
+  const mission = tops.find((block) => block.type === '@mission');
+  let y = mission ? mission.getRelativeToSurfaceXY().y + mission.getHeightWidth().height + 40 : 20;
+  for (const block of tops) {
+    if (block === mission) continue;
+    block.moveTo(new Blockly.utils.Coordinate(20, y));
+    y += block.getHeightWidth().height + 40;
+  }
 }
 
 /** Puts `state` (Blockly's JSON of a workspace) in `workspace`, firing no change, one stack under another. */
 function blocksLoad(workspace, state) {
-  const last = blocksLoaded.get(workspace);
-  const tops = (given) => (given.blocks && given.blocks.blocks) || [];
-  if (last && !last.changed && tops(last.state).length === tops(state).length
-      && tops(last.state).every((top, i) => sameBlocks(top, tops(state)[i]))) {
-    Blockly.Events.disable();
-    try {
-      tops(state).forEach((top, i) => changeFields(workspace, tops(last.state)[i], top));
-    } finally {
-      Blockly.Events.enable();
-    }
-    blocksLoaded.set(workspace, {state, changed: false});
+  const given = (state.blocks && state.blocks.blocks) || [];
+  if (!workspace.getTopBlocks(false).length) { // nothing to keep
+    blocksLoadWhole(workspace, state);
+    blocksLoaded.set(workspace, {ids: null});
+    return;
+  }
+  const ids = new Map();
+  blocksShown = new WeakMap();
+  let patched = false;
+  Blockly.Events.disable();
+  try {
+    blocksPatchChain(workspace, null, workspace.getTopBlocks(true), given, ids);
+    Blockly.renderManagement.triggerQueuedRenders(workspace);
+    blocksLayOut(workspace);
+    patched = true;
+  } catch (error) { // whatever Blockly would not take in place (a block that fits nowhere): the whole load says it
+    console.warn('the blocks are loaded whole:', error);
+  } finally {
+    Blockly.Events.enable();
+  }
+  blocksShown = new WeakMap();
+  if (patched) {
+    blocksLoaded.set(workspace, {ids});
     return;
   }
   blocksLoadWhole(workspace, state);
-  blocksLoaded.set(workspace, {state, changed: false});
+  blocksLoaded.set(workspace, {ids: null});
 }
 
 /** Loads `state` in `workspace` whole: every block made again. */
@@ -108,28 +213,30 @@ function blocksLoadWhole(workspace, state) {
   try {
     workspace.clear();
     Blockly.serialization.workspaces.load(state, workspace);
-    // where blocks stand is not kept: the mission where it was loaded, its named steps one under another below
-    // it (cleanUp() would move every block, which takes as long again as the load)
-    const tops = workspace.getTopBlocks(false);
-    const mission = tops.find((block) => block.type === '@mission');
-    let y = mission ? mission.getRelativeToSurfaceXY().y + mission.getHeightWidth().height + 40 : 20;
-    for (const block of tops) {
-      if (block === mission) continue;
-      block.moveTo(new Blockly.utils.Coordinate(20, y));
-      y += block.getHeightWidth().height + 40;
-    }
+    blocksLayOut(workspace);
   } finally {
     Blockly.Events.enable();
   }
 }
 
+// The blocks each workspace shows a problem on: cleared by id (clearing each of 200 blocks would cost a switch 30 ms).
+const blocksWarned = new WeakMap();
+
 /** Shows each problem that names a block (`block`: its id) on that block; clears the others'. */
 function blocksWarn(workspace, problems) {
-  for (const block of workspace.getAllBlocks(false)) block.setWarningText(null);
+  for (const id of blocksWarned.get(workspace) || []) {
+    const block = workspace.getBlockById(id);
+    if (block) block.setWarningText(null);
+  }
+  const warned = new Set();
   for (const problem of problems) {
     const block = problem.block ? workspace.getBlockById(problem.block) : null;
-    if (block) block.setWarningText(problem.message);
+    if (block) {
+      block.setWarningText(problem.message);
+      warned.add(block.id);
+    }
   }
+  blocksWarned.set(workspace, warned);
 }
 
 /** Calls `changed` when the blocks change (not when a block is only looked at, nor while one is on its way). */
@@ -151,7 +258,9 @@ function blocksSelection(workspace) {
 
 /** Gives the keyboard's focus to the block `id` (shown, scrolled to); whether there is one. */
 function blocksFocus(workspace, id) {
-  const block = id ? workspace.getBlockById(id) : null;
+  const last = blocksLoaded.get(workspace);
+  const shown = last && last.ids && last.ids.has(id) ? last.ids.get(id) : id; // the block kept for it
+  const block = shown ? workspace.getBlockById(shown) : null;
   if (block) Blockly.getFocusManager().focusNode(block);
   return Boolean(block);
 }
