@@ -16,7 +16,7 @@ import time
 from pathlib import Path
 
 from autonomy.classroom import find_submissions, grade_class, load_exercise
-from autonomy.classroom.grade import grade_on_dask
+from autonomy.classroom.cluster import grade_on_dask
 from autonomy.classroom.report import to_json
 
 ROOT = Path(__file__).resolve().parents[1]

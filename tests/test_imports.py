@@ -57,8 +57,18 @@ def test_the_classroom_s_modules_import_one_another_with_no_circle():
     assert circle(edges) == [], " -> ".join(circle(edges))
     # the results are plain data every output reads: they import nothing of the classroom's
     assert edges["autonomy.classroom.results"] == set()
-    for output in ("report", "gradebook"):
-        assert "autonomy.classroom.grade" not in edges[f"autonomy.classroom.{output}"], output
+    # the outputs read the results, never an executor (nor the job, which the executors run)
+    for output in ("report", "gradebook", "gradescope"):
+        for executor in ("pool", "cluster", "child", "job"):
+            assert f"autonomy.classroom.{executor}" not in edges[f"autonomy.classroom.{output}"], (output, executor)
+
+    # the request composes the job, the executors and the outputs: nothing of the classroom's imports it
+    assert [name for name, imported in edges.items() if "autonomy.classroom.request" in imported] == []
+
+
+def test_no_module_of_the_classroom_is_over_500_lines():
+    long = {path.name: n for path in (PACKAGE / "classroom").glob("*.py") if (n := path.read_text().count("\n")) > 500}
+    assert long == {}, long
 
 
 def test_the_check_finds_a_circle_when_there_is_one():

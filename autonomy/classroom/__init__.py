@@ -5,9 +5,12 @@ exercise = load_exercise("exercises/garage.yaml")    # raises ExerciseInvalid wi
 reports = grade_class(exercise, find_submissions(["class/alice.yaml", "class/bob/"]))
 """
 
-from autonomy.classroom.exercise import CRITERIA, Criterion, Exercise, ExerciseInvalid, Seed, load_exercise
-from autonomy.classroom.grade import find_submissions, grade_class, grade_one
+from autonomy.classroom.criteria import CRITERIA
+from autonomy.classroom.exercise import Criterion, Exercise, ExerciseInvalid, Seed, load_exercise
+from autonomy.classroom.job import grade_one
+from autonomy.classroom.pool import grade_class
 from autonomy.classroom.results import Report, SeedResult
+from autonomy.classroom.submissions import find_submissions
 
 __all__ = [
     "CRITERIA",

@@ -20,12 +20,12 @@ It is read like a mission: every problem at once, as ``FILE:LINE:COL``, with a d
 
 from __future__ import annotations
 
-import hashlib
-import hmac
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
+from autonomy.classroom.criteria import CRITERIA
+from autonomy.classroom.secret import hidden_seed
 from autonomy.emulator.faults import FaultSpec, FaultSpecError
 from autonomy.emulator.world import SHIPPED, World, WorldError, WorldInvalid, load_world
 from autonomy.errors import AutonomyError
@@ -47,81 +47,6 @@ SEED_KEYS = ("seed", "noise_mm", "faults")
 #: Longest time limit an exercise may set, simulated seconds.
 MAX_TIME_LIMIT_S = 3600.0
 MAX_SEEDS = 100
-
-
-@dataclass(frozen=True)
-class CriterionKind:
-    """One kind of criterion: its key, what its value is, its options and their defaults.
-
-    Attributes:
-        key: The key that names it in a criteria item (``end_in_zone``).
-        value: ``zone`` (a zone of the world), ``zones`` (a list of them), ``count`` (a whole
-            number >= 0), ``seconds``, ``mm``, ``degrees`` or ``true`` (the value must be true).
-        summary: What it asks, for the docs.
-        options: Further keys it takes, with their defaults: a number, or a zone's name (a text).
-    """
-
-    key: str
-    value: str
-    summary: str
-    options: dict[str, float | str] = field(default_factory=dict)
-
-
-CRITERIA = {
-    kind.key: kind
-    for kind in (
-        CriterionKind("reach_zone", "zone", "the robot's centre is in the zone at some moment"),
-        CriterionKind(
-            "visit_in_order",
-            "zones",
-            "the robot's centre is in each zone in turn, in the order given; each zone is its share",
-        ),
-        CriterionKind(
-            "rest_in_zone",
-            "zone",
-            "the robot comes to rest for good inside the zone within the time limit (after the zone 'after', if "
-            "set); within near_mm of it, without a collision, earns a part, less the further out",
-            {"after": "", "near_mm": 0.0},
-        ),
-        CriterionKind("end_in_zone", "zone", "the mission ends on its own and the robot comes to rest inside the zone"),
-        CriterionKind("avoid_zone", "zone", "the robot's centre never enters the zone"),
-        CriterionKind(
-            "max_collisions",
-            "count",
-            "at most this many collisions (with the obstacle with: names only; with the robot's centre in zone at:)",
-            {"with": "", "at": ""},
-        ),
-        CriterionKind(
-            "min_collisions",
-            "count",
-            "at least this many collisions (with the obstacle with: names only; with the robot's centre in zone at:)",
-            {"with": "", "at": ""},
-        ),
-        CriterionKind("finish_within_s", "seconds", "the mission succeeds within this many seconds"),
-        CriterionKind("max_distance_mm", "mm", "the robot drives at most this far, forward and back"),
-        CriterionKind(
-            "beeps_in",
-            "zones",
-            "a beep at each zone (each its share), and no more than extra_beeps more, anywhere (else nothing)",
-            {"within_mm": 0.0, "extra_beeps": 0.0},
-        ),
-        CriterionKind(
-            "beep_near", "zone", "a beep while the robot's centre is within within_mm of the zone", {"within_mm": 0.0}
-        ),
-        CriterionKind(
-            "end_heading_deg", "degrees", "the robot ends facing this heading, give or take", {"tolerance_deg": 10.0}
-        ),
-        CriterionKind(
-            "turns",
-            "degrees",
-            "the robot turns in place by this much (left positive, as a heading changes), at least count times "
-            "(only at least after_drive_mm from where it turned before, in a straight line, if set)",
-            {"count": 1.0, "tolerance_deg": 10.0, "after_drive_mm": 0.0},
-        ),
-        CriterionKind("max_nodes", "count", "the mission's tree has at most this many nodes"),
-        CriterionKind("succeed", "true", "the mission succeeds (does not fail, crash or run out of time)"),
-    )
-}
 
 
 @dataclass(frozen=True)
@@ -198,46 +123,6 @@ class Exercise:
         """
         hidden = [Seed(hidden_seed(secret, self.name, k), hidden=k) for k in range(1, self.hidden_seeds + 1)]
         return replace(self, seeds=[*self.seeds, *hidden])
-
-
-#: How long a teacher's secret may be, bytes (the file's, spaces and line ends around it aside), and how short.
-SECRET_MOST_BYTES, SECRET_LEAST_BYTES = 4096, 16
-
-
-class SecretError(AutonomyError):
-    """A secret file that cannot be used: the message says why, in one line."""
-
-
-def read_secret(path: str | Path) -> bytes:
-    """The teacher's secret, from a small regular file (never a pipe or a device that does not end).
-
-    Raises:
-        SecretError: no such file, not a regular file, unreadable, or too short or too long.
-    """
-    given = Path(path)
-    try:
-        if not given.exists():
-            raise SecretError(f"cannot read the secret file {path}: no such file")
-        if not given.is_file():
-            raise SecretError(f"the secret file {path} is not a file: give a small text file")
-        with given.open("rb") as stream:
-            secret = stream.read(SECRET_MOST_BYTES + 1).strip()
-    except OSError as err:
-        raise SecretError(f"cannot read the secret file {path}: {err.strerror or err}") from None
-    if len(secret) > SECRET_MOST_BYTES:
-        raise SecretError(f"the secret file {path} is over {SECRET_MOST_BYTES} bytes: give a short secret")
-    if len(secret) < SECRET_LEAST_BYTES:
-        raise SecretError(
-            f"the secret file {path} holds {len(secret)} bytes: give it at least {SECRET_LEAST_BYTES} that nobody "
-            "can guess, e.g. python3 -c 'import secrets; print(secrets.token_hex(16))' > secret.txt"
-        )
-    return secret
-
-
-def hidden_seed(secret: bytes, exercise: str, index: int) -> int:
-    """The ``index``-th hidden seed of ``exercise`` under ``secret`` (HMAC-SHA-256), 0..2**31-1."""
-    digest = hmac.new(secret, f"{exercise}\n{index}".encode(), hashlib.sha256).digest()
-    return int.from_bytes(digest[:4], "big") & 0x7FFFFFFF
 
 
 class ExerciseInvalid(AutonomyError):

@@ -283,7 +283,7 @@ def compare(exercise: Exercise, reports: list[Report], earlier: Earlier) -> list
     return lines
 
 
-#: Trees whose shapes (:func:`autonomy.classroom.grade.tree_shape`) differ by at most this many nodes are similar.
+#: Trees whose shapes (:func:`autonomy.classroom.job.tree_shape`) differ by at most this many nodes are similar.
 SIMILAR_NODES = 2
 #: Trees of fewer nodes than this are too small to say anything by being alike (a lone move).
 SIMILAR_MOST_NODES_LEAST = 5

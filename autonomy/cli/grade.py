@@ -3,9 +3,10 @@
 from __future__ import annotations
 
 import argparse
-import os
+import contextlib
 import signal
 import sys
+from collections.abc import Iterator
 from typing import Any
 
 from autonomy.cli.common import EXIT_INTERRUPTED, EXIT_OK, EXIT_USAGE, _bounded, _fail, _interrupt, _problems, _shown
@@ -51,225 +52,161 @@ def _exercise(text: str) -> tuple[Any, str] | int:
 
 def cmd_grade(args: argparse.Namespace) -> int:
     """Grades mission files against an exercise: marks, feedback, a gradebook."""
+    from autonomy.classroom.request import OUTPUTS, grade, settle
+
+    asked = _grade_request(args)
+    if isinstance(asked, int):
+        return asked
+    request, note = asked
+    if not args.quiet:
+        _announce(request, note)
+    for ending in (signal.SIGTERM, signal.SIGHUP):  # a closed terminal ends the workers as Ctrl-C does
+        signal.signal(ending, _interrupt)
+    with _progress(len(request.submissions), shown=not args.quiet) as advance:
+        try:
+            reports = grade(request, advance)
+        except KeyboardInterrupt:
+            return _fail("grading interrupted", EXIT_INTERRUPTED)
+        except ImportError:
+            return _fail("--dask needs dask.distributed: pip install 'autonomy[cluster]'", EXIT_USAGE)
+        except OSError as err:  # no scheduler there
+            return _fail(f"--dask {args.dask}: no Dask scheduler answers there ({err})", EXIT_USAGE)
+    graded = settle(request, reports)
+    if not args.quiet:
+        _print_graded(graded)
+    # a student checking their own mission learns from the exit code too that nothing of it ran
+    code = EXIT_USAGE if len(reports) == 1 and reports[0].problems else EXIT_OK
+    for kind, target in request.outputs:  # one that fails does not keep the others from being written
+        try:
+            # a problem quoting a path that is not UTF-8 (a folder from another system) has '?' for its bytes
+            target.write_text(OUTPUTS[kind](graded, target), encoding="utf-8", errors="replace")
+        except OSError as err:
+            code = _fail(f"cannot write {target}: {err.strerror or err}", EXIT_USAGE)
+            continue
+        if not args.quiet:
+            print(_shown(f"wrote {target}"))
+    return code
+
+
+def _grade_request(args: argparse.Namespace) -> tuple[Any, str] | int:
+    """What ``autonomy grade`` is asked, every file of the teacher's read and checked, and a note to print.
+
+    The note is on the exercise's hidden seeds. If it cannot be graded as asked: the exit code (why said).
+    """
     from pathlib import Path
 
-    from autonomy.classroom import find_submissions, grade_class
-    from autonomy.classroom.exercise import SecretError, read_secret
-    from autonomy.classroom.grade import WALL_PER_CPU, default_cpu_s
-    from autonomy.classroom.gradebook import (
-        GradebookError,
-        apply_adjustments,
-        compare,
-        match_roster,
-        read_adjustments,
-        read_earlier,
-        read_roster,
-        unknown_students,
-    )
-    from autonomy.classroom.report import feedback, to_csv, to_gradescope, to_html, to_json
-    from autonomy.emulator.world import SHIPPED
+    from autonomy.classroom import find_submissions
+    from autonomy.classroom.request import Limits, RequestInvalid, RequestRefused, read_request
+    from autonomy.classroom.secret import SecretError, read_secret
 
     found = _exercise(args.exercise)
     if isinstance(found, int):
         return found
     exercise, path = found
-    hidden_note = ""
+    note = ""
     if args.secret_file:
         try:
             secret = read_secret(args.secret_file)
         except SecretError as err:
             return _fail(str(err), EXIT_USAGE)
         if not exercise.hidden_seeds:
-            hidden_note = "This exercise has no hidden seeds: the secret changes nothing."
+            note = "This exercise has no hidden seeds: the secret changes nothing."
         exercise = exercise.with_secret(secret)
     elif exercise.hidden_seeds:
-        hidden_note = (
+        note = (
             f"This exercise also has {exercise.hidden_seeds} hidden seeds, which the teacher's marks use "
             f"(autonomy grade --secret-file): these marks are from its {len(exercise.seeds)} public seeds only."
         )
-    submissions = find_submissions(args.submissions)
-    alone = len(submissions) == 1
-    if args.gradescope and not alone:
-        return _fail("--gradescope writes one submission's results: give one submission", EXIT_USAGE)
-    if args.dask and (args.traces or args.feedback):
-        return _fail("--traces and --feedback need the runs here: grade without --dask for them", EXIT_USAGE)
-    # the teacher's own files, before any grading: every problem of every one of them at once, FILE:LINE
-    problems: list[str] = []
-    roster, adjustments = None, []
-    try:
-        roster = read_roster(args.roster) if args.roster else None
-    except GradebookError as err:
-        problems += err.problems
-    try:
-        adjustments = read_adjustments(args.adjust) if args.adjust else []
-    except GradebookError as err:
-        problems += err.problems
-    known = {student for student, _ in submissions}
-    problems += unknown_students(adjustments, known, args.adjust or "")
-    earlier = None
-    try:
-        earlier = read_earlier(args.compare, exercise) if args.compare else None
-    except GradebookError as err:
-        problems += err.problems
-    if problems:
-        return _problems(problems)
-    corrections: dict[str, list[tuple[float, str]]] = {}
-    for adjustment in adjustments:
-        corrections.setdefault(adjustment.student, []).append((adjustment.points, adjustment.reason))
     kinds = (("csv", args.csv), ("json", args.json), ("html", args.html), ("gradescope", args.gradescope))
-    targets = [(target, kind) for kind, target in kinds if target]
-    # every file read (the exercise, its world, each submission's mission, a folder's files) is kept from harm
-    inputs = {Path(p).resolve() for p in (path, *args.submissions)} | {p.resolve() for _, p in submissions}
-    inputs |= {Path(p).resolve() for p in (args.roster, args.adjust, args.compare) if p}
-    inputs |= {Path(exercise.world_ref).resolve()} if exercise.world_ref not in SHIPPED else set()  # a file
-    for _, given in submissions:
-        try:
-            inputs |= {p.resolve() for p in given.iterdir()} if given.is_dir() else set()
-        except OSError:  # a folder that cannot be listed: its student's report says so
-            pass
-    chosen: set[Path] = set()
-    student_pages: set[Path] = set()
-    if args.feedback:  # each student's page is an output too
-        from autonomy.classroom.results import file_names, page_path
-
-        student_pages = {page_path(Path(args.feedback), name).resolve() for name in file_names(known).values()}
-    for target, _ in targets:  # before hours of grading, not after
-        where = Path(target)
-        if where.resolve() in inputs:
-            return _fail(f"{target} is one of the files to grade: write the marks elsewhere", EXIT_USAGE)
-        if where.resolve() in chosen:
-            return _fail(f"{target} is given for two outputs: give each its own file", EXIT_USAGE)
-        if where.resolve() in student_pages:
-            return _fail(f"{target} is where a student's feedback page goes: write it elsewhere", EXIT_USAGE)
-        chosen.add(where.resolve())
-        if where.is_dir() or not where.parent.is_dir() or not os.access(where.parent, os.W_OK):
-            return _fail(f"cannot write {target}: no such folder, or not writable", EXIT_USAGE)
-    if not args.quiet:
-        public = [s for s in exercise.seeds if not s.hidden]
-        seeds = ", ".join(str(s.seed) for s in public)
-        hidden = len(exercise.seeds) - len(public)
-        print(
-            f"Grading {len(submissions)} submission{'s' if not alone else ''} for '{exercise.title}' "
-            f"in world '{exercise.world.name}', seeds {seeds}"
-            + (f" and {hidden} hidden" if hidden else "")
-            + f", {exercise.time_limit_s:g} s a run.",
-            flush=True,
-        )
-        if hidden_note:
-            print(hidden_note, flush=True)
-    for ending in (signal.SIGTERM, signal.SIGHUP):  # a closed terminal ends the workers as Ctrl-C does
-        signal.signal(ending, _interrupt)
-    progress = None
-    if not alone and not args.quiet and sys.stderr.isatty():
-        from rich.console import Console
-        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
-
-        progress = Progress(
-            TextColumn("grading"),
-            BarColumn(),
-            MofNCompleteColumn(),
-            TimeElapsedColumn(),
-            console=Console(file=sys.stderr),
-            transient=True,
-        )
-        task = progress.add_task("grading", total=len(submissions))
-        progress.start()
+    limits = Limits(args.cpu_seconds, args.wall_seconds, args.memory_mb, args.allow_plugins, args.workers)
     try:
-        traces = Path(args.traces) if args.traces else None
-        feedback_folder = Path(args.feedback) if args.feedback else None
-        for folder in (traces, feedback_folder):
-            if folder is not None:
-                folder.mkdir(parents=True, exist_ok=True)
-        limits = {
-            "cpu_s": (cpu_s := args.cpu_seconds or default_cpu_s(exercise)),
-            "wall_s": args.wall_seconds or WALL_PER_CPU * cpu_s,
-            "memory_mb": args.memory_mb,
-            "allow_plugins": args.allow_plugins,
-            "on_report": (lambda _: progress.advance(task)) if progress is not None else None,
-        }
-        if args.dask:
-            from autonomy.classroom.grade import grade_on_dask
+        request = read_request(
+            exercise, Path(path), find_submissions(args.submissions), args.submissions, limits=limits,
+            dask=args.dask, traces=args.traces, feedback=args.feedback, roster=args.roster, adjust=args.adjust,
+            compare=args.compare, outputs=[(kind, target) for kind, target in kinds if target],
+        )  # fmt: skip
+    except RequestRefused as err:
+        return _fail(str(err), EXIT_USAGE)
+    except RequestInvalid as err:
+        return _problems(err.problems)
+    return request, note
 
-            reports = grade_on_dask(exercise, submissions, args.dask, **limits)
-        else:
-            reports = grade_class(
-                exercise,
-                submissions,
-                traces=traces,
-                feedback=feedback_folder,
-                corrections=corrections,
-                workers=args.workers,
-                **limits,
-            )
-    except KeyboardInterrupt:
-        return _fail("grading interrupted", EXIT_INTERRUPTED)
-    except ImportError:
-        return _fail("--dask needs dask.distributed: pip install 'autonomy[cluster]'", EXIT_USAGE)
-    except OSError as err:  # no scheduler there
-        return _fail(f"--dask {args.dask}: no Dask scheduler answers there ({err})", EXIT_USAGE)
+
+def _announce(request: Any, note: str) -> None:
+    """Says what is about to be graded: how many submissions, the exercise, its world and seeds."""
+    exercise = request.exercise
+    public = [s for s in exercise.seeds if not s.hidden]
+    seeds = ", ".join(str(s.seed) for s in public)
+    hidden = len(exercise.seeds) - len(public)
+    many = len(request.submissions) != 1
+    print(
+        f"Grading {len(request.submissions)} submission{'s' if many else ''} for '{exercise.title}' "
+        f"in world '{exercise.world.name}', seeds {seeds}"
+        + (f" and {hidden} hidden" if hidden else "")
+        + f", {exercise.time_limit_s:g} s a run.",
+        flush=True,
+    )
+    if note:
+        print(note, flush=True)
+
+
+@contextlib.contextmanager
+def _progress(total: int, shown: bool) -> Iterator[Any]:
+    """A progress bar on a terminal's standard error while a class (more than one) is graded: what advances it."""
+    if total < 2 or not shown or not sys.stderr.isatty():
+        yield None
+        return
+    from rich.console import Console
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    bar = TextColumn("grading"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn()
+    progress = Progress(*bar, console=Console(file=sys.stderr), transient=True)
+    task = progress.add_task("grading", total=total)
+    progress.start()
+    try:
+        yield lambda _: progress.advance(task)
     finally:
-        if progress is not None:
-            progress.stop()
-    apply_adjustments(reports, adjustments, args.adjust or "")
-    matched = match_roster(roster, reports, Path(args.roster).parent) if roster is not None else None
-    if alone and not args.quiet:
-        for line in feedback(exercise, reports[0]):
+        progress.stop()
+
+
+def _print_graded(graded: Any) -> None:
+    """The results in the terminal: one student's feedback, or the class's marks.
+
+    Then the corrections, the roster's gaps, what changed since an earlier grading, and where the pages are.
+    """
+    from autonomy.classroom.gradebook import compare
+    from autonomy.classroom.report import feedback
+
+    request, reports = graded.request, graded.reports
+    if len(reports) == 1:
+        for line in feedback(request.exercise, reports[0]):
             print(line)
-    elif not args.quiet:
-        _print_marks(exercise, reports)
+    else:
+        _print_marks(request.exercise, reports)
         for report in reports:
             for points, reason in report.adjustments:
                 print(_shown(f"correction: {report.student} {points:+g} ({reason})"))
-    if matched is not None and not args.quiet:
-        for entry, report in matched.listed:
+    if graded.matched is not None:
+        for entry, report in graded.matched.listed:
             if report is None:
                 print(_shown(f"no submission: {entry.id} {entry.name} (roster line {entry.line})"))
-        for report in matched.unlisted:
+        for report in graded.matched.unlisted:
             print(_shown(f"not on the roster: {report.student} ({report.file or 'no file'})"))
-    if earlier is not None and not args.quiet:
-        print(_shown(f"Since {args.compare}:"))
-        for line in compare(exercise, reports, earlier):
+    if request.earlier is not None:
+        earlier, source = request.earlier
+        print(_shown(f"Since {source}:"))
+        for line in compare(request.exercise, reports, earlier):
             print(_shown(f"  {line}"))
-    # a student checking their own mission learns from the exit code too that nothing of it ran
-    code = EXIT_USAGE if alone and reports[0].problems else EXIT_OK
-    pages: dict[str, str] = {}
-    if args.feedback:  # written by the workers, as they graded
-        from autonomy.classroom.results import file_names, page_path
-
-        names = file_names([r.student for r in reports])
-        pages = {r.student: str(page_path(Path(args.feedback), names[r.student])) for r in reports}
-        pages = {student: page for student, page in pages.items() if Path(page).is_file()}
-        if not args.quiet:
-            print(_shown(f"wrote {len(pages)} feedback pages in {args.feedback}"))
-
-    def made(kind: str, target: str) -> str:
-        if kind == "csv":
-            return to_csv(exercise, reports, matched)
-        if kind == "json":
-            return to_json(exercise, reports, matched)
-        if kind == "gradescope":
-            return to_gradescope(exercise, reports[0])
-        where = Path(target).resolve().parent  # each student linked to their page, from where the class page is
-        return to_html(exercise, reports, {name: os.path.relpath(page, where) for name, page in pages.items()})
-
-    for target, kind in targets:  # one that fails does not keep the others from being written
-        try:
-            # a problem quoting a path that is not UTF-8 (a folder from another system) has '?' for its bytes
-            Path(target).write_text(made(kind, target), encoding="utf-8", errors="replace")
-        except OSError as err:
-            code = _fail(f"cannot write {target}: {err.strerror or err}", EXIT_USAGE)
-            continue
-        if not args.quiet:
-            print(f"wrote {target}")
-    return code
+    if request.feedback is not None:
+        print(_shown(f"wrote {len(graded.pages)} feedback pages in {request.feedback}"))
 
 
 def cmd_gradescope(args: argparse.Namespace) -> int:
     """Packs an exercise, with this package, as the autograder zip Gradescope takes."""
     from pathlib import Path
 
-    from autonomy.classroom.exercise import SecretError, read_secret
     from autonomy.classroom.gradescope import AutograderError, build_autograder
+    from autonomy.classroom.secret import SecretError, read_secret
 
     found = _exercise(args.exercise)
     if isinstance(found, int):

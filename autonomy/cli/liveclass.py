@@ -59,8 +59,8 @@ def _serve(
     """Serves the class kept in ``store`` until Ctrl-C; what it opens is closed by ``closing``."""
     import hashlib
 
-    from autonomy.classroom.exercise import SecretError, read_secret
     from autonomy.classroom.gradescope import build_autograder
+    from autonomy.classroom.secret import SecretError, read_secret
     from autonomy.liveclass.server import DEADLINE, EXERCISE, TEACHER_TOKEN, ClassServer
     from autonomy.liveclass.store import token_digest
 

@@ -11,8 +11,10 @@ from pathlib import Path
 from typing import Any
 
 from autonomy.behaviours.tree import describe_tree
+from autonomy.classroom.cluster import in_a_daemon
 from autonomy.classroom.exercise import Exercise
-from autonomy.classroom.grade import PLUGINS_REFUSED, check_text, grade_class, in_a_daemon
+from autonomy.classroom.job import PLUGINS_REFUSED, check_text
+from autonomy.classroom.pool import grade_class
 from autonomy.classroom.results import Report, file_names, page_path
 from autonomy.mission import BUILTINS, MissionInvalid, build_tree
 from autonomy.mission.blocks import (

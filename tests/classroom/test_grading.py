@@ -10,9 +10,8 @@ from pathlib import Path
 
 import pytest
 
-from autonomy.classroom import ExerciseInvalid, find_submissions, grade_class, grade_one, load_exercise
-from autonomy.classroom import grade as grade_module
-from autonomy.classroom.grade import PLUGINS_REFUSED
+from autonomy.classroom import ExerciseInvalid, find_submissions, grade_class, grade_one, limits, load_exercise, pool
+from autonomy.classroom.job import PLUGINS_REFUSED
 from autonomy.classroom.report import feedback, to_csv, to_html, to_json
 from tests.classroom.fixed_plans import FIXED_PLANS
 
@@ -538,7 +537,7 @@ def test_deep_nesting_is_a_problem_at_its_place_not_a_crash(tmp_path):
 
 
 def test_a_requirement_holds_only_where_its_own_requirements_held_too(tmp_path):
-    from autonomy.classroom.grade import _with_requirements
+    from autonomy.classroom.job import _with_requirements
     from autonomy.classroom.judge import Verdict
 
     path = tmp_path / "ex.yaml"
@@ -581,8 +580,8 @@ def test_collisions_are_counted_from_the_emulator_the_same_at_any_tick_rate(tmp_
     What the mission itself saw of them (the collision flag, read once a tick) is not: at 1 Hz the
     flag, held half a second, is over before it is read.
     """
-    from autonomy.classroom.grade import check_submission, run_seed
-    from autonomy.classroom.judge import Gatherer
+    from autonomy.classroom.facts import Gatherer
+    from autonomy.classroom.job import check_submission, run_seed
     from autonomy.client import Client
     from autonomy.runner import Runner
 
@@ -603,7 +602,7 @@ def test_collisions_are_counted_from_the_emulator_the_same_at_any_tick_rate(tmp_
 
 
 def test_a_collision_is_measured_from_its_first_impact_however_many_follow():
-    from autonomy.classroom.judge import _collisions
+    from autonomy.classroom.facts import _collisions
     from autonomy.record import Pose
 
     # feeling along a face, 20 mm between impacts: each impact is near the last, but the third is
@@ -665,7 +664,7 @@ def test_a_robot_still_moving_when_its_time_ran_out_did_not_come_to_rest():
 
 
 def test_pushing_on_is_one_collision_and_backing_off_to_bump_again_is_two():
-    from autonomy.classroom.judge import NEW_COLLISION_MM, _collisions
+    from autonomy.classroom.facts import NEW_COLLISION_MM, _collisions
     from autonomy.record import Pose
 
     wall = Pose(2000.0, 600.0, 0.0)
@@ -677,7 +676,7 @@ def test_pushing_on_is_one_collision_and_backing_off_to_bump_again_is_two():
 
 
 def test_a_robot_that_ends_at_full_speed_rolls_on_and_what_it_then_hits_counts():
-    from autonomy.classroom.grade import check_submission, run_seed
+    from autonomy.classroom.job import check_submission, run_seed
 
     exercise = load_exercise(EXERCISES / "garage.yaml")
     spec, _ = check_submission(exercise, EXERCISES / "wrong" / "garage_full_speed.yaml", False)
@@ -693,7 +692,7 @@ def test_a_robot_that_ends_at_full_speed_rolls_on_and_what_it_then_hits_counts()
 def test_a_zone_crossed_between_two_ticks_is_reached(tmp_path):
     """At 1 Hz at full speed the robot is in corner_1 at no tick, but its path goes through it."""
     from autonomy.classroom.exercise import Criterion
-    from autonomy.classroom.grade import check_submission, run_seed
+    from autonomy.classroom.job import check_submission, run_seed
     from autonomy.classroom.judge import judge
 
     exercise = load_exercise(EXERCISES / "square.yaml")
@@ -709,7 +708,7 @@ def test_a_zone_crossed_between_two_ticks_is_reached(tmp_path):
 
 
 def test_facts_need_a_header_and_an_end():
-    from autonomy.classroom.judge import Gatherer, facts_of
+    from autonomy.classroom.facts import Gatherer, facts_of
     from autonomy.emulator.robot import Robot
     from autonomy.emulator.world import load_world
 
@@ -771,7 +770,7 @@ def test_a_seed_whose_faults_leave_no_link_scores_nothing_on_that_seed_alone(tmp
 
 
 def _facts(path, beeps=(), collisions=(), outcome="succeeded", rest_s=3.0):
-    from autonomy.classroom.judge import RunFacts
+    from autonomy.classroom.facts import RunFacts
 
     return RunFacts(1, outcome, "", 3.0, list(path), list(beeps), list(collisions), list(collisions), rest_s, 30.0)
 
@@ -894,7 +893,7 @@ def test_a_bearing_is_the_nearest_of_eight_points_of_the_compass(to_x, to_y, sai
 def _record_workers(monkeypatch, tmp_path, actions=None):
     """Has every worker note which process graded which student (and do what ``actions`` says for some)."""
     log = tmp_path / "workers.log"
-    graded = grade_module.grade_one
+    graded = pool.grade_one
 
     def noting(exercise, student, path, allow_plugins=False):
         with open(log, "a") as out:
@@ -903,7 +902,7 @@ def _record_workers(monkeypatch, tmp_path, actions=None):
             actions[student]()
         return graded(exercise, student, path, allow_plugins)
 
-    monkeypatch.setattr(grade_module, "grade_one", noting)  # the workers are forked with it
+    monkeypatch.setattr(pool, "grade_one", noting)  # the workers are forked with it
 
     def pids():
         """Each student's workers, in the order they graded them (a student graded again has two)."""
@@ -949,7 +948,7 @@ def test_a_worker_is_replaced_after_a_submission_that_failed_or_left_it_holding_
         raise RuntimeError("boom")
 
     def hoard():
-        kept.append(bytearray(2 * grade_module.RETIRE_GROWTH_MB * 2**20))
+        kept.append(bytearray(2 * limits.RETIRE_GROWTH_MB * 2**20))
 
     pids = _record_workers(monkeypatch, tmp_path, {"b_boom": boom, "d_hoard": hoard})
     reports = grade_class(exercise, submissions, workers=1)
@@ -1124,7 +1123,7 @@ def test_a_bump_counts_where_the_exercise_says_the_robot_drives_up_to_the_box():
 
 
 def test_a_near_miss_earns_its_part_of_what_requires_some_of_it(tmp_path):
-    from autonomy.classroom.grade import _with_requirements
+    from autonomy.classroom.job import _with_requirements
     from autonomy.classroom.judge import Verdict
 
     path = tmp_path / "ex.yaml"

@@ -5,7 +5,8 @@ from __future__ import annotations
 import pytest
 
 from autonomy.classroom.exercise import Criterion, load_exercise
-from autonomy.classroom.judge import SUCCEEDED, RunFacts, judge
+from autonomy.classroom.facts import SUCCEEDED, RunFacts
+from autonomy.classroom.judge import judge
 from autonomy.record import Pose
 from tests.views.conftest import ROOT
 

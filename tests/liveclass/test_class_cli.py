@@ -11,7 +11,7 @@ import sys
 import urllib.error
 import urllib.request
 
-from autonomy.classroom.exercise import read_secret
+from autonomy.classroom.secret import read_secret
 from tests.views.conftest import ROOT
 
 SOLUTION = (ROOT / "exercises" / "solutions" / "garage.yaml").read_text()

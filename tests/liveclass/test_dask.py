@@ -15,7 +15,8 @@ import pytest
 if importlib.util.find_spec("distributed") is None:  # the optional extra: autonomy[cluster]
     pytest.skip("dask.distributed is not installed", allow_module_level=True)
 
-from autonomy.classroom.exercise import load_exercise, read_secret
+from autonomy.classroom.exercise import load_exercise
+from autonomy.classroom.secret import read_secret
 from autonomy.liveclass.work import grade_text
 from tests.classroom.test_dask import ENV, ROOT, cluster  # noqa: F401 - the cluster fixture, shared
 from tests.liveclass.test_class_cli import SOLUTION, post, serve

@@ -48,7 +48,7 @@ def test_a_run_is_graded_on_the_public_seeds_and_a_hand_in_on_every_one_in_a_wor
 ):
     import threading
 
-    from autonomy.classroom.grade import grade_class
+    from autonomy.classroom.pool import grade_class
     from autonomy.liveclass.work import grade_text
 
     secret_exercise = GARAGE.with_secret(b"the teacher's secret")

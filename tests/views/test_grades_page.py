@@ -157,7 +157,7 @@ def test_a_student_s_feedback_page_shows_their_file_their_runs_at_their_end_and_
 
 
 def test_a_feedback_replay_marks_each_beep_and_turn_as_it_reaches_it(page, tmp_path):
-    from autonomy.classroom.grade import grade_one
+    from autonomy.classroom.job import grade_one
     from autonomy.classroom.report import write_feedback_page
 
     exercise = load_exercise(ROOT / "exercises" / "square.yaml")

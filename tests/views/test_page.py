@@ -11,7 +11,7 @@ import msgspec
 import pytest
 
 from autonomy.classroom.exercise import load_exercise
-from autonomy.classroom.grade import grade_one
+from autonomy.classroom.job import grade_one
 from autonomy.classroom.report import write_feedback_page
 from autonomy.client import Client
 from autonomy.mission import build_tree, load_mission
@@ -100,7 +100,7 @@ def test_a_feedback_page_holds_the_viewer_once_each_run_once_and_tells_a_run_it_
 def test_making_a_student_s_pages_needs_none_of_the_server_s_packages():
     # a grader's workers make the pages: a package imported there is imported by every worker
     code = (
-        "import sys, autonomy.classroom.grade, autonomy.classroom.report, autonomy.views.page\n"
+        "import sys, autonomy.classroom.pool, autonomy.classroom.report, autonomy.views.page\n"
         "print(sorted(m for m in ('aiohttp', 'zmq') if m in sys.modules))"
     )
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, check=True)
