@@ -52,6 +52,7 @@ def _exercise(text: str) -> tuple[Any, str] | int:
 
 def cmd_grade(args: argparse.Namespace) -> int:
     """Grades mission files against an exercise: marks, feedback, a gradebook."""
+    from autonomy.classroom.cluster import ClusterUnfit
     from autonomy.classroom.request import OUTPUTS, grade, settle
 
     asked = _grade_request(args)
@@ -71,6 +72,8 @@ def cmd_grade(args: argparse.Namespace) -> int:
             return _fail("--dask needs dask.distributed: pip install 'autonomy[cluster]'", EXIT_USAGE)
         except OSError as err:  # no scheduler there
             return _fail(f"--dask {args.dask}: no Dask scheduler answers there ({err})", EXIT_USAGE)
+        except ClusterUnfit as err:  # no worker, a worker with no or another autonomy, every worker gone
+            return _fail(str(err), EXIT_USAGE)
     graded = settle(request, reports)
     if not args.quiet:
         _print_graded(graded)

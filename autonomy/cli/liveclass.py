@@ -86,6 +86,7 @@ def _serve(
     store.set_setting(EXERCISE, this)
     grader = None
     if args.dask:
+        from autonomy.classroom.cluster import ClusterUnfit
         from autonomy.liveclass.work import DaskGrader
 
         try:
@@ -94,6 +95,8 @@ def _serve(
             return _fail("--dask needs dask.distributed: pip install 'autonomy[cluster]'", EXIT_USAGE)
         except OSError as err:
             return _fail(f"--dask {args.dask}: no Dask scheduler answers there ({err})", EXIT_USAGE)
+        except ClusterUnfit as err:  # no worker, or a worker with no or another autonomy
+            return _fail(str(err), EXIT_USAGE)
         closing.callback(grader.close)
     plain, exercise = exercise, exercise.with_secret(secret)
     if args.deadline is not None:

@@ -45,6 +45,7 @@ from typing import Any
 
 from aiohttp import web
 
+from autonomy.classroom.cluster import ClusterUnfit
 from autonomy.classroom.exercise import Exercise
 from autonomy.classroom.gradebook import RosterEntry, RosterMatch
 from autonomy.classroom.report import to_csv
@@ -534,7 +535,8 @@ class ClassServer(BoundedServer):
             grading = functools.partial(self._grader, label=label)  # what their page is headed by: no id
             report, page = await self._in_lane(student.id, grading, mission, number, kind == "handin")
         except Exception as err:  # noqa: BLE001 - said in one line, kept as the work's problem, answered 500
-            why = f"the grading failed: {type(err).__name__}"
+            # a cluster that cannot grade says why (its workers gone); anything else, its kind alone
+            why = f"the grading failed: {err if isinstance(err, ClusterUnfit) else type(err).__name__}"
             self._refused(f"grading {type(err).__name__}", f"{why} (work {number})")
             self.store.finish_work(number, {"error": why}, None, None, why)
             self._change()

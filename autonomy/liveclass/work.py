@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import Any
 
 from autonomy.behaviours.tree import describe_tree
-from autonomy.classroom.cluster import in_a_daemon
+from autonomy.classroom.cluster import connect, in_a_daemon, results
 from autonomy.classroom.exercise import Exercise
 from autonomy.classroom.job import PLUGINS_REFUSED, check_text
 from autonomy.classroom.pool import grade_class
@@ -229,8 +229,10 @@ def grade_on_worker(
 class DaskGrader:
     """Grades the class's works on a Dask cluster, as :func:`grade_text` does here (the same marks, the same page).
 
-    The workers need ``autonomy`` installed; as Dask starts them, with its defaults, is as good as any
+    The workers need this ``autonomy`` installed; as Dask starts them, with its defaults, is as good as any
     (a worker that runs as a daemon grades in a process of its own: see :mod:`autonomy.classroom.child`).
+    A grading raises :class:`~autonomy.classroom.cluster.ClusterUnfit` when the cluster loses every
+    worker and none comes back in time, or the grading fails there.
 
     Args:
         address: The scheduler's address (``tcp://host:8786``).
@@ -238,12 +240,12 @@ class DaskGrader:
     Raises:
         ImportError: ``dask.distributed`` is not installed (``pip install 'autonomy[cluster]'``).
         OSError: no scheduler answers at ``address``.
+        ClusterUnfit: the cluster has no worker, or one without this autonomy (see :func:`connect`).
     """
 
     def __init__(self, address: str) -> None:
-        from distributed import Client
-
-        self._client = Client(address, timeout="5s")
+        self._address = address
+        self._client = connect(address)
 
     def __call__(
         self, exercise: Exercise, student: str, text: str, folder: Path, number: int, hand_in: bool, label: str = ""
@@ -251,7 +253,7 @@ class DaskGrader:
         """Grades one work on the cluster; keeps its text and its page in ``folder`` as :func:`grade_text` does."""
         _keep(folder, student, text, number, hand_in)
         task = self._client.submit(grade_on_worker, exercise, student, text, number, hand_in, label, pure=False)
-        report, page = task.result()
+        ((_, (report, page)),) = results(self._client, [task], self._address)
         path = page_file(folder, student, number)
         path.parent.mkdir(parents=True, exist_ok=True)
         path.write_bytes(page)

@@ -580,3 +580,25 @@ def test_a_long_history_of_runs_is_not_listed_by_api_me(served):
     assert me["works"][0]["number"] == handed["number"] and me["works"][0]["count"] == 1
     assert me["works"][0]["page"] == handed["page"]
     assert "source" not in me["works"][0] and "result" not in me["works"][0]
+
+
+def test_a_cluster_that_lost_its_workers_is_said_to_the_student_and_the_teacher_in_one_line(tmp_path):
+    from autonomy.classroom.cluster import ClusterUnfit
+
+    def gone(*_: object, **__: object) -> None:  # as DaskGrader says, once the cluster has had no worker a while
+        raise ClusterUnfit("the Dask cluster at tcp://10.0.0.9:8786 lost its workers mid-grading (none for 10 s)")
+
+    store = ClassStore(tmp_path)
+    codes = store.enrol([("s1", "Ada")])
+    server = ClassServer(GARAGE, store, tmp_path, port=0, grader=gone)
+    server.start()
+    try:
+        status, answer = call(server, "/api/run", {"mission": SOLUTION}, codes["s1"])
+        assert status == 500 and answer["error"].endswith("lost its workers mid-grading (none for 10 s)"), answer
+        (work,) = store.work_list("s1", "run")
+        assert "lost its workers" in work["problem"]  # the teacher's table says why that run has no marks
+        status, _ = call(server, "/api/check", {"mission": SOLUTION}, codes["s1"])
+        assert status == 200  # the class goes on: checks need no cluster
+    finally:
+        server.stop()
+        store.close()
