@@ -77,15 +77,21 @@ def check_submission(exercise: Exercise, path: Path, allow_plugins: bool) -> tup
     Returns:
         The validated mission, or None and every problem (``FILE:LINE:COL: ...`` lines).
     """
-    label = str(path)
-    if path.is_symlink():
-        return None, [f"{label}:1:1: a link, not a file: hand in the mission file itself"]
-    try:
-        text = read_text(path)
-    except UnreadableFile as err:
-        return None, [f"{label}:{err.line}:{err.column}: cannot read the file: {err.reason}"]
-    spec, problems = check_text(exercise, text, label, path.parent, allow_plugins)
+    text, why = read_mission(path)
+    if text is None:
+        return None, [why]
+    spec, problems = check_text(exercise, text, str(path), path.parent, allow_plugins)
     return spec, [str(p) for p in problems]
+
+
+def read_mission(path: Path) -> tuple[str | None, str]:
+    """A mission file's text, as every mission file is read; or None and why not (``FILE:LINE:COL: ...``)."""
+    if path.is_symlink():
+        return None, f"{path}:1:1: a link, not a file: hand in the mission file itself"
+    try:
+        return read_text(path), ""
+    except UnreadableFile as err:
+        return None, f"{path}:{err.line}:{err.column}: cannot read the file: {err.reason}"
 
 
 def check_text(
@@ -197,18 +203,49 @@ def grade_one(
     runs: list[ReplayMaker] | None = None,
     name: str = "",
 ) -> Report:
-    """Grades one submission on every seed (in this process).
+    """Grades one submission as it was handed in (a file, or a folder of the student's files), in this process.
 
-    With ``traces``, each run's trace is kept there (under ``name``, the student's as a file's);
-    with ``runs``, each seed's run is added to that list as its replay, for a page.
+    Its mission file is found and read (:func:`check_submission` says why not), then graded by
+    :func:`grade_mission`, with the same ``traces``, ``runs`` and ``name``.
     """
     zero = [0.0] * len(exercise.criteria)
     mission, why = mission_file(path)
     if mission is None:
         return Report(student, "", 0.0, exercise.max_points, zero, [why])
-    spec, problems = check_submission(exercise, mission, allow_plugins)
+    text, why = read_mission(mission)
+    if text is None:
+        return Report(student, readable(str(mission)), 0.0, exercise.max_points, zero, [why])
+    return grade_mission(exercise, student, text, str(mission), mission.parent, allow_plugins, traces, runs, name)
+
+
+def grade_mission(
+    exercise: Exercise,
+    student: str,
+    text: str,
+    label: str,
+    base_dir: Path,
+    allow_plugins: bool = False,
+    traces: Path | None = None,
+    runs: list[ReplayMaker] | None = None,
+    name: str = "",
+) -> Report:
+    """The job: a mission's text graded on every seed of the exercise (in this process), into its report.
+
+    Args:
+        exercise: The exercise, with its hidden seeds when they are to be graded.
+        student: Who it is from.
+        text: The mission file's text.
+        label: How the file is named in its problems and its report.
+        base_dir: Where its plugins would be (refused unless ``allow_plugins``).
+        allow_plugins: Whether it may load Python plugins.
+        traces: A folder to keep each run's trace in (under ``name``, the student's as a file's).
+        runs: Each seed's run is added to this list as its replay, for a page.
+        name: The student as a file's name (default: :func:`file_names`'s).
+    """
+    zero = [0.0] * len(exercise.criteria)
+    spec, problems = check_text(exercise, text, label, base_dir, allow_plugins)
     if spec is None:
-        return Report(student, readable(str(mission)), 0.0, exercise.max_points, zero, problems)
+        return Report(student, readable(label), 0.0, exercise.max_points, zero, [str(p) for p in problems])
     seeds = []
     earned = [0.0] * len(exercise.criteria)
     for seed in exercise.seeds:
@@ -244,7 +281,7 @@ def grade_one(
             f"every run is in the exercise's world '{exercise.world.name}'"
         )
     total = round(sum(exact), 2)
-    report = Report(student, readable(str(mission)), total, exercise.max_points, marks, [], seeds, notes)
+    report = Report(student, readable(label), total, exercise.max_points, marks, [], seeds, notes)
     report.shape = list(tree_shape(spec))
     return report
 

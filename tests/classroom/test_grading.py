@@ -1150,3 +1150,16 @@ def test_a_near_miss_earns_its_part_of_what_requires_some_of_it(tmp_path):
     )
     with pytest.raises(ExerciseInvalid, match="give requires or requires_some, not both"):
         load_exercise(both)
+
+
+def test_the_job_grades_a_mission_s_text_as_the_file_it_came_in_is_graded(tmp_path):
+    from autonomy.classroom import grade_mission
+
+    exercise = load_exercise(EXERCISES / "garage.yaml")
+    for source in (EXERCISES / "solutions" / "garage.yaml", EXERCISES / "wrong" / "garage_full_speed.yaml"):
+        (tmp_path / "alice.yaml").write_bytes(source.read_bytes())
+        from_file = grade_one(exercise, "alice", tmp_path / "alice.yaml")
+        from_text = grade_mission(exercise, "alice", source.read_text(), str(tmp_path / "alice.yaml"), tmp_path)
+        assert from_text.to_json() == from_file.to_json() and from_file.seeds
+    typo = grade_mission(exercise, "bob", "mission: park\ntree: mvoe\n", "bob.yaml", tmp_path)
+    assert typo.total == 0 and typo.problems[0].startswith("bob.yaml:2:7: ") and typo.file == "bob.yaml"
