@@ -113,9 +113,13 @@ def vendor_response(library: str, name: str) -> web.Response:
 
 
 def _origins(host: str, port: int) -> list[str]:
-    """The origins the editor's page is opened at: on a loopback address, as every browser names this machine."""
+    """The origins the editor's page is opened at: on a loopback address, as every browser names this machine.
+
+    A policy names no IPv6 address (its grammar has none: a browser drops ``http://[::1]:8766`` as invalid), so
+    the page is opened at 127.0.0.1 or localhost, as printed.
+    """
     if host in ("127.0.0.1", "localhost", "::1"):
-        return [f"http://127.0.0.1:{port}", f"http://localhost:{port}", f"http://[::1]:{port}"]
+        return [f"http://127.0.0.1:{port}", f"http://localhost:{port}"]
     if host in ("", "0.0.0.0", "::"):  # every interface: the machine's names are the browser's to choose
         return [f"http://*:{port}"]
     return [f"http://{host}:{port}" if ":" not in host else f"http://[{host}]:{port}"]

@@ -64,11 +64,11 @@ function blocksChain(state) {
   return chain;
 }
 
-/** What must be the same for a block to be kept (its fields, data and what it holds may change): its type, and its
- * comment (a comment's bubble is made with its block). */
+/** What must be the same for a block to be kept: its type and whatever else its state says, bar what a patch sets
+ * in place (its fields, data, comment, whether it is turned off or folded) and what it holds. */
 function blocksKind(state) {
-  const comment = state.icons && state.icons.comment ? state.icons.comment.text : null;
-  return JSON.stringify([state.type, state.extraState || null, comment]);
+  const {id, x, y, fields, data, icons, inputs, next, collapsed, enabled, disabledReasons, ...rest} = state;
+  return JSON.stringify(Object.keys(rest).sort().map((key) => [key, rest[key]]));
 }
 
 /** Makes `state`'s block in `workspace`, with the blocks it holds (and, `under`, the blocks under it); notes the id
@@ -116,7 +116,9 @@ function blocksPatchChain(workspace, connection, blocks, states, ids) {
   if (!gone.length && !coming.length) return;
   const rest = connection ? blocks[blocks.length - tail] || null : null; // the first block kept after the others
   if (rest) rest.unplug(false);
-  for (const block of gone) block.dispose(false);
+  for (const block of gone) { // in a chain, the first takes the others under it with it
+    if (!block.isDeadOrDying()) block.dispose(false);
+  }
   let at = head ? blocks[head - 1].nextConnection : connection;
   for (const state of coming) {
     const block = blocksMake(workspace, state, ids, !connection); // alone: a stack of its own, made whole
@@ -141,6 +143,18 @@ function blocksPatch(workspace, block, state, ids) {
     if (JSON.stringify(value) !== JSON.stringify((had.fields || {})[name])) block.setFieldValue(value, name);
   }
   block.data = state.data || null;
+  // as a whole load makes it: turned on, unfolded unless said, its comment (text, size, shown) as the state has it
+  for (const reason of block.getDisabledReasons()) block.setDisabledReason(false, reason);
+  if (block.isCollapsed() !== Boolean(state.collapsed)) block.setCollapsed(Boolean(state.collapsed));
+  const comment = state.icons && state.icons.comment;
+  if (JSON.stringify(comment || null) !== JSON.stringify((had.icons && had.icons.comment) || null)) {
+    if (!comment) {
+      block.setCommentText(null);
+    } else {
+      if (!block.getCommentText()) block.setCommentText(comment.text);
+      block.getIcon(Blockly.icons.IconType.COMMENT).loadState(comment);
+    }
+  }
   const names = new Set([...Object.keys(state.inputs || {}), ...block.inputList.map((input) => input.name)]);
   for (const name of names) {
     const input = block.getInput(name);
@@ -189,7 +203,12 @@ function blocksLoad(workspace, state) {
   let patched = false;
   Blockly.Events.disable();
   try {
-    blocksPatchChain(workspace, null, workspace.getTopBlocks(true), given, ids);
+    blocksPatchChain(workspace, null, workspace.getTopBlocks(false), given, ids);
+    for (const top of given) { // the stacks in the state's order, as a whole load has them (and saves them)
+      const block = workspace.getBlockById(ids.get(top.id));
+      workspace.removeTopBlock(block);
+      workspace.addTopBlock(block);
+    }
     Blockly.renderManagement.triggerQueuedRenders(workspace);
     blocksLayOut(workspace);
     patched = true;
@@ -256,11 +275,14 @@ function blocksSelection(workspace) {
   return () => (selected && workspace.getBlockById(selected) ? selected : null);
 }
 
-/** Gives the keyboard's focus to the block `id` (shown, scrolled to); whether there is one. */
+/** Gives the keyboard's focus to the block `id` (shown, scrolled to); whether there is one.
+ *
+ * Given once what is under way is done: a block disposed by the last load hands its focus on to a neighbour a
+ * moment later (Blockly's own), which would take it back. */
 function blocksFocus(workspace, id) {
   const last = blocksLoaded.get(workspace);
   const shown = last && last.ids && last.ids.has(id) ? last.ids.get(id) : id; // the block kept for it
   const block = shown ? workspace.getBlockById(shown) : null;
-  if (block) Blockly.getFocusManager().focusNode(block);
+  if (block) setTimeout(() => { if (!block.isDeadOrDying()) Blockly.getFocusManager().focusNode(block); });
   return Boolean(block);
 }

@@ -13,6 +13,7 @@ let loading = false;
 let blocksTimer = null;
 let textTimer = null;
 let blocksChanged = false; // the blocks changed since the text was last made of them
+let conversions = 0; // conversions asked of the server: an answer to one that a later one overtook is let go
 let savedText = null; // the text as the file has it
 
 async function api(path, body) {
@@ -82,7 +83,9 @@ async function toText(keepCursor) {
   }
   const state = Blockly.serialization.workspaces.save(workspace);
   const selected = keepCursor === true ? selectedBlock() : null;
+  const asked = ++conversions;
   const answer = await api(selected ? `/api/text?selected=${encodeURIComponent(selected)}` : '/api/text', {workspace: state});
+  if (asked !== conversions) return false; // the text or the blocks changed again meanwhile: that answer is the one
   if (answer.ok) {
     text.value = answer.text;
     if (answer.line) text.goToLine(answer.line);
@@ -100,6 +103,8 @@ async function toText(keepCursor) {
  * `keepCursor`: the block of the cursor's node gets the focus. */
 async function toBlocks(keepCursor) {
   clearTimeout(textTimer);
+  clearTimeout(blocksTimer); // the text is shown as it is now: a change of the blocks before it is the text's to undo
+  const asked = ++conversions;
   const written = text.value;
   if (!written.trim()) {
     load(BLOCKS_NEW_MISSION);
@@ -108,6 +113,7 @@ async function toBlocks(keepCursor) {
     return true;
   }
   const answer = await api(`/api/blocks?line=${text.cursorLine()}`, {text: written});
+  if (asked !== conversions) return false;
   if (answer.ok) {
     load(answer.workspace);
     if (keepCursor === true) blocksFocus(workspace, answer.selected);
