@@ -204,10 +204,14 @@ function blocksLoad(workspace, state) {
   Blockly.Events.disable();
   try {
     blocksPatchChain(workspace, null, workspace.getTopBlocks(false), given, ids);
-    for (const top of given) { // the stacks in the state's order, as a whole load has them (and saves them)
-      const block = workspace.getBlockById(ids.get(top.id));
-      workspace.removeTopBlock(block);
-      workspace.addTopBlock(block);
+    // the stacks in the state's order, as a whole load has them (and saves them); put so only when they are not
+    // (a stack put again is drawn again whole)
+    const order = given.map((top) => workspace.getBlockById(ids.get(top.id)));
+    if (order.some((block, i) => workspace.getTopBlocks(false)[i] !== block)) {
+      for (const block of order) {
+        workspace.removeTopBlock(block);
+        workspace.addTopBlock(block);
+      }
     }
     Blockly.renderManagement.triggerQueuedRenders(workspace);
     blocksLayOut(workspace);
