@@ -13,14 +13,19 @@ installed package, so ``setup.sh`` installs what grades here, whichever way it w
 from __future__ import annotations
 
 import io
+import json
 import zipfile
 from importlib import metadata, resources
 from pathlib import Path
+from typing import Any
 
 from autonomy import __version__
 from autonomy.classroom.exercise import Exercise
+from autonomy.classroom.report import feedback, for_the_student
+from autonomy.classroom.results import Report
 from autonomy.emulator.world import SHIPPED
 from autonomy.errors import AutonomyError
+from autonomy.views.lines import printable
 
 SETUP = """#!/usr/bin/env bash
 # Gradescope runs this once, to build the autograder's image: Python and this package.
@@ -128,3 +133,49 @@ def build_autograder(exercise: Exercise, exercise_path: Path, secret: bytes | No
             info.compress_type = zipfile.ZIP_DEFLATED
             archive.writestr(info, data)
     return out.getvalue()
+
+
+def to_gradescope(exercise: Exercise, report: Report) -> str:
+    """One submission's marks as Gradescope's autograder results (``results.json``).
+
+    Each criterion is a test (``name``, ``score``, ``max_score``, ``output``: each seed's line,
+    ``visibility``); a teacher's correction is a test of its own; the student's whole feedback is
+    the ``output``; the top-level ``score`` is the mark, corrections included.
+    """
+    report = for_the_student(report)  # Gradescope shows it to the student
+    tests: list[dict[str, Any]] = []
+    for index, criterion in enumerate(exercise.criteria):
+        if report.problems:
+            output = "Not graded: " + " | ".join(printable(p) for p in report.problems)
+        else:
+            output = "\n".join(
+                f"{seed.seed}: {'yes' if seed.verdicts[index][0] else 'no'} {printable(seed.verdicts[index][1])}"
+                for seed in report.seeds
+            )
+        tests.append(
+            {
+                "name": printable(criterion.label),
+                "score": report.marks[index],
+                "max_score": criterion.points,
+                "output": output,
+                "visibility": "visible",
+            }
+        )
+    for points, reason in report.adjustments:
+        tests.append(
+            {
+                "name": "Correction by the teacher",
+                "score": points,
+                "max_score": 0,
+                "output": printable(reason),
+                "visibility": "visible",
+            }
+        )
+    document = {
+        "score": report.total,
+        "output": "\n".join(feedback(exercise, report)),
+        "visibility": "visible",
+        "stdout_visibility": "hidden",
+        "tests": tests,
+    }
+    return json.dumps(document, indent=1, ensure_ascii=False) + "\n"

@@ -328,6 +328,8 @@ def _beeps_in(criterion: Criterion, facts: RunFacts, zones: list[Zone]) -> Verdi
 def _turn_text(degrees: float) -> str:
     """``left 90``, ``right 45``: a turn as a heading's change, within a half-turn either way."""
     wrapped = (degrees + 180.0) % 360.0 - 180.0
+    if round(abs(wrapped)) == 180:  # a half-turn: the way it was turned (wrapping alone says right for 180 left)
+        wrapped = math.copysign(180.0, degrees)
     return f"{'left' if wrapped >= 0 else 'right'} {abs(wrapped):.0f}"
 
 

@@ -12,8 +12,8 @@ import json
 from collections.abc import Iterator
 from dataclasses import replace
 from html import escape
-from pathlib import Path
-from typing import Any
+from pathlib import Path, PurePath
+from urllib.parse import parse_qsl, urlencode, urlsplit, urlunsplit
 
 from autonomy.classroom.exercise import Exercise
 from autonomy.classroom.gradebook import RosterMatch, similar
@@ -293,51 +293,6 @@ def to_html(exercise: Exercise, reports: list[Report], pages: dict[str, str] | N
     return "\n".join(parts) + "\n"
 
 
-def to_gradescope(exercise: Exercise, report: Report) -> str:
-    """One submission's marks as Gradescope's autograder results (``results.json``).
-
-    Each criterion is a test (``name``, ``score``, ``max_score``, ``output``: each seed's line,
-    ``visibility``); a teacher's correction is a test of its own; the student's whole feedback is
-    the ``output``; the top-level ``score`` is the mark, corrections included.
-    """
-    tests: list[dict[str, Any]] = []
-    for index, criterion in enumerate(exercise.criteria):
-        if report.problems:
-            output = "Not graded: " + " | ".join(printable(p) for p in report.problems)
-        else:
-            output = "\n".join(
-                f"{seed.seed}: {'yes' if seed.verdicts[index][0] else 'no'} {printable(seed.verdicts[index][1])}"
-                for seed in report.seeds
-            )
-        tests.append(
-            {
-                "name": printable(criterion.label),
-                "score": report.marks[index],
-                "max_score": criterion.points,
-                "output": output,
-                "visibility": "visible",
-            }
-        )
-    for points, reason in report.adjustments:
-        tests.append(
-            {
-                "name": "Correction by the teacher",
-                "score": points,
-                "max_score": 0,
-                "output": printable(reason),
-                "visibility": "visible",
-            }
-        )
-    document = {
-        "score": report.total,
-        "output": "\n".join(feedback(exercise, report)),
-        "visibility": "visible",
-        "stdout_visibility": "hidden",
-        "tests": tests,
-    }
-    return json.dumps(document, indent=1, ensure_ascii=False) + "\n"
-
-
 #: Opens the mission's blocks of a page opened at ``#as-blocks``.
 _OPEN_BLOCKS = "if (location.hash === '#as-blocks') document.getElementById('as-blocks').open = true;"
 _FEEDBACK_STYLE = """
@@ -384,6 +339,7 @@ def feedback_page(
         source: Their mission file's text (None: it could not be read).
         runs: For each seed, its run to replay, or None.
     """
+    report = for_the_student(report)
     name = escape(printable(report.student))
     yield "<!doctype html>\n"
     yield '<html lang="en"><head><meta charset="utf-8">\n'
@@ -446,15 +402,38 @@ def feedback_page(
     yield "</body></html>\n"
 
 
+def for_the_student(report: Report) -> Report:
+    """The report as a student is shown it: their file named by its name alone, in its problems too.
+
+    Where the teacher keeps the file (a folder of their machine) is none of the student's business.
+    """
+    name = PurePath(report.file).name if report.file else ""
+    if name == report.file:
+        return report
+    return replace(report, file=name, problems=[problem.replace(report.file, name) for problem in report.problems])
+
+
+def _emulator_shown(port: str) -> str:
+    """An ``emu://`` address with its world named by its file's name alone (a world file's folder is the teacher's)."""
+    if not port.startswith("emu://"):
+        return port
+    parts = urlsplit(port)
+    query = [(key, PurePath(value).name if key == "world" else value) for key, value in parse_qsl(parts.query)]
+    return urlunsplit(parts._replace(query=urlencode(query)))
+
+
 def _shown_header(header: RunHeader, seed: SeedResult) -> RunHeader:
     """A run's header as a student's page shows it.
 
-    No date (grading twice writes the same page), and a hidden seed's number nowhere, neither
-    the seed nor the emulator's address: with it, the run could be made again.
+    No date (grading twice writes the same page), no folder of the teacher's machine (the mission
+    file and each node's file by their names, the world's too), and a hidden seed's number
+    nowhere, neither the seed nor the emulator's address: with it, the run could be made again.
     """
+    nodes = [replace(node, file=PurePath(node.file).name) if node.file else node for node in header.nodes]
+    shown = replace(header, date="", nodes=nodes, mission_file=PurePath(header.mission_file).name)
     if not seed.seed.startswith("hidden"):
-        return replace(header, date="")
-    return replace(header, date="", seed=None, port=f"the exercise's emulator, {seed.seed}")
+        return replace(shown, port=_emulator_shown(header.port))
+    return replace(shown, seed=None, port=f"the exercise's emulator, {seed.seed}")
 
 
 def write_feedback_page(exercise: Exercise, report: Report, folder: Path, runs: list[ReplayMaker], name: str) -> Path:

@@ -35,8 +35,9 @@ from autonomy.classroom.gradebook import (
     read_roster,
     unknown_students,
 )
+from autonomy.classroom.gradescope import to_gradescope
 from autonomy.classroom.limits import DEFAULT_MEMORY_MB, WALL_PER_CPU, default_cpu_s
-from autonomy.classroom.report import to_csv, to_gradescope, to_html, to_json
+from autonomy.classroom.report import to_csv, to_html, to_json
 from autonomy.classroom.results import Report, file_names, page_path
 from autonomy.emulator.world import SHIPPED
 

@@ -648,6 +648,20 @@ def test_turns_count_a_heading_s_change_at_one_place():
     )  # 85 is within 10 of 90; 450 left is a quarter-turn left as the path sees it
 
 
+def test_a_half_turn_is_said_the_way_it_was_turned():
+    from autonomy.classroom.exercise import Criterion
+    from autonomy.classroom.judge import _turn_text, judge
+    from autonomy.record import Pose
+
+    assert [_turn_text(d) for d in (180.0, -180.0, 540.0, 179.6, -179.6, 450.0, -90.0)] == [
+        "left 180", "right 180", "left 180", "left 180", "right 180", "left 90", "right 90"
+    ]  # fmt: skip
+    world = load_world_of("square")
+    about = Criterion("turns", 180, 0.0, {"count": 1.0, "tolerance_deg": 10.0}, "turns 180")
+    back = _facts([(0.0, Pose(700, 700, 0)), (2.0, Pose(700, 700, 180))])  # turned round to the left
+    assert judge(about, back, world).line == "turned left 180 ± 10 degrees 1 time, needed 1"
+
+
 def test_a_robot_still_moving_when_its_time_ran_out_did_not_come_to_rest():
     from autonomy.classroom.exercise import Criterion
     from autonomy.classroom.judge import judge

@@ -685,3 +685,30 @@ def test_a_submission_folder_may_hold_its_mission_as_xml_in_any_case_or_one_fold
     rows = {row["student"]: row for row in csv.DictReader((tmp_path / "m.csv").open())}
     assert [rows[s]["total"] for s in ("xml", "upper", "zipped")] == ["10", "10", "10"]
     assert rows["odd"]["problems"] == "odd: no mission file (.yaml, .yml or .xml) in the folder (it holds notes.txt)"
+
+
+def test_a_student_s_page_and_gradescope_results_name_no_folder_of_the_teacher_s_machine(tmp_path):
+    # a teacher's own exercise, its world a file in a folder of theirs, the students' files given by full paths
+    folder = tmp_path / "teacher-secret-folder"
+    (folder / "worlds").mkdir(parents=True)
+    (folder / "worlds" / "hall.yaml").write_bytes(
+        (ROOT / "autonomy" / "emulator" / "worlds" / "garage.yaml").read_bytes()
+    )
+    exercise = (ROOT / "exercises" / "garage.yaml").read_text().replace("world: garage", "world: worlds/hall.yaml")
+    (folder / "mine.yaml").write_text(exercise)
+    (folder / "alice.yaml").write_bytes((ROOT / "exercises" / "solutions" / "garage.yaml").read_bytes())
+    (folder / "bob.yaml").write_text("mission: bob\ntree:\n  mvoe: {speed: 2}\n")
+    pages = folder / "pages"
+    graded = autonomy("grade", str(folder / "mine.yaml"), str(folder / "alice.yaml"), str(folder / "bob.yaml"),
+                      "--feedback", str(pages), "--quiet")  # fmt: skip
+    assert graded.returncode == 0, graded.stderr
+    results = folder / "results.json"
+    scoped = autonomy("grade", str(folder / "mine.yaml"), str(folder / "bob.yaml"), "--gradescope", str(results))
+    assert scoped.returncode == 2 and "bob.yaml:3:3" in results.read_text()  # its problem, at its place
+    given = [*sorted(pages.glob("*.html")), results]
+    assert len(given) == 3
+    for shown in given:
+        text = shown.read_text()
+        assert str(tmp_path) not in text and "teacher-secret-folder" not in text and "worlds/hall" not in text, shown
+        assert "worlds%2Fhall" not in text and ("alice.yaml" in text or "bob.yaml" in text), shown
+    assert "hall.yaml" in (pages / "alice.html").read_text()  # the world, by its file's name
