@@ -1,7 +1,8 @@
 """What a teacher does with a class's marks: a roster of student ids, corrections by hand, and what changed.
 
-- A roster (``id,name,submission``) puts each student's id first in the gradebook, lists a
-  student who handed in nothing as such, and reports a submission on no roster line.
+- A roster (``id,name``, and perhaps ``submission``, which is the id without it) puts each
+  student's id first in the gradebook, lists a student who handed in nothing as such, and
+  reports a submission on no roster line.
 - An adjustment (``student,points,reason``) is a teacher's correction: added to the mark, and
   shown with its reason wherever the mark is.
 - A comparison says what changed since an earlier grading's JSON: new, missing and changed
@@ -27,7 +28,7 @@ from autonomy.errors import AutonomyError
 from autonomy.source import UnreadableFile, control_character, read_text
 from autonomy.words import plural
 
-ROSTER_COLUMNS = ("id", "name", "submission")
+ROSTER_COLUMNS = ("id", "name")  # and, if it has one, "submission" (default: the id)
 ADJUST_COLUMNS = ("student", "points", "reason")
 #: How many rows a roster or an adjustment file may have.
 MOST_ROWS = 100_000
@@ -61,8 +62,11 @@ class Adjustment:
     line: int
 
 
-def _rows(path: str | Path, columns: tuple[str, ...], what: str) -> list[tuple[int, dict[str, str]]]:
-    """The rows of a CSV file with a header naming ``columns`` (others are let be), numbered as in the file."""
+def _rows(path: str | Path, columns: tuple[str, ...], what: str, perhaps: str = "") -> list[tuple[int, dict[str, str]]]:
+    """The rows of a CSV file with a header naming ``columns`` (others are let be), numbered as in the file.
+
+    ``perhaps`` names a column it may have besides, for the message that says which it must.
+    """
     label = str(path)
     try:
         text = read_text(Path(path))
@@ -82,7 +86,9 @@ def _rows(path: str | Path, columns: tuple[str, ...], what: str) -> list[tuple[i
     if missing:
         raise GradebookError(
             [
-                f"{label}:1: the {what}'s first line must name the columns {','.join(columns)}; "
+                f"{label}:1: the {what}'s first line must name the columns {','.join(columns)}"
+                + (f" (and perhaps {perhaps})" if perhaps else "")
+                + "; "
                 f"missing: {', '.join(missing)} (got {','.join(header) or 'nothing'})"
             ]
         )
@@ -107,23 +113,28 @@ def _rows(path: str | Path, columns: tuple[str, ...], what: str) -> list[tuple[i
 
 
 def read_roster(path: str | Path) -> list[RosterEntry]:
-    """Reads a roster: ``id,name,submission`` (the submission: a student as graded, or a path to their file).
+    """Reads a roster: ``id,name`` and perhaps ``submission`` (a student as graded, or a path to their file).
+
+    Without a submission column, a student's submission is their id (``alice``: ``alice.yaml``, or
+    the folder ``alice/``); a live class reads the id and the name alone.
 
     Raises:
         GradebookError: every problem, ``FILE:LINE: message``.
     """
     problems, entries, seen, handed = [], [], {}, {}
-    for number, row in _rows(path, ROSTER_COLUMNS, "roster"):
-        ident, name, submission = row["id"], row["name"], row["submission"]
+    for number, row in _rows(path, ROSTER_COLUMNS, "roster", perhaps="submission"):
+        ident, name = row["id"], row["name"]
+        given = "submission" in row  # else each student's submission is their id (told apart as ids are)
+        submission = row["submission"] if given else ident
         if not ident or control_character(ident):
             problems.append(f"{path}:{number}: a student needs an id (printable text)")
         elif ident in seen:
             problems.append(f"{path}:{number}: id '{ident}' is on line {seen[ident]} already")
         else:
             seen[ident] = number
-        if submission and submission in handed:
+        if given and submission and submission in handed:
             problems.append(f"{path}:{number}: submission '{submission}' is on line {handed[submission]} already")
-        elif submission:
+        elif given and submission:
             handed[submission] = number
         entries.append(RosterEntry(ident, name, submission, number))
     if problems:

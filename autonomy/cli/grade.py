@@ -321,7 +321,8 @@ def add_parsers(sub: Any) -> None:
     grade.add_argument(
         "--roster",
         metavar="FILE.csv",
-        help="the class list (columns id,name,submission): ids first in the gradebook, missing students listed",
+        help="the class list (columns id,name and perhaps submission, which is the id without it): ids first in "
+        "the gradebook, missing students listed",
     )
     grade.add_argument(
         "--adjust",

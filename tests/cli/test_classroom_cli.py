@@ -452,9 +452,21 @@ def test_a_roster_puts_ids_first_lists_who_handed_in_nothing_and_who_is_not_on_i
     assert refused.returncode == 2 and refused.stderr.strip() == "twice.csv:3: id '7' is on line 2 already"
     (tmp_path / "headless.csv").write_text("1001,Alice,alice\n")
     refused = grade_in(tmp_path, "garage", *files, "--roster", "headless.csv")
-    assert refused.returncode == 2 and "headless.csv:1: the roster's first line must name the columns id,name," in (
-        refused.stderr
-    )
+    said = "headless.csv:1: the roster's first line must name the columns id,name (and perhaps submission);"
+    assert refused.returncode == 2 and said in refused.stderr
+
+
+def test_a_roster_of_ids_and_names_alone_takes_each_id_for_its_submission(tmp_path):
+    files = _desk(tmp_path)
+    (tmp_path / "roster.csv").write_text("id,name\nalice,Alice Smith\ncarol,Carol King\n")
+    result = grade_in(tmp_path, "garage", *files, "--roster", "roster.csv", "--csv", "marks.csv")
+    assert result.returncode == 0, result.stderr
+    assert "no submission: carol Carol King (roster line 3)" in result.stdout
+    rows = list(csv.reader((tmp_path / "marks.csv").read_text().splitlines()))
+    assert [row[:4] for row in rows[1:3]] == [["alice", "Alice Smith", "alice", "10"], ["carol", "Carol King", "", "0"]]
+    (tmp_path / "twice.csv").write_text("id,name\n7,A\n7,B\n")
+    refused = grade_in(tmp_path, "garage", *files, "--roster", "twice.csv")
+    assert refused.returncode == 2 and refused.stderr.strip() == "twice.csv:3: id '7' is on line 2 already"
 
 
 def test_a_teacher_s_correction_is_added_to_the_mark_and_shown_with_its_reason_everywhere(tmp_path):
