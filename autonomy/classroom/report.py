@@ -143,6 +143,16 @@ pre.problems { background: #fff5f5; padding: .5em; white-space: pre-wrap; }
 """
 
 
+def seed_heading(exercise: Exercise, seed: SeedResult) -> str:
+    """A seed's heading, what it earned first: ``seed 8: 0 of 10 points (the run: succeeded after 9.8 s)``.
+
+    Then how the run ended: a run that ended by itself with no points must not read as a pass.
+    """
+    earned = round(sum(c.points * share for c, share in zip(exercise.criteria, seed.shares, strict=False)), 2)
+    out_of = _number(exercise.max_points)
+    return f"{seed.seed}: {_number(earned)} of {out_of} points (the run: {seed.outcome} after {seed.time_s:g} s)"
+
+
 def _cell(mark: float, points: float) -> str:
     kind = "full" if mark >= points else "none" if mark <= 0 else "part"
     return f'<td class="{kind}" data-sort="{mark:g}">{_number(mark)}</td>'
@@ -285,8 +295,7 @@ def to_html(exercise: Exercise, reports: list[Report], pages: dict[str, str] | N
             )
             picture = _seed_svg(exercise, seed, f"{report.student}, {seed.seed}")
             parts.append(
-                f'<div class="seed"><h3>{escape(seed.seed)}: {escape(seed.outcome)} after {seed.time_s:g} s</h3>'
-                f"{picture}<ul>{verdicts}</ul></div>"
+                f'<div class="seed"><h3>{escape(seed_heading(exercise, seed))}</h3>{picture}<ul>{verdicts}</ul></div>'
             )
         parts.append("</div></section>")
     parts.append("</body></html>")
@@ -381,7 +390,7 @@ def feedback_page(
             f'<li class="{"yes" if held else "no"}">{"&#10003;" if held else "&#10007;"} {escape(printable(line))}</li>'
             for held, line in seed.verdicts
         )
-        yield f'<section class="seed"><h2>{escape(seed.seed)}: {escape(seed.outcome)} after {seed.time_s:g} s</h2>\n'
+        yield f'<section class="seed"><h2>{escape(seed_heading(exercise, seed))}</h2>\n'
         yield _seed_svg(exercise, seed, f"{report.student}, {seed.seed}") + f"<ul>{verdicts}</ul>\n"
         if seed.rest_s is not None and seed.rest_s > seed.time_s + 0.05:  # it rolled on after the mission's end
             yield (

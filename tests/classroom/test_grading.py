@@ -1177,3 +1177,18 @@ def test_the_job_grades_a_mission_s_text_as_the_file_it_came_in_is_graded(tmp_pa
         assert from_text.to_json() == from_file.to_json() and from_file.seeds
     typo = grade_mission(exercise, "bob", "mission: park\ntree: mvoe\n", "bob.yaml", tmp_path)
     assert typo.total == 0 and typo.problems[0].startswith("bob.yaml:2:7: ") and typo.file == "bob.yaml"
+
+
+def test_a_run_that_ended_by_itself_with_no_points_is_headed_by_its_points_not_as_a_pass(tmp_path):
+    from autonomy.classroom import grade_mission
+    from autonomy.classroom.report import seed_heading, write_feedback_page
+
+    exercise = load_exercise(EXERCISES / "garage.yaml")
+    report = grade_mission(exercise, "alice", "mission: idle\ntree: stop\n", "alice.yaml", tmp_path)
+    first = report.seeds[0]
+    assert first.outcome == "succeeded" and report.total == 0
+    heading = f"{first.seed}: 0 of 10 points (the run: succeeded after {first.time_s:g} s)"
+    assert seed_heading(exercise, first) == heading
+    page = write_feedback_page(exercise, report, tmp_path, [None] * len(report.seeds), "alice").read_text()
+    assert f"<h2>{first.seed}: 0 of 10 points (the run: succeeded" in page
+    assert not re.search(r"<h2>seed \d+: succeeded", page)

@@ -388,7 +388,8 @@ function showResult(result) {
     }),
   );
   $("outcomes").replaceChildren(
-    ...result.seeds.map((s) => element("li", `${s.seed}: ${s.outcome}, ${number(s.earned)} / ${number(result.max_points)}`)),
+    // the points first: a run that ended by itself with none must not read as a pass
+    ...result.seeds.map((s) => element("li", `${s.seed}: ${number(s.earned)} of ${number(result.max_points)} points (the run: ${s.outcome})`)),
   );
   const notes = [...result.problems, ...result.notes, ...(result.page_problem ? [result.page_problem] : [])];
   $("notes").replaceChildren(...notes.map((n) => element("li", n)));
