@@ -145,6 +145,35 @@ def _print_crash(end: Any, debug: bool) -> None:
             print("  (--debug prints the whole traceback)", file=sys.stderr)
 
 
+def _came_to_rest(client: Any) -> str:
+    """On the in-process emulator: where the robot came to rest after the final stop, and what it hit on the way.
+
+    The run ends when the mission does; a robot that was going fast rolls on after its stop (and
+    may hit what is ahead), which is what grading judges. Elsewhere (a real robot, an emulator
+    over a link) nothing is known of it: empty.
+    """
+    from autonomy.classroom.facts import SETTLE_MOST_S, settle
+    from autonomy.classroom.judge import hit
+
+    emulator = getattr(client.port, "emulator", None)
+    if emulator is None:
+        return ""
+    robot = emulator.robot
+    stopped_s, where, impacts = robot.time_s, robot.pose, len(robot.impacts)
+    settle(robot)
+    if robot.moving:
+        return f"After the stop it was still moving {SETTLE_MOST_S:g} s later."
+    rest = robot.pose
+    rolled_mm = ((rest.x_mm - where.x_mm) ** 2 + (rest.y_mm - where.y_mm) ** 2) ** 0.5
+    hits = sorted({hit(robot.world, impact.pose) for impact in robot.impacts[impacts:]})
+    at = f"({rest.x_mm:.0f}, {rest.y_mm:.0f}) mm"
+    if rolled_mm < 1.0 and not hits:
+        return f"After the stop it came to rest where it stopped, at {at}."
+    struck = f", hitting {' and '.join(hits)} on the way" if hits else ""
+    later_s = max(0.0, robot.moved_s - stopped_s)
+    return f"After the stop it rolled on {rolled_mm:.0f} mm and came to rest {later_s:.1f} s later at {at}{struck}."
+
+
 def cmd_run(args: argparse.Namespace) -> int:
     """Runs a mission on the robot or the built-in emulator."""
     from autonomy.runner import FAILED, INTERRUPTED, LINK_LOST, SUCCEEDED, Runner, settled_heap
@@ -237,7 +266,9 @@ def cmd_run(args: argparse.Namespace) -> int:
         finally:
             interrupts.raised = True  # from here on Ctrl-C waits: the stop and the summary come first
             client.close()
-        output.paragraph(summary.paragraph)
+        rest = _came_to_rest(client)  # past the run's records: what a replay of them cannot say
+        run_part, link_part = summary.paragraph.split(" Link: ", 1)  # said before the link's counts
+        output.paragraph(f"{run_part}{' ' + rest if rest else ''} Link: {link_part}")
         _print_crash(runner.end, args.debug)
         if server is not None and not output.closed and summary.outcome != INTERRUPTED:
             _serve_until_interrupted(server, "the run is over", interrupts)

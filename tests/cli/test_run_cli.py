@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 import signal
 import subprocess
 import sys
@@ -25,6 +26,31 @@ def test_run_fast_succeeds_with_a_live_view_and_a_summary():
     assert all(len(line) <= 100 and line[7:9] == " s" and line.index("front") == 11 for line in ticks)
     assert lines[-1].startswith("Mission 'square' succeeded after 10.2 s")
     assert "It was stopped at the end." in lines[-1]
+
+
+def test_the_summary_says_where_the_robot_came_to_rest_after_the_stop_and_what_it_hit(tmp_path):
+    # ended at full speed 6 cm from the wall: the run sees no collision, the robot rolls on into the wall
+    fast = autonomy("run", "autonomy/exercises/wrong/garage_full_speed.yaml", "--fast", "--quiet")
+    assert fast.returncode == 0, fast.stderr
+    summary = fast.stdout.strip().splitlines()[-1]
+    assert "with no collisions" in summary and re.search(
+        r"It was stopped at the end\. After the stop it rolled on \d+ mm and came to rest [\d.]+ s later at "
+        r"\(\d+, \d+\) mm, hitting end_wall on the way\. Link: ",
+        summary,
+    ), fast.stdout
+    calm = autonomy("run", "missions/square.yaml", "--fast", "--quiet")
+    assert "After the stop it came to rest where it stopped, at (" in calm.stdout, calm.stdout
+    emulator = subprocess.Popen(  # an emulator over a link: nothing is known of what comes after the stop
+        [sys.executable, "-m", "autonomy", "emulator", "--tcp", "127.0.0.1:0", "--world", "garage"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT,
+    )  # fmt: skip
+    try:
+        address = re.search(r"socket://\S+", emulator.stdout.readline())[0]
+        linked = autonomy("run", "autonomy/exercises/wrong/garage_full_speed.yaml", "--port", address, "--quiet")
+        assert linked.returncode == 0 and "After the stop" not in linked.stdout, linked.stdout
+    finally:
+        emulator.terminate()
+        emulator.communicate(timeout=30)
 
 
 def test_run_failure_exits_1(tmp_path):
