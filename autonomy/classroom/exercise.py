@@ -27,10 +27,10 @@ from typing import Any
 from autonomy.classroom.criteria import CRITERIA
 from autonomy.classroom.secret import hidden_seed
 from autonomy.emulator.faults import FaultSpec, FaultSpecError
-from autonomy.emulator.world import SHIPPED, World, WorldError, WorldInvalid, load_world
+from autonomy.emulator.world import SHIPPED, World, WorldError, WorldInvalid, load_world, world_file
 from autonomy.errors import AutonomyError
 from autonomy.mission.registry import BUILTINS
-from autonomy.source import Located, Problem, Reader, UnreadableFile, is_file, parse, read_text, suggest
+from autonomy.source import Located, Problem, Reader, UnreadableFile, exists, is_file, parse, read_text, suggest
 
 TOP_LEVEL = (
     "exercise",
@@ -191,16 +191,21 @@ class _Reader(Reader):
         if name is None:
             return None, ""
         ref = name
-        if name not in SHIPPED:
-            path = Path(name)
-            if not path.is_absolute():
-                path = self.base_dir / path
+        path = world_file(name, self.base_dir)
+        if path is not None:
             ref = str(path)
             if not is_file(path):
-                hint = suggest(name, list(SHIPPED))
-                self.problem(
-                    located, "world", f"no world named '{name}'{hint}: use one of {', '.join(SHIPPED)} or a world file"
-                )
+                if exists(path):
+                    why = f"'{name}' is not a world file (a folder, a device or a pipe)"
+                elif Path(name).suffix or "/" in name:  # a file's name: that file is missing
+                    why = f"the world file '{name}' is not there (beside the exercise: {path})"
+                else:
+                    hint = suggest(name, list(SHIPPED))
+                    why = (
+                        f"no world named '{name}'{hint}: use one of {', '.join(SHIPPED)}, or a world file beside the "
+                        f"exercise ({name}.yaml)"
+                    )
+                self.problem(located, "world", why)
                 return None, ""
         try:
             return load_world(ref), ref

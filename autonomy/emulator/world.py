@@ -1089,6 +1089,24 @@ def _shipped_world(name: str) -> World:
     return _read_text(source, f"{name}.yaml", name)
 
 
+def world_file(name: str, base_dir: Path) -> Path | None:
+    """Where the world a file names as ``name`` is, the file being in ``base_dir``; None for a shipped world.
+
+    A shipped world's name is that world. A bare name (``hall``) is the world file ``hall.yaml``
+    beside the file, when there is one (a folder called ``hall`` is not taken for it). Anything
+    else is a path: beside the file, else as given (absolute, or from the working folder); where
+    there is none, the path beside the file, for the message that says so.
+    """
+    if name in SHIPPED:
+        return None
+    path = Path(name)
+    if not path.suffix and is_file(base_dir / path.with_suffix(".yaml")):
+        return base_dir / path.with_suffix(".yaml")
+    if exists(base_dir / path):  # an absolute path stays itself
+        return base_dir / path
+    return path if exists(path) else base_dir / path
+
+
 def load_world(name_or_path: str | Path) -> World:
     """Loads a shipped world by name (:data:`SHIPPED`) or a world file.
 

@@ -18,7 +18,7 @@ from typing import Any
 
 from autonomy.behaviours import Param
 from autonomy.behaviours.base import MAX_NUMBER
-from autonomy.emulator.world import SHIPPED, WorldError, WorldInvalid, load_world
+from autonomy.emulator.world import SHIPPED, WorldError, WorldInvalid, load_world, world_file
 from autonomy.errors import AutonomyError
 from autonomy.mission.registry import BUILTINS, NodeType, Registry, leaf_classes_in, leaf_type
 from autonomy.mission.xml_read import AttributeText, parse_xml
@@ -231,23 +231,22 @@ class _Validator:
 
         A world file's own problems are reported at their place in it.
         """
-        if name in SHIPPED:
+        path = world_file(name, base_dir)
+        if path is None:
             return name
-        path = Path(name)
-        if exists(base_dir / path):  # an absolute path stays itself
-            path = base_dir / path
         if not is_file(path):
             if exists(path):
                 self.problem(where, "world", f"'{name}' is not a world file (a folder, a device or a pipe)")
-                return None
-            hint = _suggest(name, list(SHIPPED))
-            if not hint and not path.suffix and is_file(base_dir / path.with_suffix(".yaml")):
-                hint = f" (did you mean '{name}.yaml', the world file beside the mission?)"
-            self.problem(
-                where,
-                "world",
-                f"no world named '{name}'{hint}: use one of {', '.join(SHIPPED)} or a world file beside the mission",
-            )
+            elif Path(name).suffix or "/" in name:  # a file's name: that file is missing
+                self.problem(where, "world", f"the world file '{name}' is not there (beside the mission: {path})")
+            else:
+                hint = _suggest(name, list(SHIPPED))
+                self.problem(
+                    where,
+                    "world",
+                    f"no world named '{name}'{hint}: use one of {', '.join(SHIPPED)}, or a world file beside the "
+                    f"mission ({name}.yaml)",
+                )
             return None
         try:
             load_world(path)

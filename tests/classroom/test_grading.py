@@ -1192,3 +1192,18 @@ def test_a_run_that_ended_by_itself_with_no_points_is_headed_by_its_points_not_a
     page = write_feedback_page(exercise, report, tmp_path, [None] * len(report.seeds), "alice").read_text()
     assert f"<h2>{first.seed}: 0 of 10 points (the run: succeeded" in page
     assert not re.search(r"<h2>seed \d+: succeeded", page)
+
+
+def test_an_exercise_s_world_named_bare_is_its_file_beside_the_exercise_and_a_missing_file_is_said_so(tmp_path):
+    (tmp_path / "hall").mkdir()  # a folder that happens to share the world's name
+    (tmp_path / "hall.yaml").write_bytes((ROOT / "autonomy" / "emulator" / "worlds" / "garage.yaml").read_bytes())
+    text = (EXERCISES / "garage.yaml").read_text()
+    (tmp_path / "mine.yaml").write_text(text.replace("world: garage", "world: hall"))
+    exercise = load_exercise(tmp_path / "mine.yaml")
+    assert exercise.world_ref == str(tmp_path / "hall.yaml")
+    (tmp_path / "gone.yaml").write_text(text.replace("world: garage", "world: halls.yaml"))
+    with pytest.raises(ExerciseInvalid) as refused:
+        load_exercise(tmp_path / "gone.yaml")
+    assert f"world: the world file 'halls.yaml' is not there (beside the exercise: {tmp_path / 'halls.yaml'})" in str(
+        refused.value.problems[0]
+    )

@@ -108,10 +108,12 @@ def test_world_list_names_every_built_in_world_and_a_world_file_beside_the_missi
     (tmp_path / "lab.yaml").write_text("name: lab\narena_mm: [2000, 2000]\n")
     mission = tmp_path / "m.yaml"
     mission.write_text("mission: m\nworld: lab\ntree:\n  move: {speed: 1, seconds: 1}\n")
-    checked = autonomy("check", str(mission))
-    assert checked.returncode == 2 and "no world named 'lab' (did you mean 'lab.yaml'" in checked.stderr
+    assert autonomy("check", str(mission)).returncode == 0  # lab.yaml, beside the mission
     mission.write_text("mission: m\nworld: lab.yaml\ntree:\n  move: {speed: 1, seconds: 1}\n")
     assert autonomy("check", str(mission)).returncode == 0
+    mission.write_text("mission: m\nworld: labs\ntree:\n  move: {speed: 1, seconds: 1}\n")
+    checked = autonomy("check", str(mission))
+    assert checked.returncode == 2 and "no world named 'labs'" in checked.stderr and "(labs.yaml)" in checked.stderr
 
 
 def test_an_exported_while_is_behaviortree_cpp_s_own_reactive_sequence_and_imports_as_while(tmp_path):

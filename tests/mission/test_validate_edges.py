@@ -210,7 +210,7 @@ def test_a_world_given_by_its_absolute_path_is_used_as_it_is(tmp_path):
 def test_a_mission_file_is_checked_with_its_world_unless_told_not_to(tmp_path):
     mission = tmp_path / "m.yaml"
     mission.write_text("mission: t\nworld: nowhere.yaml\ntree: stop\n")
-    with pytest.raises(MissionInvalid, match="no world named 'nowhere.yaml'"):
+    with pytest.raises(MissionInvalid, match="the world file 'nowhere.yaml' is not there"):
         validate_file(mission)
     assert validate_file(mission, check_world=False).world == "nowhere.yaml"
 

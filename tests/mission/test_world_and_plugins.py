@@ -39,8 +39,18 @@ def test_a_world_given_by_an_absolute_path_is_used_as_it_is(tmp_path):
 def test_an_unknown_world_is_named_with_a_did_you_mean_and_the_choices(tmp_path):
     assert problems("mission: t\nworld: boxx\ntree: stop\n", tmp_path) == [
         "m.yaml:2:8: world: no world named 'boxx' (did you mean 'box'?): use one of box, empty, corridor, "
-        "obstacles, square, garage, slalom, bump, opening or a world file beside the mission"
+        "obstacles, square, garage, slalom, bump, opening, or a world file beside the mission (boxx.yaml)"
     ]
+
+
+def test_a_world_named_bare_is_its_file_beside_the_mission_not_a_folder_of_that_name(tmp_path):
+    (tmp_path / "hall").mkdir()  # a folder that happens to share the world's name
+    (tmp_path / "hall.yaml").write_text("arena_mm: [2000, 1500]\n")
+    spec = validate_text("mission: t\nworld: hall\ntree: stop\n", "m.yaml", tmp_path)
+    assert spec.world == str(tmp_path / "hall.yaml")
+    assert problems("mission: t\nworld: halls.yaml\ntree: stop\n", tmp_path) == [
+        f"m.yaml:2:8: world: the world file 'halls.yaml' is not there (beside the mission: {tmp_path / 'halls.yaml'})"
+    ]  # a missing file is named as one
 
 
 def test_a_world_file_with_problems_is_reported_with_each_of_them_at_its_place(tmp_path):
