@@ -16,7 +16,7 @@ import sys
 from collections.abc import Sequence
 
 from autonomy import __version__
-from autonomy.cli import grade, liveclass, missions, robot, runs, world
+from autonomy.cli import exercises, grade, liveclass, missions, robot, runs, world
 from autonomy.cli.common import EXIT_INTERRUPTED, EXIT_OK, _Parser, _silence_stdout
 
 
@@ -30,6 +30,7 @@ def build_parser() -> argparse.ArgumentParser:
     world.add_parsers(sub)
     missions.add_check(sub)
     grade.add_parsers(sub)
+    exercises.add_parsers(sub)
     liveclass.add_parsers(sub)
     missions.add_parsers(sub)
     return parser

@@ -5,13 +5,14 @@ from __future__ import annotations
 import csv
 import json
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
 
-from tests.cli.test_cli import ROOT, autonomy
+from tests.cli.test_cli import ROOT, assert_one_line_error, autonomy
 
 
 def test_check_validates_the_world_a_mission_names(tmp_path):
@@ -724,3 +725,24 @@ def test_a_student_s_page_and_gradescope_results_name_no_folder_of_the_teacher_s
         assert str(tmp_path) not in text and "teacher-secret-folder" not in text and "worlds/hall" not in text, shown
         assert "worlds%2Fhall" not in text and ("alice.yaml" in text or "bob.yaml" in text), shown
     assert "hall.yaml" in (pages / "alice.html").read_text()  # the world, by its file's name
+
+
+def test_exercise_list_and_show_give_a_teacher_the_exercises_and_one_to_hand_out(tmp_path):
+    listed = autonomy("exercise", "list")
+    assert listed.returncode == 0, listed.stderr
+    names = [line.split()[0] for line in listed.stdout.splitlines()[:-1]]
+    assert names == ["bump", "garage", "opening", "slalom", "square"]
+    assert "garage     2. Park in the garage: world garage, 30 s a run, 10 points, 4 seeds, 12 hidden seeds" in (
+        listed.stdout
+    )
+    shown = autonomy("exercise", "show", "garage")
+    assert shown.returncode == 0, shown.stderr
+    lines = shown.stdout.splitlines()
+    assert lines[:2] == ["2. Park in the garage", "====================="]
+    told = lines[: next(n for n, line in enumerate(lines) if line.startswith("World: garage."))]
+    assert len(told) > 5 and all(len(line) <= 88 for line in told)  # the text, folded for a page
+    assert "Your mission is run on 4 seeds (each a little different), and on 12 hidden ones when handed in." in lines
+    assert "Marks (10 points):" in lines and "  - max_collisions 0: 3" in lines
+    assert not any(re.search(r"\bseed \d", line) for line in lines)  # no seed's number, hidden or public
+    missing = autonomy("exercise", "show", "garag")
+    assert_one_line_error(missing, 2, "no exercise named 'garag' (did you mean 'garage'?)")
