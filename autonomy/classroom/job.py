@@ -265,8 +265,7 @@ def grade_mission(
                 SeedResult(seed.label, "no run", 0.0, [(False, why)] * none, [0.0] * none, world_seed=seed.seed)
             )
             continue
-        world = exercise.world.for_seed(seed.seed)  # where this seed put what the world varies
-        verdicts = _with_requirements(exercise, [judge(c, facts, world) for c in exercise.criteria])
+        verdicts = verdicts_of(exercise, seed, facts)
         for index, verdict in enumerate(verdicts):
             earned[index] += verdict.share
         seeds.append(_seed_result(seed, facts, verdicts, str(kept) if kept is not None else ""))
@@ -284,6 +283,12 @@ def grade_mission(
     report = Report(student, readable(label), total, exercise.max_points, marks, [], seeds, notes)
     report.shape = list(tree_shape(spec))
     return report
+
+
+def verdicts_of(exercise: Exercise, seed: Seed, facts: RunFacts) -> list[Verdict]:
+    """Each criterion's verdict on one run of a seed, judged in that seed's world, requirements applied."""
+    world = exercise.world.for_seed(seed.seed)  # where this seed put what the world varies
+    return _with_requirements(exercise, [judge(c, facts, world) for c in exercise.criteria])
 
 
 def _with_requirements(exercise: Exercise, verdicts: list[Verdict]) -> list[Verdict]:

@@ -145,8 +145,19 @@ def _print_crash(end: Any, debug: bool) -> None:
             print("  (--debug prints the whole traceback)", file=sys.stderr)
 
 
-def _came_to_rest(client: Any) -> str:
+def _when_stopped(client: Any) -> tuple[float, Any, int] | None:
+    """On the in-process emulator, the robot as the run left it: its clock, its pose, how many impacts so far."""
+    emulator = getattr(client.port, "emulator", None)
+    if emulator is None:
+        return None
+    robot = emulator.robot
+    return robot.time_s, robot.pose, len(robot.impacts)
+
+
+def _came_to_rest(client: Any, stopped: tuple[float, Any, int] | None) -> str:
     """On the in-process emulator: where the robot came to rest after the final stop, and what it hit on the way.
+
+    ``stopped`` is the robot as the run left it (:func:`_when_stopped`).
 
     The run ends when the mission does; a robot that was going fast rolls on after its stop (and
     may hit what is ahead), which is what grading judges. Elsewhere (a real robot, an emulator
@@ -155,12 +166,11 @@ def _came_to_rest(client: Any) -> str:
     from autonomy.classroom.facts import SETTLE_MOST_S, settle
     from autonomy.classroom.judge import hit
 
-    emulator = getattr(client.port, "emulator", None)
-    if emulator is None:
+    if stopped is None:
         return ""
-    robot = emulator.robot
-    stopped_s, where, impacts = robot.time_s, robot.pose, len(robot.impacts)
-    settle(robot)
+    robot = client.port.emulator.robot
+    stopped_s, where, impacts = stopped
+    settle(robot)  # (already, when the run was judged: the same)
     if robot.moving:
         return f"After the stop it was still moving {SETTLE_MOST_S:g} s later."
     rest = robot.pose
@@ -174,6 +184,54 @@ def _came_to_rest(client: Any) -> str:
     return f"After the stop it rolled on {rolled_mm:.0f} mm and came to rest {later_s:.1f} s later at {at}{struck}."
 
 
+def _exercise_seed(args: argparse.Namespace) -> tuple[Any, Any] | int:
+    """The exercise and seed of ``--exercise EX --seed N``, the port and time limit set as its grading has them.
+
+    Returns:
+        (exercise, seed); or, if they cannot be run, the exit code (why said).
+    """
+    from urllib.parse import urlencode
+
+    from autonomy.cli.grade import _exercise
+
+    if args.port is not None or args.world is not None:
+        return _fail("--exercise runs in the exercise's world on the built-in emulator: leave out --port and --world",
+                     EXIT_USAGE)  # fmt: skip
+    found = _exercise(args.exercise)
+    if isinstance(found, int):
+        return found
+    exercise, _ = found
+    public = [seed for seed in exercise.seeds if not seed.hidden]
+    chosen = next((seed for seed in public if args.seed is None or seed.seed == args.seed), None)
+    if chosen is None:
+        listed = ", ".join(str(seed.seed) for seed in public)
+        return _fail(
+            f"the exercise '{exercise.name}' has no public seed {args.seed}: its seeds are {listed}", EXIT_USAGE
+        )
+    options = {"world": exercise.world_ref, "seed": chosen.seed, "noise": chosen.noise_mm}
+    args.port = "emu://?" + urlencode({**options, "faults": chosen.faults} if chosen.faults else options)
+    args.max_seconds = args.max_seconds or exercise.time_limit_s
+    return exercise, chosen
+
+
+def _graded_lines(exercise: Any, seed: Any, gathered: Any, client: Any) -> list[str]:
+    """What the grader says of this run of one seed: its points, and each criterion's line."""
+    from autonomy.classroom.facts import facts_of
+    from autonomy.classroom.job import verdicts_of
+
+    emulator = getattr(client.port, "emulator", None)
+    if emulator is None or gathered.end is None:
+        return []
+    verdicts = verdicts_of(exercise, seed, facts_of(gathered, emulator.robot, exercise.time_limit_s))
+    shares = zip(exercise.criteria, verdicts, strict=True)
+    earned = sum(criterion.points * verdict.share for criterion, verdict in shares)
+    lines = [f"As the grader marks it, {seed.label}: {earned:.4g} of {exercise.max_points:g} points"]
+    lines += [f"  {'yes' if v.held else 'no '} {criterion.label}: {v.line}" for criterion, v in
+              zip(exercise.criteria, verdicts, strict=True)]  # fmt: skip
+    lines.append("(on this seed alone: grading runs every seed, and hidden ones when the teacher hands it in)")
+    return lines
+
+
 def cmd_run(args: argparse.Namespace) -> int:
     """Runs a mission on the robot or the built-in emulator."""
     from autonomy.runner import FAILED, INTERRUPTED, LINK_LOST, SUCCEEDED, Runner, settled_heap
@@ -183,6 +241,11 @@ def cmd_run(args: argparse.Namespace) -> int:
     spec = _load(args.mission)
     if spec is None:
         return EXIT_USAGE
+    graded = None
+    if args.exercise:  # run as the grader runs it: the exercise's world, one of its seeds, its time limit
+        graded = _exercise_seed(args)
+        if isinstance(graded, int):
+            return graded
     if args.world:
         from autonomy.emulator import load_world
 
@@ -193,6 +256,12 @@ def cmd_run(args: argparse.Namespace) -> int:
     port, where, error = _choose_port(args, spec)
     if error:
         return _fail(error, EXIT_USAGE)
+    if graded is not None:  # said as the exercise has it (the port is its own, which says the world's file)
+        exercise, seed = graded
+        time_text = "virtual time" if "time=virtual" in port else "real time"
+        where = (
+            f"as exercise '{exercise.name}' grades it: its world '{exercise.world.name}', {seed.label}, in {time_text}"
+        )
     written = [os.path.realpath(p) for p in (args.trace, args.btlog) if p]
     if len(set(written)) < len(written) or os.path.realpath(args.mission) in written:
         return _fail("--trace and --btlog need files of their own (not each other, not the mission)", EXIT_USAGE)
@@ -213,6 +282,12 @@ def cmd_run(args: argparse.Namespace) -> int:
         except OSError as err:
             return _fail(f"cannot write the trace to {args.trace}: {err.strerror}", EXIT_USAGE)
     listeners: list[Any] = []
+    gathered = None
+    if graded is not None:
+        from autonomy.classroom.facts import Gatherer
+
+        gathered = Gatherer()
+        listeners.append(gathered)
     writer = TraceWriter(trace) if trace is not None else None
     if writer is not None:
         listeners.append(writer)
@@ -266,9 +341,15 @@ def cmd_run(args: argparse.Namespace) -> int:
         finally:
             interrupts.raised = True  # from here on Ctrl-C waits: the stop and the summary come first
             client.close()
-        rest = _came_to_rest(client)  # past the run's records: what a replay of them cannot say
+        stopped = _when_stopped(client)
+        marks = []  # judged first, from the run as it ended (the judge lets the robot come to rest itself)
+        if graded is not None and gathered is not None and summary.outcome != INTERRUPTED:
+            marks = _graded_lines(*graded, gathered, client)
+        rest = _came_to_rest(client, stopped)  # past the run's records: what a replay of them cannot say
         run_part, link_part = summary.paragraph.split(" Link: ", 1)  # said before the link's counts
         output.paragraph(f"{run_part}{' ' + rest if rest else ''} Link: {link_part}")
+        for line in marks:
+            output(_shown(line))
         _print_crash(runner.end, args.debug)
         if server is not None and not output.closed and summary.outcome != INTERRUPTED:
             _serve_until_interrupted(server, "the run is over", interrupts)
@@ -423,6 +504,17 @@ def add_parsers(sub: Any) -> None:
     run.add_argument("--world", metavar="NAME|PATH", help="the emulator's arena (overrides the mission's world)")
     run.add_argument("--fast", action="store_true", help="virtual time: as fast as the machine allows (emulator only)")
     run.add_argument("--max-seconds", type=_positive, metavar="S", help="stop the mission after this long")
+    run.add_argument(
+        "--exercise",
+        metavar="EX",
+        help="run as exercise EX grades it (its world, one of its seeds, its time limit), and say its marks",
+    )
+    run.add_argument(
+        "--seed",
+        type=_bounded(int, 0, 2**31 - 1, "a seed"),
+        metavar="N",
+        help="with --exercise: its seed N (default: the first)",
+    )
     run.add_argument("--trace", metavar="FILE", help="record the run: a header, one JSON line per tick, an end")
     run.add_argument("--btlog", metavar="FILE", help="record the run for Groot2: BehaviorTree.CPP's FileLogger2 format")
     run.add_argument("--groot", action="store_true", help="let Groot2 attach and watch the run (see --groot-port)")

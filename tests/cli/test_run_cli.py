@@ -395,3 +395,23 @@ def test_a_second_ctrl_c_as_the_live_view_ends_leaves_exit_code_130(tmp_path):
     said = seen.replace(b"\r\n", b" ")  # the summary, folded to the terminal's width
     assert b"interrupted after" in said and b"It was stopped at the end." in said and b"Traceback" not in said
     assert json.loads(trace.read_text().splitlines()[-1])["stopped"]
+
+
+def test_a_run_as_an_exercise_grades_it_on_one_seed_says_the_grader_s_marks(tmp_path):
+    wrong = "autonomy/exercises/wrong/garage_full_speed.yaml"
+    graded = autonomy("grade", "garage", wrong, "--json", str(tmp_path / "marks.json"), "--quiet")
+    assert graded.returncode == 0, graded.stderr
+    (report,) = json.loads((tmp_path / "marks.json").read_text())["students"]
+    points = [c["points"] for c in json.loads((tmp_path / "marks.json").read_text())["criteria"]]
+    for seed in report["seeds"][:2]:
+        number = int(seed["seed"].split()[1])
+        ran = autonomy("run", wrong, "--exercise", "garage", "--seed", str(number), "--fast", "--quiet")
+        assert ran.returncode == 0, ran.stderr
+        earned = sum(p * share for p, share in zip(points, seed["shares"], strict=True))
+        assert f"As the grader marks it, seed {number}: {earned:.4g} of 10 points" in ran.stdout, ran.stdout
+        said = [line.split(": ", 1)[1] for line in ran.stdout.splitlines() if line.startswith(("  yes ", "  no  "))]
+        assert said == [line for _, line in seed["verdicts"]]  # the grader's own lines, word for word
+    refused = autonomy("run", wrong, "--exercise", "garage", "--seed", "3", "--fast")
+    assert_one_line_error(refused, 2, "the exercise 'garage' has no public seed 3: its seeds are 8, 52, 56, 80")
+    refused = autonomy("run", wrong, "--exercise", "garage", "--world", "box")
+    assert_one_line_error(refused, 2, "leave out --port and --world")
