@@ -30,6 +30,7 @@ from autonomy.words import plural
 
 ROSTER_COLUMNS = ("id", "name")  # and, if it has one, "submission" (default: the id)
 ADJUST_COLUMNS = ("student", "points", "reason")
+EXPECT_COLUMNS = ("student", "lo", "hi")
 #: How many rows a roster or an adjustment file may have.
 MOST_ROWS = 100_000
 
@@ -165,6 +166,70 @@ def read_adjustments(path: str | Path) -> list[Adjustment]:
     if problems:
         raise GradebookError(problems)
     return out
+
+
+def read_expected(path: str | Path) -> dict[str, tuple[float, float, int]]:
+    """Reads the marks a teacher expects, each student's fair band: ``student,lo,hi`` (``--expect``).
+
+    Returns:
+        Each student's (lo, hi, line).
+
+    Raises:
+        GradebookError: every problem, ``FILE:LINE: message``.
+    """
+    problems: list[str] = []
+    out: dict[str, tuple[float, float, int]] = {}
+    for number, row in _rows(path, EXPECT_COLUMNS, "expected marks"):
+        student, bounds = row["student"], []
+        for column in ("lo", "hi"):
+            try:
+                bounds.append(float(row[column]))
+            except ValueError:
+                bounds.append(math.nan)
+        lo, hi = bounds
+        if not student:
+            problems.append(f"{path}:{number}: which student? the 'student' column is empty")
+        elif student in out:
+            problems.append(f"{path}:{number}: '{student}' is on line {out[student][2]} already")
+        if not (math.isfinite(lo) and math.isfinite(hi) and 0 <= lo <= hi <= 10_000):
+            problems.append(
+                f"{path}:{number}: lo and hi must be numbers, 0 <= lo <= hi, got {row['lo']!r}, {row['hi']!r}"
+            )
+        out.setdefault(student, (lo, hi, number))
+    if problems:
+        raise GradebookError(problems)
+    return out
+
+
+def outside_bands(
+    exercise: Exercise, reports: list[Report], expected: dict[str, tuple[float, float, int]]
+) -> list[str]:
+    """Each student whose mark lies outside the band the teacher expects, with the criteria that put it there.
+
+    Below the band: the criteria that lost points; above it: those that earned them. A student
+    expected and not graded is listed too. The last line counts those within their bands.
+    """
+    lines = []
+    graded = {report.student: report for report in reports}
+    within = 0
+    for student, (lo, hi, _) in sorted(expected.items()):
+        report = graded.get(student)
+        if report is None:
+            lines.append(f"{student}: expected {lo:g} to {hi:g}, but has no submission")
+            continue
+        if lo - 0.005 <= report.total <= hi + 0.005:
+            within += 1
+            continue
+        below = report.total < lo
+        why = [
+            f"{criterion.label} ({mark:g} of {criterion.points:g})"
+            for criterion, mark in zip(exercise.criteria, report.marks, strict=False)
+            if (mark < criterion.points if below else mark > 0)
+        ]
+        told = f"{'lost' if below else 'earned'} {', '.join(why)}" if why else "; ".join(report.problems[:1])
+        lines.append(f"{student}: {report.total:g}, expected {lo:g} to {hi:g}: {told}")
+    lines.append(f"{within} of {len(expected)} students within the band expected")
+    return lines
 
 
 def unknown_students(adjustments: list[Adjustment], students: set[str], source: str) -> list[str]:

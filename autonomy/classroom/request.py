@@ -32,6 +32,7 @@ from autonomy.classroom.gradebook import (
     match_roster,
     read_adjustments,
     read_earlier,
+    read_expected,
     read_roster,
     unknown_students,
 )
@@ -76,6 +77,7 @@ class GradeRequest:
         roster: The class's roster, and the folder its paths are relative to.
         adjustments: The teacher's corrections, and the file they came from.
         earlier: An earlier grading's marks to compare with, and its file.
+        expected: Each student's band of fair marks (lo, hi, line), and its file (``--expect``).
     """
 
     exercise: Exercise
@@ -88,6 +90,7 @@ class GradeRequest:
     roster: tuple[list[RosterEntry], Path] | None = None
     adjustments: tuple[list[Adjustment], str] = ([], "")
     earlier: tuple[Earlier, str] | None = None
+    expected: tuple[dict[str, tuple[float, float, int]], str] | None = None
 
     @property
     def cpu_s(self) -> float:
@@ -129,6 +132,7 @@ def read_request(
     roster: str | None = None,
     adjust: str | None = None,
     compare: str | None = None,
+    expect: str | None = None,
 ) -> GradeRequest:
     """The request, its teacher's files read and its outputs checked, before hours of grading and not after.
 
@@ -145,6 +149,7 @@ def read_request(
         roster: The roster's file.
         adjust: The corrections' file.
         compare: An earlier grading's CSV or JSON.
+        expect: The marks expected, each student's band (``student,lo,hi``).
 
     Raises:
         RequestRefused: the request asks for what cannot be (Gradescope's results of a class), or
@@ -159,7 +164,8 @@ def read_request(
     entries: list[RosterEntry] | None = None
     adjustments: list[Adjustment] = []
     earlier: Earlier | None = None
-    for read in ("roster", "adjust", "compare"):
+    expected: dict[str, tuple[float, float, int]] | None = None
+    for read in ("roster", "adjust", "compare", "expect"):
         try:
             if read == "roster" and roster:
                 entries = read_roster(roster)
@@ -167,6 +173,8 @@ def read_request(
                 adjustments = read_adjustments(adjust)
             elif read == "compare" and compare:
                 earlier = read_earlier(compare, exercise)
+            elif read == "expect" and expect:
+                expected = read_expected(expect)
         except GradebookError as err:
             problems += err.problems
     problems += unknown_students(adjustments, {student for student, _ in submissions}, adjust or "")
@@ -183,8 +191,9 @@ def read_request(
         (entries, Path(roster).parent) if entries is not None and roster else None,
         (adjustments, adjust or ""),
         (earlier, compare or "") if earlier is not None and compare else None,
+        (expected, expect or "") if expected is not None and expect else None,
     )
-    inputs = {Path(p).resolve() for p in (exercise_file, *given, roster, adjust, compare) if p}
+    inputs = {Path(p).resolve() for p in (exercise_file, *given, roster, adjust, compare, expect) if p}
     _check_outputs(request, inputs)
     return request
 

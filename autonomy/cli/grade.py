@@ -9,7 +9,17 @@ import sys
 from collections.abc import Iterator
 from typing import Any
 
-from autonomy.cli.common import EXIT_INTERRUPTED, EXIT_OK, EXIT_USAGE, _bounded, _fail, _interrupt, _problems, _shown
+from autonomy.cli.common import (
+    EXIT_FAILED,
+    EXIT_INTERRUPTED,
+    EXIT_OK,
+    EXIT_USAGE,
+    _bounded,
+    _fail,
+    _interrupt,
+    _problems,
+    _shown,
+)
 
 
 def _exercise_path(text: str) -> tuple[str, str]:
@@ -79,6 +89,13 @@ def cmd_grade(args: argparse.Namespace) -> int:
         _print_graded(graded)
     # a student checking their own mission learns from the exit code too that nothing of it ran
     code = EXIT_USAGE if len(reports) == 1 and reports[0].problems else EXIT_OK
+    if request.expected is not None:  # said even with --quiet: it is what was asked
+        from autonomy.classroom.gradebook import outside_bands
+
+        told = outside_bands(request.exercise, graded.reports, request.expected[0])
+        for line in told:
+            print(_shown(line))
+        code = EXIT_FAILED if len(told) > 1 else code
     for kind, target in request.outputs:  # one that fails does not keep the others from being written
         try:
             # a problem quoting a path that is not UTF-8 (a folder from another system) has '?' for its bytes
@@ -126,7 +143,7 @@ def _grade_request(args: argparse.Namespace) -> tuple[Any, str] | int:
         request = read_request(
             exercise, Path(path), find_submissions(args.submissions), args.submissions, limits=limits,
             dask=args.dask, traces=args.traces, feedback=args.feedback, roster=args.roster, adjust=args.adjust,
-            compare=args.compare, outputs=[(kind, target) for kind, target in kinds if target],
+            compare=args.compare, expect=args.expect, outputs=[(kind, target) for kind, target in kinds if target],
         )  # fmt: skip
     except RequestRefused as err:
         return _fail(str(err), EXIT_USAGE)
@@ -330,6 +347,11 @@ def add_parsers(sub: Any) -> None:
         help="the teacher's corrections (columns student,points,reason): added to the marks, shown with the reason",
     )
     grade.add_argument("--compare", metavar="OLD.json", help="say what changed since an earlier grading's --json")
+    grade.add_argument(
+        "--expect",
+        metavar="EXPECTED.csv",
+        help="the marks expected (student,lo,hi): list each student outside their band, and why; exit 1 if any",
+    )
     grade.add_argument("--csv", metavar="FILE", help="write a gradebook: student, total, one column per criterion")
     grade.add_argument("--json", metavar="FILE", help="write every mark, verdict and path as JSON")
     grade.add_argument("--html", metavar="FILE", help="write one page: the class table, each student's runs on maps")

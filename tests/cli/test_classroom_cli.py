@@ -746,3 +746,27 @@ def test_exercise_list_and_show_give_a_teacher_the_exercises_and_one_to_hand_out
     assert not any(re.search(r"\bseed \d", line) for line in lines)  # no seed's number, hidden or public
     missing = autonomy("exercise", "show", "garag")
     assert_one_line_error(missing, 2, "no exercise named 'garag' (did you mean 'garage'?)")
+
+
+def test_expect_lists_each_student_outside_the_band_a_teacher_wrote_first_and_why(tmp_path):
+    hand = ROOT / "tests" / "classroom" / "second_class"
+    files = [str(hand / f"gar_{name}.yaml") for name in ("255", "fast", "while", "creep")]
+    (tmp_path / "fair.csv").write_text(  # bands written before grading: the second class's, a point either way
+        "student,lo,hi\ngar_255,2,4\ngar_fast,0,1\ngar_while,7,9\ngar_creep,0,1\n"
+    )
+    fair = autonomy("grade", "garage", *files, "--expect", str(tmp_path / "fair.csv"), "--quiet")
+    assert fair.returncode == 0 and fair.stdout == "4 of 4 students within the band expected\n", fair.stdout
+    (tmp_path / "wrong.csv").write_text("student,lo,hi\ngar_255,2,4\ngar_fast,8,10\ngar_while,0,1\nzed,0,10\n")
+    told = autonomy("grade", "garage", *files, "--expect", str(tmp_path / "wrong.csv"), "--quiet")
+    assert told.returncode == 1, told.stderr
+    lines = told.stdout.splitlines()
+    assert lines[0].startswith("gar_fast: 0, expected 8 to 10: lost rest_in_zone garage (0 of 5)")
+    assert re.match(r"gar_while: \d+(\.\d+)?, expected 0 to 1: earned rest_in_zone garage \(", lines[1]), lines[1]
+    assert lines[2:] == ["zed: expected 0 to 10, but has no submission", "1 of 4 students within the band expected"]
+    (tmp_path / "bad.csv").write_text("student,lo,hi\na,5,2\na,1,x\n")
+    refused = autonomy("grade", "garage", *files, "--expect", str(tmp_path / "bad.csv"))
+    assert refused.returncode == 2 and refused.stderr.splitlines() == [
+        f"{tmp_path / 'bad.csv'}:2: lo and hi must be numbers, 0 <= lo <= hi, got '5', '2'",
+        f"{tmp_path / 'bad.csv'}:3: 'a' is on line 2 already",
+        f"{tmp_path / 'bad.csv'}:3: lo and hi must be numbers, 0 <= lo <= hi, got '1', 'x'",
+    ]
