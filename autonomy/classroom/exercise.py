@@ -47,6 +47,8 @@ SEED_KEYS = ("seed", "noise_mm", "faults")
 #: Longest time limit an exercise may set, simulated seconds.
 MAX_TIME_LIMIT_S = 3600.0
 MAX_SEEDS = 100
+#: Longest title a criterion may have (what a student reads for it), characters.
+MAX_TITLE_CHARS = 80
 
 
 @dataclass(frozen=True)
@@ -58,7 +60,9 @@ class Criterion:
         value: Its value: a zone name, a number, or True.
         points: What it is worth when it holds on every seed.
         options: Its further settings (``within_mm``, ``tolerance_deg``, ``after``), defaults filled in.
-        label: How reports name it (``end_in_zone garage``).
+        label: How the teacher's reports name it (``end_in_zone garage``): its id.
+        title: What a student reads for it, in words (``Parked in the garage``: ``title:`` in the
+            file); empty, and the label is shown.
         requires: The index of the criterion that must hold on a seed for this one to count
             there (``requires: end_in_zone`` in the file), or None.
         requires_some: That criterion need only earn some of its points there, and this one then
@@ -73,6 +77,12 @@ class Criterion:
     label: str
     requires: int | None = None
     requires_some: bool = False
+    title: str = ""
+
+    @property
+    def shown(self) -> str:
+        """How a student's page, feedback and results name it: its title, else its label."""
+        return self.title or self.label
 
 
 @dataclass(frozen=True)
@@ -295,7 +305,7 @@ class _Reader(Reader):
             return None
         kinds = [key for key in item.value if key in CRITERIA]
         if len(kinds) != 1:
-            unknown = [key for key in item.value if key not in CRITERIA and key != "points"]
+            unknown = [key for key in item.value if key not in CRITERIA and key not in ("points", "title")]
             if not kinds and unknown:
                 word = unknown[0]
                 self.problem(
@@ -305,7 +315,7 @@ class _Reader(Reader):
                 self.problem(item, path, f"give exactly one criterion of: {', '.join(CRITERIA)}")
             return None
         kind = CRITERIA[kinds[0]]
-        allowed = (kind.key, "points", "requires", "requires_some", *kind.options)
+        allowed = (kind.key, "points", "title", "requires", "requires_some", *kind.options)
         for key in item.value:
             if key not in allowed:
                 self.problem(
@@ -368,7 +378,13 @@ class _Reader(Reader):
             if isinstance(value, tuple)
             else f"{kind.key} {value}"
         )
-        return Criterion(kind.key, value, float(points), options, label)
+        title = self.text(item.value["title"], f"{path}.title") if "title" in item.value else ""
+        if title is not None and len(title) > MAX_TITLE_CHARS:
+            self.problem(item.value["title"], f"{path}.title", f"at most {MAX_TITLE_CHARS} characters: a few words")
+            title = None
+        if title is None:
+            return None
+        return Criterion(kind.key, value, float(points), options, label, title=title)
 
     def obstacle_name(self, located: Located, where: str, world: World | None) -> str | None:
         """An obstacle's name (``name:`` in the world file), which the world must have."""

@@ -154,7 +154,7 @@ def to_gradescope(exercise: Exercise, report: Report) -> str:
             )
         tests.append(
             {
-                "name": printable(criterion.label),
+                "name": printable(criterion.shown),
                 "score": report.marks[index],
                 "max_score": criterion.points,
                 "output": output,

@@ -307,13 +307,13 @@ def _with_requirements(exercise: Exercise, verdicts: list[Verdict]) -> list[Verd
     for criterion, verdict in zip(exercise.criteria, verdicts, strict=True):
         needed = criterion.requires
         if verdict.share > 0 and needed is not None and not held(needed, criterion.requires_some):
-            label = exercise.criteria[needed].label
+            label = exercise.criteria[needed].shown
             met = verdicts[needed].share > 0 if criterion.requires_some else verdicts[needed].held
             how = "did not count" if met else ("earned nothing" if criterion.requires_some else "did not hold")
             verdict = Verdict(False, f"{verdict.line}, but this counts only with {label}, which {how}")
         elif verdict.share > 0 and needed is not None and criterion.requires_some and verdicts[needed].share < 1:
             part = verdicts[needed].share  # a near miss: this counts as far as that one did
-            label = exercise.criteria[needed].label
+            label = exercise.criteria[needed].shown
             line = f"{verdict.line}, counted at {part:.0%} as {label} was"
             verdict = Verdict(False, line, verdict.share * part)
         out.append(verdict)

@@ -117,7 +117,7 @@ def feedback(exercise: Exercise, report: Report) -> list[str]:
     for index, criterion in enumerate(exercise.criteria):
         verdicts = [seed.verdicts[index] for seed in report.seeds]
         mark = "ok  " if all(held for held, _ in verdicts) else "MISS"
-        lines.append(f"  {mark} {criterion.label}: {_number(report.marks[index])} / {_number(criterion.points)} points")
+        lines.append(f"  {mark} {criterion.shown}: {_number(report.marks[index])} / {_number(criterion.points)} points")
         for seed, (held, line) in zip(report.seeds, verdicts, strict=True):
             lines.append(f"         {seed.seed}: {'yes' if held else 'no '} {printable(line)}")
     return lines

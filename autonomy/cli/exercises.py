@@ -66,7 +66,7 @@ def exercise_text(exercise: Any) -> list[str]:
     hidden = f", and on {exercise.hidden_seeds} hidden ones when handed in" if exercise.hidden_seeds else ""
     lines.append(f"Your mission is run on {public} seeds (each a little different){hidden}.")
     lines += ["", f"Marks ({exercise.max_points:g} points):"]
-    lines += [f"  - {criterion.label}: {criterion.points:g}" for criterion in exercise.criteria if criterion.points]
+    lines += [f"  - {criterion.shown}: {criterion.points:g}" for criterion in exercise.criteria if criterion.points]
     if exercise.allowed_nodes is not None:
         lines += ["", f"Nodes you may use: {', '.join(exercise.allowed_nodes)}."]
     return lines

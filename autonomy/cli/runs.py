@@ -226,7 +226,7 @@ def _graded_lines(exercise: Any, seed: Any, gathered: Any, client: Any) -> list[
     shares = zip(exercise.criteria, verdicts, strict=True)
     earned = sum(criterion.points * verdict.share for criterion, verdict in shares)
     lines = [f"As the grader marks it, {seed.label}: {earned:.4g} of {exercise.max_points:g} points"]
-    lines += [f"  {'yes' if v.held else 'no '} {criterion.label}: {v.line}" for criterion, v in
+    lines += [f"  {'yes' if v.held else 'no '} {criterion.shown}: {v.line}" for criterion, v in
               zip(exercise.criteria, verdicts, strict=True)]  # fmt: skip
     lines.append("(on this seed alone: grading runs every seed, and hidden ones when the teacher hands it in)")
     return lines

@@ -199,7 +199,7 @@ def seen_by_student(exercise: Exercise, report: Report) -> dict[str, Any]:
         "total": report.total,
         "max_points": report.max_points,
         "criteria": [
-            {"label": criterion.label, "points": criterion.points, "earned": mark}
+            {"label": criterion.shown, "points": criterion.points, "earned": mark}
             for criterion, mark in zip(exercise.criteria, report.marks, strict=False)
         ],
         "seeds": [

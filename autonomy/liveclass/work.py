@@ -142,7 +142,7 @@ def exercise_shown(exercise: Exercise) -> dict[str, Any]:
         "description": "\n".join(printable(line) for line in exercise.description.splitlines()),
         "world_svg": world_svg(exercise.world.as_dict(), f"the world of {exercise.title}"),
         "time_limit_s": exercise.time_limit_s,
-        "criteria": [{"label": printable(c.label), "points": c.points} for c in exercise.criteria],
+        "criteria": [{"label": printable(c.shown), "points": c.points} for c in exercise.criteria],
         "max_points": exercise.max_points,
         "public_seeds": len(exercise.seeds) - hidden,
         "hidden_seeds": hidden,

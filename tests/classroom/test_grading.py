@@ -1207,3 +1207,28 @@ def test_an_exercise_s_world_named_bare_is_its_file_beside_the_exercise_and_a_mi
     assert f"world: the world file 'halls.yaml' is not there (beside the exercise: {tmp_path / 'halls.yaml'})" in str(
         refused.value.problems[0]
     )
+
+
+def test_a_criterion_s_title_is_what_a_student_reads_and_its_label_what_the_teacher_s_gradebook_keeps(tmp_path):
+    from autonomy.classroom.report import feedback, to_csv
+
+    exercise = load_exercise(EXERCISES / "garage.yaml")
+    assert [(c.label, c.shown) for c in exercise.criteria] == [
+        ("rest_in_zone garage", "Parked in the garage"),
+        ("max_collisions 0", "No crash"),
+        ("finish_within_s 30", "Done within 30 s"),
+    ]
+    report = grade_one(exercise, "alice", EXERCISES / "solutions" / "garage.yaml")
+    assert "  ok   Parked in the garage: 5 / 5 points" in feedback(exercise, report)
+    assert (
+        to_csv(exercise, [report])
+        .splitlines()[0]
+        .endswith(",rest_in_zone garage,max_collisions 0,finish_within_s 30,adjustment,adjustment_reasons,problems")
+    )
+    base = "world: garage\ntime_limit_s: 30\nseeds: [1]\ncriteria:\n  - succeed: true\n"
+    (tmp_path / "plain.yaml").write_text(base)
+    assert load_exercise(tmp_path / "plain.yaml").criteria[0].shown == "succeed"  # no title: its label
+    (tmp_path / "long.yaml").write_text(base + "    title: " + "word " * 20 + "\n")
+    with pytest.raises(ExerciseInvalid) as refused:
+        load_exercise(tmp_path / "long.yaml")
+    assert "criteria[0].title: at most 80 characters: a few words" in str(refused.value.problems[0])

@@ -81,7 +81,7 @@ def test_a_student_grades_their_own_mission_and_reads_what_to_fix(tmp_path):
     ]
     # a fixed 2.4 m is right where the hall is that long (seed 52), into the end wall where it is shorter
     assert lines[4:6] == [
-        "  MISS rest_in_zone garage: 1.25 / 5 points",
+        "  MISS Parked in the garage: 1.25 / 5 points",  # the criterion's title, the student's words
         "         seed 8: no  garage: came to rest 40 mm outside it (it lies west; needed inside; a near miss earns "
         "a part only without a collision)",
     ]
@@ -599,7 +599,7 @@ def test_the_gradescope_autograder_zip_grades_a_submission_into_results_gradesco
     results = json.loads((root / "results" / "results.json").read_text())
     jsonschema.validate(results, GRADESCOPE_RESULTS)
     assert results["score"] == score and sum(t["max_score"] for t in results["tests"]) == 10
-    assert [t["name"] for t in results["tests"]] == ["rest_in_zone garage", "max_collisions 0", "finish_within_s 30"]
+    assert [t["name"] for t in results["tests"]] == ["Parked in the garage", "No crash", "Done within 30 s"]
     assert results["tests"][0]["output"].startswith(first_output)
     assert results["output"].startswith(f"submission: {score:g} / 10 in '2. Park in the garage'")
 
@@ -742,7 +742,7 @@ def test_exercise_list_and_show_give_a_teacher_the_exercises_and_one_to_hand_out
     told = lines[: next(n for n, line in enumerate(lines) if line.startswith("World: garage."))]
     assert len(told) > 5 and all(len(line) <= 88 for line in told)  # the text, folded for a page
     assert "Your mission is run on 4 seeds (each a little different), and on 12 hidden ones when handed in." in lines
-    assert "Marks (10 points):" in lines and "  - max_collisions 0: 3" in lines
+    assert "Marks (10 points):" in lines and "  - No crash: 3" in lines
     assert not any(re.search(r"\bseed \d", line) for line in lines)  # no seed's number, hidden or public
     missing = autonomy("exercise", "show", "garag")
     assert_one_line_error(missing, 2, "no exercise named 'garag' (did you mean 'garage'?)")
