@@ -42,6 +42,7 @@ TOP_LEVEL = (
     "hidden_seeds",
     "allowed_nodes",
     "criteria",
+    "solution",
 )
 SEED_KEYS = ("seed", "noise_mm", "faults")
 #: Longest time limit an exercise may set, simulated seconds.
@@ -119,6 +120,7 @@ class Exercise:
     criteria: list[Criterion]
     source: str
     hidden_seeds: int = 0
+    solution: str = ""
 
     @property
     def max_points(self) -> float:
@@ -180,7 +182,8 @@ class _Reader(Reader):
         )
         allowed = self.allowed(doc["allowed_nodes"]) if "allowed_nodes" in doc else None
         criteria = self.criteria(doc["criteria"], world) if "criteria" in doc else []
-        if self.problems or world is None or limit is None or name is None:
+        solution = self.solution(doc["solution"]) if "solution" in doc else ""
+        if self.problems or world is None or limit is None or name is None or solution is None:
             return None
         return Exercise(
             name,
@@ -194,7 +197,19 @@ class _Reader(Reader):
             criteria,
             self.label,
             int(hidden or 0),
+            solution,
         )
+
+    def solution(self, located: Located) -> str | None:
+        """The teacher's solution: a mission file beside the exercise, which ``autonomy check`` grades.
+
+        Only ``autonomy check`` reads it, and says when it is not there: an exercise copied without
+        its solution (to a grader, a Gradescope autograder, a live class) is graded all the same.
+        """
+        name = self.text(located, "solution")
+        if name is None:
+            return None
+        return str(Path(name) if Path(name).is_absolute() else self.base_dir / name)
 
     def world(self, located: Located) -> tuple[World | None, str]:
         name = self.text(located, "world")

@@ -5,9 +5,72 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from pathlib import Path
 from typing import Any
 
 from autonomy.cli.common import EXIT_OK, EXIT_USAGE, _fail, _load, _problems, _shown, _tcp_port
+
+
+def _is_exercise(path: str) -> bool:
+    """Whether a file is an exercise: a mapping with ``criteria:`` and no ``mission:`` at its top."""
+    import re
+
+    from autonomy.source import UnreadableFile, read_text
+
+    try:
+        text = read_text(Path(path))
+    except UnreadableFile:
+        return False  # the mission's reader says why
+    return bool(re.search(r"^criteria\s*:", text, re.M)) and not re.search(r"^mission\s*:", text, re.M)
+
+
+def _check_exercise(path: str, secret_file: str | None) -> bool:
+    """Validates an exercise (its world, zones, criteria) and grades its ``solution:`` on every seed.
+
+    Returns:
+        Whether all is well: every problem is said, and each seed where the solution falls short.
+    """
+    from autonomy.classroom import ExerciseInvalid, grade_one, load_exercise
+    from autonomy.classroom.secret import SecretError, read_secret
+
+    try:
+        exercise = load_exercise(path)
+    except ExerciseInvalid as err:
+        _problems(err.problems)
+        return False
+    hidden = f" and {exercise.hidden_seeds} hidden" if exercise.hidden_seeds else ""
+    print(_shown(
+        f"{path}: ok (exercise '{exercise.name}', world {exercise.world.name}, {len(exercise.criteria)} criteria, "
+        f"{exercise.max_points:g} points, {len(exercise.seeds)} seeds{hidden})"
+    ))  # fmt: skip
+    if not exercise.solution:
+        return True
+    if not Path(exercise.solution).is_file():
+        print(_shown(f"{path}: solution: the solution file {exercise.solution} is not there"), file=sys.stderr)
+        return False
+    if secret_file:
+        try:
+            exercise = exercise.with_secret(read_secret(secret_file))
+        except SecretError as err:
+            print(_shown(f"autonomy: error: {err}"), file=sys.stderr)
+            return False
+    report = grade_one(exercise, "solution", Path(exercise.solution))
+    short = [seed for seed in report.seeds if any(share < 1 for share in seed.shares)] if not report.problems else []
+    if report.problems:
+        print(_shown(f"  its solution {exercise.solution} cannot be graded:"))
+        for problem in report.problems:
+            print(_shown(f"    {problem}"))
+        return False
+    for seed in short:
+        lost = [
+            f"{c.label}: {line}" for c, (held, line) in zip(exercise.criteria, seed.verdicts, strict=True) if not held
+        ]
+        print(_shown(f"  its solution falls short on {seed.seed}: " + "; ".join(lost)))
+    seeds = f"{len(report.seeds)} seeds" + ("" if exercise.hidden_seeds == 0 or secret_file else
+                                             " (the hidden ones need the teacher's secret: --secret-file)")  # fmt: skip
+    if not short:
+        print(_shown(f"  its solution earns {report.total:g} of {exercise.max_points:g} on every one of {seeds}"))
+    return not short
 
 
 def cmd_check(args: argparse.Namespace) -> int:
@@ -19,6 +82,9 @@ def cmd_check(args: argparse.Namespace) -> int:
 
     bad = 0
     for path in args.missions:
+        if _is_exercise(path):
+            bad += not _check_exercise(path, getattr(args, "secret_file", None))
+            continue
         spec = _load(path)
         if spec is None:
             bad += 1
@@ -209,8 +275,14 @@ def cmd_schema(args: argparse.Namespace) -> int:
 
 def add_check(sub: Any) -> None:
     """Adds ``check`` to the command line's subparsers."""
-    check = sub.add_parser("check", help="validate mission files, reporting every problem")
+    check = sub.add_parser(
+        "check",
+        help="validate mission files (or exercises: their world, zones and criteria, and their solution: graded)",
+    )
     check.add_argument("missions", nargs="+", metavar="MISSION")
+    check.add_argument(
+        "--secret-file", metavar="FILE", help="an exercise's solution is graded on its hidden seeds too, drawn from it"
+    )
     check.set_defaults(func=cmd_check)
 
 

@@ -770,3 +770,39 @@ def test_expect_lists_each_student_outside_the_band_a_teacher_wrote_first_and_wh
         f"{tmp_path / 'bad.csv'}:3: 'a' is on line 2 already",
         f"{tmp_path / 'bad.csv'}:3: lo and hi must be numbers, 0 <= lo <= hi, got '1', 'x'",
     ]
+
+
+def test_check_validates_an_exercise_and_grades_its_solution_on_every_seed(tmp_path):
+    shipped = autonomy("check", "exercises/garage.yaml", "exercises/square.yaml")
+    assert shipped.returncode == 0, shipped.stdout + shipped.stderr
+    assert (
+        "exercises/garage.yaml: ok (exercise 'garage', world garage, 3 criteria, 10 points, 4 seeds and 12 hidden)"
+        in (shipped.stdout)
+    )
+    assert "  its solution earns 10 of 10 on every one of 3 seeds" in shipped.stdout  # the square, no hidden seeds
+    (tmp_path / "secret.txt").write_text("a teacher's secret, long enough\n")
+    hidden = autonomy("check", "exercises/garage.yaml", "--secret-file", str(tmp_path / "secret.txt"))
+    assert "  its solution earns 10 of 10 on every one of 16 seeds" in hidden.stdout, hidden.stdout
+    # a teacher's own exercise whose solution is no solution on every seed: each seed it falls short on, and why
+    text = (
+        (ROOT / "exercises" / "garage.yaml")
+        .read_text()
+        .replace("world: garage", f"world: {ROOT}/autonomy/emulator/worlds/garage.yaml")
+    )
+    (tmp_path / "fixed.yaml").write_bytes((ROOT / "exercises" / "wrong" / "garage_fixed_distance.yaml").read_bytes())
+    (tmp_path / "mine.yaml").write_text(text.replace("solution: solutions/garage.yaml", "solution: fixed.yaml"))
+    short = autonomy("check", str(tmp_path / "mine.yaml"))
+    assert short.returncode == 2, short.stdout
+    assert re.search(
+        r"^  its solution falls short on seed 8: rest_in_zone garage: garage: came to rest", short.stdout, re.M
+    )
+    (tmp_path / "gone.yaml").write_text(text.replace("solution: solutions/garage.yaml", "solution: nowhere.yaml"))
+    gone = autonomy("check", str(tmp_path / "gone.yaml"))
+    assert gone.returncode == 2 and "mine.yaml" not in gone.stderr
+    assert (
+        gone.stderr
+        == f"{tmp_path / 'gone.yaml'}: solution: the solution file {tmp_path / 'nowhere.yaml'} is not there\n"
+    )
+    assert (
+        autonomy("grade", str(tmp_path / "gone.yaml"), str(tmp_path / "fixed.yaml")).returncode == 0
+    )  # graded all the same
