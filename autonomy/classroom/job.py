@@ -134,6 +134,15 @@ def check_text(
     return spec, []
 
 
+def seed_url(exercise: Exercise, seed: Seed, virtual: bool = True) -> str:
+    """The ``emu://`` address a seed of the exercise is run on: its world, the seed, its noise and faults."""
+    options: dict[str, object] = {"world": exercise.world_ref, "seed": seed.seed}
+    options |= {"time": "virtual"} if virtual else {}
+    options |= {"noise": seed.noise_mm} | ({"faults": seed.faults} if seed.faults else {})
+    # a world file's path may hold bytes that are not UTF-8: they go through the URL as they are
+    return "emu://?" + urlencode(options, errors="surrogateescape")
+
+
 def run_seed(
     exercise: Exercise, spec: MissionSpec, seed: Seed, trace: Path | None = None, replay: ReplayMaker | None = None
 ) -> RunFacts:
@@ -144,11 +153,7 @@ def run_seed(
     the run is also written there as a trace, and with ``replay`` made into a page's replay (nodes'
     states included, either way).
     """
-    options = {"world": exercise.world_ref, "seed": seed.seed, "time": "virtual", "noise": seed.noise_mm}
-    # a world file's path may hold bytes that are not UTF-8: they go through the URL as they are
-    query = urlencode({**options, "faults": seed.faults} if seed.faults else options, errors="surrogateescape")
-    url = "emu://?" + query
-    client = Client.open(url)
+    client = Client.open(seed_url(exercise, seed))
     gatherer = Gatherer()
     stream = trace.open("w", encoding="utf-8") if trace is not None else None
     try:

@@ -20,6 +20,7 @@ import os
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 from autonomy.classroom.exercise import Exercise
 from autonomy.classroom.gradebook import (
@@ -161,22 +162,19 @@ def read_request(
     if dask and (traces or feedback):
         raise RequestRefused("--traces and --feedback need the runs here: grade without --dask for them")
     problems: list[str] = []
-    entries: list[RosterEntry] | None = None
-    adjustments: list[Adjustment] = []
-    earlier: Earlier | None = None
-    expected: dict[str, tuple[float, float, int]] | None = None
-    for read in ("roster", "adjust", "compare", "expect"):
+
+    def read(reader: Callable[..., Any], path: str | None, *more: Any) -> Any:
+        """A teacher's file read, or None (none given, or its problems kept to be said with the others)."""
         try:
-            if read == "roster" and roster:
-                entries = read_roster(roster)
-            elif read == "adjust" and adjust:
-                adjustments = read_adjustments(adjust)
-            elif read == "compare" and compare:
-                earlier = read_earlier(compare, exercise)
-            elif read == "expect" and expect:
-                expected = read_expected(expect)
+            return reader(path, *more) if path else None
         except GradebookError as err:
-            problems += err.problems
+            problems.extend(err.problems)
+            return None
+
+    entries: list[RosterEntry] | None = read(read_roster, roster)
+    adjustments: list[Adjustment] = read(read_adjustments, adjust) or []
+    earlier: Earlier | None = read(read_earlier, compare, exercise)
+    expected: dict[str, tuple[float, float, int]] | None = read(read_expected, expect)
     problems += unknown_students(adjustments, {student for student, _ in submissions}, adjust or "")
     if problems:
         raise RequestInvalid(problems)

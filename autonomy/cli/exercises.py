@@ -4,26 +4,19 @@ from __future__ import annotations
 
 import argparse
 import textwrap
-from importlib import resources
-from pathlib import Path
 from typing import Any
 
 from autonomy.cli.common import EXIT_OK, _Parser, _shown
 
 
-def _folders() -> list[tuple[str, Path]]:
-    """Where exercises are looked for by name: the teacher's own (./exercises/), then those shipped with autonomy."""
-    shipped = Path(str(resources.files("autonomy").joinpath("exercises")))
-    own = Path("exercises")
-    return [("here", own)] + ([("shipped", shipped)] if own.resolve() != shipped.resolve() else [])
-
-
 def cmd_exercise_list(args: argparse.Namespace) -> int:
     """Lists the exercises a name finds: each one's name, title, world, time, points and hidden seeds."""
     from autonomy.classroom import ExerciseInvalid, load_exercise
+    from autonomy.cli.grade import exercise_folders
 
+    own, shipped = exercise_folders()
     seen: set[str] = set()
-    for where, folder in _folders():
+    for where, folder in [("here", own)] + ([("shipped", shipped)] if own.resolve() != shipped.resolve() else []):
         for path in sorted(folder.glob("*.yaml")) if folder.is_dir() else []:
             if path.stem in seen:  # a teacher's own of that name is the one a name finds
                 continue

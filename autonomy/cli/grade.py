@@ -7,6 +7,7 @@ import contextlib
 import signal
 import sys
 from collections.abc import Iterator
+from pathlib import Path
 from typing import Any
 
 from autonomy.cli.common import (
@@ -22,24 +23,27 @@ from autonomy.cli.common import (
 )
 
 
+def exercise_folders() -> list[Path]:
+    """Where an exercise's name is looked for: the teacher's own (./exercises/), then those shipped with autonomy."""
+    from importlib import resources
+
+    return [Path("exercises"), Path(str(resources.files("autonomy").joinpath("exercises")))]
+
+
 def _exercise_path(text: str) -> tuple[str, str]:
     """An exercise given by path, or by name: from ./exercises/ (a teacher's own), else those shipped with autonomy.
 
     Returns:
         Its path, or empty and why there is none of that name.
     """
-    from importlib import resources
-    from pathlib import Path
-
     from autonomy.source import suggest
 
     if Path(text).is_file() or "/" in text or text.endswith((".yaml", ".yml")):
         return text, ""
-    shipped = Path(str(resources.files("autonomy").joinpath("exercises")))
-    for folder in (Path("exercises"), shipped):
+    for folder in exercise_folders():
         if (folder / f"{text}.yaml").is_file():
             return str(folder / f"{text}.yaml"), ""
-    names = sorted({found.stem for folder in (Path("exercises"), shipped) for found in folder.glob("*.yaml")})
+    names = sorted({found.stem for folder in exercise_folders() for found in folder.glob("*.yaml")})
     shown = text if len(text) <= 40 else text[:40] + "..."  # made printable where it is printed (_fail)
     return "", (
         f"no exercise named '{shown}'{suggest(text, names)}: use one of {', '.join(names)} "

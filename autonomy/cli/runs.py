@@ -190,8 +190,7 @@ def _exercise_seed(args: argparse.Namespace) -> tuple[Any, Any] | int:
     Returns:
         (exercise, seed); or, if they cannot be run, the exit code (why said).
     """
-    from urllib.parse import urlencode
-
+    from autonomy.classroom.job import seed_url
     from autonomy.cli.grade import _exercise
 
     if args.port is not None or args.world is not None:
@@ -208,8 +207,7 @@ def _exercise_seed(args: argparse.Namespace) -> tuple[Any, Any] | int:
         return _fail(
             f"the exercise '{exercise.name}' has no public seed {args.seed}: its seeds are {listed}", EXIT_USAGE
         )
-    options = {"world": exercise.world_ref, "seed": chosen.seed, "noise": chosen.noise_mm}
-    args.port = "emu://?" + urlencode({**options, "faults": chosen.faults} if chosen.faults else options)
+    args.port = seed_url(exercise, chosen, virtual=False)  # --fast makes it virtual, as for any run
     args.max_seconds = args.max_seconds or exercise.time_limit_s
     return exercise, chosen
 
