@@ -22,15 +22,14 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any
 
-from autonomy.classroom.criteria import CRITERIA
+from autonomy.classroom.criteria import CriteriaReader, Criterion
 from autonomy.classroom.secret import hidden_seed
 from autonomy.emulator.faults import FaultSpec, FaultSpecError
 from autonomy.emulator.world import SHIPPED, World, WorldError, WorldInvalid, load_world, world_file
 from autonomy.errors import AutonomyError
 from autonomy.mission.registry import BUILTINS
-from autonomy.source import Located, Problem, Reader, UnreadableFile, exists, is_file, parse, read_text, suggest
+from autonomy.source import Located, Problem, UnreadableFile, exists, is_file, parse, read_text, suggest
 
 TOP_LEVEL = (
     "exercise",
@@ -48,42 +47,6 @@ SEED_KEYS = ("seed", "noise_mm", "faults")
 #: Longest time limit an exercise may set, simulated seconds.
 MAX_TIME_LIMIT_S = 3600.0
 MAX_SEEDS = 100
-#: Longest title a criterion may have (what a student reads for it), characters.
-MAX_TITLE_CHARS = 80
-
-
-@dataclass(frozen=True)
-class Criterion:
-    """One thing a run is judged on, worth ``points``.
-
-    Attributes:
-        kind: The criterion's key (see :data:`CRITERIA`).
-        value: Its value: a zone name, a number, or True.
-        points: What it is worth when it holds on every seed.
-        options: Its further settings (``within_mm``, ``tolerance_deg``, ``after``), defaults filled in.
-        label: How the teacher's reports name it (``end_in_zone garage``): its id.
-        title: What a student reads for it, in words (``Parked in the garage``: ``title:`` in the
-            file); empty, and the label is shown.
-        requires: The index of the criterion that must hold on a seed for this one to count
-            there (``requires: end_in_zone`` in the file), or None.
-        requires_some: That criterion need only earn some of its points there, and this one then
-            earns the same part of its own (``requires_some:`` in the file: a near miss of
-            ``rest_in_zone`` earns a part of "no collision" too).
-    """
-
-    kind: str
-    value: Any
-    points: float
-    options: dict[str, float | str]
-    label: str
-    requires: int | None = None
-    requires_some: bool = False
-    title: str = ""
-
-    @property
-    def shown(self) -> str:
-        """How a student's page, feedback and results name it: its title, else its label."""
-        return self.title or self.label
 
 
 @dataclass(frozen=True)
@@ -145,7 +108,7 @@ class ExerciseInvalid(AutonomyError):
         super().__init__("\n".join(str(p) for p in self.problems))
 
 
-class _Reader(Reader):
+class _Reader(CriteriaReader):
     def __init__(self, source: str, base_dir: Path) -> None:
         super().__init__(source)
         self.base_dir = base_dir
@@ -298,168 +261,6 @@ class _Reader(Reader):
                 continue
             names.append(BUILTINS.get(item.value).name)
         return tuple(names)
-
-    def criteria(self, located: Located, world: World | None) -> list[Criterion]:
-        if not isinstance(located.value, list) or not located.value:
-            self.problem(located, "criteria", "expected a list of criteria, e.g. - {end_in_zone: garage, points: 5}")
-            return []
-        read = []
-        for index, item in enumerate(located.value):
-            criterion = self.criterion(item, f"criteria[{index}]", world)
-            if criterion is not None:
-                read.append((criterion, item, f"criteria[{index}]"))
-        return self.requirements(read)
-
-    def criterion(self, item: Located, path: str, world: World | None) -> Criterion | None:
-        if not isinstance(item.value, dict):
-            self.problem(
-                item,
-                path,
-                f"a criterion is a mapping, e.g. {{max_collisions: 0, points: 2}}; kinds: {', '.join(CRITERIA)}",
-            )
-            return None
-        kinds = [key for key in item.value if key in CRITERIA]
-        if len(kinds) != 1:
-            unknown = [key for key in item.value if key not in CRITERIA and key not in ("points", "title")]
-            if not kinds and unknown:
-                word = unknown[0]
-                self.problem(
-                    item.keys[word], f"{path}.{word}", f"unknown criterion '{word}'{suggest(word, list(CRITERIA))}"
-                )
-            else:
-                self.problem(item, path, f"give exactly one criterion of: {', '.join(CRITERIA)}")
-            return None
-        kind = CRITERIA[kinds[0]]
-        allowed = (kind.key, "points", "title", "requires", "requires_some", *kind.options)
-        for key in item.value:
-            if key not in allowed:
-                self.problem(
-                    item.keys[key], f"{path}.{key}", f"unknown key '{key}' for {kind.key}{suggest(key, list(allowed))}"
-                )
-        points = self.number(item.value["points"], f"{path}.points", 0, 1000) if "points" in item.value else 1.0
-        options = dict(kind.options)
-        for key, default in kind.options.items():
-            if key not in item.value:
-                continue
-            if isinstance(default, str) and key == "with":  # an obstacle's name
-                name = self.obstacle_name(item.value[key], f"{path}.{key}", world)
-                if name is not None:
-                    options[key] = name
-                continue
-            if isinstance(default, str):  # a zone's name
-                name = self.zone_name(item.value[key], f"{path}.{key}", world)
-                if name is not None:
-                    if kind.value == "zone" and item.value[kind.key].value == name:
-                        self.problem(item.value[key], f"{path}.{key}", f"'{name}' is the zone itself: name another")
-                    options[key] = name
-                continue
-            whole = key in ("extra_beeps", "count")
-            got = self.number(item.value[key], f"{path}.{key}", 0, 100_000, whole=whole)
-            if got is not None:
-                options[key] = float(got)
-        located = item.value[kind.key]
-        where = f"{path}.{kind.key}"
-        value: Any = None
-        if kind.value == "zone":
-            value = self.zone_name(located, where, world)
-        elif kind.value == "zones":
-            if not isinstance(located.value, list) or not located.value:
-                self.problem(located, where, f"expected a list of zones, e.g. {kind.key}: [corner_1, corner_2]")
-            else:
-                names = [self.zone_name(item, f"{where}[{i}]", world) for i, item in enumerate(located.value)]
-                if all(name is not None for name in names):
-                    value = tuple(names)
-                    if len(set(names)) != len(names):
-                        self.problem(located, where, "a zone is named twice")
-                        value = None
-        elif kind.value == "count":
-            value = self.number(located, where, 0, 1_000_000, whole=True)
-        elif kind.value in ("seconds", "mm"):
-            value = self.number(located, where, 0, 1e9)
-        elif kind.value == "degrees":
-            value = self.number(located, where, -360, 360)
-        elif located.value is not True:
-            self.problem(located, where, f"{kind.key} takes true, got {located.plain!r}")
-        else:
-            value = True
-        if value is None or points is None:
-            return None
-        label = (
-            kind.key
-            if value is True
-            else f"{kind.key} {value:g}"
-            if isinstance(value, (int, float))
-            else f"{kind.key} {' '.join(value)}"
-            if isinstance(value, tuple)
-            else f"{kind.key} {value}"
-        )
-        title = self.text(item.value["title"], f"{path}.title") if "title" in item.value else ""
-        if title is not None and len(title) > MAX_TITLE_CHARS:
-            self.problem(item.value["title"], f"{path}.title", f"at most {MAX_TITLE_CHARS} characters: a few words")
-            title = None
-        if title is None:
-            return None
-        return Criterion(kind.key, value, float(points), options, label, title=title)
-
-    def obstacle_name(self, located: Located, where: str, world: World | None) -> str | None:
-        """An obstacle's name (``name:`` in the world file), which the world must have."""
-        value = self.text(located, where)
-        names = [n for n in (world.obstacle_names if world is not None else ()) if n]
-        if value is not None and world is not None and value not in names:
-            listed = f" (its named obstacles: {', '.join(names)})" if names else " (it names none of its obstacles)"
-            self.problem(
-                located, where, f"world '{world.name}' has no obstacle named '{value}'{suggest(value, names)}{listed}"
-            )
-            return None
-        return value
-
-    def zone_name(self, located: Located, where: str, world: World | None) -> str | None:
-        """A zone's name, which the world must have."""
-        value = self.text(located, where)
-        if value is not None and world is not None and world.zone(value) is None:
-            names = [z.name for z in world.zones]
-            listed = f" (its zones: {', '.join(names)})" if names else " (it has no zones)"
-            self.problem(located, where, f"world '{world.name}' has no zone '{value}'{suggest(value, names)}{listed}")
-            return None
-        return value
-
-    def requirements(self, criteria: list[tuple[Criterion, Located, str]]) -> list[Criterion]:
-        """Resolves each ``requires:`` to the criterion it names (by kind, or by label when a kind repeats)."""
-        out = []
-        for index, (criterion, item, path) in enumerate(criteria):
-            key = "requires_some" if "requires_some" in item.value else "requires"
-            wanted = item.value.get(key)
-            if "requires" in item.value and "requires_some" in item.value:
-                self.problem(
-                    item.keys["requires_some"], f"{path}.requires_some", "give requires or requires_some, not both"
-                )
-            if wanted is None:
-                out.append(criterion)
-                continue
-            labels = [c.label for c, _, _ in criteria]
-            named = [i for i, (c, _, _) in enumerate(criteria) if wanted.value in (c.kind, c.label)]
-            if not isinstance(wanted.value, str) or len(named) != 1 or named[0] == index:
-                word = wanted.value if isinstance(wanted.value, str) else repr(wanted.plain)
-                why = (
-                    "names more than one criterion: give its whole label"
-                    if len(named) > 1
-                    else "names no other criterion"
-                )
-                hint = suggest(word, labels) if isinstance(wanted.value, str) else ""
-                self.problem(wanted, f"{path}.{key}", f"'{word}' {why}{hint} (criteria: {', '.join(labels)})")
-                out.append(criterion)  # kept in its place, so that the indexes below hold
-                continue
-            out.append(replace(criterion, requires=named[0], requires_some=key == "requires_some"))
-        for index, criterion in enumerate(out):  # a chain of requirements must end somewhere
-            seen, at = {index}, criterion.requires
-            while at is not None and at not in seen:
-                seen.add(at)
-                at = out[at].requires
-            if at == index:
-                _, item, path = criteria[index]
-                key = "requires_some" if "requires_some" in item.value else "requires"
-                self.problem(item.value[key], f"{path}.{key}", "requirements go round in a circle")
-        return out
 
 
 def load_exercise(path: str | Path) -> Exercise:

@@ -1,4 +1,4 @@
-"""A run's facts, from the emulator's own account: the robot's true path, impacts, beeps, turns and rest.
+"""A run's facts, from the emulator's own account: the robot's true path, contacts, beeps, stops, turns and rest.
 
 They are gathered as the run goes (:class:`Gatherer` keeps its header and end record), then read
 from the emulated robot once the mission has ended and the robot, told to stop, has come to rest
@@ -8,10 +8,11 @@ from the emulated robot once the mission has ended and the robot, told to stop, 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from itertools import pairwise
 
-from autonomy.emulator.robot import Robot
+from autonomy.emulator.robot import SAME_PLACE_MM, Impact, Robot
+from autonomy.emulator.world import World
 from autonomy.record import Pose, Record, RunEnd, RunHeader
 
 SUCCEEDED = "succeeded"
@@ -24,9 +25,75 @@ FAILED = "failed"
 SETTLE_MOST_S = 30.0
 
 
-#: An impact is a new collision once the robot has been this far from where the last one was, mm;
-#: pushing on against the same wall is one collision, backing off and bumping again is two.
-NEW_COLLISION_MM = 30.0
+#: A contact is over once the robot's body has been this far clear of every wall and obstacle, mm:
+#: pushing on against a wall, or turning and driving on along it, is one collision; backing off
+#: this much (a little) and bumping again is two, however near the first the second is.
+CONTACT_CLEAR_MM = 5.0
+
+#: An impact no faster than this is a touch, mm/s (half the slowest drive): a robot that came to
+#: rest at a faster one was stopped by what it hit, not by itself.
+TOUCH_MM_S = 50.0
+
+#: Two places this close (each way) are one, mm: as the emulator's trail has it.
+_SAME_PLACE_MM = SAME_PLACE_MM
+
+#: How finely the path is looked along for a contact's end, mm.
+_CLEAR_STEP_MM = 1.0
+
+
+@dataclass(frozen=True)
+class Contact:
+    """One collision: the robot touched a wall or an obstacle, and stayed in touch until it drew clear.
+
+    Attributes:
+        time_s: Its first impact.
+        pose: Where the robot was at its first impact.
+        speed_mm_s: How fast the robot hit, at the hardest of its impacts.
+        impacts: How many impacts it had (pushing on against a wall is one contact of many impacts).
+        end_s: Its last impact.
+    """
+
+    time_s: float
+    pose: Pose
+    speed_mm_s: float = 0.0
+    impacts: int = 1
+    end_s: float = 0.0
+
+
+@dataclass(frozen=True)
+class Beep:
+    """A beep the robot sounded: when, where, how loud, and whether it was driving or turning then.
+
+    ``moving`` is False for a beep made standing: still, or braking to a stop (no drive nor turn
+    under way); a beep at volume 0 is silent, and no beep to any criterion.
+    """
+
+    time_s: float
+    pose: Pose
+    volume: int = 3
+    moving: bool = False
+
+    @property
+    def audible(self) -> bool:
+        """Whether it made a sound: volume 1 or more."""
+        return self.volume > 0
+
+
+@dataclass(frozen=True)
+class Still:
+    """A time the robot stood still (neither wheels nor heading moving): from, to, and where.
+
+    The last one, where it came to rest for good, ends at infinity.
+    """
+
+    start_s: float
+    end_s: float
+    pose: Pose
+
+    @property
+    def duration_s(self) -> float:
+        """How long it stood there."""
+        return self.end_s - self.start_s
 
 
 @dataclass(frozen=True)
@@ -57,11 +124,18 @@ class RunFacts:
         time_s: When the mission ended.
         path: The true path: the pose at the start, wherever the motion changed, and where the robot
             came to rest; it drove straight or turned in place between two of them.
-        beeps: Where the robot was at each beep the robot sounded (time, pose).
+        beeps: Each beep the robot sounded, silent ones (volume 0) included.
         impacts: Each impact the emulator recorded (time, pose).
-        collisions: The impacts that were new collisions (see ``NEW_COLLISION_MM``).
+        collisions: The contacts: each collision, from its first impact until the robot drew clear
+            (see ``CONTACT_CLEAR_MM``), with how fast it hit.
         rest_s: When the robot last moved, having come to rest for good; None if it never did.
         time_limit_s: The exercise's time limit.
+        stills: Each time the robot stood still, during the mission and after, the last one where
+            it came to rest for good.
+        rest_hit: The contact that brought the robot to rest for good, when an impact faster than a
+            touch (``TOUCH_MM_S``) did: it was stopped by a wall or an obstacle, not by itself.
+        node_types: The tree's nodes as ``type`` and, for each parameter it was given, ``type.param``
+            (``move``, ``move.until_obstacle_mm``): what a static criterion looks for.
     """
 
     nodes: int
@@ -69,11 +143,24 @@ class RunFacts:
     reason: str
     time_s: float
     path: list[tuple[float, Pose]]
-    beeps: list[tuple[float, Pose]]
+    beeps: list[Beep]
     impacts: list[tuple[float, Pose]]
-    collisions: list[tuple[float, Pose]]
+    collisions: list[Contact]
     rest_s: float | None
     time_limit_s: float = math.inf
+    stills: list[Still] = field(default_factory=list)
+    rest_hit: Contact | None = None
+    node_types: frozenset[str] = frozenset()
+
+    @property
+    def sounded(self) -> list[Beep]:
+        """The beeps that made a sound (volume 1 or more)."""
+        return [beep for beep in self.beeps if beep.audible]
+
+    @property
+    def rest_by_itself(self) -> bool:
+        """Whether the robot came to rest for good by itself, not stopped by what it hit (see ``rest_hit``)."""
+        return self.rest_hit is None
 
     @property
     def distance_mm(self) -> float:
@@ -138,7 +225,25 @@ def facts_of(gathered: Gatherer, robot: Robot, time_limit_s: float = math.inf) -
     robot.stop()  # marks where it came to rest (or was still going) on the trail; it stands already
     path = [(t - offset_s, pose) for t, pose in robot.trail]
     impacts = [(i.time_s - offset_s, i.pose) for i in robot.impacts]
-    beeps = [(t - offset_s, pose) for (t, _, _), pose in zip(robot.beeps, robot.beep_poses, strict=True)]
+    beeps = [
+        Beep(t - offset_s, pose, volume, moving)
+        for (t, _, volume), pose, moving in zip(robot.beeps, robot.beep_poses, robot.beep_moving, strict=True)
+    ]
+    stills = [Still(a - offset_s, b - offset_s, pose) for a, b, pose in robot.stills]
+    if rest_s is not None:
+        stills.append(Still(rest_s, math.inf, robot.pose))
+    collisions = contacts_of(robot.impacts, robot.trail, robot.world, robot.params.body_radius_mm, offset_s)
+    rest_hit = None
+    if rest_s is not None:  # came to its last place at an impact harder than a touch: stopped by what it hit
+        arrived_s = arrival_s(path)
+        near_s = 2 * robot.params.step_s
+        hard = [
+            i.time_s - offset_s
+            for i in robot.impacts
+            if abs(i.time_s - offset_s - arrived_s) <= near_s and i.speed_mm_s > TOUCH_MM_S
+        ]
+        if hard:
+            rest_hit = next((c for c in collisions if c.time_s - near_s <= hard[-1] <= c.end_s + near_s), None)
     return RunFacts(
         nodes=len(header.nodes),
         outcome=end.outcome,
@@ -147,30 +252,76 @@ def facts_of(gathered: Gatherer, robot: Robot, time_limit_s: float = math.inf) -
         path=path,
         beeps=beeps,
         impacts=impacts,
-        collisions=_collisions(impacts, path),
+        collisions=collisions,
         rest_s=rest_s,
         time_limit_s=time_limit_s,
+        stills=stills,
+        rest_hit=rest_hit,
+        node_types=frozenset(
+            [n.type for n in header.nodes]
+            + [f"{n.type}.{k}" for n in header.nodes for k, v in n.params.items() if v is not None]
+        ),
     )
 
 
-def _collisions(impacts: list[tuple[float, Pose]], path: list[tuple[float, Pose]]) -> list[tuple[float, Pose]]:
-    """The impacts that begin a collision: the first, and each one after the robot got far from the last collision.
+def arrival_s(path: list[tuple[float, Pose]]) -> float:
+    """When the robot came to the place where the path ends (turning there afterwards changes nothing)."""
+    end = path[-1][1]
+    arrived = path[-1][0]
+    for time_s, pose in reversed(path):
+        if abs(pose.x_mm - end.x_mm) > _SAME_PLACE_MM or abs(pose.y_mm - end.y_mm) > _SAME_PLACE_MM:
+            break
+        arrived = time_s
+    return arrived
 
-    Far is ``NEW_COLLISION_MM`` from where the collision before began, at some moment since its
-    last impact, however many impacts that collision had.
+
+def contacts_of(
+    impacts: list[Impact], trail: list[tuple[float, Pose]], world: World, radius_mm: float, offset_s: float = 0.0
+) -> list[Contact]:
+    """The collisions: each impact begins one unless the robot stayed in touch since the impact before.
+
+    In touch means the body never drew ``CONTACT_CLEAR_MM`` clear of every wall and obstacle along
+    the path between the two impacts: pushing on, or turning and driving on along a wall, is one
+    contact; backing off a little and bumping again, in the same spot or not, is another.
+
+    Args:
+        impacts: The emulator's impacts, in order.
+        trail: The robot's path (the emulator's trail), in the emulator's time.
+        world: The world the robot drove in.
+        radius_mm: The robot's body radius.
+        offset_s: Taken off every time (the emulator's clock against the mission's).
     """
-    out: list[tuple[float, Pose]] = []
-    last_s = 0.0
-    for time_s, pose in impacts:
-        if out:
-            _, first = out[-1]
-            points = [p for t, p in path if last_s <= t <= time_s] + [pose]
-            if all(math.hypot(p.x_mm - first.x_mm, p.y_mm - first.y_mm) < NEW_COLLISION_MM for p in points):
-                last_s = time_s  # still the same push
-                continue
-        out.append((time_s, pose))
-        last_s = time_s
+    out: list[Contact] = []
+    for impact in impacts:
+        if out and not _drew_clear(out[-1].end_s + offset_s, impact, trail, world, radius_mm):
+            last = out[-1]
+            out[-1] = Contact(
+                last.time_s,
+                last.pose,
+                max(last.speed_mm_s, impact.speed_mm_s),
+                last.impacts + 1,
+                impact.time_s - offset_s,
+            )
+            continue
+        t = impact.time_s - offset_s
+        out.append(Contact(t, impact.pose, impact.speed_mm_s, 1, t))
     return out
+
+
+def _drew_clear(
+    since_s: float, impact: Impact, trail: list[tuple[float, Pose]], world: World, radius_mm: float
+) -> bool:
+    """Whether the body was ``CONTACT_CLEAR_MM`` clear of everything at a moment from ``since_s`` to ``impact``."""
+    points = [p for t, p in trail if since_s <= t <= impact.time_s] + [impact.pose]
+    clear = radius_mm + CONTACT_CLEAR_MM
+    for a, b in pairwise(points):
+        length = math.hypot(b.x_mm - a.x_mm, b.y_mm - a.y_mm)
+        steps = max(1, math.ceil(length / _CLEAR_STEP_MM))
+        for k in range(steps + 1):
+            f = k / steps
+            if world.clearance(a.x_mm + (b.x_mm - a.x_mm) * f, a.y_mm + (b.y_mm - a.y_mm) * f) > clear:
+                return True
+    return False
 
 
 def path_points(facts: RunFacts, most: int = 400) -> list[tuple[float, float]]:

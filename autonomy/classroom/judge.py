@@ -20,9 +20,9 @@ import math
 from dataclasses import dataclass
 from itertools import pairwise
 
-from autonomy.classroom.exercise import Criterion
-from autonomy.classroom.facts import FAILED, SETTLE_MOST_S, SUCCEEDED, RunFacts
-from autonomy.emulator.world import World, Zone
+from autonomy.classroom.criteria import Criterion
+from autonomy.classroom.facts import FAILED, SETTLE_MOST_S, SUCCEEDED, Beep, Contact, RunFacts
+from autonomy.emulator.world import ROBOT_RADIUS_MM, World, Zone
 from autonomy.protocol import heading_delta_deg
 from autonomy.record import Pose
 from autonomy.words import plural
@@ -106,12 +106,30 @@ def _missed(zone: Zone, path: list[tuple[float, Pose]], name: str) -> str:
     return f"{name} is {_mm(gap)} {toward} of where the robot came closest ({x:.0f}, {y:.0f} mm)"
 
 
-def _beep_zones(beeps: list[tuple[float, Pose]], zones: list[Zone], within_mm: float) -> list[list[int]]:
+def _beep_zones(beeps: list[Beep], zones: list[Zone], within_mm: float) -> list[list[int]]:
     """For each beep, the indexes of the zones it was at (within ``within_mm`` of)."""
     return [
-        [i for i, zone in enumerate(zones) if zone.distance_mm(pose.x_mm, pose.y_mm) <= within_mm + 1e-6]
-        for _, pose in beeps
+        [i for i, zone in enumerate(zones) if zone.distance_mm(b.pose.x_mm, b.pose.y_mm) <= within_mm + 1e-6]
+        for b in beeps
     ]
+
+
+def _counted_beeps(criterion: Criterion, facts: RunFacts) -> tuple[list[Beep], str]:
+    """The beeps a beep criterion counts (those that sounded; made standing, with ``standing``), and why others not.
+
+    Returns:
+        The beeps, and what the line adds of those left out (``; 2 silent beeps (volume 0) not counted``).
+    """
+    standing = bool(criterion.options.get("standing"))
+    silent = len(facts.beeps) - len(facts.sounded)
+    counted = [b for b in facts.sounded if not (standing and b.moving)]
+    moving = len(facts.sounded) - len(counted)
+    told = []
+    if silent:
+        told.append(f"{plural(silent, 'silent beep')} (volume 0)")
+    if moving:
+        told.append(f"{plural(moving, 'beep')} made while driving or turning")
+    return counted, (f"; {' and '.join(told)} not counted" if told else "")
 
 
 # ---------------------------------------------------------------------------- the criteria
@@ -125,7 +143,7 @@ def judge(criterion: Criterion, facts: RunFacts, world: World) -> Verdict:
         if any(zone is None for zone in zones):
             return Verdict(False, f"{', '.join(value)}: the world lacks one of these zones")
         return (_visits if kind == "visit_in_order" else _beeps_in)(criterion, facts, [z for z in zones if z])
-    if kind in ("reach_zone", "end_in_zone", "rest_in_zone", "avoid_zone", "beep_near"):
+    if kind in ("reach_zone", "end_in_zone", "rest_in_zone", "avoid_zone", "beep_near", "stop_in_zone"):
         zone = world.zone(value)
         if zone is None:
             return Verdict(False, f"{value}: the world has no such zone")
@@ -149,7 +167,18 @@ def judge(criterion: Criterion, facts: RunFacts, world: World) -> Verdict:
             error <= tolerance, f"ended facing {shown} deg, needed {value:g} ± {tolerance:g} (off by {error:.0f})"
         )
     if kind == "turns":
-        return _turns(criterion, facts)
+        at = str(criterion.options.get("at") or "")
+        zone = world.zone(at) if at else None
+        if at and zone is None:
+            return Verdict(False, f"{at}: the world has no such zone")
+        return _turns(criterion, facts, zone)
+    if kind == "rest_distance_ahead_mm":
+        return _distance_ahead(criterion, facts, world)
+    if kind == "uses_nodes":
+        used = [name for name in value if name in facts.node_types]
+        if used:
+            return Verdict(True, f"uses {_listed([f'{n}' for n in used])}")
+        return Verdict(False, f"uses none of {_either(list(value))} (needed one)")
     if kind == "max_nodes":
         return Verdict(facts.nodes <= value, f"uses {plural(facts.nodes, 'node')}, allowed {value}")
     if kind == "succeed":
@@ -162,23 +191,46 @@ def _collision_verdict(criterion: Criterion, facts: RunFacts, world: World) -> V
     """How many collisions: with the obstacle ``with`` names only, and only with the robot's centre in zone ``at``."""
     kind, value = criterion.kind, criterion.value
     wanted, at = str(criterion.options.get("with") or ""), str(criterion.options.get("at") or "")
+    over = float(criterion.options.get("over_mm_s") or 0.0)
     zone = world.zone(at) if at else None
-    collisions = [
-        (t, p)
-        for t, p in facts.collisions
-        if (not wanted or hit(world, p) == wanted) and (zone is None or zone.contains(p.x_mm, p.y_mm))
+    placed = [
+        c
+        for c in facts.collisions
+        if (not wanted or hit(world, c.pose) == wanted) and (zone is None or zone.contains(c.pose.x_mm, c.pose.y_mm))
     ]
+    collisions = [c for c in placed if c.speed_mm_s > over]
     what = "collisions" + (f" with {wanted}" if wanted else "") + (f" at {at}" if at else "")
-    first = f", the first at {collisions[0][0]:.1f} s" if collisions else ""
-    others = len(facts.collisions) - len(collisions)
+    what += f" faster than {over:g} mm/s" if over else ""
+    first = f", the first at {_contact_text(collisions[0])}" if collisions else ""
+    hardest = max(collisions, key=lambda c: c.speed_mm_s) if len(collisions) > 1 else None
+    if hardest is not None and hardest.speed_mm_s > collisions[0].speed_mm_s:
+        first += f", the hardest at {_contact_text(hardest)}"
+    others = len(facts.collisions) - len(placed)
     if others:
-        places = sorted({hit(world, p) for t, p in facts.collisions if (t, p) not in collisions})
+        places = sorted({hit(world, c.pose) for c in facts.collisions if c not in placed})
         where = " elsewhere" if at else ""
         first += f" (and {plural(others, 'collision')}{where} with {_listed(places)})"
+    softer = len(placed) - len(collisions)
+    if softer:
+        first += f" ({plural(softer, 'touch', 'touches')} at {over:g} mm/s or slower not counted)"
     count = len(collisions)
     if kind == "max_collisions":
         return Verdict(count <= value, f"{what}: {count}, allowed {value}{first}")
     return Verdict(count >= value, f"{what}: {count}, needed at least {value}{first}")
+
+
+def _contact_text(contact: Contact) -> str:
+    """``4.1 s, at 427 mm/s``: when a collision began and how hard it hit."""
+    return f"{contact.time_s:.1f} s at {contact.speed_mm_s:.0f} mm/s"
+
+
+def _stopped_by(facts: RunFacts, world: World) -> str:
+    """``, but only because it hit a wall at 320 mm/s (stopped by it, not by itself)``, or empty."""
+    contact = facts.rest_hit
+    if contact is None:
+        return ""
+    what = hit(world, contact.pose)
+    return f", but only because it hit {what} at {contact.speed_mm_s:.0f} mm/s (stopped by it, not by itself)"
 
 
 def _zone_verdict(criterion: Criterion, facts: RunFacts, zone: Zone, world: World) -> Verdict:
@@ -196,23 +248,29 @@ def _zone_verdict(criterion: Criterion, facts: RunFacts, zone: Zone, world: Worl
         return Verdict(False, f"{name}: entered at {_time_at(path, inside):.1f} s (needed never)")
     if kind == "beep_near":
         radius = float(criterion.options["within_mm"])
-        if not facts.beeps:
-            return Verdict(False, f"beep at {name}: no beep at all")
-        gaps = [(zone.distance_mm(p.x_mm, p.y_mm), t) for t, p in facts.beeps]
+        beeps, left_out = _counted_beeps(criterion, facts)
+        if not beeps:
+            return Verdict(
+                False, f"beep at {name}: no beep counted{left_out}" if left_out else f"beep at {name}: no beep at all"
+            )
+        gaps = [(zone.distance_mm(b.pose.x_mm, b.pose.y_mm), b.time_s) for b in beeps]
         near = next(((g, t) for g, t in gaps if g <= radius + 1e-6), None)
         if near is not None:
             where = "inside it" if near[0] <= 1e-6 else f"{_mm(near[0])} from it"
             return Verdict(True, f"beep at {name}: beeped {where} at {near[1]:.1f} s")
         nearest = min(g for g, _ in gaps)
         needed = "inside it" if radius <= 0 else f"within {radius:g} mm"
-        return Verdict(False, f"beep at {name}: nearest beep {_mm(nearest)} from it (needed {needed})")
+        return Verdict(False, f"beep at {name}: nearest beep {_mm(nearest)} from it (needed {needed}){left_out}")
+    if kind == "stop_in_zone":
+        return _stop_in(criterion, facts, zone)
     gap = zone.distance_mm(end_pose.x_mm, end_pose.y_mm)
     where = "inside it" if gap <= 1e-6 else f"{_mm(gap)} outside it"
     if kind == "end_in_zone":
         if facts.outcome not in (SUCCEEDED, FAILED):
             return Verdict(False, f"{name}: the mission did not end on its own ({facts.outcome}); it stopped {where}")
         if gap <= 1e-6:
-            return Verdict(True, f"{name}: ended inside it")
+            stopped = _stopped_by(facts, world)
+            return Verdict(not stopped, f"{name}: ended inside it{stopped}")
         return Verdict(False, f"{name}: ended {where} (needed inside)")
     # rest_in_zone
     if facts.rest_s is None:
@@ -242,6 +300,9 @@ def _zone_verdict(criterion: Criterion, facts: RunFacts, zone: Zone, world: Worl
         earlier = world.zone(after)
         if earlier is None or _first_inside(earlier, path) is None:
             return Verdict(False, f"{name}: came to rest inside it, but never after {after} (needed after it)")
+    stopped = _stopped_by(facts, world)
+    if stopped:
+        return Verdict(False, f"{name}: came to rest inside it at {facts.rest_s:.1f} s{stopped}")
     return Verdict(True, f"{name}: came to rest inside it at {facts.rest_s:.1f} s")
 
 
@@ -299,7 +360,8 @@ def _beeps_in(criterion: Criterion, facts: RunFacts, zones: list[Zone]) -> Verdi
     """
     within = float(criterion.options["within_mm"])
     allowed = int(criterion.options["extra_beeps"])
-    at = _beep_zones(facts.beeps, zones, within)
+    beeps, left_out = _counted_beeps(criterion, facts)
+    at = _beep_zones(beeps, zones, within)
     beeped: list[int] = []
     extra = 0
     for found in at:
@@ -313,8 +375,8 @@ def _beeps_in(criterion: Criterion, facts: RunFacts, zones: list[Zone]) -> Verdi
     missing = [zone for i, zone in enumerate(zones) if i not in beeped]
     parts = [f"beeped at {_listed(names)}" if names else "no beep at any of them"]
     for zone in missing:
-        if facts.beeps:
-            gap, pose = min((zone.distance_mm(p.x_mm, p.y_mm), p) for _, p in facts.beeps)
+        if beeps:
+            gap, pose = min(((zone.distance_mm(b.pose.x_mm, b.pose.y_mm), b.pose) for b in beeps), key=lambda g: g[0])
             toward = bearing(pose.x_mm, pose.y_mm, *zone.shape.nearest(pose.x_mm, pose.y_mm))
             parts.append(f"none at {zone.name} (it is {_mm(gap)} {toward} of the nearest beep)")
         else:
@@ -322,7 +384,7 @@ def _beeps_in(criterion: Criterion, facts: RunFacts, zones: list[Zone]) -> Verdi
     over = extra > allowed
     parts.append(f"{plural(extra, 'extra beep')}, allowed {allowed}" + (": no points for beeps" if over else ""))
     share = 0.0 if over else len(beeped) / len(zones)
-    return Verdict(share >= 1.0, "; ".join(parts), share)
+    return Verdict(share >= 1.0, "; ".join(parts) + left_out, share)
 
 
 def _turn_text(degrees: float) -> str:
@@ -333,7 +395,7 @@ def _turn_text(degrees: float) -> str:
     return f"{'left' if wrapped >= 0 else 'right'} {abs(wrapped):.0f}"
 
 
-def _turns(criterion: Criterion, facts: RunFacts) -> Verdict:
+def _turns(criterion: Criterion, facts: RunFacts, zone: Zone | None = None) -> Verdict:
     """Turns in place by the criterion's degrees, give or take its tolerance, as a change of heading.
 
     With ``after_drive_mm``, a turn counts only that far (in a straight line) from where the robot
@@ -344,9 +406,10 @@ def _turns(criterion: Criterion, facts: RunFacts) -> Verdict:
     """
     wanted, tolerance = float(criterion.value), float(criterion.options["tolerance_deg"])
     count, after_mm = int(criterion.options["count"]), float(criterion.options.get("after_drive_mm") or 0.0)
-    turns = facts.turns
+    turns = [t for t in facts.turns if zone is None or zone.contains(t.x_mm, t.y_mm)]
     matching = [t for t in turns if abs(heading_delta_deg(wanted, t.degrees)) <= tolerance and t.away_mm >= after_mm]
     asked = f"{_turn_text(wanted)} ± {tolerance:g} degrees" + (f" after a drive of {after_mm:g} mm" if after_mm else "")
+    asked += f" at {zone.name}" if zone is not None else ""
     found = f"turned {asked} {plural(len(matching), 'time')}, needed {count}"
     others = [t for t in turns if t not in matching]
     if others:
@@ -359,6 +422,50 @@ def _turns(criterion: Criterion, facts: RunFacts) -> Verdict:
 
 def _listed(names: list[str]) -> str:
     return names[0] if len(names) == 1 else ", ".join(names[:-1]) + " and " + names[-1]
+
+
+def _either(names: list[str]) -> str:
+    return names[0] if len(names) == 1 else ", ".join(names[:-1]) + " or " + names[-1]
+
+
+def _stop_in(criterion: Criterion, facts: RunFacts, zone: Zone) -> Verdict:
+    """The robot stood still with its centre in the zone for at least ``for_s``, at some time of its run."""
+    need_s = float(criterion.options["for_s"])
+    inside = [s for s in facts.stills if zone.contains(s.pose.x_mm, s.pose.y_mm)]
+    long_enough = [s for s in inside if s.duration_s >= need_s - 1e-9]
+    if long_enough:
+        first = long_enough[0]
+        how = "for good" if first.end_s == math.inf else f"for {first.duration_s:.1f} s"
+        return Verdict(True, f"{zone.name}: stopped in it at {first.start_s:.1f} s, {how}")
+    if inside:
+        longest = max(s.duration_s for s in inside)
+        return Verdict(False, f"{zone.name}: stood in it {longest:.1f} s at most (needed {need_s:g} s)")
+    if facts.stills:
+        gap, still = min(((zone.distance_mm(s.pose.x_mm, s.pose.y_mm), s) for s in facts.stills), key=lambda g: g[0])
+        toward = bearing(still.pose.x_mm, still.pose.y_mm, *zone.shape.nearest(still.pose.x_mm, still.pose.y_mm))
+        return Verdict(
+            False, f"{zone.name}: never stopped in it; the nearest stop was {_mm(gap)} from it (it lies {toward})"
+        )
+    return Verdict(False, f"{zone.name}: the robot never stopped")
+
+
+def _distance_ahead(criterion: Criterion, facts: RunFacts, world: World) -> Verdict:
+    """At rest for good within the time limit, with what lies straight ahead between the range's two distances."""
+    low, high = criterion.value
+    if facts.rest_s is None:
+        return Verdict(False, "the robot never came to rest")
+    if facts.rest_s > facts.time_limit_s + 1e-9:
+        return Verdict(False, f"came to rest only at {facts.rest_s:.2f} s, after the {facts.time_limit_s:g} s allowed")
+    pose = facts.path[-1][1]
+    rad = math.radians(pose.heading_deg)
+    front_x, front_y = pose.x_mm + ROBOT_RADIUS_MM * math.cos(rad), pose.y_mm + ROBOT_RADIUS_MM * math.sin(rad)
+    ahead = world.cone_distance(front_x, front_y, pose.heading_deg, 0.0)
+    shown = "nothing" if not math.isfinite(ahead) else f"{ahead:.0f} mm"
+    needed = f"needed {low:g} to {high:g} mm"
+    held = low - 1e-6 <= ahead <= high + 1e-6
+    stopped = _stopped_by(facts, world)
+    line = f"came to rest with {shown} ahead of its front ({needed}){stopped}"
+    return Verdict(held and not stopped, line)
 
 
 #: The eight points of the compass, counter-clockwise from east (+x), as the world's headings go.

@@ -199,11 +199,12 @@ def _seed_svg(exercise: Exercise, seed: SeedResult, title: str) -> str:
             f'<circle cx="{x:g}" cy="{y:g}" r="14" fill="#f59f00" stroke="#e67700" stroke-width="1" '
             f'vector-effect="non-scaling-stroke" class="beep"><title>beep at {time_s:g} s</title></circle>'
         )
-    for time_s, x, y in seed.collisions:
+    for time_s, x, y, *speed in seed.collisions:
+        how = f" at {speed[0]:g} mm/s" if speed else ""
         marks.append(
             f'<path d="M{x - 50:g},{y - 50:g}L{x + 50:g},{y + 50:g}M{x - 50:g},{y + 50:g}L{x + 50:g},{y - 50:g}" '
             'stroke="#e03131" stroke-width="3" vector-effect="non-scaling-stroke" class="collision">'
-            f"<title>collision at {time_s:g} s</title></path>"
+            f"<title>collision at {time_s:g} s{how}</title></path>"
         )
     drawn = (
         f'<polyline points="{points}" fill="none" stroke="#2b8a3e" stroke-width="2.5" '

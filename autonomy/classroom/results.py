@@ -24,8 +24,8 @@ class SeedResult:
         verdicts: For each criterion, in the exercise's order: (held, the one-line account).
         shares: For each criterion, the share of its points this run earns (0..1).
         path: The true path, at most 400 points (x_mm, y_mm), where the robot came to rest last.
-        collisions: Each collision: (time_s, x_mm, y_mm).
-        beeps: Each beep: (time_s, x_mm, y_mm).
+        collisions: Each collision: (time_s, x_mm, y_mm, speed_mm_s: how hard it hit).
+        beeps: Each beep that sounded: (time_s, x_mm, y_mm).
         turns: Each turn in place: (time_s, x_mm, y_mm, degrees, left positive).
         rest_s: When the robot came to rest for good (None: it never did).
         world_seed: The seed the world was drawn with (what it varies, and the start).
@@ -38,7 +38,7 @@ class SeedResult:
     verdicts: list[tuple[bool, str]]
     shares: list[float] = field(default_factory=list)
     path: list[tuple[float, float]] = field(default_factory=list)
-    collisions: list[tuple[float, float, float]] = field(default_factory=list)
+    collisions: list[tuple[float, ...]] = field(default_factory=list)
     beeps: list[tuple[float, float, float]] = field(default_factory=list)
     turns: list[tuple[float, float, float, float]] = field(default_factory=list)
     rest_s: float | None = None

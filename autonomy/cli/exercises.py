@@ -7,6 +7,7 @@ import textwrap
 from typing import Any
 
 from autonomy.cli.common import EXIT_OK, _Parser, _shown
+from autonomy.words import plural
 
 
 def cmd_exercise_list(args: argparse.Namespace) -> int:
@@ -30,7 +31,7 @@ def cmd_exercise_list(args: argparse.Namespace) -> int:
             hidden = f", {exercise.hidden_seeds} hidden seeds" if exercise.hidden_seeds else ""
             print(_shown(
                 f"{path.stem:10} {exercise.title}: world {exercise.world.name}, {exercise.time_limit_s:g} s a run, "
-                f"{exercise.max_points:g} points, {len(exercise.seeds)} seeds{hidden} ({where})"
+                f"{exercise.max_points:g} points, {plural(len(exercise.seeds), 'seed')}{hidden} ({where})"
             ))  # fmt: skip
     print("Hand one out with autonomy exercise show NAME; grade with autonomy grade NAME FILES...")
     return EXIT_OK
@@ -57,7 +58,8 @@ def exercise_text(exercise: Any) -> list[str]:
     lines.append(f"World: {exercise.world.name}. Each run may take {exercise.time_limit_s:g} s.")
     public = sum(1 for seed in exercise.seeds if not seed.hidden)
     hidden = f", and on {exercise.hidden_seeds} hidden ones when handed in" if exercise.hidden_seeds else ""
-    lines.append(f"Your mission is run on {public} seeds (each a little different){hidden}.")
+    each = " (each a little different)" if public > 1 else ""
+    lines.append(f"Your mission is run on {plural(public, 'seed')}{each}{hidden}.")
     lines += ["", f"Marks ({exercise.max_points:g} points):"]
     lines += [f"  - {criterion.shown}: {criterion.points:g}" for criterion in exercise.criteria if criterion.points]
     if exercise.allowed_nodes is not None:

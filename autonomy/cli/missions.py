@@ -9,6 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from autonomy.cli.common import EXIT_OK, EXIT_USAGE, _fail, _load, _problems, _shown, _tcp_port
+from autonomy.words import plural
 
 
 def _is_exercise(path: str) -> bool:
@@ -40,8 +41,9 @@ def _check_exercise(path: str, secret_file: str | None) -> bool:
         return False
     hidden = f" and {exercise.hidden_seeds} hidden" if exercise.hidden_seeds else ""
     print(_shown(
-        f"{path}: ok (exercise '{exercise.name}', world {exercise.world.name}, {len(exercise.criteria)} criteria, "
-        f"{exercise.max_points:g} points, {len(exercise.seeds)} seeds{hidden})"
+        f"{path}: ok (exercise '{exercise.name}', world {exercise.world.name}, "
+        f"{plural(len(exercise.criteria), 'criterion', 'criteria')}, {exercise.max_points:g} points, "
+        f"{plural(len(exercise.seeds), 'seed')}{hidden})"
     ))  # fmt: skip
     if not exercise.solution:
         return True

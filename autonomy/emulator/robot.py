@@ -122,6 +122,10 @@ class Robot:
         self.beeps: list[tuple[float, tuple[int, int, int], int]] = []
         #: Where the robot was at each beep, in the order of :attr:`beeps`.
         self.beep_poses: list[Pose] = []
+        #: Whether it was driving or turning at each beep (braking to a stop is not), as :attr:`beeps`.
+        self.beep_moving: list[bool] = []
+        #: Each time it stood still until a command set it going again: (from_s, to_s, where).
+        self.stills: list[tuple[float, float, Pose]] = []
         #: The robot's own record of where it went: (time_s, pose) at the start and whenever its motion
         #: changed (a command, an impact, the end of a drive). Between two of them it drove straight
         #: along its heading, or turned where it stood, so the segments between them are its path,
@@ -216,6 +220,7 @@ class Robot:
 
     def move(self, setting: int, backward: bool = False) -> None:
         """Drives at speed setting 1..4; replaces a turn in progress."""
+        self._leave_rest()
         self._mark()
         self.turn_remaining_deg = 0.0
         speed = self.params.speed_mm_s(setting)
@@ -223,6 +228,7 @@ class Robot:
 
     def turn(self, angle_deg: float) -> None:
         """Turns in place by ``angle_deg`` (left positive); replaces a move in progress."""
+        self._leave_rest()
         self._mark()
         self.target_speed_mm_s = 0.0
         self.speed_mm_s = 0.0
@@ -246,6 +252,16 @@ class Robot:
         """Records a beep, and where the robot was."""
         self.beeps.append((self.time_s, tones, volume))
         self.beep_poses.append(self.pose)
+        self.beep_moving.append(bool(self.target_speed_mm_s or self.turn_remaining_deg))
+
+    def _leave_rest(self) -> None:
+        """Notes the time the robot stood still until now, if it did: a command may set it going."""
+        if not (self.speed_mm_s or self.target_speed_mm_s or self.turn_remaining_deg):
+            still = (self.moved_s, self.time_s, self.pose)
+            if self.stills and self.stills[-1][0] == self.moved_s:  # a turn of 0 degrees set nothing going
+                self.stills[-1] = still
+            else:
+                self.stills.append(still)
 
     def _mark(self) -> None:
         """Adds where the robot is now to :attr:`trail`, as its motion is about to change.

@@ -375,8 +375,9 @@ def test_the_json_lists_every_collision_beep_and_turn_with_its_time_and_place():
     report = grade_one(exercise, "bump", EXERCISES / "solutions" / "bump.yaml")
     seed = json.loads(to_json(exercise, [report]))["students"][0]["seeds"][0]
     assert len(seed["collisions"]) == 1 and len(seed["turns"]) == 4 and seed["beeps"] == []
-    (time_s, x, y), box = seed["collisions"][0], exercise.world.for_seed(exercise.seeds[0].seed).obstacles[0]
+    (time_s, x, y, speed), box = seed["collisions"][0], exercise.world.for_seed(exercise.seeds[0].seed).obstacles[0]
     assert 0 < time_s < seed["time_s"] and box.gap(x, y) == pytest.approx(60, abs=1)  # touching the box's west face
+    assert 0 < speed <= 430  # how hard it hit, mm/s: at most the fastest drive
     assert [turn[3] for turn in seed["turns"]] == pytest.approx([90, -90, -90, 90], abs=3)  # left, right, right, left
     assert seed["world_seed"] == exercise.seeds[0].seed and seed["rest_s"] <= exercise.time_limit_s
     square = load_exercise(EXERCISES / "square.yaml")
@@ -587,15 +588,6 @@ def test_collisions_are_counted_from_the_emulator_the_same_at_any_tick_rate(tmp_
     assert seen[1] == 0 and seen[20] == 2  # what the mission read: not the same at every rate
 
 
-def test_a_collision_is_measured_from_its_first_impact_however_many_follow():
-    from autonomy.classroom.facts import _collisions
-    from autonomy.record import Pose
-
-    # feeling along a face, 20 mm between impacts: each impact is near the last, but the third is
-    # 40 mm from where the collision began
-    impacts = [(1.0 + k, Pose(1400.0, 700.0 + 20.0 * k, 0.0)) for k in range(5)]
-    path = [(0.0, Pose(400.0, 700.0, 0.0)), *impacts]
-    assert [t for t, _ in _collisions(impacts, path)] == [1.0, 3.0, 5.0]
 
 
 def test_collisions_with_a_named_obstacle_are_told_from_the_rest():
@@ -663,18 +655,6 @@ def test_a_robot_still_moving_when_its_time_ran_out_did_not_come_to_rest():
     assert judge(home, parked, world).held  # it stood still from 5 s on: the mission's not ending is another matter
 
 
-def test_pushing_on_is_one_collision_and_backing_off_to_bump_again_is_two():
-    from autonomy.classroom.facts import NEW_COLLISION_MM, _collisions
-    from autonomy.record import Pose
-
-    wall = Pose(2000.0, 600.0, 0.0)
-    pushed = [(1.0, wall), (1.2, Pose(2000.5, 600.0, 0.0)), (1.4, wall)]
-    path = [(0.0, Pose(400.0, 600.0, 0.0)), (1.0, wall), (1.4, wall)]
-    assert _collisions(pushed, path) == [(1.0, wall)]  # one push, dated by its first impact
-    backed = [*path, (2.0, Pose(2000.0 - NEW_COLLISION_MM, 600.0, 0.0)), (3.0, wall)]
-    assert len(_collisions([(1.0, wall), (3.0, wall)], backed)) == 2
-
-
 def test_a_robot_that_ends_at_full_speed_rolls_on_and_what_it_then_hits_counts():
     from autonomy.classroom.job import check_submission, run_seed
 
@@ -682,8 +662,9 @@ def test_a_robot_that_ends_at_full_speed_rolls_on_and_what_it_then_hits_counts()
     spec, _ = check_submission(exercise, EXERCISES / "wrong" / "garage_full_speed.yaml", False)
     facts = run_seed(exercise, spec, exercise.seeds[0])
     assert facts.outcome == "succeeded" and len(facts.collisions) == 1
-    assert facts.collisions[0][0] > facts.time_s  # after the mission ended
+    assert facts.collisions[0].time_s > facts.time_s  # after the mission ended
     assert facts.rest_s is not None and facts.rest_s > facts.time_s
+    assert facts.rest_hit == facts.collisions[0] and not facts.rest_by_itself  # the wall stopped it
     end = facts.path[-1][1]  # at rest against the end wall, its body touching it
     wall = exercise.world.for_seed(exercise.seeds[0].seed).obstacles[0]
     assert wall.gap(end.x_mm, end.y_mm) == pytest.approx(60.0, abs=0.01)
@@ -769,10 +750,14 @@ def test_a_seed_whose_faults_leave_no_link_scores_nothing_on_that_seed_alone(tmp
     assert second.verdicts == [(True, "garage: ended inside it")]
 
 
-def _facts(path, beeps=(), collisions=(), outcome="succeeded", rest_s=3.0):
-    from autonomy.classroom.facts import RunFacts
+def _facts(path, beeps=(), collisions=(), outcome="succeeded", rest_s=3.0, **more):
+    """Facts for a judge: beeps and collisions as (time_s, pose), or as themselves (Beep, Contact)."""
+    from autonomy.classroom.facts import Beep, Contact, RunFacts
 
-    return RunFacts(1, outcome, "", 3.0, list(path), list(beeps), list(collisions), list(collisions), rest_s, 30.0)
+    beeps = [b if isinstance(b, Beep) else Beep(*b) for b in beeps]
+    contacts = [c if isinstance(c, Contact) else Contact(*c, speed_mm_s=200.0, end_s=c[0]) for c in collisions]
+    impacts = [(c.time_s, c.pose) for c in contacts]
+    return RunFacts(1, outcome, "", 3.0, list(path), beeps, impacts, contacts, rest_s, 30.0, **more)
 
 
 def test_verdict_lines_read_as_a_person_would_write_them():

@@ -86,7 +86,7 @@ def test_a_student_grades_their_own_mission_and_reads_what_to_fix(tmp_path):
         "a part only without a collision)",
     ]
     assert "         seed 52: yes garage: came to rest inside it at 11.5 s" in lines
-    assert "         seed 8: no  collisions: 1, allowed 0, the first at 9.0 s" in lines
+    assert "         seed 8: no  collisions: 1, allowed 0, the first at 9.0 s at 214 mm/s" in lines  # speed 2
 
 
 def test_the_teacher_s_secret_adds_the_hidden_seeds(tmp_path):

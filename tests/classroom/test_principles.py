@@ -1,0 +1,261 @@
+"""What a mark measures, principle by principle: for each, a mission that breaks it and one that meets it.
+
+1. Stopped means stopped by itself: a robot the wall stopped did not park, and how hard it hit counts.
+2. A beep is a sound: a beep at volume 0 is none; "beep while standing there" can be asked.
+3. A collision is a contact: touching again after backing off a little is another collision,
+   pushing on against the wall is not.
+5. A teacher can say what their text asks: stop at a zone on the way, turn round there, come to
+   rest at a distance from what is ahead, use the front sensor.
+
+Each is graded by the real pipeline (grade_one, on the emulator) in a world of the test's own: a
+hall 2 m long whose east wall the dock touches, with a checkpoint half-way.
+"""
+
+from pathlib import Path
+
+import pytest
+
+from autonomy.classroom import ExerciseInvalid, grade_one, load_exercise
+from autonomy.classroom.job import check_submission, run_seed
+
+WORLD = """\
+name: dock
+description: A hall 2 m long; a checkpoint half-way, the dock against the east wall.
+arena_mm: [2000, 1000]
+start: {x_mm: 300, y_mm: 500, heading_deg: 0}
+zones:
+  mid: {box: {from_mm: [900, 400], to_mm: [1100, 600]}}
+  dock: {box: {from_mm: [1700, 400], to_mm: [2000, 600]}}
+"""
+
+#: Each criterion alone is what a test looks at, by its label: its points do not matter here.
+EXERCISE = """\
+exercise: dock
+description: Principles, one criterion each.
+world: dock.yaml
+time_limit_s: 60
+seeds: [1]
+criteria:
+  - rest_in_zone: dock
+  - max_collisions: 0
+    over_mm_s: 150
+  - beeps_in: [dock]
+  - beep_near: mid
+    standing: true
+  - stop_in_zone: mid
+    for_s: 1
+  - turns: 180
+    at: mid
+  - rest_distance_ahead_mm: [100, 200]
+  - uses_nodes: [obstacle_within, move.until_obstacle_mm]
+  - max_collisions: 3
+"""
+
+
+@pytest.fixture(scope="module")
+def dock(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("dock")
+    (folder / "dock.yaml").write_text(WORLD)
+    (folder / "ex.yaml").write_text(EXERCISE)
+    return load_exercise(folder / "ex.yaml"), folder
+
+
+def sequence(*nodes: str) -> str:
+    """A sequence of nodes, each written as flow YAML: ``sequence("move: {speed: 2}", "beep: {}")``."""
+    return "sequence:\n" + "".join(f"  - {node}\n" for node in nodes)
+
+
+SENSOR = "uses_nodes obstacle_within move.until_obstacle_mm"
+AHEAD = "rest_distance_ahead_mm 100 200"
+
+
+def verdicts(dock, name: str, tree: str) -> dict[str, tuple[bool, str, float]]:
+    """Each criterion's verdict on seed 1, by its label: (held, line, share)."""
+    exercise, folder = dock
+    path = folder / f"{name}.yaml"
+    path.write_text(f"mission: {name}\ntree:\n" + "".join(f"  {line}\n" for line in tree.strip().splitlines()))
+    report = grade_one(exercise, name, path)
+    assert report.problems == [], report.problems
+    (seed,) = report.seeds
+    return {
+        c.label: (held, line, share)
+        for c, (held, line), share in zip(exercise.criteria, seed.verdicts, seed.shares, strict=True)
+    }
+
+
+# ---------------------------------------------------------------- 1. stopped means stopped by itself
+
+
+def test_a_robot_stopped_by_the_wall_it_ran_into_did_not_park_there(dock):
+    rammed = verdicts(dock, "rams", "move: {speed: 4}")  # full speed until the wall stops it, in the dock
+    held, line, _ = rammed["rest_in_zone dock"]
+    assert not held and line.startswith("dock: came to rest inside it at ")
+    assert line.endswith(", but only because it hit a wall at 427 mm/s (stopped by it, not by itself)")
+    parked = verdicts(dock, "parks", "move: {speed: 2, until_obstacle_mm: 60}")  # stops itself before the wall
+    assert parked["rest_in_zone dock"][0] and parked["max_collisions 0"][0]
+
+
+def test_how_hard_a_robot_hits_counts_a_crash_is_not_a_touch(dock):
+    crash = verdicts(dock, "crash", "move: {speed: 4}")["max_collisions 0"]
+    assert not crash[0] and crash[1].startswith("collisions faster than 150 mm/s: 1, allowed 0, the first at ")
+    assert crash[1].endswith(" s at 427 mm/s")
+    touch = verdicts(dock, "touch", "move: {speed: 1}")["max_collisions 0"]
+    assert touch[0] and touch[1] == (
+        "collisions faster than 150 mm/s: 0, allowed 0 (1 touch at 150 mm/s or slower not counted)"
+    )
+
+
+# ---------------------------------------------------------------- 2. a beep is a sound
+
+
+def test_a_beep_at_volume_0_is_silent_and_no_beep(dock):
+    to_dock = "move: {speed: 2, until_obstacle_mm: 60}"
+    silent = verdicts(dock, "silent", f"sequence:\n  - {to_dock}\n  - beep: {{tones: [5, 7, 9], volume: 0}}")
+    held, line, share = silent["beeps_in dock"]
+    assert (
+        not held
+        and share == 0
+        and line
+        == ("no beep at any of them; none at dock; 0 extra beeps, allowed 0; 1 silent beep (volume 0) not counted")
+    )
+    heard = verdicts(dock, "heard", f"sequence:\n  - {to_dock}\n  - beep: {{tones: [5, 7, 9], volume: 1}}")
+    assert heard["beeps_in dock"][:2] == (True, "beeped at dock; 0 extra beeps, allowed 0")
+
+
+def test_a_beep_can_be_asked_for_while_standing_there(dock):
+    # driving through the checkpoint at speed 1 (107 mm/s), beeping half-way through it
+    on_the_way = """
+parallel:
+  - move: {speed: 1, distance_mm: 1000}
+  - sequence: [{wait: {seconds: 6.5}}, {beep: {tones: [5, 7, 9]}}]
+"""
+    held, line, _ = verdicts(dock, "on_the_way", on_the_way)["beep_near mid"]
+    assert not held and line == "beep at mid: no beep counted; 1 beep made while driving or turning not counted"
+    stopped = "sequence:\n  - move: {speed: 2, distance_mm: 700}\n  - beep: {tones: [5, 7, 9]}"
+    held, line, _ = verdicts(dock, "stopped", stopped)["beep_near mid"]  # braking to a stop is standing
+    assert held and line.startswith("beep at mid: beeped inside it at ")
+
+
+# ---------------------------------------------------------------- 3. a collision is a contact
+
+
+def _collisions(dock, name: str, tree: str):
+    exercise, folder = dock
+    path = folder / f"{name}.yaml"
+    path.write_text(f"mission: {name}\ntree:\n" + "".join(f"  {line}\n" for line in tree.strip().splitlines()))
+    spec, problems = check_submission(exercise, path, False)
+    assert problems == []
+    return run_seed(exercise, spec, exercise.seeds[0])
+
+
+TOUCH_AND_BACK = """
+repeat:
+  times: 4
+  do:
+    sequence:
+      - force_success: {do: {move: {speed: 1}}}
+      - move: {speed: 1, direction: backward, distance_mm: %d}
+"""
+
+
+def test_touching_backing_off_a_little_and_touching_again_is_a_collision_each_time(dock):
+    facts = _collisions(dock, "four_touches", TOUCH_AND_BACK % 15)  # 15 mm back: well within the old 30 mm
+    assert len(facts.collisions) == 4 and len(facts.impacts) == 4
+    assert all(90 < c.speed_mm_s < 110 for c in facts.collisions)  # speed 1: 107 mm/s, or just under
+    held, line, _ = verdicts(dock, "four_touches", TOUCH_AND_BACK % 15)["max_collisions 3"]
+    assert not held and line.startswith("collisions: 4, allowed 3, the first at ")
+
+
+def test_pushing_on_against_the_wall_is_one_collision(dock):
+    pushes = "repeat:\n  times: 4\n  do: {force_success: {do: {move: {speed: 1}}}}"  # to the wall, then on
+    facts = _collisions(dock, "pushes", pushes)
+    assert len(facts.impacts) >= 2 and len(facts.collisions) == 1  # impacts, but never clear of the wall
+    assert facts.collisions[0].impacts == len(facts.impacts)
+
+
+# ---------------------------------------------------------------- 5. what a text asks
+
+
+def test_stopping_at_a_zone_on_the_way_is_a_stop_there_for_so_long(dock):
+    pause = sequence(
+        "move: {speed: 2, distance_mm: 700}", "wait: {seconds: 2}", "move: {speed: 2, until_obstacle_mm: 60}"
+    )
+    held, line, _ = verdicts(dock, "pause", pause)["stop_in_zone mid"]
+    assert held and line.startswith("mid: stopped in it at ") and line.endswith(" s")
+    through = verdicts(dock, "through", "move: {speed: 2, until_obstacle_mm: 60}")["stop_in_zone mid"]
+    assert not through[0] and through[1].startswith("mid: never stopped in it; the nearest stop was ")
+    brief = sequence("move: {speed: 2, distance_mm: 700}", "wait: {seconds: 0.3}", "move: {speed: 2, distance_mm: 300}")
+    held, line, _ = verdicts(dock, "brief", brief)["stop_in_zone mid"]
+    assert not held and line.startswith("mid: stood in it ") and line.endswith(" s at most (needed 1 s)")
+
+
+def test_turning_round_at_a_zone_counts_there_only(dock):
+    there = "sequence:\n  - move: {speed: 2, distance_mm: 700}\n  - turn: {left: 180}"
+    held, line, _ = verdicts(dock, "round_there", there)["turns 180"]
+    assert held and line == "turned left 180 ± 10 degrees at mid 1 time, needed 1"
+    at_start = "sequence:\n  - turn: {left: 180}\n  - turn: {left: 180}\n  - move: {speed: 2, distance_mm: 700}"
+    held, line, _ = verdicts(dock, "round_at_start", at_start)["turns 180"]
+    assert not held and line == "turned left 180 ± 10 degrees at mid 0 times, needed 1"
+
+
+def test_coming_to_rest_at_a_distance_from_what_is_ahead(dock):
+    held, line, _ = verdicts(dock, "at_15cm", "move: {speed: 1, until_obstacle_mm: 160}")[
+        "rest_distance_ahead_mm 100 200"
+    ]
+    assert (
+        held
+        and line.startswith("came to rest with ")
+        and line.endswith(" mm ahead of its front (needed 100 to 200 mm)")
+    )
+    held, line, _ = verdicts(dock, "at_6cm", "move: {speed: 2, until_obstacle_mm: 60}")[
+        "rest_distance_ahead_mm 100 200"
+    ]
+    assert not held
+    held, line, _ = verdicts(dock, "rammed", "move: {speed: 4}")[AHEAD]
+    assert not held and line.startswith("came to rest with 0 mm ahead")
+
+
+def test_using_the_front_sensor_is_a_node_that_reads_it_in_the_tree(dock):
+    sensed = verdicts(dock, "sensed", "move: {speed: 2, until_obstacle_mm: 60}")[
+        "uses_nodes obstacle_within move.until_obstacle_mm"
+    ]
+    assert sensed[:2] == (True, "uses move.until_obstacle_mm")
+    counted = verdicts(dock, "counted", "move: {speed: 2, distance_mm: 1500}")[
+        "uses_nodes obstacle_within move.until_obstacle_mm"
+    ]
+    assert counted[:2] == (False, "uses none of obstacle_within or move.until_obstacle_mm (needed one)")
+
+
+@pytest.mark.parametrize(
+    ("criterion", "message"),
+    [
+        ("uses_nodes: [obstacle_withn]", "unknown node type 'obstacle_withn' (did you mean 'obstacle_within'?)"),
+        (
+            "uses_nodes: [move.until_obstacle]",
+            "move has no parameter 'until_obstacle' (did you mean 'until_obstacle_mm'?)",
+        ),
+        ("rest_distance_ahead_mm: [200, 100]", "the nearer distance first: [100, 200]"),
+        ("rest_distance_ahead_mm: 150", "expected two distances in mm, the nearer first, e.g. [100, 200]"),
+        ("beep_near: mid\n    standing: yes please", "standing takes true or false, got 'yes please'"),
+        ("turns: 180\n    at: middle", "world 'dock' has no zone 'middle' (did you mean 'mid'?)"),
+    ],
+)
+def test_the_new_criteria_are_checked_at_their_place(dock, criterion, message):
+    _, folder = dock
+    path = folder / "bad.yaml"
+    path.write_text(EXERCISE.split("criteria:")[0] + f"criteria:\n  - {criterion}\n")
+    with pytest.raises(ExerciseInvalid) as caught:
+        load_exercise(path)
+    assert message in str(caught.value) and f"{path}:" in str(caught.value)
+
+
+def test_the_shipped_solutions_make_their_stops_and_beeps_by_themselves(dock):
+    """The facts a shipped solution gives: its rest by itself, its beeps sounded, no contact it did not mean."""
+    from autonomy.classroom import load_exercise as load
+
+    root = Path(__file__).resolve().parents[2] / "exercises"
+    for name in ("square", "garage", "slalom", "opening"):
+        exercise = load(root / f"{name}.yaml")
+        spec, _ = check_submission(exercise, root / "solutions" / f"{name}.yaml", False)
+        facts = run_seed(exercise, spec, exercise.seeds[0])
+        assert facts.rest_by_itself and facts.collisions == [] and all(b.audible for b in facts.beeps), name
