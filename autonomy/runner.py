@@ -233,6 +233,8 @@ class Runner:
             which judges poses, the wire and events, leaves them out: finding them looks at every
             node, every tick (some 7% of a tick). Without them, nodes leave out the feedback
             they would say while RUNNING (:attr:`RobotContext.watched`).
+        tips: Whether to keep :attr:`tips`, which node was running when: the grader's account of
+            which node lost a mark (a few attribute reads a tick).
     """
 
     def __init__(
@@ -247,8 +249,12 @@ class Runner:
         max_seconds: float | None = None,
         listeners: Iterable[Listener] = (),
         node_states: bool = True,
+        tips: bool = False,
     ) -> None:
         self.root = root
+        #: With ``tips``: each time the tree's tip (the deepest node it ticked last, a running one while
+        #: the mission runs) changed, (the tick's time since the run started, s; the node's id), in order.
+        self.tips: list[tuple[float, int]] | None = [] if tips else None
         self.client = client
         self.clock = client.clock
         self.tick_hz = tick_hz
@@ -396,6 +402,7 @@ class Runner:
         max_seconds: float | None = None,
         listeners: Iterable[Listener] = (),
         node_states: bool = True,
+        tips: bool = False,
     ) -> Runner:
         """A runner for a validated mission: its tree built, its name, file, hash and tick rate passed on."""
         return cls(
@@ -408,6 +415,7 @@ class Runner:
             max_seconds=max_seconds,
             listeners=listeners,
             node_states=node_states,
+            tips=tips,
         )
 
     def setup(self) -> None:
@@ -481,6 +489,12 @@ class Runner:
                 raise BehaviourCrashed(self._crash_event(err)) from err  # raised by a behaviour, not by Ctrl-C
             raise
         self.summary.ticks += 1
+        tips = self.tips
+        if tips is not None:
+            tip = self.root.tip()
+            index = self._ids.get(id(tip), 0) if tip is not None else 0
+            if not tips or tips[-1][1] != index:
+                tips.append((time_s, index))
         # the wire and events are taken last: should anything before fail, the end record has them
         truth, nodes = self._truth(), self._changes() if self.node_states else {}
         record = TickRecord(  # in its fields' order: keywords cost a tick's record twice as much to make

@@ -8,12 +8,13 @@ from the emulated robot once the mission has ended and the robot, told to stop, 
 from __future__ import annotations
 
 import math
+from bisect import bisect_right
 from dataclasses import dataclass, field
 from itertools import pairwise
 
 from autonomy.emulator.robot import SAME_PLACE_MM, Impact, Robot
 from autonomy.emulator.world import World
-from autonomy.record import Pose, Record, RunEnd, RunHeader
+from autonomy.record import NodeInfo, Pose, Record, RunEnd, RunHeader
 
 SUCCEEDED = "succeeded"
 
@@ -136,6 +137,10 @@ class RunFacts:
             touch (``TOUCH_MM_S``) did: it was stopped by a wall or an obstacle, not by itself.
         node_types: The tree's nodes as ``type`` and, for each parameter it was given, ``type.param``
             (``move``, ``move.until_obstacle_mm``): what a static criterion looks for.
+        running: Which node was running when: (the tick's time, the node's id) each time the tree's
+            tip changed (:attr:`Runner.tips`).
+        node_labels: Each node as a student finds it in their file, by id: ``'to the end' (move,
+            line 7)``, or ``move until < 60 mm (line 5)`` for a node without a name of its own.
     """
 
     nodes: int
@@ -151,6 +156,16 @@ class RunFacts:
     stills: list[Still] = field(default_factory=list)
     rest_hit: Contact | None = None
     node_types: frozenset[str] = frozenset()
+    running: list[tuple[float, int]] = field(default_factory=list)
+    node_labels: list[str] = field(default_factory=list)
+
+    def running_at(self, time_s: float) -> str:
+        """The label of the node that was running at ``time_s`` (the mission's last, after its end), or empty."""
+        if not self.running or not self.node_labels:
+            return ""
+        index = bisect_right(self.running, time_s, key=lambda tip: tip[0]) - 1
+        node = self.running[max(0, index)][1]
+        return self.node_labels[node] if node < len(self.node_labels) else ""
 
     @property
     def sounded(self) -> list[Beep]:
@@ -205,13 +220,24 @@ def settle(robot: Robot, most_s: float = SETTLE_MOST_S) -> None:
         robot.advance_to(min(until_s, robot.time_s + 0.1))
 
 
-def facts_of(gathered: Gatherer, robot: Robot, time_limit_s: float = math.inf) -> RunFacts:
+def node_label(node: NodeInfo) -> str:
+    """A node as a student finds it in their file: ``'to the end' (move, line 7)``; ``move 300 mm (line 5)``."""
+    line = f"line {node.line}" if node.line else ""
+    if node.name.split(" ")[0] == node.type:  # the name it was given by default, which says its type
+        return f"{node.name} ({line})" if line else node.name
+    return f"'{node.name}' ({node.type}, {line})" if line else f"'{node.name}' ({node.type})"
+
+
+def facts_of(
+    gathered: Gatherer, robot: Robot, time_limit_s: float = math.inf, running: list[tuple[float, int]] | None = None
+) -> RunFacts:
     """A run's facts, once it has ended: its end record, and the robot's own account, let come to rest.
 
     Args:
         gathered: The run's header and end record.
         robot: The emulated robot the run drove, as the run left it.
         time_limit_s: The exercise's time limit (the robot must have come to rest within it).
+        running: Which node was running when (:attr:`Runner.tips`).
 
     Raises:
         ValueError: the run has no header or end record.
@@ -257,6 +283,8 @@ def facts_of(gathered: Gatherer, robot: Robot, time_limit_s: float = math.inf) -
         time_limit_s=time_limit_s,
         stills=stills,
         rest_hit=rest_hit,
+        running=list(running or []),
+        node_labels=[node_label(node) for node in header.nodes],
         node_types=frozenset(
             [n.type for n in header.nodes]
             + [f"{n.type}.{k}" for n in header.nodes for k, v in n.params.items() if v is not None]

@@ -161,11 +161,11 @@ def run_seed(
         listeners += [replay] if replay is not None else []
         replayed = stream is not None or replay is not None
         runner = Runner.for_mission(
-            spec, client, max_seconds=exercise.time_limit_s, listeners=listeners, node_states=replayed
+            spec, client, max_seconds=exercise.time_limit_s, listeners=listeners, node_states=replayed, tips=True
         )  # the judge reads the emulator's own account: the nodes' states are looked for only for a replay
         runner.run()
         emulator = client.port.emulator  # type: ignore[attr-defined]  # an emu:// link's port has its emulator
-        return facts_of(gatherer, emulator.robot, exercise.time_limit_s)
+        return facts_of(gatherer, emulator.robot, exercise.time_limit_s, runner.tips or [])
     finally:
         client.close()
         if stream is not None:

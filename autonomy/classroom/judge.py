@@ -21,7 +21,8 @@ from dataclasses import dataclass
 from itertools import pairwise
 
 from autonomy.classroom.criteria import Criterion
-from autonomy.classroom.facts import FAILED, SETTLE_MOST_S, SUCCEEDED, Beep, Contact, RunFacts
+from autonomy.classroom.facts import FAILED, SETTLE_MOST_S, SUCCEEDED, Beep, RunFacts
+from autonomy.classroom.told import bearing, contact_text, either, got_there, hit, listed, mm, stopped_by, while_running
 from autonomy.emulator.world import ROBOT_RADIUS_MM, World, Zone
 from autonomy.protocol import heading_delta_deg
 from autonomy.record import Pose
@@ -45,20 +46,6 @@ class Verdict:
     def __post_init__(self) -> None:
         if self.share < 0.0:
             object.__setattr__(self, "share", 1.0 if self.held else 0.0)
-
-
-def hit(world: World, pose: Pose) -> str:
-    """What the robot touches at ``pose``: an obstacle's name (``obstacle 2`` for one without), or ``a wall``."""
-    names = world.obstacle_names or ("",) * len(world.obstacles)
-    wall = min(pose.x_mm, pose.y_mm, world.width_mm - pose.x_mm, world.height_mm - pose.y_mm)
-    nearest = min(
-        (
-            (obstacle.gap(pose.x_mm, pose.y_mm), name or f"obstacle {index + 1}")
-            for index, (obstacle, name) in enumerate(zip(world.obstacles, names, strict=True))
-        ),
-        default=(math.inf, ""),
-    )
-    return nearest[1] if nearest[0] < wall else "a wall"
 
 
 # ---------------------------------------------------------------------------- the path and zones
@@ -103,7 +90,7 @@ def _missed(zone: Zone, path: list[tuple[float, Pose]], name: str) -> str:
     """``corner_2 is 370 mm north-east of where the robot came closest (1130, 880 mm)``."""
     gap, x, y = _closest(zone, path)
     toward = bearing(x, y, *zone.shape.nearest(x, y))
-    return f"{name} is {_mm(gap)} {toward} of where the robot came closest ({x:.0f}, {y:.0f} mm)"
+    return f"{name} is {mm(gap)} {toward} of where the robot came closest ({x:.0f}, {y:.0f} mm)"
 
 
 def _beep_zones(beeps: list[Beep], zones: list[Zone], within_mm: float) -> list[list[int]]:
@@ -154,8 +141,13 @@ def judge(criterion: Criterion, facts: RunFacts, world: World) -> Verdict:
     if kind == "finish_within_s":
         if facts.outcome != SUCCEEDED:
             why = f": {facts.reason}" if facts.reason else ""
-            return Verdict(False, f"did not succeed ({facts.outcome} after {facts.time_s:.1f} s{why})")
-        return Verdict(facts.time_s <= value, f"succeeded in {facts.time_s:.1f} s, allowed {value:g} s")
+            during = while_running(facts, facts.time_s)
+            return Verdict(False, f"did not succeed ({facts.outcome} after {facts.time_s:.1f} s{why}){during}")
+        if facts.time_s > value:
+            return Verdict(
+                False, f"succeeded in {facts.time_s:.1f} s, allowed {value:g} s{while_running(facts, value)}"
+            )
+        return Verdict(True, f"succeeded in {facts.time_s:.1f} s, allowed {value:g} s")
     if kind == "max_distance_mm":
         return Verdict(facts.distance_mm <= value, f"drove {facts.distance_mm:,.0f} mm, allowed {value:,.0f} mm")
     if kind == "end_heading_deg":
@@ -177,13 +169,16 @@ def judge(criterion: Criterion, facts: RunFacts, world: World) -> Verdict:
     if kind == "uses_nodes":
         used = [name for name in value if name in facts.node_types]
         if used:
-            return Verdict(True, f"uses {_listed([f'{n}' for n in used])}")
-        return Verdict(False, f"uses none of {_either(list(value))} (needed one)")
+            return Verdict(True, f"uses {listed([f'{n}' for n in used])}")
+        return Verdict(False, f"uses none of {either(list(value))} (needed one)")
     if kind == "max_nodes":
         return Verdict(facts.nodes <= value, f"uses {plural(facts.nodes, 'node')}, allowed {value}")
     if kind == "succeed":
         why = f": {facts.reason}" if facts.reason else ""
-        return Verdict(facts.outcome == SUCCEEDED, f"the mission {facts.outcome} after {facts.time_s:.1f} s{why}")
+        during = "" if facts.outcome == SUCCEEDED else while_running(facts, facts.time_s)
+        return Verdict(
+            facts.outcome == SUCCEEDED, f"the mission {facts.outcome} after {facts.time_s:.1f} s{why}{during}"
+        )
     return Verdict(False, f"unknown criterion {kind}")
 
 
@@ -201,36 +196,29 @@ def _collision_verdict(criterion: Criterion, facts: RunFacts, world: World) -> V
     collisions = [c for c in placed if c.speed_mm_s > over]
     what = "collisions" + (f" with {wanted}" if wanted else "") + (f" at {at}" if at else "")
     what += f" faster than {over:g} mm/s" if over else ""
-    first = f", the first at {_contact_text(collisions[0])}" if collisions else ""
+    first = f", the first at {contact_text(collisions[0])}" if collisions else ""
     hardest = max(collisions, key=lambda c: c.speed_mm_s) if len(collisions) > 1 else None
     if hardest is not None and hardest.speed_mm_s > collisions[0].speed_mm_s:
-        first += f", the hardest at {_contact_text(hardest)}"
+        first += f", the hardest at {contact_text(hardest)}"
     others = len(facts.collisions) - len(placed)
     if others:
         places = sorted({hit(world, c.pose) for c in facts.collisions if c not in placed})
         where = " elsewhere" if at else ""
-        first += f" (and {plural(others, 'collision')}{where} with {_listed(places)})"
+        first += f" (and {plural(others, 'collision')}{where} with {listed(places)})"
     softer = len(placed) - len(collisions)
     if softer:
         first += f" ({plural(softer, 'touch', 'touches')} at {over:g} mm/s or slower not counted)"
     count = len(collisions)
     if kind == "max_collisions":
+        if count > value:  # the collision that was one too many, and the node that was running then
+            over = collisions[int(value)]
+            first += (
+                while_running(facts, over.time_s, collided=True)
+                if not value
+                else f"; the one too many at {over.time_s:.1f} s" + while_running(facts, over.time_s, collided=True)
+            )
         return Verdict(count <= value, f"{what}: {count}, allowed {value}{first}")
     return Verdict(count >= value, f"{what}: {count}, needed at least {value}{first}")
-
-
-def _contact_text(contact: Contact) -> str:
-    """``4.1 s, at 427 mm/s``: when a collision began and how hard it hit."""
-    return f"{contact.time_s:.1f} s at {contact.speed_mm_s:.0f} mm/s"
-
-
-def _stopped_by(facts: RunFacts, world: World) -> str:
-    """``, but only because it hit a wall at 320 mm/s (stopped by it, not by itself)``, or empty."""
-    contact = facts.rest_hit
-    if contact is None:
-        return ""
-    what = hit(world, contact.pose)
-    return f", but only because it hit {what} at {contact.speed_mm_s:.0f} mm/s (stopped by it, not by itself)"
 
 
 def _zone_verdict(criterion: Criterion, facts: RunFacts, zone: Zone, world: World) -> Verdict:
@@ -245,7 +233,8 @@ def _zone_verdict(criterion: Criterion, facts: RunFacts, zone: Zone, world: Worl
         inside = _first_inside(zone, path)
         if inside is None:
             return Verdict(True, f"{name}: never entered")
-        return Verdict(False, f"{name}: entered at {_time_at(path, inside):.1f} s (needed never)")
+        entered_s = _time_at(path, inside)
+        return Verdict(False, f"{name}: entered at {entered_s:.1f} s (needed never){while_running(facts, entered_s)}")
     if kind == "beep_near":
         radius = float(criterion.options["within_mm"])
         beeps, left_out = _counted_beeps(criterion, facts)
@@ -256,22 +245,22 @@ def _zone_verdict(criterion: Criterion, facts: RunFacts, zone: Zone, world: Worl
         gaps = [(zone.distance_mm(b.pose.x_mm, b.pose.y_mm), b.time_s) for b in beeps]
         near = next(((g, t) for g, t in gaps if g <= radius + 1e-6), None)
         if near is not None:
-            where = "inside it" if near[0] <= 1e-6 else f"{_mm(near[0])} from it"
+            where = "inside it" if near[0] <= 1e-6 else f"{mm(near[0])} from it"
             return Verdict(True, f"beep at {name}: beeped {where} at {near[1]:.1f} s")
         nearest = min(g for g, _ in gaps)
         needed = "inside it" if radius <= 0 else f"within {radius:g} mm"
-        return Verdict(False, f"beep at {name}: nearest beep {_mm(nearest)} from it (needed {needed}){left_out}")
+        return Verdict(False, f"beep at {name}: nearest beep {mm(nearest)} from it (needed {needed}){left_out}")
     if kind == "stop_in_zone":
         return _stop_in(criterion, facts, zone)
     gap = zone.distance_mm(end_pose.x_mm, end_pose.y_mm)
-    where = "inside it" if gap <= 1e-6 else f"{_mm(gap)} outside it"
+    where = "inside it" if gap <= 1e-6 else f"{mm(gap)} outside it"
     if kind == "end_in_zone":
         if facts.outcome not in (SUCCEEDED, FAILED):
             return Verdict(False, f"{name}: the mission did not end on its own ({facts.outcome}); it stopped {where}")
         if gap <= 1e-6:
-            stopped = _stopped_by(facts, world)
-            return Verdict(not stopped, f"{name}: ended inside it{stopped}")
-        return Verdict(False, f"{name}: ended {where} (needed inside)")
+            stopped = stopped_by(facts, world)
+            return Verdict(not stopped, f"{name}: ended inside it{stopped}" + (got_there(facts) if stopped else ""))
+        return Verdict(False, f"{name}: ended {where} (needed inside){got_there(facts)}")
     # rest_in_zone
     if facts.rest_s is None:
         return Verdict(False, f"{name}: the robot never came to rest (it was still moving {SETTLE_MOST_S:g} s after)")
@@ -284,7 +273,7 @@ def _zone_verdict(criterion: Criterion, facts: RunFacts, zone: Zone, world: Worl
     after = str(criterion.options.get("after") or "")
     if gap > 1e-6:
         toward = bearing(end_pose.x_mm, end_pose.y_mm, *zone.shape.nearest(end_pose.x_mm, end_pose.y_mm))
-        line = f"{name}: came to rest {_mm(gap)} outside it (it lies {toward}; needed inside)"
+        line = f"{name}: came to rest {mm(gap)} outside it (it lies {toward}; needed inside)"
         near_mm = float(criterion.options.get("near_mm") or 0.0)
         share = max(0.0, 1.0 - gap / near_mm) if near_mm > 0 else 0.0
         if share > 0 and after:
@@ -295,14 +284,14 @@ def _zone_verdict(criterion: Criterion, facts: RunFacts, zone: Zone, world: Worl
             share = 0.0
         if share > 0:
             line += f": {share:.0%} of its points, for resting within {near_mm:g} mm of it untouched"
-        return Verdict(False, line, share)
+        return Verdict(False, line + got_there(facts), share)
     if after:
         earlier = world.zone(after)
         if earlier is None or _first_inside(earlier, path) is None:
             return Verdict(False, f"{name}: came to rest inside it, but never after {after} (needed after it)")
-    stopped = _stopped_by(facts, world)
+    stopped = stopped_by(facts, world)
     if stopped:
-        return Verdict(False, f"{name}: came to rest inside it at {facts.rest_s:.1f} s{stopped}")
+        return Verdict(False, f"{name}: came to rest inside it at {facts.rest_s:.1f} s{stopped}{got_there(facts)}")
     return Verdict(True, f"{name}: came to rest inside it at {facts.rest_s:.1f} s")
 
 
@@ -373,12 +362,12 @@ def _beeps_in(criterion: Criterion, facts: RunFacts, zones: list[Zone]) -> Verdi
     beeped.sort()
     names = [zones[i].name for i in beeped]
     missing = [zone for i, zone in enumerate(zones) if i not in beeped]
-    parts = [f"beeped at {_listed(names)}" if names else "no beep at any of them"]
+    parts = [f"beeped at {listed(names)}" if names else "no beep at any of them"]
     for zone in missing:
         if beeps:
             gap, pose = min(((zone.distance_mm(b.pose.x_mm, b.pose.y_mm), b.pose) for b in beeps), key=lambda g: g[0])
             toward = bearing(pose.x_mm, pose.y_mm, *zone.shape.nearest(pose.x_mm, pose.y_mm))
-            parts.append(f"none at {zone.name} (it is {_mm(gap)} {toward} of the nearest beep)")
+            parts.append(f"none at {zone.name} (it is {mm(gap)} {toward} of the nearest beep)")
         else:
             parts.append(f"none at {zone.name}")
     over = extra > allowed
@@ -420,14 +409,6 @@ def _turns(criterion: Criterion, facts: RunFacts, zone: Zone | None = None) -> V
     return Verdict(share >= 1.0, found, share)
 
 
-def _listed(names: list[str]) -> str:
-    return names[0] if len(names) == 1 else ", ".join(names[:-1]) + " and " + names[-1]
-
-
-def _either(names: list[str]) -> str:
-    return names[0] if len(names) == 1 else ", ".join(names[:-1]) + " or " + names[-1]
-
-
 def _stop_in(criterion: Criterion, facts: RunFacts, zone: Zone) -> Verdict:
     """The robot stood still with its centre in the zone for at least ``for_s``, at some time of its run."""
     need_s = float(criterion.options["for_s"])
@@ -444,7 +425,7 @@ def _stop_in(criterion: Criterion, facts: RunFacts, zone: Zone) -> Verdict:
         gap, still = min(((zone.distance_mm(s.pose.x_mm, s.pose.y_mm), s) for s in facts.stills), key=lambda g: g[0])
         toward = bearing(still.pose.x_mm, still.pose.y_mm, *zone.shape.nearest(still.pose.x_mm, still.pose.y_mm))
         return Verdict(
-            False, f"{zone.name}: never stopped in it; the nearest stop was {_mm(gap)} from it (it lies {toward})"
+            False, f"{zone.name}: never stopped in it; the nearest stop was {mm(gap)} from it (it lies {toward})"
         )
     return Verdict(False, f"{zone.name}: the robot never stopped")
 
@@ -463,21 +444,8 @@ def _distance_ahead(criterion: Criterion, facts: RunFacts, world: World) -> Verd
     shown = "nothing" if not math.isfinite(ahead) else f"{ahead:.0f} mm"
     needed = f"needed {low:g} to {high:g} mm"
     held = low - 1e-6 <= ahead <= high + 1e-6
-    stopped = _stopped_by(facts, world)
+    stopped = stopped_by(facts, world)
     line = f"came to rest with {shown} ahead of its front ({needed}){stopped}"
+    if not held or stopped:
+        line += got_there(facts)
     return Verdict(held and not stopped, line)
-
-
-#: The eight points of the compass, counter-clockwise from east (+x), as the world's headings go.
-_COMPASS = ("east", "north-east", "north", "north-west", "west", "south-west", "south", "south-east")
-
-
-def _mm(distance_mm: float) -> str:
-    """A distance as a student reads it: ``35 mm``, or ``less than 1 mm`` (never ``0 mm`` for a miss)."""
-    return "less than 1 mm" if distance_mm < 0.5 else f"{distance_mm:.0f} mm"
-
-
-def bearing(from_x_mm: float, from_y_mm: float, to_x_mm: float, to_y_mm: float) -> str:
-    """Which way ``to`` lies from ``from``, as one of the eight points of the compass (north is +y)."""
-    angle_deg = math.degrees(math.atan2(to_y_mm - from_y_mm, to_x_mm - from_x_mm)) % 360.0
-    return _COMPASS[round(angle_deg / 45.0) % 8]

@@ -164,7 +164,7 @@ def _came_to_rest(client: Any, stopped: tuple[float, Any, int] | None) -> str:
     over a link) nothing is known of it: empty.
     """
     from autonomy.classroom.facts import SETTLE_MOST_S, settle
-    from autonomy.classroom.judge import hit
+    from autonomy.classroom.told import hit
 
     if stopped is None:
         return ""
@@ -212,7 +212,7 @@ def _exercise_seed(args: argparse.Namespace) -> tuple[Any, Any] | int:
     return exercise, chosen
 
 
-def _graded_lines(exercise: Any, seed: Any, gathered: Any, client: Any) -> list[str]:
+def _graded_lines(exercise: Any, seed: Any, gathered: Any, client: Any, tips: list[tuple[float, int]]) -> list[str]:
     """What the grader says of this run of one seed: its points, and each criterion's line."""
     from autonomy.classroom.facts import facts_of
     from autonomy.classroom.job import verdicts_of
@@ -220,7 +220,7 @@ def _graded_lines(exercise: Any, seed: Any, gathered: Any, client: Any) -> list[
     emulator = getattr(client.port, "emulator", None)
     if emulator is None or gathered.end is None:
         return []
-    verdicts = verdicts_of(exercise, seed, facts_of(gathered, emulator.robot, exercise.time_limit_s))
+    verdicts = verdicts_of(exercise, seed, facts_of(gathered, emulator.robot, exercise.time_limit_s, tips))
     shares = zip(exercise.criteria, verdicts, strict=True)
     earned = sum(criterion.points * verdict.share for criterion, verdict in shares)
     lines = [f"As the grader marks it, {seed.label}: {earned:.4g} of {exercise.max_points:g} points"]
@@ -328,7 +328,9 @@ def cmd_run(args: argparse.Namespace) -> int:
         except AutonomyError as err:
             return _fail(str(err), EXIT_LINK)
         try:
-            runner = Runner.for_mission(spec, client, max_seconds=args.max_seconds, listeners=listeners)
+            runner = Runner.for_mission(
+                spec, client, max_seconds=args.max_seconds, listeners=listeners, tips=graded is not None
+            )
             output.on_close.append(runner.request_stop)
             with settled_heap():  # this process's one run
                 if live is not None:
@@ -342,7 +344,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         stopped = _when_stopped(client)
         marks = []  # judged first, from the run as it ended (the judge lets the robot come to rest itself)
         if graded is not None and gathered is not None and summary.outcome != INTERRUPTED:
-            marks = _graded_lines(*graded, gathered, client)
+            marks = _graded_lines(*graded, gathered, client, runner.tips or [])
         rest = _came_to_rest(client, stopped)  # past the run's records: what a replay of them cannot say
         run_part, link_part = summary.paragraph.split(" Link: ", 1)  # said before the link's counts
         output.paragraph(f"{run_part}{' ' + rest if rest else ''} Link: {link_part}")

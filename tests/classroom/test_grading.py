@@ -588,8 +588,6 @@ def test_collisions_are_counted_from_the_emulator_the_same_at_any_tick_rate(tmp_
     assert seen[1] == 0 and seen[20] == 2  # what the mission read: not the same at every rate
 
 
-
-
 def test_collisions_with_a_named_obstacle_are_told_from_the_rest():
     from autonomy.classroom.exercise import Criterion
     from autonomy.classroom.judge import hit, judge

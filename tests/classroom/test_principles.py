@@ -49,6 +49,7 @@ criteria:
   - rest_distance_ahead_mm: [100, 200]
   - uses_nodes: [obstacle_within, move.until_obstacle_mm]
   - max_collisions: 3
+  - finish_within_s: 20
 """
 
 
@@ -90,7 +91,10 @@ def test_a_robot_stopped_by_the_wall_it_ran_into_did_not_park_there(dock):
     rammed = verdicts(dock, "rams", "move: {speed: 4}")  # full speed until the wall stops it, in the dock
     held, line, _ = rammed["rest_in_zone dock"]
     assert not held and line.startswith("dock: came to rest inside it at ")
-    assert line.endswith(", but only because it hit a wall at 427 mm/s (stopped by it, not by itself)")
+    assert line.endswith(
+        ", but only because it hit a wall at 427 mm/s (stopped by it, not by itself); it got there while move (line 3) "
+        "was running"
+    )
     parked = verdicts(dock, "parks", "move: {speed: 2, until_obstacle_mm: 60}")  # stops itself before the wall
     assert parked["rest_in_zone dock"][0] and parked["max_collisions 0"][0]
 
@@ -98,7 +102,7 @@ def test_a_robot_stopped_by_the_wall_it_ran_into_did_not_park_there(dock):
 def test_how_hard_a_robot_hits_counts_a_crash_is_not_a_touch(dock):
     crash = verdicts(dock, "crash", "move: {speed: 4}")["max_collisions 0"]
     assert not crash[0] and crash[1].startswith("collisions faster than 150 mm/s: 1, allowed 0, the first at ")
-    assert crash[1].endswith(" s at 427 mm/s")
+    assert crash[1].endswith(" s at 427 mm/s, while move (line 3) was running")
     touch = verdicts(dock, "touch", "move: {speed: 1}")["max_collisions 0"]
     assert touch[0] and touch[1] == (
         "collisions faster than 150 mm/s: 0, allowed 0 (1 touch at 150 mm/s or slower not counted)"
@@ -259,3 +263,34 @@ def test_the_shipped_solutions_make_their_stops_and_beeps_by_themselves(dock):
         spec, _ = check_submission(exercise, root / "solutions" / f"{name}.yaml", False)
         facts = run_seed(exercise, spec, exercise.seeds[0])
         assert facts.rest_by_itself and facts.collisions == [] and all(b.audible for b in facts.beeps), name
+
+
+# ---------------------------------------------------------------- feedback that names the node
+
+
+def test_a_lost_mark_names_the_node_that_was_running_when_it_was_lost(dock):
+    named = sequence(
+        "move: {speed: 2, distance_mm: 700, name: to the middle}",
+        "move: {speed: 4, name: to the end}",
+    )
+    lines = {label: line for label, (_, line, _) in verdicts(dock, "named", named).items()}
+    assert lines["max_collisions 0"].endswith(" at 427 mm/s, while 'to the end' (move, line 5) was running")
+    assert lines["rest_in_zone dock"].endswith("; it got there while 'to the end' (move, line 5) was running")
+    out_of_time = sequence("move: {speed: 2, distance_mm: 700}", "wait: {seconds: 100, name: forever}")
+    finish = verdicts(dock, "slow", out_of_time)["finish_within_s 20"][1]
+    assert finish.startswith("did not succeed (stopped at the time limit after 60.0 s") and finish.endswith(
+        "), while 'forever' (wait, line 5) was running"
+    )
+
+
+def test_a_robot_let_go_at_speed_names_the_mission_s_last_node_and_says_it_ended_too_soon():
+    from autonomy.classroom import load_exercise as load
+
+    root = Path(__file__).resolve().parents[2] / "exercises"
+    exercise = load(root / "garage.yaml")
+    (seed, *_) = grade_one(exercise, "fast", root / "wrong" / "garage_full_speed.yaml").seeds
+    lines = dict(zip([c.label for c in exercise.criteria], [line for _, line in seed.verdicts], strict=True))
+    assert lines["max_collisions 0"] == (
+        "collisions: 1, allowed 0, the first at 4.6 s at 210 mm/s, while move until < 60 mm (line 8) was running: "
+        "the mission ended before the robot could stop"
+    )

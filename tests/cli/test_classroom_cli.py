@@ -83,10 +83,13 @@ def test_a_student_grades_their_own_mission_and_reads_what_to_fix(tmp_path):
     assert lines[4:6] == [
         "  MISS Parked in the garage: 1.25 / 5 points",  # the criterion's title, the student's words
         "         seed 8: no  garage: came to rest 40 mm outside it (it lies west; needed inside; a near miss earns "
-        "a part only without a collision)",
+        "a part only without a collision); it got there while move 2400 mm (line 4) was running",
     ]
     assert "         seed 52: yes garage: came to rest inside it at 11.5 s" in lines
-    assert "         seed 8: no  collisions: 1, allowed 0, the first at 9.0 s at 214 mm/s" in lines  # speed 2
+    assert (
+        "         seed 8: no  collisions: 1, allowed 0, the first at 9.0 s at 214 mm/s, while move 2400 mm (line 4) "
+        "was running" in lines
+    )  # speed 2: the node that was running when the mark was lost, as the student wrote it
 
 
 def test_the_teacher_s_secret_adds_the_hidden_seeds(tmp_path):
