@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections import Counter
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -166,7 +167,34 @@ class CriteriaReader(Reader):
             criterion = self.criterion(item, f"criteria[{index}]", world)
             if criterion is not None:
                 read.append((criterion, item, f"criteria[{index}]"))
-        return self.requirements(read)
+        return self.requirements(self.told_apart(read))
+
+    def told_apart(self, read: list[tuple[Criterion, Located, str]]) -> list[tuple[Criterion, Located, str]]:
+        """Criteria of one label (``turns 180``, at two zones) labelled with their options too (``turns 180 at mid``).
+
+        A label is what the teacher's gradebook, ``--compare`` and ``requires:`` name a criterion by:
+        two alike but for an option get it added; two alike in every way are a problem.
+        """
+        labels = Counter(c.label for c, _, _ in read)
+        out = []
+        for criterion, item, path in read:
+            if labels[criterion.label] > 1:
+                defaults = CRITERIA[criterion.kind].options
+                extra = [
+                    key if value is True else f"{key} {value:g}" if isinstance(value, float) else f"{key} {value}"
+                    for key, value in criterion.options.items()
+                    if value != defaults[key]
+                ]
+                criterion = replace(criterion, label=" ".join([criterion.label, *extra]))
+            out.append((criterion, item, path))
+        seen: dict[str, str] = {}
+        for criterion, item, path in out:
+            if criterion.label in seen:
+                self.problem(
+                    item, path, f"the same criterion as {seen[criterion.label]} ('{criterion.label}'): give it once"
+                )
+            seen.setdefault(criterion.label, path)
+        return out
 
     def criterion(self, item: Located, path: str, world: World | None) -> Criterion | None:
         """One criterion: its kind, value, points, options and title (None, its problems noted)."""
@@ -299,6 +327,9 @@ class CriteriaReader(Reader):
                 self.problem(item, here, f"expected a node type, got {item.plain!r}")
                 continue
             node, _, param = item.value.partition(".")
+            if node == "subtree":
+                self.problem(item, here, "a subtree is its steps when graded: name the nodes its steps use")
+                continue
             if node not in known:
                 self.problem(item, here, f"unknown node type '{node}'{suggest(node, known)}")
                 continue

@@ -8,13 +8,14 @@ from the emulated robot once the mission has ended and the robot, told to stop, 
 from __future__ import annotations
 
 import math
-from bisect import bisect_right
+from bisect import bisect_left
 from dataclasses import dataclass, field
 from itertools import pairwise
 
 from autonomy.emulator.robot import SAME_PLACE_MM, Impact, Robot
 from autonomy.emulator.world import World
-from autonomy.record import NodeInfo, Pose, Record, RunEnd, RunHeader
+from autonomy.mission.registry import BUILTINS
+from autonomy.record import NodeInfo, Pose, Record, RunEnd, RunHeader, TickRecord
 
 SUCCEEDED = "succeeded"
 
@@ -84,12 +85,14 @@ class Beep:
 class Still:
     """A time the robot stood still (neither wheels nor heading moving): from, to, and where.
 
-    The last one, where it came to rest for good, ends at infinity.
+    The last one, where it came to rest for good, ends at infinity. ``stopped_by_impact``: it began
+    where an impact faster than a touch stopped the robot (not a stop of its own).
     """
 
     start_s: float
     end_s: float
     pose: Pose
+    stopped_by_impact: bool = False
 
     @property
     def duration_s(self) -> float:
@@ -158,12 +161,17 @@ class RunFacts:
     node_types: frozenset[str] = frozenset()
     running: list[tuple[float, int]] = field(default_factory=list)
     node_labels: list[str] = field(default_factory=list)
+    last_tick_s: float = math.inf
 
     def running_at(self, time_s: float) -> str:
         """The label of the node that was running at ``time_s`` (the mission's last, after its end), or empty."""
         if not self.running or not self.node_labels:
             return ""
-        index = bisect_right(self.running, time_s, key=lambda tip: tip[0]) - 1
+        # the tip a tick left ran from that tick on: what happened at a tick's own time came before it
+        index = bisect_left(self.running, time_s, key=lambda tip: tip[0]) - 1
+        if time_s > self.time_s and index == len(self.running) - 1 and index > 0:
+            if self.running[index][0] >= self.last_tick_s - 1e-9:  # the last tick's node, there for no time
+                index -= 1
         node = self.running[max(0, index)][1]
         return self.node_labels[node] if node < len(self.node_labels) else ""
 
@@ -204,10 +212,13 @@ class Gatherer:
     def __init__(self) -> None:
         self.header: RunHeader | None = None
         self.end: RunEnd | None = None
+        self.last_tick_s = math.inf
 
     def __call__(self, record: Record) -> None:
         """Takes one record."""
-        if isinstance(record, RunHeader) and self.header is None:
+        if type(record) is TickRecord:
+            self.last_tick_s = record.time_s
+        elif isinstance(record, RunHeader) and self.header is None:
             self.header = record
         elif isinstance(record, RunEnd) and self.end is None:
             self.end = record
@@ -218,6 +229,18 @@ def settle(robot: Robot, most_s: float = SETTLE_MOST_S) -> None:
     until_s = robot.time_s + most_s
     while robot.moving and robot.time_s < until_s:
         robot.advance_to(min(until_s, robot.time_s + 0.1))
+
+
+def _given(node_type: str, key: str, value: object) -> bool:
+    """Whether a node's parameter was given: set, to other than its default."""
+    if value is None:
+        return False
+    try:
+        kind = BUILTINS.get(node_type)
+    except (KeyError, LookupError):  # a plugin's node: what it was given is what it has
+        return True
+    default = next((p.default for p in kind.params if p.name == key), None)
+    return value != default
 
 
 def node_label(node: NodeInfo) -> str:
@@ -255,9 +278,16 @@ def facts_of(
         Beep(t - offset_s, pose, volume, moving)
         for (t, _, volume), pose, moving in zip(robot.beeps, robot.beep_poses, robot.beep_moving, strict=True)
     ]
-    stills = [Still(a - offset_s, b - offset_s, pose) for a, b, pose in robot.stills]
-    if rest_s is not None:
-        stills.append(Still(rest_s, math.inf, robot.pose))
+    near_s = 2 * robot.params.step_s
+    hard_s = [i.time_s - offset_s for i in robot.impacts if i.speed_mm_s > TOUCH_MM_S]
+    stills = [
+        Still(a - offset_s, b - offset_s, pose, any(abs(t - (a - offset_s)) <= near_s for t in hard_s))
+        for a, b, pose in robot.stills
+    ]
+    timed_out = end.outcome not in (SUCCEEDED, FAILED) and rest_s is not None and rest_s >= end.time_s - 1e-6
+    if rest_s is not None and not timed_out:  # a robot still moving when its time ran out did not stop by itself
+        at_s = arrival_s(path)
+        stills.append(Still(rest_s, math.inf, robot.pose, any(abs(t - at_s) <= near_s for t in hard_s)))
     collisions = contacts_of(robot.impacts, robot.trail, robot.world, robot.params.body_radius_mm, offset_s)
     rest_hit = None
     if rest_s is not None:  # came to its last place at an impact harder than a touch: stopped by what it hit
@@ -284,10 +314,11 @@ def facts_of(
         stills=stills,
         rest_hit=rest_hit,
         running=list(running or []),
+        last_tick_s=gathered.last_tick_s,
         node_labels=[node_label(node) for node in header.nodes],
         node_types=frozenset(
             [n.type for n in header.nodes]
-            + [f"{n.type}.{k}" for n in header.nodes for k, v in n.params.items() if v is not None]
+            + [f"{n.type}.{k}" for n in header.nodes for k, v in n.params.items() if _given(n.type, k, v)]
         ),
     )
 

@@ -116,7 +116,7 @@ def _counted_beeps(criterion: Criterion, facts: RunFacts) -> tuple[list[Beep], s
         told.append(f"{plural(silent, 'silent beep')} (volume 0)")
     if moving:
         told.append(f"{plural(moving, 'beep')} made while driving or turning")
-    return counted, (f"; {' and '.join(told)} not counted" if told else "")
+    return counted, (f"; {' and '.join(told)} not counted at a zone" if told else "")
 
 
 # ---------------------------------------------------------------------------- the criteria
@@ -352,7 +352,7 @@ def _beeps_in(criterion: Criterion, facts: RunFacts, zones: list[Zone]) -> Verdi
     beeps, left_out = _counted_beeps(criterion, facts)
     at = _beep_zones(beeps, zones, within)
     beeped: list[int] = []
-    extra = 0
+    extra = len(facts.sounded) - len(beeps)  # a beep made while driving is no beep at a zone, but a beep all the same
     for found in at:
         new = [i for i in found if i not in beeped]
         if new:
@@ -412,17 +412,18 @@ def _turns(criterion: Criterion, facts: RunFacts, zone: Zone | None = None) -> V
 def _stop_in(criterion: Criterion, facts: RunFacts, zone: Zone) -> Verdict:
     """The robot stood still with its centre in the zone for at least ``for_s``, at some time of its run."""
     need_s = float(criterion.options["for_s"])
-    inside = [s for s in facts.stills if zone.contains(s.pose.x_mm, s.pose.y_mm)]
+    stops = [s for s in facts.stills if not s.stopped_by_impact]  # where a wall stopped it is no stop of its own
+    inside = [s for s in stops if zone.contains(s.pose.x_mm, s.pose.y_mm)]
     long_enough = [s for s in inside if s.duration_s >= need_s - 1e-9]
     if long_enough:
         first = long_enough[0]
         how = "for good" if first.end_s == math.inf else f"for {first.duration_s:.1f} s"
-        return Verdict(True, f"{zone.name}: stopped in it at {first.start_s:.1f} s, {how}")
+        return Verdict(True, f"{zone.name}: stopped in it at {max(0.0, first.start_s):.1f} s, {how}")
     if inside:
         longest = max(s.duration_s for s in inside)
         return Verdict(False, f"{zone.name}: stood in it {longest:.1f} s at most (needed {need_s:g} s)")
-    if facts.stills:
-        gap, still = min(((zone.distance_mm(s.pose.x_mm, s.pose.y_mm), s) for s in facts.stills), key=lambda g: g[0])
+    if stops:
+        gap, still = min(((zone.distance_mm(s.pose.x_mm, s.pose.y_mm), s) for s in stops), key=lambda g: g[0])
         toward = bearing(still.pose.x_mm, still.pose.y_mm, *zone.shape.nearest(still.pose.x_mm, still.pose.y_mm))
         return Verdict(
             False, f"{zone.name}: never stopped in it; the nearest stop was {mm(gap)} from it (it lies {toward})"
@@ -435,6 +436,8 @@ def _distance_ahead(criterion: Criterion, facts: RunFacts, world: World) -> Verd
     low, high = criterion.value
     if facts.rest_s is None:
         return Verdict(False, "the robot never came to rest")
+    if facts.outcome not in (SUCCEEDED, FAILED) and facts.rest_s >= facts.time_s - 1e-6:
+        return Verdict(False, f"the robot was still moving when its time ran out ({facts.time_s:g} s)")
     if facts.rest_s > facts.time_limit_s + 1e-9:
         return Verdict(False, f"came to rest only at {facts.rest_s:.2f} s, after the {facts.time_limit_s:g} s allowed")
     pose = facts.path[-1][1]

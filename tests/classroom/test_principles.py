@@ -120,7 +120,10 @@ def test_a_beep_at_volume_0_is_silent_and_no_beep(dock):
         not held
         and share == 0
         and line
-        == ("no beep at any of them; none at dock; 0 extra beeps, allowed 0; 1 silent beep (volume 0) not counted")
+        == (
+            "no beep at any of them; none at dock; 0 extra beeps, allowed 0; 1 silent beep (volume 0) not counted "
+            "at a zone"
+        )
     )
     heard = verdicts(dock, "heard", f"sequence:\n  - {to_dock}\n  - beep: {{tones: [5, 7, 9], volume: 1}}")
     assert heard["beeps_in dock"][:2] == (True, "beeped at dock; 0 extra beeps, allowed 0")
@@ -134,7 +137,9 @@ parallel:
   - sequence: [{wait: {seconds: 6.5}}, {beep: {tones: [5, 7, 9]}}]
 """
     held, line, _ = verdicts(dock, "on_the_way", on_the_way)["beep_near mid"]
-    assert not held and line == "beep at mid: no beep counted; 1 beep made while driving or turning not counted"
+    assert not held and line == (
+        "beep at mid: no beep counted; 1 beep made while driving or turning not counted at a zone"
+    )
     stopped = "sequence:\n  - move: {speed: 2, distance_mm: 700}\n  - beep: {tones: [5, 7, 9]}"
     held, line, _ = verdicts(dock, "stopped", stopped)["beep_near mid"]  # braking to a stop is standing
     assert held and line.startswith("beep at mid: beeped inside it at ")
@@ -233,6 +238,11 @@ def test_using_the_front_sensor_is_a_node_that_reads_it_in_the_tree(dock):
 @pytest.mark.parametrize(
     ("criterion", "message"),
     [
+        ("uses_nodes: [subtree]", "a subtree is its steps when graded: name the nodes its steps use"),
+        (
+            "max_collisions: 0\n  - max_collisions: 0",
+            "the same criterion as criteria[0] ('max_collisions 0'): give it once",
+        ),
         ("uses_nodes: [obstacle_withn]", "unknown node type 'obstacle_withn' (did you mean 'obstacle_within'?)"),
         (
             "uses_nodes: [move.until_obstacle]",
@@ -294,3 +304,79 @@ def test_a_robot_let_go_at_speed_names_the_mission_s_last_node_and_says_it_ended
         "collisions: 1, allowed 0, the first at 4.6 s at 210 mm/s, while move until < 60 mm (line 8) was running: "
         "the mission ended before the robot could stop"
     )
+
+
+# ---------------------------------------------------------------- from a review's attack on the above
+
+
+def test_a_stop_the_wall_made_or_the_time_limit_forced_is_no_stop(dock):
+    rammed = verdicts(dock, "rammed_still", sequence("force_success: {do: {move: {speed: 4}}}", "wait: {seconds: 3}"))
+    assert not rammed["stop_in_zone mid"][0]
+    exercise, folder = dock
+    (folder / "dockstop.yaml").write_text(EXERCISE.split("criteria:")[0] + "criteria:\n  - stop_in_zone: dock\n")
+    stop_dock = load_exercise(folder / "dockstop.yaml")
+    (folder / "rams2.yaml").write_text("mission: rams2\ntree:\n  move: {speed: 4}\n")
+    (seed,) = grade_one(stop_dock, "rams2", folder / "rams2.yaml").seeds
+    assert seed.verdicts[0][0] is False  # at rest in the dock, but only where the wall stopped it
+    spin = sequence("move: {speed: 2, until_obstacle_mm: 160}", "repeat: {do: {turn: {left: 90}}}")
+    spun = verdicts(dock, "spin", spin)
+    assert spun[AHEAD][:2] == (False, "the robot was still moving when its time ran out (60 s)")
+
+
+def test_the_node_named_is_the_one_that_drove_whatever_the_tick_rate_and_however_the_mission_ended(dock):
+    exercise, folder = dock
+    for hz in (7, 20, 200):
+        path = folder / f"hz{hz}.yaml"
+        path.write_text(
+            f"mission: hz{hz}\ntick_hz: {hz}\ntree:\n  sequence:\n"
+            "    - force_success: {do: {move: {speed: 4, name: into the wall}}}\n"
+            "    - wait: {seconds: 1, name: after the hit}\n"
+        )
+        (seed,) = grade_one(exercise, f"hz{hz}", path).seeds
+        assert seed.verdicts[1][1].endswith(", while 'into the wall' (move, line 5) was running"), (
+            hz,
+            seed.verdicts[1],
+        )
+    rolled = sequence("move: {speed: 4, distance_mm: 1600, name: to the wall}", "log: {message: done}")
+    line = verdicts(dock, "rolled", rolled)["max_collisions 0"][1]
+    assert line.endswith(
+        ", while 'to the wall' (move, line 4) was running: the mission ended before the robot could stop"
+    )
+
+
+def test_a_parameter_at_its_default_is_not_one_given(dock):
+    lines = verdicts(dock, "bare", sequence("move: {speed: 2, distance_mm: 300}", "beep"))
+    (folder := dock[1] / "params.yaml").write_text(
+        EXERCISE.split("criteria:")[0] + "criteria:\n  - uses_nodes: [move.direction, beep.volume]\n"
+    )
+    (seed,) = grade_one(load_exercise(folder), "bare", dock[1] / "bare.yaml").seeds
+    assert seed.verdicts[0] == (False, "uses none of move.direction or beep.volume (needed one)")
+    assert lines[SENSOR][0] is False
+
+
+def test_beeps_made_while_driving_still_count_against_the_extra_beeps(dock):
+    exercise, folder = dock
+    (folder / "spam.yaml").write_text(
+        EXERCISE.split("criteria:")[0] + "criteria:\n  - beeps_in: [dock]\n    standing: true\n"
+    )
+    spam = sequence(
+        "parallel: [{move: {speed: 1, distance_mm: 1200}}, "
+        "{repeat: {times: 10, do: {sequence: [{wait: {seconds: 0.5}}, beep]}}}]",
+        "move: {speed: 2, until_obstacle_mm: 60}",
+        "beep",
+    )
+    (folder / "spammer.yaml").write_text("mission: spammer\ntree:\n" + "".join(f"  {x}\n" for x in spam.splitlines()))
+    (seed,) = grade_one(load_exercise(folder / "spam.yaml"), "spammer", folder / "spammer.yaml").seeds
+    held, line = seed.verdicts[0]
+    assert not held and line.startswith("beeped at dock; 10 extra beeps, allowed 0: no points for beeps")
+
+
+def test_criteria_alike_but_for_an_option_are_labelled_with_it(dock):
+    _, folder = dock
+    (folder / "two.yaml").write_text(
+        EXERCISE.split("criteria:")[0]
+        + "criteria:\n  - turns: 180\n    at: mid\n  - turns: 180\n    at: dock\n  - beep_near: mid\n"
+        "  - beep_near: mid\n    standing: true\n"
+    )
+    labels = [c.label for c in load_exercise(folder / "two.yaml").criteria]
+    assert labels == ["turns 180 at mid", "turns 180 at dock", "beep_near mid", "beep_near mid standing"]
