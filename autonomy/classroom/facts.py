@@ -235,9 +235,8 @@ def _given(node_type: str, key: str, value: object) -> bool:
     """Whether a node's parameter was given: set, to other than its default."""
     if value is None:
         return False
-    try:
-        kind = BUILTINS.get(node_type)
-    except (KeyError, LookupError):  # a plugin's node: what it was given is what it has
+    kind = BUILTINS.get(node_type)
+    if kind is None:  # a plugin's node: what it was given is what it has
         return True
     default = next((p.default for p in kind.params if p.name == key), None)
     return value != default

@@ -380,3 +380,11 @@ def test_criteria_alike_but_for_an_option_are_labelled_with_it(dock):
     )
     labels = [c.label for c in load_exercise(folder / "two.yaml").criteria]
     assert labels == ["turns 180 at mid", "turns 180 at dock", "beep_near mid", "beep_near mid standing"]
+
+
+def test_a_mission_with_a_plugin_s_node_is_graded_when_plugins_are_allowed():
+    """The tree's nodes are read for uses_nodes: a plugin's node, which the built-in registry lacks, among them."""
+    root = Path(__file__).resolve().parents[2]
+    exercise = load_exercise(root / "exercises" / "opening.yaml")
+    report = grade_one(exercise, "explore", root / "missions" / "explore.yaml", allow_plugins=True)
+    assert report.problems == [] and len(report.seeds) == len(exercise.seeds)
