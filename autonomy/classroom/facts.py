@@ -36,9 +36,6 @@ CONTACT_CLEAR_MM = 5.0
 #: rest at a faster one was stopped by what it hit, not by itself.
 TOUCH_MM_S = 50.0
 
-#: Two places this close (each way) are one, mm: as the emulator's trail has it.
-_SAME_PLACE_MM = SAME_PLACE_MM
-
 #: How finely the path is looked along for a contact's end, mm.
 _CLEAR_STEP_MM = 1.0
 
@@ -181,6 +178,11 @@ class RunFacts:
         return [beep for beep in self.beeps if beep.audible]
 
     @property
+    def moving_at_time_limit(self) -> bool:
+        """Whether the robot was still moving when its time ran out (see :func:`moving_at_time_limit`)."""
+        return moving_at_time_limit(self.outcome, self.rest_s, self.time_s)
+
+    @property
     def rest_by_itself(self) -> bool:
         """Whether the robot came to rest for good by itself, not stopped by what it hit (see ``rest_hit``)."""
         return self.rest_hit is None
@@ -277,28 +279,24 @@ def facts_of(
         Beep(t - offset_s, pose, volume, moving)
         for (t, _, volume), pose, moving in zip(robot.beeps, robot.beep_poses, robot.beep_moving, strict=True)
     ]
-    near_s = 2 * robot.params.step_s
-    hard_s = [i.time_s - offset_s for i in robot.impacts if i.speed_mm_s > TOUCH_MM_S]
-    stills = [
-        Still(a - offset_s, b - offset_s, pose, any(abs(t - (a - offset_s)) <= near_s for t in hard_s))
-        for a, b, pose in robot.stills
-    ]
-    timed_out = end.outcome not in (SUCCEEDED, FAILED) and rest_s is not None and rest_s >= end.time_s - 1e-6
-    if rest_s is not None and not timed_out:  # a robot still moving when its time ran out did not stop by itself
-        at_s = arrival_s(path)
-        stills.append(Still(rest_s, math.inf, robot.pose, any(abs(t - at_s) <= near_s for t in hard_s)))
     collisions = contacts_of(robot.impacts, robot.trail, robot.world, robot.params.body_radius_mm, offset_s)
+    near_s = 2 * robot.params.step_s  # an impact within a step or two of a stop is what stopped the robot
+
+    def hard_impact_at(time_s: float) -> float | None:
+        """The time of an impact faster than a touch that stopped the robot at ``time_s``, if one did."""
+        times = [i.time_s - offset_s for i in robot.impacts if i.speed_mm_s > TOUCH_MM_S]
+        return next((t for t in reversed(times) if abs(t - time_s) <= near_s), None)
+
+    stills = [
+        Still(a - offset_s, b - offset_s, pose, hard_impact_at(a - offset_s) is not None) for a, b, pose in robot.stills
+    ]
     rest_hit = None
     if rest_s is not None:  # came to its last place at an impact harder than a touch: stopped by what it hit
-        arrived_s = arrival_s(path)
-        near_s = 2 * robot.params.step_s
-        hard = [
-            i.time_s - offset_s
-            for i in robot.impacts
-            if abs(i.time_s - offset_s - arrived_s) <= near_s and i.speed_mm_s > TOUCH_MM_S
-        ]
-        if hard:
-            rest_hit = next((c for c in collisions if c.time_s - near_s <= hard[-1] <= c.end_s + near_s), None)
+        hard_s = hard_impact_at(arrival_s(path))
+        if hard_s is not None:
+            rest_hit = next((c for c in collisions if c.time_s - near_s <= hard_s <= c.end_s + near_s), None)
+        if not moving_at_time_limit(end.outcome, rest_s, end.time_s):  # such a robot did not stop by itself
+            stills.append(Still(rest_s, math.inf, robot.pose, rest_hit is not None))
     return RunFacts(
         nodes=len(header.nodes),
         outcome=end.outcome,
@@ -322,12 +320,17 @@ def facts_of(
     )
 
 
+def moving_at_time_limit(outcome: str, rest_s: float | None, time_s: float) -> bool:
+    """Whether the robot was still moving when its time ran out: stopped by the time limit, not by its mission."""
+    return outcome not in (SUCCEEDED, FAILED) and rest_s is not None and rest_s >= time_s - 1e-6
+
+
 def arrival_s(path: list[tuple[float, Pose]]) -> float:
     """When the robot came to the place where the path ends (turning there afterwards changes nothing)."""
     end = path[-1][1]
     arrived = path[-1][0]
     for time_s, pose in reversed(path):
-        if abs(pose.x_mm - end.x_mm) > _SAME_PLACE_MM or abs(pose.y_mm - end.y_mm) > _SAME_PLACE_MM:
+        if abs(pose.x_mm - end.x_mm) > SAME_PLACE_MM or abs(pose.y_mm - end.y_mm) > SAME_PLACE_MM:
             break
         arrived = time_s
     return arrived

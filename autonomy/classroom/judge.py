@@ -169,7 +169,7 @@ def judge(criterion: Criterion, facts: RunFacts, world: World) -> Verdict:
     if kind == "uses_nodes":
         used = [name for name in value if name in facts.node_types]
         if used:
-            return Verdict(True, f"uses {listed([f'{n}' for n in used])}")
+            return Verdict(True, f"uses {listed(used)}")
         return Verdict(False, f"uses none of {either(list(value))} (needed one)")
     if kind == "max_nodes":
         return Verdict(facts.nodes <= value, f"uses {plural(facts.nodes, 'node')}, allowed {value}")
@@ -211,12 +211,9 @@ def _collision_verdict(criterion: Criterion, facts: RunFacts, world: World) -> V
     count = len(collisions)
     if kind == "max_collisions":
         if count > value:  # the collision that was one too many, and the node that was running then
-            over = collisions[int(value)]
-            first += (
-                while_running(facts, over.time_s, collided=True)
-                if not value
-                else f"; the one too many at {over.time_s:.1f} s" + while_running(facts, over.time_s, collided=True)
-            )
+            too_many = collisions[int(value)]
+            first += f"; the one too many at {too_many.time_s:.1f} s" if value else ""
+            first += while_running(facts, too_many.time_s, collided=True)
         return Verdict(count <= value, f"{what}: {count}, allowed {value}{first}")
     return Verdict(count >= value, f"{what}: {count}, needed at least {value}{first}")
 
@@ -264,7 +261,7 @@ def _zone_verdict(criterion: Criterion, facts: RunFacts, zone: Zone, world: Worl
     # rest_in_zone
     if facts.rest_s is None:
         return Verdict(False, f"{name}: the robot never came to rest (it was still moving {SETTLE_MOST_S:g} s after)")
-    if facts.outcome not in (SUCCEEDED, FAILED) and facts.rest_s >= facts.time_s - 1e-6:
+    if facts.moving_at_time_limit:
         return Verdict(False, f"{name}: the robot was still moving when its time ran out ({facts.time_s:g} s)")
     if facts.rest_s > facts.time_limit_s + 1e-9:
         return Verdict(
@@ -436,7 +433,7 @@ def _distance_ahead(criterion: Criterion, facts: RunFacts, world: World) -> Verd
     low, high = criterion.value
     if facts.rest_s is None:
         return Verdict(False, "the robot never came to rest")
-    if facts.outcome not in (SUCCEEDED, FAILED) and facts.rest_s >= facts.time_s - 1e-6:
+    if facts.moving_at_time_limit:
         return Verdict(False, f"the robot was still moving when its time ran out ({facts.time_s:g} s)")
     if facts.rest_s > facts.time_limit_s + 1e-9:
         return Verdict(False, f"came to rest only at {facts.rest_s:.2f} s, after the {facts.time_limit_s:g} s allowed")
