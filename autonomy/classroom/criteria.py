@@ -35,7 +35,13 @@ class CriterionKind:
 CRITERIA = {
     kind.key: kind
     for kind in (
-        CriterionKind("reach_zone", "zone", "the robot's centre is in the zone at some moment"),
+        CriterionKind(
+            "reach_zone",
+            "zone",
+            "the robot's centre is in the zone at some moment; coming within near_mm of it earns a part, less the "
+            "further out",
+            {"near_mm": 0.0},
+        ),
         CriterionKind(
             "visit_in_order",
             "zones",

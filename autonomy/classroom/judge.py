@@ -225,7 +225,12 @@ def _zone_verdict(criterion: Criterion, facts: RunFacts, zone: Zone, world: Worl
         inside = _first_inside(zone, path)
         if inside is not None:
             return Verdict(True, f"{name}: reached at {_time_at(path, inside):.1f} s")
-        return Verdict(False, f"{name}: never reached; {_missed(zone, path, name)}")
+        line = f"{name}: never reached; {_missed(zone, path, name)}"
+        near_mm = float(criterion.options.get("near_mm") or 0.0)
+        share = max(0.0, 1.0 - _closest(zone, path)[0] / near_mm) if near_mm > 0 else 0.0
+        if share > 0:
+            line += f": {share:.0%} of its points, for coming within {near_mm:g} mm of it"
+        return Verdict(False, line, share)
     if kind == "avoid_zone":
         inside = _first_inside(zone, path)
         if inside is None:

@@ -156,7 +156,7 @@ def test_a_second_class_marked_by_hand_is_within_the_bands_written_first():
         told = outside_bands(exercise, reports, {s: bands[s] for s in students})
         assert told[-1].endswith(f" of {len(students)} students within the band expected")
         outside += told[:-1]
-    assert len(bands) == 20 and outside == []
+    assert len(bands) == 23 and outside == []
 
 
 def test_every_wrong_file_says_what_a_fair_teacher_gives_it():
@@ -361,10 +361,10 @@ def test_grading_twice_writes_the_same_bytes():
     assert to_html(exercise, first) == to_html(exercise, second)
     rows = to_csv(exercise, first).splitlines()
     assert rows[0] == (
-        "student,total,out_of,rest_in_zone garage,max_collisions 0,finish_within_s 30,adjustment,adjustment_reasons,"
-        "problems"
+        "student,total,out_of,rest_in_zone garage,max_collisions 0,finish_within_s 30,reach_zone garage,adjustment,"
+        "adjustment_reasons,problems"
     )
-    assert rows[1].startswith("garage,10,10,5,3,2,0,,")
+    assert rows[1].startswith("garage,10,10,5,3,2,0,0,,")
     assert rows[2].startswith("garage_fixed_distance,2.5,10,1.25,0.75,0.5,")
     document = json.loads(to_json(exercise, first))
     assert [s["student"] for s in document["students"]] == ["garage", "garage_fixed_distance"]
@@ -1186,13 +1186,17 @@ def test_a_criterion_s_title_is_what_a_student_reads_and_its_label_what_the_teac
         ("rest_in_zone garage", "Parked in the garage"),
         ("max_collisions 0", "No crash"),
         ("finish_within_s 30", "Done within 30 s"),
+        ("reach_zone garage", "Drove up to the garage"),
     ]
     report = grade_one(exercise, "alice", EXERCISES / "solutions" / "garage.yaml")
     assert "  ok   Parked in the garage: 5 / 5 points" in feedback(exercise, report)
     assert (
         to_csv(exercise, [report])
         .splitlines()[0]
-        .endswith(",rest_in_zone garage,max_collisions 0,finish_within_s 30,adjustment,adjustment_reasons,problems")
+        .endswith(
+            ",rest_in_zone garage,max_collisions 0,finish_within_s 30,reach_zone garage,adjustment,"
+            "adjustment_reasons,problems"
+        )
     )
     base = "world: garage\ntime_limit_s: 30\nseeds: [1]\ncriteria:\n  - succeed: true\n"
     (tmp_path / "plain.yaml").write_text(base)

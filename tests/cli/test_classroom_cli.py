@@ -104,7 +104,7 @@ def test_the_teacher_s_secret_adds_the_hidden_seeds(tmp_path):
     )
     assert lines[1] == "garage: 10 / 10 in '2. Park in the garage'"
     hidden = [line for line in lines if line.startswith("         hidden seed ")]
-    assert len(hidden) == 12 * 3 and all(": yes " in line for line in hidden)  # three criteria, twelve seeds
+    assert len(hidden) == 12 * 4 and all(": yes " in line for line in hidden)  # four criteria, twelve seeds
     assert "         hidden seed 12: yes garage: came to rest inside it" in "\n".join(lines)
     short = tmp_path / "short.txt"
     short.write_text("guessable\n")
@@ -370,25 +370,29 @@ def graded_at_width(columns: str, *files: str) -> str:
             "200",
             [
                 "┃ student           ┃ total ┃ rest_in_zone garage (5) ┃ max_collisions 0 (3) ┃ "
-                "finish_within_s 30 (2) ┃",
+                "finish_within_s 30 (2) ┃ reach_zone garage (0) ┃",
                 "│ garage            │    10 │                       5 │                    3 │                      2 "
-                "│",
+                "│                     0 │",
                 "│ garage_until_bump │     0 │                       0 │                    0 │                      0 "
-                "│",
+                "│                     0 │",
             ],
         ),
         (
             "60",
             [
-                "┃ student           ┃ total ┃ #1 ┃ #2 ┃ #3 ┃",
-                "│ garage            │    10 │  5 │  3 │  2 │",
+                "┃ student           ┃ total ┃ #1 ┃ #2 ┃ #3 ┃ #4 ┃",
+                "│ garage            │    10 │  5 │  3 │  2 │  0 │",
                 "  #1 rest_in_zone garage (5)",
                 "  #3 finish_within_s 30 (2)",
             ],
         ),
         (
             "20",
-            ["garage: 10 (#1 5, #2 3, #3 2)", "garage_until_bump: 0 (#1 0, #2 0, #3 0)", "  #2 max_collisions 0 (3)"],
+            [
+                "garage: 10 (#1 5, #2 3, #3 2, #4 0)",
+                "garage_until_bump: 0 (#1 0, #2 0, #3 0, #4 0)",
+                "  #2 max_collisions 0 (3)",
+            ],
         ),
     ],
 )
@@ -439,7 +443,7 @@ def test_a_roster_puts_ids_first_lists_who_handed_in_nothing_and_who_is_not_on_i
     # Moodle's grade import: an id column to map to "ID number", the total to map to the assignment
     assert rows[0] == [
         "id", "name", "student", "total", "out_of", "rest_in_zone garage", "max_collisions 0", "finish_within_s 30",
-        "adjustment", "adjustment_reasons", "problems",
+        "reach_zone garage", "adjustment", "adjustment_reasons", "problems",
     ]  # fmt: skip
     assert [row[:4] for row in rows[1:]] == [
         ["1001", "Alice Smith", "alice", "10"],
@@ -602,7 +606,9 @@ def test_the_gradescope_autograder_zip_grades_a_submission_into_results_gradesco
     results = json.loads((root / "results" / "results.json").read_text())
     jsonschema.validate(results, GRADESCOPE_RESULTS)
     assert results["score"] == score and sum(t["max_score"] for t in results["tests"]) == 10
-    assert [t["name"] for t in results["tests"]] == ["Parked in the garage", "No crash", "Done within 30 s"]
+    assert [t["name"] for t in results["tests"]] == [
+        "Parked in the garage", "No crash", "Done within 30 s", "Drove up to the garage"
+    ]  # fmt: skip
     assert results["tests"][0]["output"].startswith(first_output)
     assert results["output"].startswith(f"submission: {score:g} / 10 in '2. Park in the garage'")
 
@@ -779,7 +785,7 @@ def test_check_validates_an_exercise_and_grades_its_solution_on_every_seed(tmp_p
     shipped = autonomy("check", "exercises/garage.yaml", "exercises/square.yaml")
     assert shipped.returncode == 0, shipped.stdout + shipped.stderr
     assert (
-        "exercises/garage.yaml: ok (exercise 'garage', world garage, 3 criteria, 10 points, 4 seeds and 12 hidden)"
+        "exercises/garage.yaml: ok (exercise 'garage', world garage, 4 criteria, 10 points, 4 seeds and 12 hidden)"
         in (shipped.stdout)
     )
     assert "  its solution earns 10 of 10 on every one of 3 seeds" in shipped.stdout  # the square, no hidden seeds
