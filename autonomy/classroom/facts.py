@@ -16,6 +16,7 @@ from autonomy.emulator.robot import SAME_PLACE_MM, Impact, Robot
 from autonomy.emulator.world import World
 from autonomy.mission.registry import BUILTINS
 from autonomy.record import NodeInfo, Pose, Record, RunEnd, RunHeader, TickRecord
+from autonomy.runner import clipped
 
 SUCCEEDED = "succeeded"
 
@@ -35,6 +36,9 @@ CONTACT_CLEAR_MM = 5.0
 #: An impact no faster than this is a touch, mm/s (half the slowest drive): a robot that came to
 #: rest at a faster one was stopped by what it hit, not by itself.
 TOUCH_MM_S = 50.0
+
+#: The most of a node's name a verdict line says (a name may be 1,000 characters long), characters.
+NODE_NAME_CHARS = 60
 
 #: How finely the path is looked along for a contact's end, mm.
 _CLEAR_STEP_MM = 1.0
@@ -247,9 +251,10 @@ def _given(node_type: str, key: str, value: object) -> bool:
 def node_label(node: NodeInfo) -> str:
     """A node as a student finds it in their file: ``'to the end' (move, line 7)``; ``move 300 mm (line 5)``."""
     line = f"line {node.line}" if node.line else ""
+    name = clipped(node.name, NODE_NAME_CHARS)
     if node.name.split(" ")[0] == node.type:  # the name it was given by default, which says its type
-        return f"{node.name} ({line})" if line else node.name
-    return f"'{node.name}' ({node.type}, {line})" if line else f"'{node.name}' ({node.type})"
+        return f"{name} ({line})" if line else name
+    return f"'{name}' ({node.type}, {line})" if line else f"'{name}' ({node.type})"
 
 
 def facts_of(

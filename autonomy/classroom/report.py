@@ -307,6 +307,7 @@ def to_html(exercise: Exercise, reports: list[Report], pages: dict[str, str] | N
 _OPEN_BLOCKS = "if (location.hash === '#as-blocks') document.getElementById('as-blocks').open = true;"
 _FEEDBACK_STYLE = """
 body { font-family: "DejaVu Sans", sans-serif; margin: 1em 2em; color: #212529; }
+pre.marks { white-space: pre-wrap; overflow-wrap: anywhere; }
 pre.source { background: #f8f9fa; padding: .5em 0; border: 1px solid #dee2e6; overflow-x: auto; }
 pre.source span.line { display: block; padding: 0 .6em; }
 pre.source span.line::before { content: attr(data-line); display: inline-block; width: 3em; color: #868e96; }

@@ -388,3 +388,9 @@ def test_a_mission_with_a_plugin_s_node_is_graded_when_plugins_are_allowed():
     exercise = load_exercise(root / "exercises" / "opening.yaml")
     report = grade_one(exercise, "explore", root / "missions" / "explore.yaml", allow_plugins=True)
     assert report.problems == [] and len(report.seeds) == len(exercise.seeds)
+
+
+def test_a_node_s_long_name_is_clipped_in_a_verdict_line(dock):
+    long_name = "x" * 1000
+    line = verdicts(dock, "long_name", f"move: {{speed: 4, name: {long_name}}}")["max_collisions 0"][1]
+    assert line.endswith(f", while '{'x' * 59}…' (move, line 3) was running") and len(line) < 200
