@@ -101,28 +101,31 @@ def tree_shape(xml: str, with_ports: bool = True) -> list[tuple]:
 def wait_for_records(logger, path: Path, at_least: int, within_s: float = 10.0) -> None:
     """Waits until BehaviorTree.CPP's FileLogger, which writes from a thread of its own, has written.
 
-    The logger must stay alive meanwhile: destroyed, it drops what it had not written yet.
+    The logger must stay alive meanwhile: destroyed, it drops what it had not written yet. Its thread
+    flushes the file after each batch; the logger's own ``flush()`` is never called here, as it flushes
+    the same stream from this thread without a lock, racing the writer (it once left a record of garbage).
     """
     import time
 
+    del logger  # kept alive by the caller; only its thread touches the file
     deadline = time.monotonic() + within_s
     while len(_records_so_far(path)) < at_least or not _header_whole(path):
         assert time.monotonic() < deadline, f"{path}: FileLogger wrote fewer than {at_least} records"
-        logger.flush()
         time.sleep(0.02)
 
 
 def settled(logger, path: Path, quiet_s: float = 0.2, within_s: float = 10.0) -> None:
     """Waits until BehaviorTree.CPP's FileLogger has written all it will: no new record for ``quiet_s``.
 
-    The logger must stay alive meanwhile: destroyed, it drops what it had not written yet.
+    The logger must stay alive meanwhile: destroyed, it drops what it had not written yet. As in
+    :func:`wait_for_records`, its racy ``flush()`` is left to its own thread.
     """
     import time
 
+    del logger  # kept alive by the caller; only its thread touches the file
     deadline = time.monotonic() + within_s
     count = -1
     while True:
-        logger.flush()
         now = len(_records_so_far(path))
         if now == count and _header_whole(path):
             return
