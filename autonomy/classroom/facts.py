@@ -145,6 +145,7 @@ class RunFacts:
             tip changed (:attr:`Runner.tips`).
         node_labels: Each node as a student finds it in their file, by id: ``'to the end' (move,
             line 7)``, or ``move until < 60 mm (line 5)`` for a node without a name of its own.
+        node_kinds: Each node's type, by id (``move``).
     """
 
     nodes: int
@@ -162,6 +163,7 @@ class RunFacts:
     node_types: frozenset[str] = frozenset()
     running: list[tuple[float, int]] = field(default_factory=list)
     node_labels: list[str] = field(default_factory=list)
+    node_kinds: list[str] = field(default_factory=list)
     last_tick_s: float = math.inf
 
     def running_at(self, time_s: float) -> str:
@@ -318,6 +320,7 @@ def facts_of(
         running=list(running or []),
         last_tick_s=gathered.last_tick_s,
         node_labels=[node_label(node) for node in header.nodes],
+        node_kinds=[node.type for node in header.nodes],
         node_types=frozenset(
             [n.type for n in header.nodes]
             + [f"{n.type}.{k}" for n in header.nodes for k, v in n.params.items() if _given(n.type, k, v)]

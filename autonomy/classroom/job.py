@@ -19,6 +19,7 @@ from autonomy.classroom.facts import Gatherer, RunFacts, facts_of, path_points
 from autonomy.classroom.judge import Verdict, judge
 from autonomy.classroom.results import Report, SeedResult, file_names
 from autonomy.classroom.submissions import mission_file, readable
+from autonomy.classroom.told import named_node
 from autonomy.client import Client
 from autonomy.errors import LinkError
 from autonomy.mission import MissionInvalid, MissionSpec, NodeSpec, Problem, validate_text
@@ -191,7 +192,14 @@ def _seed_result(seed: Seed, facts: RunFacts, verdicts: list[Verdict], trace: st
         None if facts.rest_s is None else round(facts.rest_s, 2),
         seed.seed,
         trace,
+        [_lost_while(facts, v) for v in verdicts],
     )
+
+
+def _lost_while(facts: RunFacts, verdict: Verdict) -> str:
+    """The type of the node running when ``verdict``'s criterion was lost, as its line says; empty: held, or none."""
+    node = named_node(facts, verdict.line) if verdict.share < 1.0 else None
+    return facts.node_kinds[node] if node is not None and node < len(facts.node_kinds) else ""
 
 
 def trace_path(folder: Path, name: str, seed: Seed) -> Path:

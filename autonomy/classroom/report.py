@@ -17,13 +17,14 @@ from urllib.parse import parse_qsl, urlencode, urlsplit, urlunsplit
 
 from autonomy.classroom.exercise import Exercise
 from autonomy.classroom.gradebook import RosterMatch, similar
+from autonomy.classroom.overview import class_overview
 from autonomy.classroom.results import Report, SeedResult, page_path
 from autonomy.record import RunHeader
 from autonomy.source import UnreadableFile, read_text
 from autonomy.views.blocksvg import mission_blocks_svg
 from autonomy.views.lines import printable
 from autonomy.views.mapsvg import world_svg
-from autonomy.views.page import ReplayMaker, runs_host_head, script_json
+from autonomy.views.page import ReplayMaker, runs_host_head, script_json, static_text
 
 
 def _number(value: float) -> str:
@@ -138,7 +139,7 @@ section.student { border-top: 2px solid #343a40; margin-top: 1.5em; }
 .seeds { display: flex; flex-wrap: wrap; gap: 1em; }
 .seed { border: 1px solid #dee2e6; padding: .4em; max-width: 620px; }
 .seed svg { width: 600px; max-width: 100%; height: auto; }
-.yes { color: #2b8a3e; } .no { color: #c92a2a; }
+.yes { color: #237032; } .no { color: #c92a2a; }
 pre.problems { background: #fff5f5; padding: .5em; white-space: pre-wrap; }
 """
 
@@ -213,6 +214,21 @@ def _seed_svg(exercise: Exercise, seed: SeedResult, title: str) -> str:
     return svg.replace('<g id="paths"></g>', f'<g id="paths">{drawn}</g>')
 
 
+def _overview(exercise: Exercise, reports: list[Report], pages: dict[str, str] | None) -> list[str]:
+    """The class at a glance (:func:`class_overview`), drawn by the desk's own script: each map links to the student."""
+    links: list[str | None] = [(pages or {}).get(r.student) or f"#s-{index}" for index, r in enumerate(reports)]
+    data = json.dumps(class_overview(exercise, reports, links), separators=(",", ":"))
+    return [
+        f"<style>{static_text('overview.css')}</style>",
+        '<section class="overview" aria-labelledby="overview-title"><h2 id="overview-title">The class at a glance</h2>',
+        '<div id="overview"></div></section>',
+        f'<script type="application/json" id="overview-data">{script_json(data)}</script>',
+        f"<script>{static_text('overview.js')}\n"
+        "drawOverview(document.getElementById('overview'), "
+        "JSON.parse(document.getElementById('overview-data').textContent));</script>",
+    ]
+
+
 def to_html(exercise: Exercise, reports: list[Report], pages: dict[str, str] | None = None) -> str:
     """One page with nothing to fetch: the class table, then each student's seeds, maps and verdicts.
 
@@ -261,6 +277,7 @@ def to_html(exercise: Exercise, reports: list[Report], pages: dict[str, str] | N
         f"<title>autonomy grades: {title}</title><style>{_STYLE}</style></head><body>",
         f"<h1>{title}</h1>",
         f"<p>{escape(printable(exercise.description))}</p>",
+        *_overview(exercise, reports, pages),
         f"<p>World <b>{escape(printable(exercise.world.name))}</b>, {exercise.time_limit_s:g} s a run, "
         f"{len(exercise.seeds)} seeds: {escape(', '.join(s.label for s in exercise.seeds))}. "
         "A criterion's mark is its points times its mean share over the seeds: one that holds on a run earns "
@@ -316,7 +333,7 @@ pre.source span.why { display: block; color: #c92a2a; padding-left: 3.6em; }
 .seed { border-top: 1px solid #dee2e6; margin-top: 1em; }
 .seed svg { width: 600px; max-width: 100%; height: auto; float: left; margin-right: 1em; }
 .seed iframe { width: 100%; height: 640px; border: 1px solid #dee2e6; clear: both; display: block; }
-.yes { color: #2b8a3e; } .no { color: #c92a2a; }
+.yes { color: #237032; } .no { color: #c92a2a; }
 """
 
 

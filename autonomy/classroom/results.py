@@ -30,6 +30,8 @@ class SeedResult:
         rest_s: When the robot came to rest for good (None: it never did).
         world_seed: The seed the world was drawn with (what it varies, and the start).
         trace: Where the run's trace was kept (``--traces``), else empty.
+        lost_while: For each criterion not held in full, the type of the node that was running when it was
+            lost (``move``), as its line names it; empty where it held or no node is named.
     """
 
     seed: str
@@ -44,6 +46,7 @@ class SeedResult:
     rest_s: float | None = None
     world_seed: int = 0
     trace: str = ""
+    lost_while: list[str] = field(default_factory=list)
 
 
 @dataclass

@@ -40,6 +40,12 @@ def while_running(facts: RunFacts, time_s: float, collided: bool = False) -> str
     return f", while {label} was running"
 
 
+def named_node(facts: RunFacts, line: str) -> int | None:
+    """The node that a verdict's line says was running (in :func:`while_running`'s words), by id; None: none."""
+    said = [(line.find(f"while {label} was running"), node) for node, label in enumerate(facts.node_labels)]
+    return min(((at, node) for at, node in said if at >= 0), default=(0, None))[1]
+
+
 def got_there(facts: RunFacts) -> str:
     """``; it got there while ... was running``: the node that took the robot where it came to rest."""
     during = while_running(facts, arrival_s(facts.path))

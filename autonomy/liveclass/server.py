@@ -40,6 +40,7 @@ import secrets
 import zipfile
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -48,6 +49,7 @@ from aiohttp import web
 from autonomy.classroom.cluster import ClusterUnfit
 from autonomy.classroom.exercise import Exercise
 from autonomy.classroom.gradebook import RosterEntry, RosterMatch
+from autonomy.classroom.overview import class_overview
 from autonomy.classroom.report import to_csv
 from autonomy.classroom.results import Report, file_names
 from autonomy.clock import wall_time_s
@@ -133,9 +135,14 @@ PAGE_FILES = {
     "text.js": "text/javascript",
     "contrast.js": "text/javascript",
     "contrast.css": "text/css",
+    "overview.js": "text/javascript",
+    "overview.css": "text/css",
 }
 #: The pages' files that are the views' (shared with ``autonomy edit``), by name.
-SHARED_FILES = {name: "autonomy.views" for name in ("blocks.js", "text.js", "contrast.js", "contrast.css")}
+SHARED_FILES = {
+    name: "autonomy.views"
+    for name in ("blocks.js", "text.js", "contrast.js", "contrast.css", "overview.js", "overview.css")
+}
 #: The pages' policy: their own scripts and styles, pictures as data or the server's, frames of this server (feedback
 #: pages). Blockly writes one style attribute (the direction of a bubble's text): style attributes are allowed.
 #: CodeMirror puts its themes in a <style> element of its own, with the response's nonce (``nonced_page``): no other
@@ -153,6 +160,11 @@ _PAGE_NAME = re.compile(r"(\d{1,12})-([0-9a-f]{32})\.html")
 def _as_seen(page: str | None, written_as: str | None) -> str | None:
     """A work's page's address, opening on its blocks when the work was made from blocks."""
     return f"{page}#as-blocks" if page and written_as == "blocks" else page
+
+
+def _failed(future: asyncio.Future[Any]) -> bool:
+    """Whether a making ended without its result (to be made again, not answered 500 until the class changes)."""
+    return future.done() and (future.cancelled() or future.exception() is not None)
 
 
 def _report_of(result: dict[str, Any]) -> Report:
@@ -255,6 +267,8 @@ class ClassServer(BoundedServer):
         self._version = 0
         self._changed: asyncio.Event | None = None
         self._class_waiters = 0
+        #: The class at a glance's last making: the class's version it is of, and its JSON (to come, or made).
+        self._overview_making: tuple[int, asyncio.Future[bytes]] | None = None
         self.max_request_bytes = MAX_REQUEST_BYTES
         self.max_answers_per_address = MAX_ANSWERS_PER_ADDRESS
         self.exercise = exercise
@@ -294,6 +308,7 @@ class ClassServer(BoundedServer):
         app.router.add_get("/api/me", self._me)
         app.router.add_get("/api/palette", self._palette_of)
         app.router.add_get("/api/class", self._class)
+        app.router.add_get("/api/overview", self._overview_of)
         app.router.add_post("/api/deadline", self._deadline)
         app.router.add_get("/api/export/{name}", self._export)
 
@@ -710,6 +725,38 @@ class ClassServer(BoundedServer):
                 "students": students,
             }
         )
+
+    async def _overview_of(self, request: web.Request) -> web.Response:
+        """The class at a glance (:func:`class_overview`) of each student's latest graded work.
+
+        Made once for each version of the class, one making at a time, off the loop: a teacher's pages asking
+        as often as they like cost at most one making under way, and none while the class has not changed.
+        """
+        if not self._teacher(request):
+            return _refusal(401, "the class at a glance is the teacher's: use the teacher's token")
+        version, making = self._version, self._overview_making
+        if making is None or (making[0] != version and making[1].done()) or _failed(making[1]):
+            loop = asyncio.get_running_loop()
+            making = (version, loop.run_in_executor(self._checkers, self._overview_now, version))
+            self._overview_making = making
+        body = await asyncio.shield(making[1])  # the making of an earlier version, while it is under way
+        return web.Response(body=body, content_type="application/json", headers=NO_STORE)
+
+    def _overview_now(self, version: int) -> bytes:
+        """The class at a glance now, as JSON, with ``version``: the class's when it was asked for (read since)."""
+        reports: list[Report] = []
+        links: list[str | None] = []
+        for row in self.store.summary():
+            work = self.store.work(row["last_graded"]) if row["last_graded"] else None
+            name = printable(row["name"])
+            if work is None or "seeds" not in work.result:
+                reports.append(Report(name, "", 0.0, self.exercise.max_points, [], ["no graded run yet"]))
+                links.append(None)
+                continue
+            reports.append(replace(_report_of(work.result), student=name))
+            links.append(_as_seen(self._page_url(work.id), row["last_graded_as"]))
+        data = class_overview(self.exercise, reports, links, "each student's latest graded run or hand-in")
+        return json.dumps({"version": version, **data}, separators=(",", ":")).encode()
 
     async def _deadline(self, request: web.Request) -> web.Response:
         """Sets (``{"deadline_s": EPOCH_S}``) or lifts (``null``) the hand-ins' deadline."""

@@ -199,3 +199,54 @@ def test_the_teacher_page_without_its_token_says_where_to_find_it(browser, class
     assert "not the class's" in teacher.text_content("#token-why")
     assert teacher.locator("#class-table tbody tr").count() == 0
     assert [e for e in errors if "401" not in e] == []  # the refused request is the console's one line
+
+
+def run_as(student_url: str, code: str, mission: str) -> dict:
+    """A run sent as a student's page sends it."""
+    import json
+    import urllib.request
+
+    request = urllib.request.Request(
+        student_url + "api/run", data=json.dumps({"mission": mission}).encode(), method="POST"
+    )
+    request.add_header("Content-Type", "application/json")
+    request.add_header("Authorization", f"Bearer {code}")
+    with urllib.request.urlopen(request, timeout=120) as answer:
+        return json.loads(answer.read())
+
+
+def test_the_teacher_sees_the_class_at_a_glance_live_and_opens_a_run_from_its_map(browser, classroom):
+    from tests.axe import violations
+
+    student_url, teacher_url, codes = classroom
+    errors: list[str] = []
+    teacher = watching(browser, teacher_url, errors)
+    until(teacher, "document.querySelectorAll('#overview li.map').length === 2")
+    assert teacher.locator("#overview li.map.notgraded").count() == 2  # nothing graded yet, said so
+    assert teacher.text_content("#overview .says").startswith("0 students graded of 2")
+    parked = run_as(student_url, codes["1001"], FIXED)
+    crash = "mission: crash\ntree:\n  move: {speed: 4, until_obstacle_mm: 60}\n"
+    crashed = run_as(student_url, codes["1002"], crash)
+    # live: the page is never reloaded
+    until(teacher, "document.querySelectorAll('#overview li.map.notgraded').length === 0")
+    assert teacher.text_content("#overview .says").startswith("2 students graded of 2")
+    ada, bob = teacher.locator("#overview li.map").nth(0), teacher.locator("#overview li.map").nth(1)
+    assert ada.locator(".who").text_content() == "Ada Lovelace"
+    assert bob.locator(".who").text_content() == "Bob <b>Jones</b>"  # a name is text, never markup
+    assert ada.locator(".mark").text_content().startswith(f"{'✓' if parked['total'] == 10 else '◐'} ")
+    assert bob.get_attribute("class") in ("map part", "map none") and crashed["total"] < parked["total"]
+    assert bob.locator("path.collision").count() >= 1  # where he hit the wall
+    moves = teacher.locator("#overview table.nodes tbody tr").first
+    assert moves.locator("th").text_content() == "move" and "No crash" in moves.text_content()
+    assert teacher.locator("#overview table.shares tbody tr").count() == 4
+    assert violations(teacher) == []
+    # a map, from the keyboard, opens that student's run in the desk's viewer
+    bob.locator("button").focus()
+    teacher.keyboard.press("Enter")
+    until(teacher, "!document.getElementById('viewer').hidden")
+    assert teacher.text_content("#viewer-title") == "Bob <b>Jones</b>: latest run"
+    assert teacher.get_attribute("#viewer-frame", "src") == crashed["page"]
+    teacher.frame_locator("#viewer-frame").locator("h1").wait_for(timeout=WAIT_MS)
+    teacher.click("#contrast")
+    assert violations(teacher) == []
+    assert errors == []

@@ -311,6 +311,45 @@ def test_the_teacher_s_table_waits_for_a_change_and_at_most_so_many_pages_wait(s
     assert bob["id"] == "s2" and bob["signed_in"]
 
 
+def test_the_class_at_a_glance_is_each_student_s_latest_graded_work_made_once_a_version(served):
+    server, codes = served
+    made: list[int] = []
+    making = server._overview_now
+    server._overview_now = lambda version: (made.append(version), making(version))[1]
+    crash = "mission: crash\ntree:\n  move: {speed: 4, until_obstacle_mm: 60}\n"
+    assert call(server, "/api/run", {"mission": crash}, codes["s1"])[1]["total"] < 5
+    status, run = call(server, "/api/run", {"mission": SOLUTION}, codes["s1"])  # Ada's latest: full marks
+    assert status == 200 and run["total"] == 10
+    call(server, "/api/check", {"mission": TYPO}, codes["s2"])  # Bob signed in, nothing graded
+    assert call(server, "/api/overview", code=codes["s1"], method="GET")[0] == 401  # the teacher's alone
+    answers: list[tuple[int, dict]] = []
+    asking = [
+        threading.Thread(
+            target=lambda: answers.append(call(server, "/api/overview", code="teacher-token", method="GET"))
+        )
+        for _ in range(8)
+    ]  # the desk and the projector, asking again and again while the class stands still
+    for thread in asking:
+        thread.start()
+    for thread in asking:
+        thread.join(timeout=60)
+    assert len(answers) == 8 and all(answer == answers[0] for answer in answers)
+    assert made == [server._version]  # made once for that version, however many asked
+    status, seen = answers[0]
+    assert status == 200 and seen["version"] == server._version
+    assert (seen["students"], seen["graded"], seen["median"]) == (2, 1, 10)
+    ada, bob = seen["maps"]
+    assert (ada["student"], ada["outcome"], ada["mark"]) == ("Ada", "full", "10 / 10")
+    assert ada["link"] == run["page"]  # a click opens her latest run's page
+    assert (bob["student"], bob["outcome"], bob["why"], bob["link"]) == ("Bob", "notgraded", "no graded run yet", None)
+    assert seen["nodes"] == []  # her latest lost nothing: her first run's crash is not counted
+    call(server, "/api/run", {"mission": crash}, codes["s2"])  # Bob crashes: a new version
+    status, seen = call(server, "/api/overview", code="teacher-token", method="GET")
+    assert len(made) == 2 and seen["graded"] == 2 and seen["maps"][1]["outcome"] in ("part", "none")
+    assert seen["nodes"][0]["node"] == "move" and seen["nodes"][0]["students"] == 1
+    assert seen["maps"][1]["collisions"] and seen["worlds"][seen["maps"][1]["world"]]["arena_mm"] == [3000, 1200]
+
+
 def test_the_exports_hold_each_student_s_last_hand_in(served):
     server, codes = served
     call(server, "/api/handin", {"mission": TYPO.replace("mvoe", "move")}, codes["s1"])

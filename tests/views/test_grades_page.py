@@ -21,9 +21,9 @@ def test_the_class_page_shows_the_table_and_every_path_on_its_map(page, tmp_path
     page.on("request", lambda request: fetched.append(request.url))
     page.goto(path.as_uri())
     assert fetched == [path.as_uri()]  # the page is whole in one file
-    rows = page.locator("table tr").all_inner_texts()
+    rows = page.locator("table.marks tr").all_inner_texts()
     assert rows[1].split("\t")[:2] == ["bump", "10"] and rows[2].split("\t")[:2] == ["bump_no_return", "3"]
-    cells = page.locator("table tr").nth(2).locator("td")
+    cells = page.locator("table.marks tr").nth(2).locator("td")
     assert cells.nth(2).get_attribute("class") == "full"  # it bumped
     assert cells.nth(3).get_attribute("class") == "none"  # never at rest in the goal
     maps = page.locator(".seed svg")
@@ -82,7 +82,7 @@ def test_the_class_table_sorts_by_a_column_and_tells_a_file_not_graded_from_a_ze
     assert "unknown node 'mvoe'" in page.locator("td.notgraded").first.get_attribute("title")
     page.locator("th button", has_text="total").click()
     assert column(0) == ["broken", "square_beeps_at_home", "square_turns_85", "square"]  # lowest first
-    assert page.locator("th").nth(1).get_attribute("aria-sort") == "ascending"
+    assert page.locator("table.marks th").nth(1).get_attribute("aria-sort") == "ascending"
     page.locator("th button", has_text="total").click()
     assert column(1) == ["10", "6.5", "0", "not graded"]
     page.locator("th button", has_text="student").click()
@@ -173,3 +173,47 @@ def test_a_feedback_replay_marks_each_beep_and_turn_as_it_reaches_it(page, tmp_p
     frame.locator("#slider").fill("0")  # at the start: none yet
     expect(frame.locator("#state")).to_have_text("replay")
     assert frame.locator("#judged .beep").count() == 0 and frame.locator("#judged .turn").count() == 0
+
+
+def test_the_class_page_opens_with_the_class_at_a_glance_each_map_a_link_to_the_student_s_page(page, tmp_path):
+    from tests.axe import violations
+
+    exercise = load_exercise(ROOT / "exercises" / "garage.yaml")
+    names = ["solutions/garage.yaml", "wrong/garage_full_speed.yaml", "wrong/garage_stops_short.yaml"]
+    reports = grade_class(exercise, find_submissions([ROOT / "exercises" / n for n in names]), workers=2)
+    for report in reports:
+        (tmp_path / f"{report.student}.html").write_text(f"<!doctype html><title>{report.student}</title><h1>x</h1>")
+    pages = {r.student: f"{r.student}.html" for r in reports[:2]}  # the third has no page: its section instead
+    path = tmp_path / "marks.html"
+    path.write_text(to_html(exercise, reports, pages))
+    page.goto(path.as_uri())
+    glance = page.locator("section.overview")
+    assert glance.locator("h2").text_content() == "The class at a glance"
+    assert glance.locator(".says").text_content().startswith("3 students graded of 3; median ")
+    bars = glance.locator("svg.spread rect.bin")
+    assert bars.count() == 10 and "3 from" not in glance.locator("svg.spread").get_attribute("aria-label")
+    heights = [bars.nth(k).bounding_box()["height"] for k in range(10)]
+    totals = sorted(int(min(9, r.total)) for r in reports)
+    assert all((heights[k] > 5) == (k in totals) for k in range(10))  # a bar stands where a mark is
+    shares = glance.locator("table.shares tbody tr")
+    assert shares.count() == len(exercise.criteria)
+    assert shares.first.locator("th").text_content().startswith("Parked in the garage")
+    assert glance.locator("table.nodes tbody tr th").first.text_content() == "move"
+    maps = glance.locator("li.map")
+    assert maps.count() == 3 and maps.locator("svg.little").count() == 3
+    assert [maps.nth(k).get_attribute("class") for k in range(3)] == ["map full", "map none", "map part"]
+    # the outcome in a sign and in words, not by colour alone; the words read out, not shown
+    assert maps.nth(0).locator(".mark").text_content() == "✓ 10 / 10 full marks"
+    assert maps.nth(0).locator(".mark .unseen").bounding_box()["width"] <= 1
+    assert page.get_by_role("link", name="garage_stops_short ✓", exact=False).count() == 0
+    assert page.get_by_role("link", name="part of the marks", exact=False).count() == 1
+    links = [maps.nth(k).locator("a").get_attribute("href") for k in range(3)]
+    assert links == ["garage.html", "garage_full_speed.html", "#s-2"]
+    # the full-speed robot's crash is drawn at the end wall of the seed it did worst on
+    crash = maps.nth(1).locator("path.collision").bounding_box()
+    wall = maps.nth(1).locator("rect.obstacle").bounding_box()
+    assert abs(crash["x"] + crash["width"] / 2 - wall["x"]) < 0.06 * maps.nth(1).bounding_box()["width"]
+    assert violations(page) == []
+    maps.nth(1).locator("a").focus()  # from the keyboard: its page opens
+    page.keyboard.press("Enter")
+    page.wait_for_url("**/garage_full_speed.html")

@@ -66,7 +66,36 @@ async function follow() {
       version = data.version;
       table = data;
       draw(before);
+      glance();
     }
+  }
+}
+
+// ------------------------------------------------------------------ the class at a glance
+
+let glancing = false; // a request for it under way
+let glanceAgain = false; // the class changed meanwhile: asked again once it is answered
+
+async function glance() {
+  if (glancing) {
+    glanceAgain = true;
+    return;
+  }
+  glancing = true;
+  try {
+    const answer = await api("GET", "/api/overview");
+    if (answer.status === 200) {
+      const data = await answer.json();
+      drawOverview($("overview"), data, (shown) => view(shown.student, shown.link, "latest run"));
+    }
+  } catch (_) {
+    // the class's own request says when the server cannot be reached
+  } finally {
+    glancing = false;
+  }
+  if (glanceAgain) {
+    glanceAgain = false;
+    glance();
   }
 }
 
