@@ -32,6 +32,10 @@ class CriterionKind:
     options: dict[str, float | str | bool] = field(default_factory=dict)
 
 
+#: How near a zone a robot that missed it earns a part of its points, by default (the part less, the further out):
+#: a miss by a little is not a miss by a metre. ``near_mm: 0`` makes a zone all or nothing.
+NEAR_MM = 100.0
+
 CRITERIA = {
     kind.key: kind
     for kind in (
@@ -39,8 +43,8 @@ CRITERIA = {
             "reach_zone",
             "zone",
             "the robot's centre is in the zone at some moment; coming within near_mm of it earns a part, less the "
-            "further out",
-            {"near_mm": 0.0},
+            "further out (near_mm: 0, all or nothing)",
+            {"near_mm": NEAR_MM},
         ),
         CriterionKind(
             "visit_in_order",
@@ -51,11 +55,16 @@ CRITERIA = {
             "rest_in_zone",
             "zone",
             "the robot comes to rest for good by itself inside the zone within the time limit (after the zone "
-            "'after', if set); within near_mm of it, without a collision, earns a part, less the further out",
-            {"after": "", "near_mm": 0.0},
+            "'after', if set); within near_mm of it, without a collision, earns a part, less the further out "
+            "(near_mm: 0, all or nothing)",
+            {"after": "", "near_mm": NEAR_MM},
         ),
         CriterionKind(
-            "end_in_zone", "zone", "the mission ends on its own and the robot comes to rest by itself inside the zone"
+            "end_in_zone",
+            "zone",
+            "the mission ends on its own and the robot comes to rest by itself inside the zone; ending within "
+            "near_mm of it, without a collision, earns a part, less the further out (near_mm: 0, all or nothing)",
+            {"near_mm": NEAR_MM},
         ),
         CriterionKind(
             "stop_in_zone",
@@ -121,6 +130,10 @@ CRITERIA = {
 }
 
 
+#: How a criterion names the one it depends on: ``requires`` (it earns the part that one earned),
+#: ``requires_some`` (the same: its older name), ``requires_all`` (only where that one held in full).
+REQUIRES_KEYS = ("requires", "requires_some", "requires_all")
+
 #: Longest title a criterion may have (what a student reads for it), characters.
 MAX_TITLE_CHARS = 80
 
@@ -138,11 +151,11 @@ class Criterion:
         label: How the teacher's reports name it (``end_in_zone garage``): its id.
         title: What a student reads for it, in words (``Parked in the garage``: ``title:`` in the
             file); empty, and the label is shown.
-        requires: The index of the criterion that must hold on a seed for this one to count
-            there (``requires: end_in_zone`` in the file), or None.
-        requires_some: That criterion need only earn some of its points there, and this one then
-            earns the same part of its own (``requires_some:`` in the file: a near miss of
-            ``rest_in_zone`` earns a part of "no collision" too).
+        requires: The index of the criterion this one depends on (``requires: end_in_zone`` in the file),
+            or None. On each seed this one earns the part of its own that that one earned there: a near
+            miss of ``rest_in_zone`` earns a part of "no crash" too, and missing it altogether nothing.
+        requires_all: That criterion must hold in full on a seed for this one to count there at all
+            (``requires_all:`` in the file): all or nothing, said so by the teacher.
     """
 
     kind: str
@@ -151,7 +164,7 @@ class Criterion:
     options: dict[str, float | str | bool]
     label: str
     requires: int | None = None
-    requires_some: bool = False
+    requires_all: bool = False
     title: str = ""
 
     @property
@@ -223,7 +236,7 @@ class CriteriaReader(Reader):
                 self.problem(item, path, f"give exactly one criterion of: {', '.join(CRITERIA)}")
             return None
         kind = CRITERIA[kinds[0]]
-        allowed = (kind.key, "points", "title", "requires", "requires_some", *kind.options)
+        allowed = (kind.key, "points", "title", *REQUIRES_KEYS, *kind.options)
         for key in item.value:
             if key not in allowed:
                 self.problem(
@@ -376,11 +389,14 @@ class CriteriaReader(Reader):
         """Resolves each ``requires:`` to the criterion it names (by kind, or by label when a kind repeats)."""
         out = []
         for index, (criterion, item, path) in enumerate(criteria):
-            key = "requires_some" if "requires_some" in item.value else "requires"
+            given = [key for key in REQUIRES_KEYS if key in item.value]
+            key = given[0] if given else "requires"
             wanted = item.value.get(key)
-            if "requires" in item.value and "requires_some" in item.value:
+            if len(given) > 1:
                 self.problem(
-                    item.keys["requires_some"], f"{path}.requires_some", "give requires or requires_some, not both"
+                    item.keys[given[1]],
+                    f"{path}.{given[1]}",
+                    f"give one of {', '.join(REQUIRES_KEYS)}, not {len(given)}",
                 )
             if wanted is None:
                 out.append(criterion)
@@ -398,7 +414,7 @@ class CriteriaReader(Reader):
                 self.problem(wanted, f"{path}.{key}", f"'{word}' {why}{hint} (criteria: {', '.join(labels)})")
                 out.append(criterion)  # kept in its place, so that the indexes below hold
                 continue
-            out.append(replace(criterion, requires=named[0], requires_some=key == "requires_some"))
+            out.append(replace(criterion, requires=named[0], requires_all=key == "requires_all"))
         for index, criterion in enumerate(out):  # a chain of requirements must end somewhere
             seen, at = {index}, criterion.requires
             while at is not None and at not in seen:
@@ -406,6 +422,6 @@ class CriteriaReader(Reader):
                 at = out[at].requires
             if at == index:
                 _, item, path = criteria[index]
-                key = "requires_some" if "requires_some" in item.value else "requires"
+                key = next(key for key in REQUIRES_KEYS if key in item.value)
                 self.problem(item.value[key], f"{path}.{key}", "requirements go round in a circle")
         return out

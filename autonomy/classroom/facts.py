@@ -146,6 +146,8 @@ class RunFacts:
         node_labels: Each node as a student finds it in their file, by id: ``'to the end' (move,
             line 7)``, or ``move until < 60 mm (line 5)`` for a node without a name of its own.
         node_kinds: Each node's type, by id (``move``).
+        rest_touching: Whether the robot, where it came to rest last, touches a wall or an obstacle (is less
+            than ``CONTACT_CLEAR_MM`` clear of it).
     """
 
     nodes: int
@@ -164,6 +166,7 @@ class RunFacts:
     running: list[tuple[float, int]] = field(default_factory=list)
     node_labels: list[str] = field(default_factory=list)
     node_kinds: list[str] = field(default_factory=list)
+    rest_touching: bool = False
     last_tick_s: float = math.inf
 
     def running_at(self, time_s: float) -> str:
@@ -321,6 +324,8 @@ def facts_of(
         last_tick_s=gathered.last_tick_s,
         node_labels=[node_label(node) for node in header.nodes],
         node_kinds=[node.type for node in header.nodes],
+        rest_touching=robot.world.clearance(robot.pose.x_mm, robot.pose.y_mm)
+        <= robot.params.body_radius_mm + CONTACT_CLEAR_MM,
         node_types=frozenset(
             [n.type for n in header.nodes]
             + [f"{n.type}.{k}" for n in header.nodes for k, v in n.params.items() if _given(n.type, k, v)]

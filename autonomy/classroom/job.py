@@ -305,29 +305,33 @@ def verdicts_of(exercise: Exercise, seed: Seed, facts: RunFacts) -> list[Verdict
 
 
 def _with_requirements(exercise: Exercise, verdicts: list[Verdict]) -> list[Verdict]:
-    """Each criterion that requires another holds only where that one (and what it requires) held.
+    """Each criterion that requires another earns, on each seed, the part of its own that that one earned there.
 
-    With ``requires_some``, where that one earned only a part (a near miss), this one earns the
-    same part of what it would have.
+    Where that one earned nothing (or, with ``requires_all``, did not hold in full), this one earns nothing;
+    what that one requires counts the same way, down the chain.
     """
 
-    def held(index: int, some: bool = False) -> bool:
+    def part(index: int) -> float:
+        """The part of its points ``index`` earned, as what it requires let it."""
         criterion = exercise.criteria[index]
-        here = verdicts[index].share > 0 if some else verdicts[index].held
-        return here and (criterion.requires is None or held(criterion.requires, criterion.requires_some))
+        share = verdicts[index].share
+        if criterion.requires is None:
+            return share
+        needed = part(criterion.requires)
+        return share * needed if not criterion.requires_all else share if needed >= 1.0 else 0.0
 
     out = []
     for criterion, verdict in zip(exercise.criteria, verdicts, strict=True):
         needed = criterion.requires
-        if verdict.share > 0 and needed is not None and not held(needed, criterion.requires_some):
-            label = exercise.criteria[needed].shown
-            met = verdicts[needed].share > 0 if criterion.requires_some else verdicts[needed].held
-            how = "did not count" if met else ("earned nothing" if criterion.requires_some else "did not hold")
+        if verdict.share <= 0 or needed is None:
+            out.append(verdict)
+            continue
+        label, got = exercise.criteria[needed].shown, part(needed)
+        if got <= 0 or (criterion.requires_all and got < 1.0):
+            met = verdicts[needed].held if criterion.requires_all else verdicts[needed].share > 0
+            how = "did not count" if met else ("did not hold" if criterion.requires_all else "earned nothing")
             verdict = Verdict(False, f"{verdict.line}, but this counts only with {label}, which {how}")
-        elif verdict.share > 0 and needed is not None and criterion.requires_some and verdicts[needed].share < 1:
-            part = verdicts[needed].share  # a near miss: this counts as far as that one did
-            label = exercise.criteria[needed].shown
-            line = f"{verdict.line}, counted at {part:.0%} as {label} was"
-            verdict = Verdict(False, line, verdict.share * part)
+        elif got < 1.0 and not criterion.requires_all:  # a near miss: this counts as far as that one did
+            verdict = Verdict(False, f"{verdict.line}, counted at {got:.0%} as {label} was", verdict.share * got)
         out.append(verdict)
     return out

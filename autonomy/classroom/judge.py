@@ -218,6 +218,25 @@ def _collision_verdict(criterion: Criterion, facts: RunFacts, world: World) -> V
     return Verdict(count >= value, f"{what}: {count}, needed at least {value}{first}")
 
 
+#: Why a near miss earned nothing: the robot rests against what it hit (a bump on the way, backed off from, is no bar).
+_NOT_AGAINST = "; a near miss earns a part only for a robot at rest clear of walls and obstacles, stopped by itself)"
+
+
+def _against(facts: RunFacts) -> bool:
+    """Whether the robot rests against a wall or an obstacle, or was stopped by what it hit: no careful near miss."""
+    return facts.rest_touching or facts.rest_hit is not None
+
+
+def _near_mm(criterion: Criterion) -> float:
+    return float(criterion.options.get("near_mm") or 0.0)
+
+
+def _near_share(criterion: Criterion, gap_mm: float) -> float:
+    """The part of a zone's points a miss by ``gap_mm`` earns: 1 at its edge, none at ``near_mm`` (0: none at all)."""
+    near_mm = _near_mm(criterion)
+    return max(0.0, 1.0 - gap_mm / near_mm) if near_mm > 0 else 0.0
+
+
 def _zone_verdict(criterion: Criterion, facts: RunFacts, zone: Zone, world: World) -> Verdict:
     kind, name, path = criterion.kind, zone.name, facts.path
     end_time, end_pose = path[-1]
@@ -226,10 +245,9 @@ def _zone_verdict(criterion: Criterion, facts: RunFacts, zone: Zone, world: Worl
         if inside is not None:
             return Verdict(True, f"{name}: reached at {_time_at(path, inside):.1f} s")
         line = f"{name}: never reached; {_missed(zone, path, name)}"
-        near_mm = float(criterion.options.get("near_mm") or 0.0)
-        share = max(0.0, 1.0 - _closest(zone, path)[0] / near_mm) if near_mm > 0 else 0.0
+        share = _near_share(criterion, _closest(zone, path)[0])
         if share > 0:
-            line += f": {share:.0%} of its points, for coming within {near_mm:g} mm of it"
+            line += f": {share:.0%} of its points, for coming within {_near_mm(criterion):g} mm of it"
         return Verdict(False, line, share)
     if kind == "avoid_zone":
         inside = _first_inside(zone, path)
@@ -262,7 +280,13 @@ def _zone_verdict(criterion: Criterion, facts: RunFacts, zone: Zone, world: Worl
         if gap <= 1e-6:
             stopped = stopped_by(facts, world)
             return Verdict(not stopped, f"{name}: ended inside it{stopped}" + (got_there(facts) if stopped else ""))
-        return Verdict(False, f"{name}: ended {where} (needed inside){got_there(facts)}")
+        line = f"{name}: ended {where} (needed inside)"
+        share = _near_share(criterion, gap)
+        if share > 0 and _against(facts):
+            line, share = line[:-1] + _NOT_AGAINST, 0.0
+        if share > 0:
+            line += f": {share:.0%} of its points, for ending within {_near_mm(criterion):g} mm of it, clear of all"
+        return Verdict(False, line + got_there(facts), share)
     # rest_in_zone
     if facts.rest_s is None:
         return Verdict(False, f"{name}: the robot never came to rest (it was still moving {SETTLE_MOST_S:g} s after)")
@@ -276,16 +300,14 @@ def _zone_verdict(criterion: Criterion, facts: RunFacts, zone: Zone, world: Worl
     if gap > 1e-6:
         toward = bearing(end_pose.x_mm, end_pose.y_mm, *zone.shape.nearest(end_pose.x_mm, end_pose.y_mm))
         line = f"{name}: came to rest {mm(gap)} outside it (it lies {toward}; needed inside)"
-        near_mm = float(criterion.options.get("near_mm") or 0.0)
-        share = max(0.0, 1.0 - gap / near_mm) if near_mm > 0 else 0.0
+        share = _near_share(criterion, gap)
         if share > 0 and after:
             earlier = world.zone(after)
             share = share if earlier is not None and _first_inside(earlier, path) is not None else 0.0
-        if share > 0 and facts.collisions:  # a near miss earns a part for a careful robot, not for one against a wall
-            line = line[:-1] + "; a near miss earns a part only without a collision)"
-            share = 0.0
+        if share > 0 and _against(facts):
+            line, share = line[:-1] + _NOT_AGAINST, 0.0
         if share > 0:
-            line += f": {share:.0%} of its points, for resting within {near_mm:g} mm of it untouched"
+            line += f": {share:.0%} of its points, for resting within {_near_mm(criterion):g} mm of it, clear of all"
         return Verdict(False, line + got_there(facts), share)
     if after:
         earlier = world.zone(after)

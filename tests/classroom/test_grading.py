@@ -156,7 +156,7 @@ def test_a_second_class_marked_by_hand_is_within_the_bands_written_first():
         told = outside_bands(exercise, reports, {s: bands[s] for s in students})
         assert told[-1].endswith(f" of {len(students)} students within the band expected")
         outside += told[:-1]
-    assert len(bands) == 23 and outside == []
+    assert len(bands) == 25 and outside == []
 
 
 def test_every_wrong_file_says_what_a_fair_teacher_gives_it():
@@ -530,8 +530,8 @@ def test_a_requirement_holds_only_where_its_own_requirements_held_too(tmp_path):
     path = tmp_path / "ex.yaml"
     path.write_text(
         "world: garage\ntime_limit_s: 30\nseeds: [1]\ncriteria:\n"
-        "  - succeed: true\n    requires: max_collisions\n"  # requires one listed after it
-        "  - max_collisions: 0\n    requires: end_in_zone\n"
+        "  - succeed: true\n    requires_all: max_collisions\n"  # requires one listed after it
+        "  - max_collisions: 0\n    requires_all: end_in_zone\n"
         "  - end_in_zone: garage\n"
     )
     exercise = load_exercise(path)
@@ -541,6 +541,17 @@ def test_a_requirement_holds_only_where_its_own_requirements_held_too(tmp_path):
         Verdict(False, "b, but this counts only with end_in_zone garage, which did not hold"),
         Verdict(False, "c"),
     ]
+    near = Verdict(False, "c, 60 mm out", 0.4)  # all or nothing: a near miss of c counts for nothing above it
+    assert [v.share for v in _with_requirements(exercise, [Verdict(True, "a"), Verdict(True, "b"), near])] == [
+        0.0, 0.0, 0.4]  # fmt: skip
+    # without requires_all, a near miss counts for what depends on it in its own part, down the chain
+    parts = load_exercise(_mission(tmp_path, "parts", path.read_text().replace("requires_all", "requires")))
+    verdicts = _with_requirements(parts, [Verdict(True, "a"), Verdict(False, "b", 0.5), near])
+    assert [v.share for v in verdicts] == [pytest.approx(0.2), pytest.approx(0.2), 0.4]
+    assert verdicts[1].line == "b, counted at 40% as end_in_zone garage was"
+    assert verdicts[0].line == "a, counted at 20% as max_collisions 0 was"
+    nothing = _with_requirements(parts, [Verdict(True, "a"), Verdict(True, "b"), Verdict(False, "c")])
+    assert nothing[1] == Verdict(False, "b, but this counts only with end_in_zone garage, which earned nothing")
 
 
 def _mission(tmp_path, name, text):
@@ -1114,7 +1125,7 @@ def test_a_near_miss_earns_its_part_of_what_requires_some_of_it(tmp_path):
         "world: garage\ntime_limit_s: 30\nseeds: [1]\ncriteria:\n"
         "  - rest_in_zone: garage\n    near_mm: 50\n    points: 5\n"
         "  - max_collisions: 0\n    points: 3\n    requires_some: rest_in_zone\n"
-        "  - succeed: true\n    points: 2\n    requires: rest_in_zone\n"
+        "  - succeed: true\n    points: 2\n    requires_all: rest_in_zone\n"
     )
     exercise = load_exercise(path)
     near = Verdict(False, "garage: came to rest 10 mm outside it", 0.8)
@@ -1131,7 +1142,7 @@ def test_a_near_miss_earns_its_part_of_what_requires_some_of_it(tmp_path):
             "requires_some: rest_in_zone", "requires_some: rest_in_zone\n    requires: rest_in_zone"
         )
     )
-    with pytest.raises(ExerciseInvalid, match="give requires or requires_some, not both"):
+    with pytest.raises(ExerciseInvalid, match="give one of requires, requires_some, requires_all, not 2"):
         load_exercise(both)
 
 

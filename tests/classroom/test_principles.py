@@ -4,6 +4,9 @@
 2. A beep is a sound: a beep at volume 0 is none; "beep while standing there" can be asked.
 3. A collision is a contact: touching again after backing off a little is another collision,
    pushing on against the wall is not.
+4. No single miss zeroes the rest: a criterion requires only what it depends on, and earns the part
+   that one earned; a zone missed by a little earns a part, on the teacher's scale (near_mm), none
+   for a robot resting against a wall; all or nothing is the teacher's to ask (requires_all, near_mm: 0).
 5. A teacher can say what their text asks: stop at a zone on the way, turn round there, come to
    rest at a distance from what is ahead, use the front sensor.
 
@@ -394,3 +397,54 @@ def test_a_node_s_long_name_is_clipped_in_a_verdict_line(dock):
     long_name = "x" * 1000
     line = verdicts(dock, "long_name", f"move: {{speed: 4, name: {long_name}}}")["max_collisions 0"][1]
     assert line.endswith(f", while '{'x' * 59}…' (move, line 3) was running") and len(line) < 200
+
+
+# ---------------------------------------------------------------- 4. no single miss zeroes the rest
+
+SHIPPED = Path(__file__).resolve().parents[2] / "exercises"
+SECOND_CLASS = Path(__file__).resolve().parent / "second_class"
+
+
+def test_one_miss_costs_what_depends_on_it_not_every_other_point(tmp_path):
+    short = SECOND_CLASS / "open_short.yaml"  # through the opening cleanly, then 13 cm short of the goal
+    report = grade_one(load_exercise(SHIPPED / "opening.yaml"), "open_short", short)
+    assert report.marks == [2, 0, 2, 2] and report.total == 6  # the goal's points, nothing else
+    # gated on the goal instead, all or nothing, the same robot would keep only "through the opening"
+    gated = (SHIPPED / "opening.yaml").read_text().replace("requires: reach_zone", "requires_all: rest_in_zone")
+    (tmp_path / "gated.yaml").write_text(gated.replace("solution: solutions/opening.yaml", ""))
+    report = grade_one(load_exercise(tmp_path / "gated.yaml"), "open_short", short)
+    assert report.total == 2
+    line = report.seeds[0].verdicts[2][1]
+    assert line == "collisions: 0, allowed 0, but this counts only with Stopped in the goal, which did not hold"
+
+
+def _dock_variant(dock, near: str) -> object:
+    exercise, folder = dock
+    (folder / "near.yaml").write_text(EXERCISE.replace("  - rest_in_zone: dock\n", f"  - rest_in_zone: dock\n{near}"))
+    return load_exercise(folder / "near.yaml"), folder
+
+
+@pytest.mark.parametrize(("near", "scale_mm"), [("", 100.0), ("    near_mm: 200\n", 200.0), ("    near_mm: 0\n", 0.0)])
+def test_a_zone_missed_by_a_little_earns_a_part_on_the_teacher_s_scale(dock, near, scale_mm):
+    short = verdicts(_dock_variant(dock, near), "short", "move: {speed: 2, distance_mm: 1350}")
+    held, line, share = short["rest_in_zone dock"]
+    gap_mm = float(line.split("came to rest ")[1].split(" mm outside")[0])
+    assert not held and 30 <= gap_mm <= 70  # about 5 cm west of the dock
+    assert share == pytest.approx(max(0.0, 1 - gap_mm / scale_mm) if scale_mm else 0.0, abs=0.01)
+    if scale_mm:
+        assert f"of its points, for resting within {scale_mm:g} mm of it, clear of all" in line
+    # what requires it earns that same part
+    assert short["finish_within_s 20"][2] == pytest.approx(1.0)  # requires nothing here
+
+
+def test_a_near_miss_against_a_wall_earns_nothing_and_a_bump_backed_off_from_is_no_bar(tmp_path):
+    rammed = tmp_path / "rammed.yaml"  # a fixed 2.4 m: into the end wall on seed 8, 4 cm past the garage
+    rammed.write_text("mission: rammed\ntree:\n  move: {speed: 2, distance_mm: 2400}\n")
+    garage = load_exercise(SHIPPED / "garage.yaml")
+    seed = grade_one(garage, "rammed", rammed).seeds[0]
+    assert seed.shares[0] == 0 and "at rest clear of walls and obstacles" in seed.verdicts[0][1]
+    bump = load_exercise(SHIPPED / "bump.yaml")  # bumps the box as asked, backs off, stops 48 mm short
+    report = grade_one(bump, "bump_short", SECOND_CLASS / "bump_short.yaml")
+    assert all(s.shares[1] == pytest.approx(0.52, abs=0.01) for s in report.seeds)
+    assert all(s.shares[3] == s.shares[1] for s in report.seeds)  # the time, in the goal's part
+    assert report.marks[0] == 2 and report.marks[2] == 1  # the bump, and only that one

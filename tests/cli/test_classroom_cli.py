@@ -49,7 +49,8 @@ def test_run_with_a_bad_world_is_a_usage_error_with_every_problem(tmp_path):
 def test_a_world_with_zones_is_drawn_with_them():
     result = autonomy("world", "show", "opening")
     assert result.returncode == 0
-    assert result.stdout.count('class="zone"') == 1 and 'data-zone="goal"' in result.stdout
+    assert result.stdout.count('class="zone"') == 2 and 'data-zone="goal"' in result.stdout
+    assert 'data-zone="past_wall"' in result.stdout  # through the opening
 
 
 def test_a_world_is_drawn_as_a_seed_draws_it():
@@ -83,7 +84,8 @@ def test_a_student_grades_their_own_mission_and_reads_what_to_fix(tmp_path):
     assert lines[4:6] == [
         "  MISS Parked in the garage: 1.25 / 5 points",  # the criterion's title, the student's words
         "         seed 8: no  garage: came to rest 40 mm outside it (it lies west; needed inside; a near miss earns "
-        "a part only without a collision); it got there while move 2400 mm (line 4) was running",
+        "a part only for a robot at rest clear of walls and obstacles, stopped by itself); it got there while "
+        "move 2400 mm (line 4) was running",
     ]
     assert "         seed 52: yes garage: came to rest inside it at 11.5 s" in lines
     assert (
