@@ -134,6 +134,10 @@ CRITERIA = {
 #: ``requires_some`` (the same: its older name), ``requires_all`` (only where that one held in full).
 REQUIRES_KEYS = ("requires", "requires_some", "requires_all")
 
+#: What an option may be, where it is not 0 to 100,000: a tolerance of a heading beyond a half-turn takes any
+#: heading; a stop shorter than a tick (at 20 Hz) is no stop that a run can show.
+OPTION_RANGES = {"tolerance_deg": (0, 90), "for_s": (0.05, 3600)}
+
 #: Longest title a criterion may have (what a student reads for it), characters.
 MAX_TITLE_CHARS = 80
 
@@ -267,7 +271,8 @@ class CriteriaReader(Reader):
                     options[key] = name
                 continue
             whole = key in ("extra_beeps", "count")
-            got = self.number(item.value[key], f"{path}.{key}", 0, 100_000, whole=whole)
+            low, high = OPTION_RANGES.get(key, (0, 100_000))
+            got = self.number(item.value[key], f"{path}.{key}", low, high, whole=whole)
             if got is not None:
                 options[key] = float(got)
         located = item.value[kind.key]
@@ -289,6 +294,18 @@ class CriteriaReader(Reader):
             value = self.number(located, where, 0, 1_000_000, whole=True)
         elif kind.value in ("seconds", "mm"):
             value = self.number(located, where, 0, 1e9)
+        elif kind.value == "degrees" and kind.key == "turns":  # a change of heading, within a half-turn either way
+            value = self.number(located, where, -180, 180)
+            tolerance_deg = float(options["tolerance_deg"])
+            if value is not None and abs(value) <= tolerance_deg:
+                self.problem(
+                    located,
+                    where,
+                    f"a turn of {value:g} ± {tolerance_deg:g} degrees would count a robot that never turned: give a "
+                    "turn larger than its tolerance (a whole turn ends where it began, and the path cannot tell it "
+                    "from none)",
+                )
+                value = None
         elif kind.value == "degrees":
             value = self.number(located, where, -360, 360)
         elif kind.value == "range":

@@ -255,6 +255,11 @@ def test_using_the_front_sensor_is_a_node_that_reads_it_in_the_tree(dock):
         ("rest_distance_ahead_mm: 150", "expected two distances in mm, the nearer first, e.g. [100, 200]"),
         ("beep_near: mid\n    standing: yes please", "standing takes true or false, got 'yes please'"),
         ("turns: 180\n    at: middle", "world 'dock' has no zone 'middle' (did you mean 'mid'?)"),
+        ("turns: 360", "criteria[0].turns: must be from -180 to 180, got 360"),  # a whole turn is no change
+        ("turns: 8", "a turn of 8 ± 10 degrees would count a robot that never turned"),
+        ("turns: 30\n    tolerance_deg: 30", "a turn of 30 ± 30 degrees would count a robot that never turned"),
+        ("end_heading_deg: 0\n    tolerance_deg: 100000", "tolerance_deg: must be from 0 to 90, got 100000"),
+        ("stop_in_zone: mid\n    for_s: 0", "for_s: must be from 0.05 to 3,600, got 0"),
     ],
 )
 def test_the_new_criteria_are_checked_at_their_place(dock, criterion, message):
