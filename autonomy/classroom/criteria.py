@@ -55,15 +55,16 @@ CRITERIA = {
             "rest_in_zone",
             "zone",
             "the robot comes to rest for good by itself inside the zone within the time limit (after the zone "
-            "'after', if set); within near_mm of it, without a collision, earns a part, less the further out "
-            "(near_mm: 0, all or nothing)",
+            "'after', if set); within near_mm of it, at rest clear of walls and obstacles, earns a part, less the "
+            "further out (near_mm: 0, all or nothing)",
             {"after": "", "near_mm": NEAR_MM},
         ),
         CriterionKind(
             "end_in_zone",
             "zone",
             "the mission ends on its own and the robot comes to rest by itself inside the zone; ending within "
-            "near_mm of it, without a collision, earns a part, less the further out (near_mm: 0, all or nothing)",
+            "near_mm of it, at rest clear of walls and obstacles, earns a part, less the further out (near_mm: 0, "
+            "all or nothing)",
             {"near_mm": NEAR_MM},
         ),
         CriterionKind(

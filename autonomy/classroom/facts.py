@@ -32,6 +32,9 @@ SETTLE_MOST_S = 30.0
 #: pushing on against a wall, or turning and driving on along it, is one collision; backing off
 #: this much (a little) and bumping again is two, however near the first the second is.
 CONTACT_CLEAR_MM = 5.0
+#: How long a robot whose mission was still running when its time ran out must have stood still by then, to
+#: have come to rest for good (seconds).
+STILL_AT_LIMIT_S = 1.0
 
 #: An impact no faster than this is a touch, mm/s (half the slowest drive): a robot that came to
 #: rest at a faster one was stopped by what it hit, not by itself.
@@ -334,8 +337,12 @@ def facts_of(
 
 
 def moving_at_time_limit(outcome: str, rest_s: float | None, time_s: float) -> bool:
-    """Whether the robot was still moving when its time ran out: stopped by the time limit, not by its mission."""
-    return outcome not in (SUCCEEDED, FAILED) and rest_s is not None and rest_s >= time_s - 1e-6
+    """Whether the robot was still moving when its time ran out: stopped by the time limit, not by its mission.
+
+    A mission still running then must have left the robot standing :data:`STILL_AT_LIMIT_S` at least: one
+    caught standing between two of its moves (a wiggle, a beat of its dance) had not come to rest for good.
+    """
+    return outcome not in (SUCCEEDED, FAILED) and rest_s is not None and rest_s > time_s - STILL_AT_LIMIT_S
 
 
 def arrival_s(path: list[tuple[float, Pose]]) -> float:

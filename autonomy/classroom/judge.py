@@ -21,7 +21,7 @@ from dataclasses import dataclass
 from itertools import pairwise
 
 from autonomy.classroom.criteria import Criterion
-from autonomy.classroom.facts import FAILED, SETTLE_MOST_S, SUCCEEDED, Beep, RunFacts
+from autonomy.classroom.facts import FAILED, SETTLE_MOST_S, STILL_AT_LIMIT_S, SUCCEEDED, Beep, RunFacts
 from autonomy.classroom.told import bearing, contact_text, either, got_there, hit, listed, mm, stopped_by, while_running
 from autonomy.emulator.world import ROBOT_RADIUS_MM, World, Zone
 from autonomy.protocol import heading_delta_deg
@@ -227,6 +227,17 @@ def _against(facts: RunFacts) -> bool:
     return facts.rest_touching or facts.rest_hit is not None
 
 
+def _moving_at_limit(facts: RunFacts) -> str:
+    """Why a robot caught by the time limit had not come to rest for good."""
+    if facts.rest_s is not None and facts.rest_s < facts.time_s - 1e-6:
+        stood_s = facts.time_s - facts.rest_s
+        return (
+            f"the mission was still running when its time ran out ({facts.time_s:g} s), the robot standing only "
+            f"{stood_s:.2f} s between two moves (at rest for good needs {STILL_AT_LIMIT_S:g} s at least)"
+        )
+    return f"the robot was still moving when its time ran out ({facts.time_s:g} s)"
+
+
 def _near_mm(criterion: Criterion) -> float:
     return float(criterion.options.get("near_mm") or 0.0)
 
@@ -291,7 +302,7 @@ def _zone_verdict(criterion: Criterion, facts: RunFacts, zone: Zone, world: Worl
     if facts.rest_s is None:
         return Verdict(False, f"{name}: the robot never came to rest (it was still moving {SETTLE_MOST_S:g} s after)")
     if facts.moving_at_time_limit:
-        return Verdict(False, f"{name}: the robot was still moving when its time ran out ({facts.time_s:g} s)")
+        return Verdict(False, f"{name}: {_moving_at_limit(facts)}")
     if facts.rest_s > facts.time_limit_s + 1e-9:
         return Verdict(
             False, f"{name}: came to rest only at {facts.rest_s:.2f} s, after the {facts.time_limit_s:g} s allowed"
@@ -461,7 +472,7 @@ def _distance_ahead(criterion: Criterion, facts: RunFacts, world: World) -> Verd
     if facts.rest_s is None:
         return Verdict(False, "the robot never came to rest")
     if facts.moving_at_time_limit:
-        return Verdict(False, f"the robot was still moving when its time ran out ({facts.time_s:g} s)")
+        return Verdict(False, _moving_at_limit(facts))
     if facts.rest_s > facts.time_limit_s + 1e-9:
         return Verdict(False, f"came to rest only at {facts.rest_s:.2f} s, after the {facts.time_limit_s:g} s allowed")
     pose = facts.path[-1][1]

@@ -102,6 +102,29 @@ def test_a_robot_stopped_by_the_wall_it_ran_into_did_not_park_there(dock):
     assert parked["rest_in_zone dock"][0] and parked["max_collisions 0"][0]
 
 
+def test_a_robot_caught_standing_between_two_moves_by_the_time_limit_had_not_come_to_rest():
+    from autonomy.classroom.facts import STILL_AT_LIMIT_S, moving_at_time_limit
+    from autonomy.runner import SUCCEEDED, TIME_LIMIT
+
+    assert moving_at_time_limit(TIME_LIMIT, 59.97, 60.0)  # a beat of its wiggle: luck, not a rest
+    assert moving_at_time_limit(TIME_LIMIT, 60.0, 60.0)  # still moving
+    assert not moving_at_time_limit(TIME_LIMIT, 60.0 - STILL_AT_LIMIT_S - 0.01, 60.0)  # parked, then beeping on
+    assert not moving_at_time_limit(SUCCEEDED, 59.97, 60.0)  # its mission ended: it stopped itself
+
+
+def test_a_robot_that_parks_then_wiggles_until_its_time_runs_out_did_not_park(dock):
+    wiggles = verdicts(
+        dock,
+        "wiggles",
+        sequence(
+            "move: {speed: 2, until_obstacle_mm: 60}",
+            "repeat: {times: 1000, do: {sequence: [turn: {left: 15}, wait: {seconds: 0.2}, turn: {right: 15}]}}",
+        ),
+    )
+    held, line, _ = wiggles["rest_in_zone dock"]
+    assert not held and (line.endswith("still moving when its time ran out (60 s)") or "standing only" in line)
+
+
 def test_how_hard_a_robot_hits_counts_a_crash_is_not_a_touch(dock):
     crash = verdicts(dock, "crash", "move: {speed: 4}")["max_collisions 0"]
     assert not crash[0] and crash[1].startswith("collisions faster than 150 mm/s: 1, allowed 0, the first at ")
