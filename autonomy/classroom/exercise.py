@@ -24,6 +24,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 from autonomy.classroom.criteria import CriteriaReader, Criterion
+from autonomy.classroom.results import SeedResult
 from autonomy.classroom.secret import hidden_seed
 from autonomy.emulator.faults import FaultSpec, FaultSpecError
 from autonomy.emulator.world import SHIPPED, World, WorldError, WorldInvalid, load_world, world_file
@@ -285,3 +286,8 @@ def load_exercise(path: str | Path) -> Exercise:
     if problems or exercise is None:
         raise ExerciseInvalid(problems or [Problem(label, 1, 1, "", "not an exercise")])
     return exercise
+
+
+def seed_points(exercise: Exercise, seed: SeedResult) -> float:
+    """The points one seed's run earned: each criterion's points times its share there."""
+    return sum(c.points * share for c, share in zip(exercise.criteria, seed.shares, strict=False))

@@ -11,8 +11,8 @@ import math
 from collections import Counter
 from typing import Any
 
-from autonomy.classroom.exercise import Exercise
-from autonomy.classroom.results import Report, SeedResult
+from autonomy.classroom.exercise import Exercise, seed_points
+from autonomy.classroom.results import Report
 from autonomy.emulator.world import Box, Shape
 from autonomy.runner import clipped
 from autonomy.views.lines import printable
@@ -42,10 +42,6 @@ def _world(exercise: Exercise, world_seed: int) -> dict[str, Any]:
         "obstacles": [_shape(obstacle) for obstacle in world.obstacles],
         "zones": [[zone.name, *_shape(zone.shape)] for zone in world.zones],
     }
-
-
-def _seed_points(exercise: Exercise, seed: SeedResult) -> float:
-    return sum(c.points * share for c, share in zip(exercise.criteria, seed.shares, strict=False))
 
 
 def _thinned(path: list[tuple[float, float]]) -> list[list[int]]:
@@ -139,7 +135,7 @@ def class_overview(
             maps.append({**shown, "seed": "", "world": "", "path": [], "collisions": [], "outcome": "notgraded",
                          "mark": "not graded", "why": why})  # fmt: skip
             continue
-        worst = min(report.seeds, key=lambda seed: _seed_points(exercise, seed))  # the first of the worst
+        worst = min(report.seeds, key=lambda seed: seed_points(exercise, seed))  # the first of the worst
         key = str(worst.world_seed)
         if key not in worlds:
             worlds[key] = _world(exercise, worst.world_seed)

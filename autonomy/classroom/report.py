@@ -15,7 +15,7 @@ from html import escape
 from pathlib import Path, PurePath
 from urllib.parse import parse_qsl, urlencode, urlsplit, urlunsplit
 
-from autonomy.classroom.exercise import Exercise
+from autonomy.classroom.exercise import Exercise, seed_points
 from autonomy.classroom.gradebook import RosterMatch, similar
 from autonomy.classroom.overview import class_overview
 from autonomy.classroom.results import Report, SeedResult, page_path
@@ -149,7 +149,7 @@ def seed_heading(exercise: Exercise, seed: SeedResult) -> str:
 
     Then how the run ended: a run that ended by itself with no points must not read as a pass.
     """
-    earned = round(sum(c.points * share for c, share in zip(exercise.criteria, seed.shares, strict=False)), 2)
+    earned = round(seed_points(exercise, seed), 2)
     out_of = _number(exercise.max_points)
     return f"{seed.seed}: {_number(earned)} of {out_of} points (the run: {seed.outcome} after {seed.time_s:g} s)"
 
