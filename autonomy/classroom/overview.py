@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 from collections import Counter
+from pathlib import PurePath
 from typing import Any
 
 from autonomy.classroom.exercise import Exercise, seed_points
@@ -52,6 +53,17 @@ def _thinned(path: list[tuple[float, float]]) -> list[list[int]]:
     return [[round(path[round(k * step)][0]), round(path[round(k * step)][1])] for k in range(MAP_POINTS)]
 
 
+def seed_anchor(link: str, number: int) -> str:
+    """Where ``link`` opens at a student's ``number``-th seed (from 1).
+
+    A link to a part of the class page (``#s-3``) goes to that seed in it (``#s-3-seed-2``); one to a feedback page
+    (``page.html``, ``page.html#as-blocks``) to that seed's section of the page (``page.html#seed-2``).
+    """
+    if link.startswith("#"):
+        return f"{link}-seed-{number}"
+    return f"{link.split('#')[0]}#seed-{number}"
+
+
 def _outcome(mark: float, out_of: float) -> str:
     return "full" if mark >= out_of - 1e-9 else "none" if mark <= 1e-9 else "part"
 
@@ -81,12 +93,18 @@ def class_overview(
         about: What the reports are, said over the maps (``each student's latest graded run or hand-in``).
 
     Returns:
-        ``students``, ``graded`` (the reports without problems), ``max_points``, ``median`` (None: none graded);
+        ``students``, ``graded`` (the reports without problems), ``max_points``, ``median`` (None: none graded),
+        ``full_marks`` and ``no_marks`` (students);
         ``bins``: ``[from, to, students]``; ``criteria``: ``{label, title, points, full, part, none}`` (students);
         ``nodes``: ``{node, students, points_lost, criteria: [[label, students]...]}``, the most points first;
-        ``worlds``: each seed's world drawn, by key; ``maps``: ``{student, seed, world, path, collisions,
-        outcome, mark, why, link}``, ``outcome`` being ``full``, ``part``, ``none`` or ``notgraded`` (``why``
-        says why); ``about``.
+        ``lost``: ``{points, shown, unnamed}``, the points lost across the class (each student's mean over their
+        seeds, added up), those the rows shown hold (the nodes', and the last), and a row as ``nodes``' of those
+        lost while no node was named (a criterion of the whole run, or one counting only with another);
+        ``worlds``: each seed's world drawn, by key;
+        ``maps``: ``{student, seed, world, path, collisions, beeps, outcome, mark, total, why, link}``:
+        the seed they earned least on, ``outcome`` (``full``, ``part``, ``none``, or ``notgraded``,
+        ``why`` saying why) and ``mark`` that seed's, ``total`` their mark, ``link`` opening at that seed
+        (:func:`seed_anchor`); ``about``.
     """
     graded = [r for r in reports if not r.problems]
     bins = [[lo, hi, 0] for lo, hi in _bins(exercise.max_points)]
@@ -98,44 +116,52 @@ def class_overview(
         told = Counter(_outcome(_mean_share(r, index), 1.0) for r in graded)
         words = {"label": printable(criterion.label), "title": printable(criterion.title), "points": criterion.points}
         criteria.append({**words, "full": told["full"], "part": told["part"], "none": told["none"]})
-    lost_points: Counter[str] = Counter()
+    lost_points: Counter[str] = Counter()  # "" for the points lost while no node is named
     lost_by: Counter[str] = Counter()  # students, by node type
     lost_on: dict[str, Counter[str]] = {}  # students, by node type and criterion
     for report in graded:
         count = len(report.seeds) or 1
         theirs: set[tuple[str, str]] = set()  # each node and criterion once a student, however many seeds
         for seed in report.seeds:
-            for index, node in enumerate(seed.lost_while[: len(exercise.criteria)]):
-                if node and index < len(seed.shares):
-                    criterion = exercise.criteria[index]
-                    lost_points[node] += criterion.points * (1.0 - seed.shares[index]) / count
-                    theirs.add((node, printable(criterion.title or criterion.label)))
+            for index, criterion in enumerate(exercise.criteria[: len(seed.shares)]):
+                points = criterion.points * (1.0 - seed.shares[index]) / count
+                if points <= 0:
+                    continue
+                node = seed.lost_while[index] if index < len(seed.lost_while) else ""
+                lost_points[node] += points
+                theirs.add((node, printable(criterion.title or criterion.label)))
         for node in {node for node, _ in theirs}:
             lost_by[node] += 1
         for node, label in theirs:
             lost_on.setdefault(node, Counter())[label] += 1
-    nodes = [
-        {
-            "node": node,
-            "students": lost_by[node],
-            "points_lost": round(points, 2),
-            "criteria": [[label, n] for label, n in sorted(lost_on[node].items(), key=lambda kv: (-kv[1], kv[0]))][
-                :CRITERIA_PER_NODE
-            ],
-        }
-        for node, points in sorted(lost_points.items(), key=lambda kv: (-kv[1], kv[0]))
-        if points > 0.005
-    ][:NODES_SHOWN]
+
+    def lost_row(node: str) -> dict[str, Any]:
+        named = sorted(lost_on.get(node, Counter()).items(), key=lambda kv: (-kv[1], kv[0]))[:CRITERIA_PER_NODE]
+        points = round(lost_points[node], 2)
+        return {"node": node, "students": lost_by[node], "points_lost": points, "criteria": [list(kv) for kv in named]}
+
+    by_points = sorted((kv for kv in lost_points.items() if kv[0] and kv[1] > 0.005), key=lambda kv: (-kv[1], kv[0]))
+    nodes = [lost_row(node) for node, _ in by_points[:NODES_SHOWN]]
+    lost = {
+        "points": round(sum(lost_points.values()), 2),
+        "shown": round(sum(lost_points[row["node"]] for row in nodes) + lost_points[""], 2),
+        "unnamed": lost_row(""),
+    }
     worlds: dict[str, dict[str, Any]] = {}
     maps = []
     for index, report in enumerate(reports):
         shown = {"student": printable(report.student), "link": links[index] if links and index < len(links) else None}
         if report.problems or not report.seeds:
-            why = clipped(printable(report.problems[0]), WHY_CHARS) if report.problems else "no run"
-            maps.append({**shown, "seed": "", "world": "", "path": [], "collisions": [], "outcome": "notgraded",
-                         "mark": "not graded", "why": why})  # fmt: skip
+            said = report.problems[0] if report.problems else "no run"
+            if report.file and said.startswith(report.file):  # its folder takes the room of what went wrong
+                said = PurePath(report.file).name + said[len(report.file) :]
+            why = clipped(printable(said), WHY_CHARS)
+            maps.append({**shown, "seed": "", "world": "", "path": [], "collisions": [], "beeps": [],
+                         "outcome": "notgraded", "mark": "not graded", "total": "", "why": why})  # fmt: skip
             continue
-        worst = min(report.seeds, key=lambda seed: seed_points(exercise, seed))  # the first of the worst
+        earned = [seed_points(exercise, seed) for seed in report.seeds]
+        number = earned.index(min(earned))  # the first of the worst
+        worst, worst_points = report.seeds[number], round(earned[number], 2)
         key = str(worst.world_seed)
         if key not in worlds:
             worlds[key] = _world(exercise, worst.world_seed)
@@ -145,9 +171,12 @@ def class_overview(
             "world": key,
             "path": _thinned(worst.path),
             "collisions": [[round(c[1]), round(c[2])] for c in worst.collisions],
-            "outcome": _outcome(report.total, report.max_points),
-            "mark": f"{report.total:g} / {report.max_points:g}",
+            "beeps": [[round(b[1]), round(b[2])] for b in worst.beeps],
+            "outcome": _outcome(worst_points, report.max_points),
+            "mark": f"{worst_points:g} / {report.max_points:g}",
+            "total": f"{report.total:g} / {report.max_points:g}",
             "why": "",
+            "link": seed_anchor(shown["link"], number + 1) if shown["link"] else None,
         })  # fmt: skip
     totals = sorted(r.total for r in graded)
     middle = len(totals) // 2
@@ -157,9 +186,12 @@ def class_overview(
         "graded": len(graded),
         "max_points": exercise.max_points,
         "median": None if median is None else round(median, 2),
+        "full_marks": sum(_outcome(r.total, r.max_points) == "full" for r in graded),
+        "no_marks": sum(_outcome(r.total, r.max_points) == "none" for r in graded),
         "bins": [[round(lo, 2), round(hi, 2), n] for lo, hi, n in bins],
         "criteria": criteria,
         "nodes": nodes,
+        "lost": lost,
         "worlds": worlds,
         "maps": maps,
         "about": about,

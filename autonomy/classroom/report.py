@@ -131,6 +131,8 @@ body { font-family: "DejaVu Sans", sans-serif; margin: 1em 2em; color: #212529; 
 table { border-collapse: collapse; margin: .5em 0 1.5em; }
 th, td { border: 1px solid #dee2e6; padding: .25em .6em; text-align: right; }
 th:first-child, td:first-child { text-align: left; }
+td:first-child, th { max-width: 22em; } td, h2, p, li { overflow-wrap: anywhere; } th { overflow-wrap: break-word; }
+td.hint { color: #495057; font-style: italic; }
 td.full { background: #d3f9d8; } td.part { background: #fff3bf; } td.none { background: #ffe3e3; }
 td.notgraded { background: #e9ecef; color: #495057; font-style: italic; }
 th button { font: inherit; font-weight: bold; border: none; background: none; cursor: pointer; padding: 0; }
@@ -154,7 +156,10 @@ def seed_heading(exercise: Exercise, seed: SeedResult) -> str:
     return f"{seed.seed}: {_number(earned)} of {out_of} points (the run: {seed.outcome} after {seed.time_s:g} s)"
 
 
-def _cell(mark: float, points: float) -> str:
+def _cell(mark: float, points: float, held: tuple[int, int] = (0, 0)) -> str:
+    """A mark's cell; a criterion of no points (a hint) tells on how many of the ``held`` seeds it held instead."""
+    if points <= 0:
+        return f'<td class="hint" data-sort="{held[0] / (held[1] or 1):g}">held on {held[0]} of {held[1]}</td>'
     kind = "full" if mark >= points else "none" if mark <= 0 else "part"
     return f'<td class="{kind}" data-sort="{mark:g}">{_number(mark)}</td>'
 
@@ -254,8 +259,10 @@ def to_html(exercise: Exercise, reports: list[Report], pages: dict[str, str] | N
             cells = f'<td class="notgraded" data-sort="{report.total - 1000:g}" title="{why}">{shown}</td>'
             cells += '<td class="notgraded" data-sort="-1">–</td>' * len(exercise.criteria)
         else:
+            held = [sum(s.shares[k] >= 1 for s in report.seeds if k < len(s.shares)) for k in range(len(report.marks))]
             cells = _cell(report.total, report.max_points) + "".join(
-                _cell(m, c.points) for m, c in zip(report.marks, exercise.criteria, strict=True)
+                _cell(m, c.points, (n, len(report.seeds)))
+                for m, c, n in zip(report.marks, exercise.criteria, held, strict=True)
             )
         rows.append(f'<tr><td data-sort="{name}"><a href="#s-{index}">{name}</a></td>{cells}</tr>')
     pairs = similar(reports)
@@ -306,14 +313,15 @@ def to_html(exercise: Exercise, reports: list[Report], pages: dict[str, str] | N
             parts.append(f'<p>Not graded:</p><pre class="problems">{escape(text)}</pre></section>')
             continue
         parts.append('<div class="seeds">')
-        for seed in report.seeds:
+        for number, seed in enumerate(report.seeds, start=1):  # s-K-seed-N: where the overview's map opens
             verdicts = "".join(
                 f'<li class="{"yes" if held else "no"}">{"✓" if held else "✗"} {escape(printable(line))}</li>'
                 for held, line in seed.verdicts
             )
             picture = _seed_svg(exercise, seed, f"{report.student}, {seed.seed}")
+            heading = escape(seed_heading(exercise, seed))
             parts.append(
-                f'<div class="seed"><h3>{escape(seed_heading(exercise, seed))}</h3>{picture}<ul>{verdicts}</ul></div>'
+                f'<div class="seed" id="s-{index}-seed-{number}"><h3>{heading}</h3>{picture}<ul>{verdicts}</ul></div>'
             )
         parts.append("</div></section>")
     parts.append("</body></html>")
@@ -409,7 +417,7 @@ def feedback_page(
             f'<li class="{"yes" if held else "no"}">{"&#10003;" if held else "&#10007;"} {escape(printable(line))}</li>'
             for held, line in seed.verdicts
         )
-        yield f'<section class="seed"><h2>{escape(seed_heading(exercise, seed))}</h2>\n'
+        yield f'<section class="seed" id="seed-{number}"><h2>{escape(seed_heading(exercise, seed))}</h2>\n'
         yield _seed_svg(exercise, seed, f"{report.student}, {seed.seed}") + f"<ul>{verdicts}</ul>\n"
         if seed.rest_s is not None and seed.rest_s > seed.time_s + 0.05:  # it rolled on after the mission's end
             yield (

@@ -77,13 +77,22 @@ def test_the_overview_adds_up_the_reports_figure_by_figure(graded):
     assert ["No crash", 2] in move["criteria"]  # the full speed one, and the fixed distance one
     wait = next(n for n in seen["nodes"] if n["node"] == "wait")
     assert (wait["students"], wait["points_lost"], wait["criteria"]) == (1, 2.0, [["Done within 30 s", 1]])
+    # every point lost is told: the nodes' rows, then those lost with no node named, out of all lost
+    every = sum(exercise.max_points - r.total for r in marked)
+    assert seen["lost"]["points"] == pytest.approx(every, abs=0.02)
+    unnamed = seen["lost"]["unnamed"]
+    rows = sum(n["points_lost"] for n in seen["nodes"]) + unnamed["points_lost"]
+    assert seen["lost"]["shown"] == pytest.approx(rows, abs=0.02) == pytest.approx(every, abs=0.02)
+    assert unnamed["node"] == "" and unnamed["points_lost"] == pytest.approx(every - sum(lost.values()), abs=0.02)
+    assert (seen["full_marks"], seen["no_marks"]) == (
+        sum(r.total >= 10 for r in marked), sum(r.total <= 0 for r in marked))  # fmt: skip
 
 
 def test_each_student_has_a_map_of_their_worst_seed_in_the_class_s_order_with_their_link(graded):
     exercise, reports = graded
     seen = class_overview(exercise, reports, [f"page-{k}" for k in range(len(reports))])
     assert [m["student"] for m in seen["maps"]] == [r.student for r in reports]
-    assert [m["link"] for m in seen["maps"]] == [f"page-{k}" for k in range(len(reports))]
+    assert seen["maps"][-1]["link"] == f"page-{len(reports) - 1}"  # the typo's: its page, saying why
     for shown, report in zip(seen["maps"], reports, strict=True):
         if report.problems:
             assert (shown["outcome"], shown["mark"], shown["path"]) == ("notgraded", "not graded", [])
@@ -96,8 +105,13 @@ def test_each_student_has_a_map_of_their_worst_seed_in_the_class_s_order_with_th
         assert shown["path"][0] == [round(v) for v in worst.path[0]]
         assert shown["path"][-1] == [round(v) for v in worst.path[-1]]  # where it came to rest
         assert len(shown["collisions"]) == len(worst.collisions)
-        outcome = "full" if report.total >= 10 else "none" if report.total <= 0 else "part"
-        assert shown["outcome"] == outcome and shown["mark"] == f"{report.total:g} / 10"
+        # coloured and marked by what that seed earned, their mark said beside it
+        least = round(min(points), 2)
+        outcome = "full" if least >= 10 else "none" if least <= 0 else "part"
+        assert (shown["outcome"], shown["mark"]) == (outcome, f"{least:g} / 10")
+        assert shown["total"] == f"{report.total:g} / 10"
+        assert shown["link"] == f"page-{reports.index(report)}#seed-{points.index(min(points)) + 1}"
+        assert shown["beeps"] == [[round(b[1]), round(b[2])] for b in worst.beeps]
         world = seen["worlds"][shown["world"]]
         wall = world["obstacles"][0]  # the seed's own end wall, where that seed put it
         drawn = exercise.world.for_seed(worst.world_seed).obstacles[0]

@@ -244,9 +244,13 @@ def test_the_teacher_sees_the_class_at_a_glance_live_and_opens_a_run_from_its_ma
     bob.locator("button").focus()
     teacher.keyboard.press("Enter")
     until(teacher, "!document.getElementById('viewer').hidden")
-    assert teacher.text_content("#viewer-title") == "Bob <b>Jones</b>: latest run"
-    assert teacher.get_attribute("#viewer-frame", "src") == crashed["page"]
-    teacher.frame_locator("#viewer-frame").locator("h1").wait_for(timeout=WAIT_MS)
+    seed = bob.locator(".mark").text_content().split(" on ")[-1]  # the seed his map shows
+    assert teacher.text_content("#viewer-title") == f"Bob <b>Jones</b>: latest run, {seed}"
+    src = teacher.get_attribute("#viewer-frame", "src")
+    assert re.fullmatch(re.escape(crashed["page"].split("#")[0]) + r"#seed-\d+", src), src
+    opened = teacher.frame_locator("#viewer-frame").locator(f"section#{src.split('#')[1]}")  # that seed's part of it
+    opened.locator("h2").wait_for(timeout=WAIT_MS)
+    assert opened.locator("h2").text_content().startswith(f"{seed}: ")
     teacher.click("#contrast")
     assert violations(teacher) == []
     assert errors == []

@@ -7,6 +7,7 @@ import re
 from playwright.sync_api import expect
 
 from autonomy.classroom import find_submissions, grade_class, load_exercise
+from autonomy.classroom.exercise import seed_points
 from autonomy.classroom.report import to_html
 from tests.views.conftest import ROOT
 
@@ -192,23 +193,42 @@ def test_the_class_page_opens_with_the_class_at_a_glance_each_map_a_link_to_the_
     assert glance.locator(".says").text_content().startswith("3 students graded of 3; median ")
     bars = glance.locator("svg.spread rect.bin")
     assert bars.count() == 10 and "3 from" not in glance.locator("svg.spread").get_attribute("aria-label")
+    # each bar between two marks: 0 to 10 at the bars' edges
+    assert glance.locator("svg.spread text.edge").all_text_contents() == [str(k) for k in range(11)]
     heights = [bars.nth(k).bounding_box()["height"] for k in range(10)]
     totals = sorted(int(min(9, r.total)) for r in reports)
     assert all((heights[k] > 5) == (k in totals) for k in range(10))  # a bar stands where a mark is
     shares = glance.locator("table.shares tbody tr")
     assert shares.count() == len(exercise.criteria)
     assert shares.first.locator("th").text_content().startswith("Parked in the garage")
+    assert shares.first.locator("td").first.text_content() == f"{exercise.criteria[0].points:g}"
     assert glance.locator("table.nodes tbody tr th").first.text_content() == "move"
+    # every point lost is in a row, and the foot says so
+    lost = sum(10 - r.total for r in reports)
+    told = glance.locator("table.nodes tfoot").text_content()
+    assert re.fullmatch(r"These rows hold ([\d.]+) of the \1 points lost across the class \(100%\)\.", told), told
+    assert abs(float(told.split()[3]) - lost) < 0.02
     maps = glance.locator("li.map")
     assert maps.count() == 3 and maps.locator("svg.little").count() == 3
-    assert [maps.nth(k).get_attribute("class") for k in range(3)] == ["map full", "map none", "map part"]
+    worst = [min(range(len(r.seeds)), key=lambda k: seed_points(exercise, r.seeds[k])) for r in reports]
+    least = [seed_points(exercise, r.seeds[k]) for r, k in zip(reports, worst, strict=True)]
+    classes = [f"map {'full' if p >= 10 else 'none' if p <= 0 else 'part'}" for p in least]  # that seed's outcome
+    assert [maps.nth(k).get_attribute("class") for k in range(3)] == classes and classes[0] == "map full"
     # the outcome in a sign and in words, not by colour alone; the words read out, not shown
-    assert maps.nth(0).locator(".mark").text_content() == "✓ 10 / 10 full marks"
+    seed = reports[0].seeds[worst[0]].seed.split(" (")[0]
+    assert maps.nth(0).locator(".mark").text_content() == f"✓ 10 / 10 full marks on {seed}"
+    assert maps.nth(2).locator(".map-seed").text_content() == f"their mark {reports[2].total:g} / 10"
     assert maps.nth(0).locator(".mark .unseen").bounding_box()["width"] <= 1
     assert page.get_by_role("link", name="garage_stops_short ✓", exact=False).count() == 0
     assert page.get_by_role("link", name="part of the marks", exact=False).count() == 1
-    links = [maps.nth(k).locator("a").get_attribute("href") for k in range(3)]
-    assert links == ["garage.html", "garage_full_speed.html", "#s-2"]
+    links = [maps.nth(k).locator("a").get_attribute("href") for k in range(3)]  # each at the seed it shows
+    assert links == [f"garage.html#seed-{worst[0] + 1}", f"garage_full_speed.html#seed-{worst[1] + 1}",
+                     f"#s-2-seed-{worst[2] + 1}"]  # fmt: skip
+    maps.nth(2).locator("a").click()  # in this page: that seed's part of it, in view
+    shown = page.locator(f"#s-2-seed-{worst[2] + 1}")
+    assert shown.locator("h3").text_content().startswith(f"{reports[2].seeds[worst[2]].seed}: ")
+    expect(shown).to_be_in_viewport()
+    page.goto(path.as_uri())
     # the full-speed robot's crash is drawn at the end wall of the seed it did worst on
     crash = maps.nth(1).locator("path.collision").bounding_box()
     wall = maps.nth(1).locator("rect.obstacle").bounding_box()
@@ -216,4 +236,46 @@ def test_the_class_page_opens_with_the_class_at_a_glance_each_map_a_link_to_the_
     assert violations(page) == []
     maps.nth(1).locator("a").focus()  # from the keyboard: its page opens
     page.keyboard.press("Enter")
-    page.wait_for_url("**/garage_full_speed.html")
+    page.wait_for_url(f"**/garage_full_speed.html#seed-{worst[1] + 1}")
+
+
+def test_the_class_at_a_glance_holds_long_names_and_problems_and_tells_an_empty_class(page, tmp_path):
+    from tests.axe import violations
+
+    exercise = load_exercise(ROOT / "exercises" / "square.yaml")
+    long = "S" * 180  # one word, as long as a file's name may be
+    (tmp_path / f"{long}.yaml").write_text((ROOT / "exercises" / "solutions" / "square.yaml").read_text())
+    (tmp_path / "typo.yaml").write_text(f"mission: typo\ntree:\n  {'x' * 70}: {{}}\n")
+    reports = grade_class(exercise, find_submissions(sorted(tmp_path.glob("*.yaml"))), workers=2)
+    path = tmp_path / "marks.html"
+    path.write_text(to_html(exercise, reports))
+    page.set_viewport_size({"width": 1024, "height": 800})
+    page.goto(path.as_uri())
+    assert page.evaluate("document.documentElement.scrollWidth") <= 1024  # nothing runs off the page's side
+    glance = page.locator("section.overview")
+    maps = page.locator("li.map")
+    named, typo = maps.nth(0), maps.nth(1)
+    assert named.locator(".who").text_content() == long and named.locator(".who").get_attribute("title") == long
+    assert named.bounding_box()["height"] < 2 * typo.bounding_box()["height"] + 200  # the name cut to two lines
+    for card in (named, typo):  # every line of a card inside it
+        box = card.bounding_box()
+        for k in range(card.locator("span").count()):
+            line = card.locator("span").nth(k).bounding_box()
+            if line and line["width"] > 1:
+                assert line["x"] + line["width"] <= box["x"] + box["width"] + 1
+    assert named.locator("circle.beep").count() == 4  # a beep at each corner, where it sounded
+    turns = [c.label for c in exercise.criteria].index("turns 90") + 2  # a hint: no points, told how often it held
+    assert exercise.criteria[turns - 2].points == 0
+    hint = page.locator("table.marks tbody tr").first.locator("td").nth(turns)
+    seeds = len(exercise.seeds)  # the solution turns left at each corner on every seed
+    assert (hint.get_attribute("class"), hint.text_content()) == ("hint", f"held on {seeds} of {seeds}")
+    assert glance.locator("table.shares tr.hint td").first.text_content() == "none (a hint)"
+    assert typo.locator(".map-seed").text_content().startswith("typo.yaml:3:3: ")  # the file, not its folder
+    assert violations(page) == []
+    # a class with nothing graded says so rather than drawing empty bars
+    path.write_text(to_html(exercise, [r for r in reports if r.problems]))
+    page.goto(path.as_uri())
+    assert glance.locator("figure.spread .none-yet").text_content().startswith("Nothing graded yet")
+    assert glance.locator("svg.spread").count() == 0
+    assert glance.locator("table.nodes tfoot").text_content() == "Nothing graded yet."
+    assert violations(page) == []

@@ -86,7 +86,7 @@ async function glance() {
     const answer = await api("GET", "/api/overview");
     if (answer.status === 200) {
       const data = await answer.json();
-      drawOverview($("overview"), data, (shown) => view(shown.student, shown.link, "latest run"));
+      drawOverview($("overview"), data, (shown) => view(shown.student, shown.link, `latest run, ${shown.seed}`));
     }
   } catch (_) {
     // the class's own request says when the server cannot be reached

@@ -36,17 +36,28 @@
     return `${n} student${n === 1 ? "" : "s"}`;
   }
 
-  /** The marks' spread: a bar a bin, its count over it, its marks under it. */
+  /** The marks' spread: a bar a bin, its count over it, the marks at the edges of the bins under it. */
   function spread(data) {
-    const width = 44, gap = 6, tall = 110, top = 20, under = 40;
+    const figure = overviewElement("figure", undefined, "spread");
+    figure.append(overviewElement("figcaption", "The marks"));
+    if (!data.graded) {
+      figure.append(overviewElement("p", "Nothing graded yet: the marks show here once a run is graded.", "none-yet"));
+      return figure;
+    }
+    const width = 44, gap = 6, tall = 110, top = 20, under = 40, side = 12;  // side: room for the edges' marks
     const most = Math.max(1, ...data.bins.map((bin) => bin[2]));
     const said = data.bins.map((bin) => `${bin[2]} from ${overviewNumber(bin[0])} to ${overviewNumber(bin[1])}`);
     const picture = overviewSvg("svg", {
-      viewBox: `0 0 ${data.bins.length * (width + gap) + gap} ${top + tall + under}`,
+      viewBox: `${-side} 0 ${data.bins.length * (width + gap) + gap + 2 * side} ${top + tall + under}`,
       role: "img",
       "aria-label": `Marks out of ${overviewNumber(data.max_points)}, students in each band: ${said.join("; ")}`,
       class: "spread",
     });
+    const edge = (x, value) => {
+      const label = overviewSvg("text", { x, y: top + tall + 17, "text-anchor": "middle", class: "edge" });
+      label.textContent = overviewNumber(value);
+      picture.append(overviewSvg("line", { x1: x, x2: x, y1: top + tall, y2: top + tall + 4, class: "tick" }), label);
+    };
     data.bins.forEach(([from, to, count], k) => {
       const x = gap + k * (width + gap), high = (count / most) * tall;
       picture.append(
@@ -54,16 +65,14 @@
       );
       const shown = overviewSvg("text", { x: x + width / 2, y: top + tall - high - 4, "text-anchor": "middle" });
       shown.textContent = String(count);
-      const label = overviewSvg("text", { x: x + width / 2, y: top + tall + 17, "text-anchor": "middle" });
-      const last = k === data.bins.length - 1;
-      label.textContent = last ? `${overviewNumber(from)}-${overviewNumber(to)}` : overviewNumber(from);
-      picture.append(shown, label);
+      picture.append(shown);
+      edge(x - gap / 2, from);
+      if (k === data.bins.length - 1) edge(x + width + gap / 2, to);
     });
     const axis = overviewSvg("text", { x: gap, y: top + tall + 36 });
-    axis.textContent = `marks (out of ${overviewNumber(data.max_points)})`;
+    axis.textContent = `marks (out of ${overviewNumber(data.max_points)}), full marks in the last bar`;
     picture.append(axis);
-    const figure = overviewElement("figure", undefined, "spread");
-    figure.append(overviewElement("figcaption", "The marks"), picture);
+    figure.append(picture);
     return figure;
   }
 
@@ -81,15 +90,20 @@
     return made;
   }
 
-  /** Each criterion: how many earned it in full, in part, not at all; a bar for the full share. */
+  /** Each criterion: its points, how many earned it in full, in part, not at all; a bar for the full share. */
   function shares(data) {
-    const made = table("Each criterion, across the class", ["criterion", "earned in full", "in part", "not at all"]);
+    const heads = ["criterion", "points", "earned in full", "in part", "not at all"];
+    const made = table("Each criterion, across the class", heads);
     made.className = "shares";
     for (const criterion of data.criteria) {
       const row = overviewElement("tr");
       const name = overviewElement("th", criterion.title || criterion.label);
       name.scope = "row";
       if (criterion.title) name.append(overviewElement("span", ` ${criterion.label}`, "quiet id"));
+      // a criterion of no points is told to the student, not marked: said so, not shown as a share of the marks
+      const points = overviewElement("td", criterion.points ? overviewNumber(criterion.points) : "none (a hint)",
+        criterion.points ? "number" : "number quiet");
+      if (!criterion.points) row.className = "hint";
       const full = overviewElement("td", undefined, "in-full");
       const share = data.graded ? criterion.full / data.graded : 0;
       const bar = overviewElement("span", undefined, "share-bar");
@@ -97,33 +111,51 @@
       fill.style.width = `${(share * 100).toFixed(1)}%`;
       bar.append(fill);
       full.append(bar, overviewElement("span", `${criterion.full} of ${data.graded} (${Math.round(share * 100)}%)`));
-      row.append(name, full, overviewElement("td", String(criterion.part), "number"),
+      row.append(name, points, full, overviewElement("td", String(criterion.part), "number"),
         overviewElement("td", String(criterion.none), "number"));
       made.tBodies[0].append(row);
     }
     return made;
   }
 
-  /** The node types that were running when marks were lost, the most points lost first. */
+  function nodeRow(node, name) {
+    const row = overviewElement("tr");
+    const head = overviewElement("th", name);
+    head.scope = "row";
+    const on = node.criteria.map(([label, n]) => `${label} (${n})`).join(", ");
+    row.append(head, overviewElement("td", String(node.students), "number"),
+      overviewElement("td", overviewNumber(node.points_lost), "number"), overviewElement("td", on));
+    return row;
+  }
+
+  /**
+   * The node types that were running when marks were lost, the most points lost first; then the points lost
+   * with no node named; then how much of all the points lost the rows hold.
+   */
   function nodes(data) {
     const made = table("Where the marks were lost: the node running then", ["node", "students", "points lost", "on"]);
     made.className = "nodes";
-    if (!data.nodes.length) {
-      const row = overviewElement("tr");
-      const none = data.graded ? "no mark was lost while a node was running" : "nothing graded yet";
-      const cell = overviewElement("td", none);
-      cell.colSpan = 4;
-      row.append(cell);
-      made.tBodies[0].append(row);
+    const lost = data.lost || { points: 0, shown: 0, unnamed: { points_lost: 0 } };
+    const body = made.tBodies[0];
+    for (const node of data.nodes) body.append(nodeRow(node, node.node));
+    if (lost.unnamed.points_lost > 0.005) {
+      const row = nodeRow(lost.unnamed, "no node named");
+      row.className = "unnamed";
+      row.cells[3].append(overviewElement("span",
+        " (about the whole run, or counting only with another criterion)", "quiet"));
+      body.append(row);
     }
-    for (const node of data.nodes) {
-      const row = overviewElement("tr");
-      const name = overviewElement("th", node.node);
-      name.scope = "row";
-      const on = node.criteria.map(([label, n]) => `${label} (${n})`).join(", ");
-      row.append(name, overviewElement("td", String(node.students), "number"),
-        overviewElement("td", overviewNumber(node.points_lost), "number"), overviewElement("td", on));
-      made.tBodies[0].append(row);
+    const foot = made.createTFoot().insertRow();
+    const said = overviewElement("td");
+    said.colSpan = 4;
+    foot.append(said);
+    if (!data.graded) said.textContent = "Nothing graded yet.";
+    else if (lost.points <= 0.005) said.textContent = "No marks were lost.";
+    else {
+      const held = lost.shown;
+      const share = Math.round((held / lost.points) * 100);
+      said.textContent = `These rows hold ${overviewNumber(held)} of the ${overviewNumber(lost.points)} points ` +
+        `lost across the class (${share}%)` + (held < lost.points - 0.005 ? "; the rest, under other nodes." : ".");
     }
     return made;
   }
@@ -145,6 +177,8 @@
       const [x, y] = shown.path[shown.path.length - 1];
       flipped.append(overviewSvg("circle", { cx: x, cy: y, r: Math.max(width, height) / 60, class: "end" }));
     }
+    const dot = Math.max(width, height) / 70;
+    for (const [x, y] of shown.beeps || []) flipped.append(overviewSvg("circle", { cx: x, cy: y, r: dot, class: "beep" }));
     const cross = Math.max(width, height) / 40;
     for (const [x, y] of shown.collisions) {
       flipped.append(overviewSvg("path", {
@@ -176,12 +210,14 @@
       const mark = overviewElement("span", undefined, "mark");
       const sign = overviewElement("span", told.sign);
       sign.setAttribute("aria-hidden", "true");
-      const marked = shown.outcome === "notgraded" ? "" : ` ${shown.mark}`;
-      const words = overviewElement("span", ` ${told.words}`, shown.outcome === "notgraded" ? "" : "unseen");
-      mark.append(sign, marked, words);
-      holder.append(overviewElement("span", shown.student, "who"), mark,
-        overviewElement("span", shown.outcome === "notgraded" ? shown.why || "" : shown.seed, "quiet map-seed"));
-      if (holder !== item) holder.append(overviewElement("span", ": open their run", "unseen"));
+      const graded = shown.outcome !== "notgraded";
+      const words = overviewElement("span", ` ${told.words}`, graded ? "unseen" : "");
+      mark.append(sign, graded ? ` ${shown.mark}` : "", words, graded ? ` on ${shown.seed}` : "");
+      const who = overviewElement("span", shown.student, "who");
+      who.title = shown.student;  // a long name is cut to two lines: whole on hovering, and read out whole
+      const under = graded ? `their mark ${shown.total}` : shown.why || "";
+      holder.append(who, mark, overviewElement("span", under, "quiet map-seed"));
+      if (holder !== item) holder.append(overviewElement("span", `: open their run on ${shown.seed || "it"}`, "unseen"));
       list.append(item);
     }
     return list;
@@ -197,17 +233,15 @@
   function drawOverview(root, data, open) {
     const parts = [];
     const graded = data.graded;
-    const full = data.maps.filter((m) => m.outcome === "full").length;
-    const zero = data.maps.filter((m) => m.outcome === "none").length;
     const said = [`${students(graded)} graded of ${data.students}`];
     if (graded) said.push(`median ${overviewNumber(data.median)} / ${overviewNumber(data.max_points)}`,
-      `${full} with full marks`, `${zero} with none`);
+      `${data.full_marks} with full marks`, `${data.no_marks} with none`);
     parts.push(overviewElement("p", `${said.join("; ")}.`, "says"));
     const row = overviewElement("div", undefined, "glance");
     row.append(spread(data), shares(data), nodes(data));
     parts.push(row);
     const whose = data.about ? ` (${data.about})` : "";
-    const heading = `Each student's worst seed${whose}: the path coloured by their mark, a crash a cross`;
+    const heading = `Each student's worst seed${whose}: the path coloured by what it earned, a crash a cross, a beep a dot`;
     parts.push(overviewElement("h3", heading));
     parts.push(maps(data, open));
     root.replaceChildren(...parts);
