@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import asyncio
 import collections
+import errno
 import functools
 import hashlib
 import hmac
@@ -54,7 +55,7 @@ from autonomy.classroom.report import to_csv
 from autonomy.classroom.results import Report, file_names
 from autonomy.clock import wall_time_s
 from autonomy.errors import AutonomyError
-from autonomy.liveclass.store import ClassStore, Student, Work, code_digest, token_digest
+from autonomy.liveclass.store import ClassStore, StoreError, Student, Work, code_digest, token_digest
 from autonomy.liveclass.work import (
     MAX_MISSION_CHARS,
     as_blocks,
@@ -106,6 +107,12 @@ RUN_TEXTS_KEPT = 20
 PROBLEMS_KEPT = 20
 #: What a student is told who sends a request while their last is under way.
 UNDER_WAY = "your last request is still under way: send the next when it has its answer"
+#: What a student is told when the class's server cannot keep their work (its disk full, say): nothing was kept.
+NOT_KEPT = "the class's server cannot keep work just now, so nothing was kept: tell your teacher, then send it again"
+#: What a work left grading says once the server starts again (it stopped, or could not keep the grading's end).
+UNFINISHED = "the grading did not finish (the server stopped, or could not keep it): send it again"
+#: The errors of a disk that cannot take more (full, over a quota, a file too large, read-only, failing).
+DISK_ERRNOS = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EROFS, errno.EIO})
 #: Largest request body.
 MAX_REQUEST_BYTES = 1024 * 1024
 #: A request's body must have come whole this long after its headers (a mission of 100 kB takes a second
@@ -293,8 +300,10 @@ class ClassServer(BoundedServer):
         self._reading_bytes = 0
         self.body_deadline_s = BODY_DEADLINE_S
         self.bodies_read_bytes = BODIES_READ_BYTES
+        store.fail_unfinished(UNFINISHED)  # left grading when the server last stopped: never to be finished
 
     def _routes(self, app: web.Application) -> None:
+        app.middlewares.append(self._keeping)
         app.router.add_get("/", functools.partial(self._file, "student.html"))
         app.router.add_get("/teacher", functools.partial(self._file, "teacher.html"))
         app.router.add_get("/static/{name}", self._static)
@@ -311,6 +320,21 @@ class ClassServer(BoundedServer):
         app.router.add_get("/api/overview", self._overview_of)
         app.router.add_post("/api/deadline", self._deadline)
         app.router.add_get("/api/export/{name}", self._export)
+
+    @web.middleware
+    async def _keeping(self, request: web.Request, handler: Callable[..., Any]) -> web.StreamResponse:
+        """A request the class cannot be kept for (its database or its disk refusing): one line, and the answer.
+
+        The teacher's terminal says it once (then how often again); the student gets ``{"error"}``, 503.
+        """
+        try:
+            return await handler(request)
+        except (StoreError, OSError) as err:
+            if isinstance(err, OSError) and err.errno not in DISK_ERRNOS:
+                raise
+            said = str(err) if isinstance(err, StoreError) else f"{err.filename or self.folder}: {err.strerror}"
+            self._refused("cannot keep", f"the class cannot be kept: {said}; works are refused until it can")
+            return _come_back(503, NOT_KEPT, 30)
 
     def _serving(self, loop: asyncio.AbstractEventLoop) -> None:
         self._changed = asyncio.Event()
@@ -551,15 +575,18 @@ class ClassServer(BoundedServer):
             report, page = await self._in_lane(student.id, grading, mission, number, kind == "handin")
         except Exception as err:  # noqa: BLE001 - said in one line, kept as the work's problem, answered 500
             # a cluster that cannot grade says why (its workers gone); anything else, its kind alone
+            if isinstance(err, OSError) and err.errno in DISK_ERRNOS:
+                self._unfinished(number)
+                raise  # the disk: said as the store's faults are
             why = f"the grading failed: {err if isinstance(err, ClusterUnfit) else type(err).__name__}"
             self._refused(f"grading {type(err).__name__}", f"{why} (work {number})")
-            self.store.finish_work(number, {"error": why}, None, None, why)
+            self._finish(number, {"error": why}, None, None, why)
             self._change()
             return _refusal(500, why)
         shown = seen_by_student(self.exercise, report)
         problem = report.problems[0] if report.problems else ""
         kept_result = {**report.to_json(), **({"written_as": "blocks"} if from_blocks else {})}
-        self.store.finish_work(number, kept_result, report.total, report.max_points, problem)
+        self._finish(number, kept_result, report.total, report.max_points, problem)
         self._change()
         kept = await loop.run_in_executor(self._checkers, self._bound_disk, student.id, number, kind, page)
         return _json(
@@ -573,6 +600,22 @@ class ClassServer(BoundedServer):
                 **shown,
             }
         )  # kept before it is said
+
+    def _finish(self, number: int, result: dict[str, Any], total: float | None, most: float | None, why: str) -> None:
+        """Keeps a work's end; where it cannot be kept, the work is marked unfinished if it can be, and it raises."""
+        try:
+            self.store.finish_work(number, result, total, most, why)
+        except StoreError:
+            self._unfinished(number)
+            raise
+
+    def _unfinished(self, number: int) -> None:
+        """Marks a work as never finished (a shorter write than its result's, which may fit where that did not)."""
+        try:
+            self.store.finish_work(number, {"error": NOT_KEPT}, None, None, NOT_KEPT)
+        except StoreError:
+            pass  # then it is found at the next start (:meth:`ClassStore.fail_unfinished`)
+        self._change()
 
     async def _in_lane(
         self, student: str, grading: Callable[..., tuple[Report, Path]], mission: str, number: int, hand_in: bool

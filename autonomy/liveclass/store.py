@@ -30,6 +30,10 @@ CODE_LENGTH = 8
 
 #: How a work was written (``blocks``, or NULL for text), kept in its result.
 _WRITTEN_AS = "json_extract(result, '$.written_as')"
+#: A work whose grading has not ended (yet, or ever: see :meth:`ClassStore.fail_unfinished`).
+_GRADING = "json_extract(result, '$.grading') IS NOT NULL"
+#: A work that was handed in or run and answered: neither grading still nor failed by the server (its ``error``).
+_ANSWERED = "json_extract(w.result, '$.grading') IS NULL AND json_extract(w.result, '$.error') IS NULL"
 
 _SCHEMA = """
 CREATE TABLE IF NOT EXISTS students (
@@ -269,6 +273,14 @@ class ClassStore:
             ]
         )
 
+    def fail_unfinished(self, why: str) -> int:
+        """Ends each work still grading (its server stopped before its end was kept) with ``why``; how many."""
+        unfinished = self._read(f"SELECT COUNT(*) FROM works WHERE {_GRADING}")[0][0]  # noqa: S608 - our own
+        if unfinished:
+            error = json.dumps({"error": why})
+            self._write([(f"UPDATE works SET result = ?, problem = ? WHERE {_GRADING}", (error, why))])  # noqa: S608
+        return unfinished
+
     def works(self, student: str, kind: str | None = None) -> list[Work]:
         """A student's runs and hand-ins (or those of ``kind``), oldest first."""
         where, values = ("student = ?", (student,)) if kind is None else ("student = ? AND kind = ?", (student, kind))
@@ -314,17 +326,20 @@ class ClassStore:
     def summary(self) -> list[dict[str, Any]]:
         """The class table: per student on the roster, sign-in, runs, hand-ins, last hand-in's marks, last problem.
 
-        The last problem is their last run's or hand-in's: empty once one has none.
+        The last problem is their last run's or hand-in's: empty once one has none. Runs and hand-ins are those
+        answered: one still grading, or that the server failed (its disk full, say), is not counted.
         """
-        last_handin = "FROM works w WHERE w.student = s.id AND w.kind = 'handin' ORDER BY w.id DESC LIMIT 1"
+        last_handin = (
+            f"FROM works w WHERE w.student = s.id AND w.kind = 'handin' AND {_ANSWERED} ORDER BY w.id DESC LIMIT 1"
+        )
         last_graded_handin = (
             "FROM works w WHERE w.student = s.id AND w.kind = 'handin' AND w.total IS NOT NULL "
             "ORDER BY w.id DESC LIMIT 1"
         )
         rows = self._read(
             "SELECT s.id, s.name, s.signed_in, "
-            "(SELECT COUNT(*) FROM works w WHERE w.student = s.id AND w.kind = 'run'), "
-            "(SELECT COUNT(*) FROM works w WHERE w.student = s.id AND w.kind = 'handin'), "
+            f"(SELECT COUNT(*) FROM works w WHERE w.student = s.id AND w.kind = 'run' AND {_ANSWERED}), "
+            f"(SELECT COUNT(*) FROM works w WHERE w.student = s.id AND w.kind = 'handin' AND {_ANSWERED}), "
             f"(SELECT w.total {last_handin}), (SELECT w.max_points {last_handin}), "  # noqa: S608 - our own text
             "(SELECT w.problem FROM works w WHERE w.student = s.id ORDER BY w.id DESC LIMIT 1), "
             "(SELECT MAX(w.id) FROM works w WHERE w.student = s.id), "

@@ -152,3 +152,36 @@ def test_malformed_bodies_and_a_deadline_no_float_holds_get_a_400_in_one_line(cr
             assert answer.status == 400 and "deadline_s" in json.loads(answer.read())["error"], deadline
         finally:
             conn.close()
+
+
+def test_a_full_disk_is_one_line_to_the_teacher_an_error_to_the_student_and_no_work_is_counted_it_did_not_keep(
+    crowded, caplog
+):
+    from autonomy.liveclass.server import NOT_KEPT, UNFINISHED
+
+    server, codes = crowded
+    assert honest_call(server, "/api/handin", {"mission": SOLUTION}, codes["s1"])[0] == 200  # kept before it fills
+    with server.store._lock:  # the database can grow no more: SQLite's own "database or disk is full", as on a disk
+        pages = server.store._db.execute("PRAGMA page_count").fetchone()[0]
+        server.store._db.execute(f"PRAGMA max_page_count = {pages}")
+    caplog.set_level("WARNING", logger="autonomy.view")
+    for _ in range(3):  # Bob hands in, and again
+        status, answer = honest_call(server, "/api/handin", {"mission": SOLUTION}, codes["s2"])
+        assert (status, answer["error"]) == (503, NOT_KEPT)
+    said = [r.getMessage() for r in caplog.records if "cannot be kept" in r.getMessage()]
+    assert len(said) == 1 and "database or disk is full" in said[0] and "\n" not in said[0]  # once, in one line
+    assert honest_call(server, "/api/check", {"mission": SOLUTION}, codes["s3"])[0] == 200  # a check keeps nothing
+    rows = {row["id"]: row for row in server.store.summary()}
+    assert (rows["s1"]["handins"], rows["s1"]["total"]) == (1, 10)
+    assert (rows["s2"]["handins"], rows["s2"]["total"]) == (0, None)  # nothing he was told was kept is counted
+    assert all("grading" not in w.result for w in server.store.works("s2"))  # none left grading
+    with server.store._lock:  # room again: his hand-in is kept
+        server.store._db.execute("PRAGMA max_page_count = 1073741823")
+    assert honest_call(server, "/api/handin", {"mission": SOLUTION}, codes["s2"])[0] == 200
+    assert {row["id"]: row for row in server.store.summary()}["s2"]["handins"] == 1
+    # a work its server stopped while grading is ended as never finished when a server starts on the class again
+    left = server.store.add_work("s4", "handin", SOLUTION, {"grading": True})
+    assert {row["id"]: row for row in server.store.summary()}["s4"]["handins"] == 0
+    again = ClassServer(GARAGE, server.store, server.folder, port=0)
+    assert server.store.work(left).problem == UNFINISHED and "grading" not in server.store.work(left).result
+    assert again.store.fail_unfinished(UNFINISHED) == 0
