@@ -115,6 +115,11 @@ def cpu_time_s() -> float:
     return time.process_time()
 
 
+def thread_cpu_time_s() -> float:
+    """The calling thread's CPU time so far, seconds: what one piece of work done in a thread costs."""
+    return time.thread_time()
+
+
 def wall_time_s() -> float:
     """Seconds since the epoch, by the wall clock (deadlines a person sets)."""
     return time.time()

@@ -53,7 +53,7 @@ from autonomy.classroom.gradebook import RosterEntry, RosterMatch
 from autonomy.classroom.overview import class_overview
 from autonomy.classroom.report import to_csv
 from autonomy.classroom.results import Report, file_names
-from autonomy.clock import wall_time_s
+from autonomy.clock import thread_cpu_time_s, wall_time_s
 from autonomy.errors import AutonomyError
 from autonomy.liveclass.store import ClassStore, StoreError, Student, Work, code_digest, token_digest
 from autonomy.liveclass.work import (
@@ -81,6 +81,11 @@ HANDINS_PER_MINUTE = 4
 GUESS_MEMORY_S = 600.0
 #: Checks at once (drawing a tree of 500 nodes takes a tenth of a second): off the server's loop.
 CHECKS_AT_ONCE = 2
+#: CPU time a student's checks (and their blocks turned to text and back) may take in :data:`CHECK_WINDOW_S`,
+#: seconds: a check of a class's tree costs tens of milliseconds, its largest a third of a second.
+CHECK_CPU_SHARE_S = 2.0
+#: How far back a student's checks' CPU time is counted, seconds.
+CHECK_WINDOW_S = 10.0
 #: After a wrong code, an address may try another code only this long later, doubling at each wrong one up to
 #: the most; a code tried sooner is refused at once, unchecked (codes that signed in from there are still taken).
 GUESS_WAIT_S = 0.25
@@ -167,6 +172,13 @@ _PAGE_NAME = re.compile(r"(\d{1,12})-([0-9a-f]{32})\.html")
 def _as_seen(page: str | None, written_as: str | None) -> str | None:
     """A work's page's address, opening on its blocks when the work was made from blocks."""
     return f"{page}#as-blocks" if page and written_as == "blocks" else page
+
+
+def _costed(work: Callable[..., Any], *args: Any) -> tuple[Any, float]:
+    """``work(*args)`` in the calling thread, and the CPU time it took there, seconds."""
+    started_s = thread_cpu_time_s()
+    done = work(*args)
+    return done, thread_cpu_time_s() - started_s
 
 
 def _failed(future: asyncio.Future[Any]) -> bool:
@@ -293,8 +305,14 @@ class ClassServer(BoundedServer):
         self._lanes = [ThreadPoolExecutor(1, thread_name_prefix=f"autonomy-grading-{n}") for n in ("any", "quick")]
         self._waiting = [0, 0]
         self._checkers = ThreadPoolExecutor(CHECKS_AT_ONCE, thread_name_prefix="autonomy-check")
+        #: The rest off the loop (histories, the class at a glance, exports, the disk's bounds): never the checks'.
+        self._chores = ThreadPoolExecutor(1, thread_name_prefix="autonomy-chores")
+        #: Per student: the CPU time of each of their checks lately, when it ended (see :data:`CHECK_CPU_SHARE_S`).
+        self._checked: dict[str, collections.deque[tuple[float, float]]] = {}
         #: Students with a request under way (a check, a run or a hand-in): one at a time each.
         self._busy: set[str] = set()
+        #: Students whose history (``/api/me``) is being read: one reading at a time each.
+        self._reading_history: set[str] = set()
         self._signed_in: set[str] = set()
         #: Bytes of the bodies being read now (see :data:`BODIES_READ_BYTES`).
         self._reading_bytes = 0
@@ -350,6 +368,7 @@ class ClassServer(BoundedServer):
         for lane in self._lanes:
             lane.shutdown(wait=False, cancel_futures=True)
         self._checkers.shutdown(wait=False, cancel_futures=True)
+        self._chores.shutdown(wait=False, cancel_futures=True)
 
     # ------------------------------------------------------------------ who asks
 
@@ -465,15 +484,32 @@ class ClassServer(BoundedServer):
     async def _student_work(
         self, request: web.Request, read: Callable[[web.Request], Any], work: Callable[[Exercise, Any], Any]
     ) -> Any:
-        """One request of a student's at a time: what it sends (``read``), worked on off the loop; or the refusal."""
+        """One request of a student's at a time: what it sends (``read``), worked on off the loop; or the refusal.
+
+        A student whose checks took more than :data:`CHECK_CPU_SHARE_S` of CPU time in the last
+        :data:`CHECK_WINDOW_S` is asked to come back once enough of it is past: the checks' threads are the
+        class's, and a text made to be costly to check takes its student's share of them, not the class's.
+        """
         student = await self._one_at_a_time(request)
         if isinstance(student, web.Response):
             return student
         try:
+            now_s = self._clock.now()
+            spent = self._checked.setdefault(student.id, collections.deque())
+            while spent and now_s - spent[0][0] >= CHECK_WINDOW_S:
+                spent.popleft()
+            if spent and sum(cpu_s for _, cpu_s in spent) > CHECK_CPU_SHARE_S:
+                wait_s = CHECK_WINDOW_S - (now_s - spent[0][0])
+                why = "your last checks took much of the machine the class shares: check again in"
+                return _come_back(429, f"{why} {max(1, math.ceil(wait_s))} s", wait_s)
             sent = await read(request)
             if isinstance(sent, web.Response):
                 return sent
-            return await asyncio.get_running_loop().run_in_executor(self._checkers, work, self.exercise, sent)
+            done, cpu_s = await asyncio.get_running_loop().run_in_executor(
+                self._checkers, _costed, work, self.exercise, sent
+            )
+            spent.append((self._clock.now(), cpu_s))
+            return done
         finally:
             self._done(student)
 
@@ -564,7 +600,7 @@ class ClassServer(BoundedServer):
             kept = {"problems": checked["problems"][:PROBLEMS_KEPT]}
             self.store.add_work(student.id, kind, mission[:MAX_MISSION_CHARS], kept, problem=problem)
             if kind == "run":  # a refused run's text is one of the runs' texts kept: the last ones alone
-                await loop.run_in_executor(self._checkers, self.store.forget_old_runs, student.id, RUN_TEXTS_KEPT)
+                await loop.run_in_executor(self._chores, self.store.forget_old_runs, student.id, RUN_TEXTS_KEPT)
             self._change()
             return _json({"ok": False, "problems": checked["problems"]}, 422)
         number = self.store.add_work(student.id, kind, mission, {"grading": True})
@@ -588,7 +624,7 @@ class ClassServer(BoundedServer):
         kept_result = {**report.to_json(), **({"written_as": "blocks"} if from_blocks else {})}
         self._finish(number, kept_result, report.total, report.max_points, problem)
         self._change()
-        kept = await loop.run_in_executor(self._checkers, self._bound_disk, student.id, number, kind, page)
+        kept = await loop.run_in_executor(self._chores, self._bound_disk, student.id, number, kind, page)
         return _json(
             {
                 "ok": True,
@@ -713,17 +749,27 @@ class ClassServer(BoundedServer):
         student = await self._student(request)
         if isinstance(student, web.Response):
             return student
-        # their hand-ins alone (runs are not listed: an hour of them is hundreds), read off the loop
-        works = await asyncio.get_running_loop().run_in_executor(self._checkers, self._hand_ins_of, student.id)
+        if student.id in self._reading_history:  # one at a time (beside a check of theirs): none queue up
+            return _refusal(429, UNDER_WAY)
+        self._reading_history.add(student.id)
+        try:
+            # their hand-ins alone (runs are not listed: an hour of them is hundreds), and their last text, off the loop
+            works, mission = await asyncio.get_running_loop().run_in_executor(self._chores, self._history, student.id)
+        finally:
+            self._reading_history.discard(student.id)
         me = {
             "exercise": self._exercise_shown,
             "deadline_s": self._deadline_s(),
             "hand_ins_open": self._hand_ins_open(),
             "student": {"id": printable(student.id), "name": printable(student.name)},
-            "mission": self.store.last_source(student.id),
+            "mission": mission,
             "works": works,
         }
         return await self._send_in_pieces(request, json.dumps(me).encode(), "application/json", NO_STORE)
+
+    def _history(self, student: str) -> tuple[list[dict[str, Any]], str]:
+        """A student's hand-ins (see :meth:`_hand_ins_of`) and their last mission's text."""
+        return self._hand_ins_of(student), self.store.last_source(student)
 
     # ------------------------------------------------------------------ the teacher's
 
@@ -780,7 +826,7 @@ class ClassServer(BoundedServer):
         version, making = self._version, self._overview_making
         if making is None or (making[0] != version and making[1].done()) or _failed(making[1]):
             loop = asyncio.get_running_loop()
-            making = (version, loop.run_in_executor(self._checkers, self._overview_now, version))
+            making = (version, loop.run_in_executor(self._chores, self._overview_now, version))
             self._overview_making = making
         body = await asyncio.shield(making[1])  # the making of an earlier version, while it is under way
         return web.Response(body=body, content_type="application/json", headers=NO_STORE)
@@ -830,10 +876,10 @@ class ClassServer(BoundedServer):
         if name == "grades.csv":
             body, kind = self._gradebook().encode("utf-8"), "text/csv"
         elif name == "feedback.zip":
-            body, kind = await loop.run_in_executor(self._checkers, self._feedback_zip), "application/zip"
+            body, kind = await loop.run_in_executor(self._chores, self._feedback_zip), "application/zip"
         elif name == "autograder.zip" and self._autograder is not None:
             try:
-                body, kind = await loop.run_in_executor(self._checkers, self._autograder), "application/zip"
+                body, kind = await loop.run_in_executor(self._chores, self._autograder), "application/zip"
             except AutonomyError as err:
                 return _refusal(500, str(err))
         else:

@@ -37,6 +37,8 @@ from autonomy.views.treesvg import svg_tree
 MISSION_LABEL = "mission.yaml"
 #: Longest mission text taken (a mission file may be 500,000 bytes; a class's are a few hundred).
 MAX_MISSION_CHARS = 100_000
+#: Problems a check's answer lists; past them, one says how many more there are.
+PROBLEMS_SHOWN = 20
 #: Most nodes in a class's mission (its replays, on every seed, grow with them: a class's have a few dozen).
 MAX_NODES = 500
 
@@ -123,14 +125,22 @@ def palette(exercise: Exercise) -> dict[str, Any]:
 
 
 def _refused(*problems: Problem | str, path: str = "") -> dict[str, Any]:
-    """The ``api/check`` answer of a mission with problems: each a :class:`Problem`, or a message about the whole."""
+    """The ``api/check`` answer of a mission with problems: each a :class:`Problem`, or a message about the whole.
+
+    The first :data:`PROBLEMS_SHOWN` are sent, then one saying how many more there are, at the next's line:
+    a text of a thousand mistakes costs the answer no more than twenty (``problems_in_all`` counts them all).
+    """
     shown = [
         {"line": p.line, "column": p.column, "path": p.path, "message": p.message}
         if isinstance(p, Problem)
         else {"line": 1, "column": 1, "path": path, "message": p}
-        for p in problems
+        for p in problems[: PROBLEMS_SHOWN + 1]
     ]
-    return {"ok": False, "problems": shown, "tree_svg": ""}
+    if len(problems) > PROBLEMS_SHOWN:
+        more = len(problems) - PROBLEMS_SHOWN
+        message = f"and {more:,} more problem{'s' if more > 1 else ''} from here: fix these first, then check again"
+        shown[PROBLEMS_SHOWN] = {**shown[PROBLEMS_SHOWN], "path": "", "message": message}
+    return {"ok": False, "problems": shown, "problems_in_all": len(problems), "tree_svg": ""}
 
 
 def exercise_shown(exercise: Exercise) -> dict[str, Any]:

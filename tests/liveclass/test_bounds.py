@@ -185,3 +185,71 @@ def test_a_full_disk_is_one_line_to_the_teacher_an_error_to_the_student_and_no_w
     again = ClassServer(GARAGE, server.store, server.folder, port=0)
     assert server.store.work(left).problem == UNFINISHED and "grading" not in server.store.work(left).result
     assert again.store.fail_unfinished(UNFINISHED) == 0
+
+
+#: A text of a thousand unknown nodes: its check costs a few tenths of a second, and lists a thousand problems.
+COSTLY = "mission: m\ntree:\n  sequence:\n    children:\n" + "".join(f"      - mvoe{k}: {{}}\n" for k in range(1000))
+
+
+def test_a_check_answer_lists_twenty_problems_and_says_how_many_more(crowded):
+    server, codes = crowded
+    conn = http.client.HTTPConnection("127.0.0.1", server.port, timeout=60)
+    try:
+        headers = {"Authorization": f"Bearer {codes['s1']}", "Content-Type": "application/json"}
+        conn.request("POST", "/api/check", body=json.dumps({"mission": COSTLY}).encode(), headers=headers)
+        answer = conn.getresponse()
+        text = answer.read()
+    finally:
+        conn.close()
+    checked = json.loads(text)
+    assert answer.status == 200 and checked["problems_in_all"] == 1000 and len(checked["problems"]) == 21
+    assert [p["line"] for p in checked["problems"]] == list(range(5, 26))  # the first twenty, then the next's line
+    assert checked["problems"][-1]["message"].startswith("and 980 more problems from here: fix these first")
+    assert len(text) < 10_000  # a thousand problems were 114 KB
+
+
+def test_costly_checks_take_their_student_s_share_and_an_honest_student_s_checks_go_on(crowded):
+    from autonomy.liveclass.server import CHECK_CPU_SHARE_S, CHECK_WINDOW_S
+
+    server, codes = crowded
+    stop, refused, answered = threading.Event(), {"s1": 0, "s2": 0}, {"s1": 0, "s2": 0}
+
+    def attack(student: str) -> None:
+        conn = http.client.HTTPConnection("127.0.0.1", server.port, timeout=60)
+        headers = {"Authorization": f"Bearer {codes[student]}", "Content-Type": "application/json"}
+        try:
+            while not stop.is_set():  # as fast as the server answers, one at a time (two at once get 429 unread)
+                conn.request("POST", "/api/check", body=json.dumps({"mission": COSTLY}).encode(), headers=headers)
+                answer = conn.getresponse()
+                body = json.loads(answer.read())
+                if answer.status == 429:
+                    assert body["error"].startswith("your last checks took much of the machine")
+                    refused[student] += 1
+                else:
+                    answered[student] += 1
+        finally:
+            conn.close()
+
+    attackers = [threading.Thread(target=attack, args=(s,)) for s in ("s1", "s2")]
+    for thread in attackers:
+        thread.start()
+    took_s = []
+    try:
+        for _ in range(30):  # the honest student checks as their page does, more often
+            started = time.monotonic()
+            status, checked = honest_call(server, "/api/check", {"mission": SOLUTION}, codes["s3"])
+            took_s.append(time.monotonic() - started)
+            assert status == 200 and checked["ok"]
+            time.sleep(0.1)
+    finally:
+        stop.set()
+        for thread in attackers:
+            thread.join(60)
+    assert all(refused[s] > 0 for s in refused), (refused, answered)  # each attacker was held to their share
+    for student in ("s1", "s2"):  # no more than their share in any window, and one check past it
+        spent = list(server._checked[student])
+        for k, (when_s, _) in enumerate(spent):
+            window = sum(cpu_s for then_s, cpu_s in spent[: k + 1] if when_s - then_s < CHECK_WINDOW_S)
+            assert window <= CHECK_CPU_SHARE_S + max(cpu_s for _, cpu_s in spent) + 0.05
+    took_s.sort()
+    assert took_s[int(0.95 * len(took_s))] < 1.0, took_s  # a margin of ten over the target of 100 ms (benchmarks/)

@@ -185,7 +185,7 @@ function check() {
     $("tree").hidden = !data.ok;
     $("no-tree").hidden = data.ok;
     if (data.ok) svgImage($("tree"), data.tree_svg);
-    const count = data.problems.length;
+    const count = data.problems_in_all || data.problems.length;
     $("status").textContent = data.ok ? "No problem found: your tree is drawn below." : `${count} problem${count > 1 ? "s" : ""}:`;
     $("status").className = data.ok ? "quiet" : "error";
   });
