@@ -100,6 +100,15 @@ MAX_ANSWERS_PER_ADDRESS = 64
 CODES_KEPT_PER_ADDRESS = 256
 #: A grading that took more CPU time than this (seconds) holds its student's next one back as long (in wall time).
 LONG_GRADING_S = 5.0
+#: CPU time the grading of a student not known to be slow may take, seconds: a class's run takes a tenth of a
+#: second, a hand-in of 16 seeds half of one. One that needs more is graded again with the whole budget, in
+#: the lane for anyone, and its student is known to be slow for :data:`SLOW_MEMORY_S`.
+QUICK_GRADING_CPU_S = 2.0
+#: CPU time a student's gradings may take in :data:`GRADING_WINDOW_S` before they are known to be slow, seconds:
+#: ten quick runs a minute take one or two; ten that take a second and a half each are slow.
+GRADING_CPU_SHARE_S = 6.0
+#: How far back a student's gradings' CPU time is counted, seconds.
+GRADING_WINDOW_S = 60.0
 #: Feedback pages kept per student: their latest runs' (their hand-ins' are counted apart), and the largest kept.
 RUN_PAGES_KEPT = 5
 HANDIN_PAGES_KEPT = 20
@@ -300,6 +309,8 @@ class ClassServer(BoundedServer):
         self._known: collections.OrderedDict[str, set[str]] = collections.OrderedDict()
         #: Per student: when their last long grading ended, and how long it took (their next waits as long).
         self._long: dict[str, tuple[float, float]] = {}
+        #: Per student: the CPU time of each of their gradings lately, when it ended (see :data:`GRADING_CPU_SHARE_S`).
+        self._spent: dict[str, collections.deque[tuple[float, float]]] = {}
         #: Two gradings at once (the machine's two cores), in two lanes: anyone's, and one for students whose
         #: gradings are quick; and how many wait in each.
         self._lanes = [ThreadPoolExecutor(1, thread_name_prefix=f"autonomy-grading-{n}") for n in ("any", "quick")]
@@ -656,26 +667,53 @@ class ClassServer(BoundedServer):
     async def _in_lane(
         self, student: str, grading: Callable[..., tuple[Report, Path]], mission: str, number: int, hand_in: bool
     ) -> tuple[Report, Path]:
-        """Grades in a lane: a student whose grading took long lately in anyone's, the others in the less busy.
+        """Grades in a lane: a student known to be slow in the lane for anyone, the others in the less busy.
 
-        Two students whose missions spin until their CPU time is up hold one lane at most: the
-        rest of the class is graded in the other. A grading that took long, counted in the CPU time
-        it used (never in wall time, which a busy machine stretches for everyone), holds its
-        student's next back as long.
+        A student is slow for :data:`SLOW_MEMORY_S` after a grading of theirs took long, or needed more than
+        :data:`QUICK_GRADING_CPU_S`, and while their gradings took more than :data:`GRADING_CPU_SHARE_S` in
+        the last :data:`GRADING_WINDOW_S`. Any other's grading may take :data:`QUICK_GRADING_CPU_S` alone:
+        one that needs more is graded again with the whole budget, in the lane for anyone. So students whose
+        missions spin, first time or not, hold a lane for two seconds at most and then share one: the rest of
+        the class is graded in the other. CPU time is counted in the grading's own process (never wall time,
+        which a busy machine stretches for everyone); a grading that took long holds its student's next back
+        as long.
         """
-        now_s = self._clock.now()
-        slow = student in self._long and now_s - self._long[student][0] < SLOW_MEMORY_S
+        slow = self._slow(student)
         lane = 0 if slow or self._waiting[0] < self._waiting[1] else 1
-        self._waiting[lane] += 1
-        try:
-            report, page = await asyncio.get_running_loop().run_in_executor(
-                self._lanes[lane], grading, self.exercise, student, mission, self.folder, number, hand_in
-            )
-        finally:
-            self._waiting[lane] -= 1
+        report, page = await self._graded_in(lane, grading, mission, student, number, hand_in, slow)
+        if not slow and report.cpu_s >= QUICK_GRADING_CPU_S:  # it needed more than the quick budget
+            self._long[student] = (self._clock.now(), report.cpu_s)
+            report, page = await self._graded_in(0, grading, mission, student, number, hand_in, True)
+        self._spent.setdefault(student, collections.deque()).append((self._clock.now(), report.cpu_s))
         if report.cpu_s > LONG_GRADING_S:
             self._long[student] = (self._clock.now(), report.cpu_s)
         return report, page
+
+    def _slow(self, student: str) -> bool:
+        """Whether a student's gradings are graded in the lane for anyone (see :meth:`_in_lane`)."""
+        now_s = self._clock.now()
+        if student in self._long and now_s - self._long[student][0] < SLOW_MEMORY_S:
+            return True
+        spent = self._spent.get(student, collections.deque())
+        while spent and now_s - spent[0][0] >= GRADING_WINDOW_S:
+            spent.popleft()
+        return sum(cpu_s for _, cpu_s in spent) > GRADING_CPU_SHARE_S
+
+    async def _graded_in(
+        self, lane: int, grading: Callable[..., tuple[Report, Path]], mission: str, student: str, number: int,
+        hand_in: bool, whole: bool,
+    ) -> tuple[Report, Path]:  # fmt: skip
+        """One grading in ``lane``, with the whole CPU budget or the quick one."""
+        budget = {} if whole else {"cpu_s": QUICK_GRADING_CPU_S}
+        self._waiting[lane] += 1
+        try:
+            return await asyncio.get_running_loop().run_in_executor(
+                self._lanes[lane],
+                functools.partial(grading, **budget),
+                self.exercise, student, mission, self.folder, number, hand_in,
+            )  # fmt: skip
+        finally:
+            self._waiting[lane] -= 1
 
     def _bound_disk(self, student: str, number: int, kind: str, page: Path) -> bool:
         """Bounds what a student keeps on disk; whether this work's page is kept.

@@ -173,7 +173,14 @@ def public_only(exercise: Exercise) -> Exercise:
 
 
 def grade_text(
-    exercise: Exercise, student: str, text: str, folder: Path, number: int, hand_in: bool, label: str = ""
+    exercise: Exercise,
+    student: str,
+    text: str,
+    folder: Path,
+    number: int,
+    hand_in: bool,
+    label: str = "",
+    cpu_s: float | None = None,
 ) -> tuple[Report, Path]:
     """Grades a student's mission text as ``autonomy grade`` does, in a limited worker process.
 
@@ -190,6 +197,7 @@ def grade_text(
         hand_in: Graded on every seed; otherwise ("Run") on the public seeds alone.
         label: Who the report and the page say it is (``hand-in 3``: a page may be projected); default
             the student's id and the number.
+        cpu_s: The CPU time the grading may take (default :data:`~autonomy.classroom.limits.DEFAULT_CPU_S`).
 
     Returns:
         The report, and the feedback page's path.
@@ -199,7 +207,10 @@ def grade_text(
     made = folder / "pages" / f".{number}"  # the page is made apart, then put where it is kept
     made.mkdir(parents=True, exist_ok=True)
     graded = exercise if hand_in else public_only(exercise)
-    (report,) = grade_class(graded, [(label, kept)], workers=1, feedback=made, start_method="forkserver", by_name=True)
+    limits = {} if cpu_s is None else {"cpu_s": cpu_s}
+    (report,) = grade_class(
+        graded, [(label, kept)], workers=1, feedback=made, start_method="forkserver", by_name=True, **limits
+    )
     page = page_file(folder, student, number)
     try:
         page_path(made, file_names([label])[label]).replace(page)
@@ -224,15 +235,15 @@ def _keep(folder: Path, student: str, text: str, number: int, hand_in: bool) -> 
 
 
 def grade_on_worker(
-    exercise: Exercise, student: str, text: str, number: int, hand_in: bool, label: str = ""
+    exercise: Exercise, student: str, text: str, number: int, hand_in: bool, label: str = "", cpu_s: float | None = None
 ) -> tuple[Report, bytes]:
     """:func:`grade_text` on a Dask worker, in a folder of its own there: the report, and the feedback page's bytes."""
     if in_a_daemon():  # graded in a process of its own, which may start the submission's (see child.py)
         from autonomy.classroom.child import call_in_child
 
-        return call_in_child(grade_on_worker, exercise, student, text, number, hand_in, label)
+        return call_in_child(grade_on_worker, exercise, student, text, number, hand_in, label, cpu_s)
     with tempfile.TemporaryDirectory(prefix="autonomy-class-") as folder:
-        report, page = grade_text(exercise, student, text, Path(folder), number, hand_in, label)
+        report, page = grade_text(exercise, student, text, Path(folder), number, hand_in, label, cpu_s)
         return report, page.read_bytes()
 
 
@@ -258,11 +269,19 @@ class DaskGrader:
         self._client = connect(address)
 
     def __call__(
-        self, exercise: Exercise, student: str, text: str, folder: Path, number: int, hand_in: bool, label: str = ""
+        self,
+        exercise: Exercise,
+        student: str,
+        text: str,
+        folder: Path,
+        number: int,
+        hand_in: bool,
+        label: str = "",
+        cpu_s: float | None = None,
     ) -> tuple[Report, Path]:
         """Grades one work on the cluster; keeps its text and its page in ``folder`` as :func:`grade_text` does."""
         _keep(folder, student, text, number, hand_in)
-        task = self._client.submit(grade_on_worker, exercise, student, text, number, hand_in, label, pure=False)
+        task = self._client.submit(grade_on_worker, exercise, student, text, number, hand_in, label, cpu_s, pure=False)
         ((_, (report, page)),) = results(self._client, [task], self._address)
         path = page_file(folder, student, number)
         path.parent.mkdir(parents=True, exist_ok=True)

@@ -253,3 +253,59 @@ def test_costly_checks_take_their_student_s_share_and_an_honest_student_s_checks
             assert window <= CHECK_CPU_SHARE_S + max(cpu_s for _, cpu_s in spent) + 0.05
     took_s.sort()
     assert took_s[int(0.95 * len(took_s))] < 1.0, took_s  # a margin of ten over the target of 100 ms (benchmarks/)
+
+
+#: A class's mission that costs its grading a second and a half of CPU time: 450 nodes ticked for 30 s a seed.
+SPIN = "mission: spin\ntree:\n  parallel:\n    children:\n" + "      - wait: {seconds: 100}\n" * 450
+
+
+def test_colluding_students_first_spinning_gradings_hold_a_lane_for_their_quick_budget_and_then_share_one(
+    crowded, monkeypatch
+):
+    import autonomy.liveclass.server as server_module
+
+    server, codes = crowded
+    monkeypatch.setattr(server_module, "QUICK_GRADING_CPU_S", 0.5)  # under what SPIN takes, over a class's run
+    graded, seen = server._grader, []
+
+    def grader(*args, **kwargs):  # the real grading, where it ran and with what budget noted
+        report, page = graded(*args, **kwargs)
+        lane = threading.current_thread().name.split("-")[2].split("_")[0]  # autonomy-grading-any_0: any
+        seen.append((args[1], lane, kwargs.get("cpu_s"), report.cpu_s))
+        return report, page
+
+    server._grader = grader
+    colluders = ["s1", "s2", "s3", "s4"]
+    stop = threading.Event()
+
+    def spin(student: str) -> None:
+        while not stop.is_set():
+            status, _ = honest_call(server, "/api/run", {"mission": SPIN}, codes[student])
+            assert status in (200, 429)
+            if status == 429:
+                time.sleep(0.5)
+
+    attackers = [threading.Thread(target=spin, args=(s,)) for s in colluders]
+    for thread in attackers:
+        thread.start()
+    took_s = []
+    try:
+        time.sleep(0.2)  # all four first gradings under way or waiting
+        for _ in range(6):
+            started = time.monotonic()
+            status, run = honest_call(server, "/api/run", {"mission": SOLUTION}, codes["s9"])
+            took_s.append(time.monotonic() - started)
+            assert status == 200 and run["total"] == 10  # the honest student: never refused, their marks whole
+    finally:
+        stop.set()
+        for thread in attackers:
+            thread.join(120)
+    for student in colluders:
+        theirs = [(lane, budget, cpu_s) for who, lane, budget, cpu_s in seen if who == student]
+        first = theirs[0]
+        assert first[1] == 0.5 and first[2] >= 0.5  # their first: the quick budget, used up in either lane
+        assert all(lane == "any" and budget is None for lane, budget, _ in theirs[1:])  # then: the lane for anyone
+    honest = [(lane, budget) for who, lane, budget, _ in seen if who == "s9"]
+    assert all(budget == 0.5 for _, budget in honest)  # each run of theirs fits the quick budget
+    assert sum(lane == "quick" for lane, _ in honest) >= len(honest) - 1, honest  # in the lane the spinners left
+    assert sorted(took_s)[-2] < 10.0, took_s  # a margin: an honest run took 35.8 s behind four before its lane

@@ -29,6 +29,7 @@ from autonomy.liveclass.server import (
     CLASS_WAITERS,
     DEADLINE,
     MAX_PAGE_BYTES,
+    QUICK_GRADING_CPU_S,
     RUN_PAGES_KEPT,
     RUNS_PER_MINUTE,
     TEACHER_TOKEN,
@@ -554,19 +555,21 @@ def test_one_address_gets_its_share_of_the_answers_on_their_way_and_another_is_s
 def test_students_whose_gradings_spin_hold_one_lane_and_the_class_is_graded_in_the_other(served):
     server, codes = served
     server._clock = clock = VirtualClock(1000.0)
-    graded, spinning, released = server._grader, threading.Event(), threading.Event()
+    graded, released, budgets = server._grader, threading.Event(), []
 
     def grader(*args, **kwargs):
-        if args[1] == "s1" and not spinning.is_set():  # Ada's first: 30 s of CPU time
-            spinning.set()
+        if args[1] == "s1":
+            budgets.append(kwargs.get("cpu_s"))
+        if args[1] == "s1" and len(budgets) == 1:  # Ada's first: 30 s of CPU time, were it let
             report, page = graded(*args, **kwargs)
             return dataclasses.replace(report, cpu_s=30.0), page
-        if args[1] == "s1":  # her next spins until it is released
+        if args[1] == "s1" and len(budgets) == 3:  # her next spins until it is released
             released.wait(60)
         return graded(*args, **kwargs)
 
     server._grader = grader
     assert call(server, "/api/run", {"mission": SOLUTION}, codes["s1"])[0] == 200
+    assert budgets == [QUICK_GRADING_CPU_S, None]  # the quick budget first, then graded again with the whole
     clock.advance_to(clock.now() + 31.0)  # her hold is over: she runs again, and spins
     ada = threading.Thread(target=call, args=(server, "/api/run", {"mission": SOLUTION}, codes["s1"]))
     ada.start()
@@ -574,7 +577,7 @@ def test_students_whose_gradings_spin_hold_one_lane_and_the_class_is_graded_in_t
         deadline = time.monotonic() + 30
         while server._waiting[0] == 0 and time.monotonic() < deadline:
             time.sleep(0.01)
-        assert server._waiting == [1, 0]  # in the lane for anyone
+        assert server._waiting == [1, 0] and budgets == [QUICK_GRADING_CPU_S, None, None]  # in the lane for anyone
         assert call(server, "/api/run", {"mission": SOLUTION}, codes["s2"])[0] == 200  # Bob is graded meanwhile
     finally:
         released.set()
