@@ -199,8 +199,20 @@ class _Counted(asyncio.Protocol):
 
 
 def connection_limit() -> int:
-    """How many connections the view serves at once: :data:`MAX_CONNECTIONS`, or fewer if files are fewer."""
-    soft, _ = resource.getrlimit(resource.RLIMIT_NOFILE)
+    """How many connections the view serves at once: :data:`MAX_CONNECTIONS`, or fewer if files are fewer.
+
+    The process's soft limit of open files is raised first, as far as its hard limit lets it, to what
+    :data:`MAX_CONNECTIONS` needs (a shell's usual soft limit of 1,024 would leave 640).
+    """
+    soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
+    needed = MAX_CONNECTIONS + RESERVED_FILES + LISTEN_BACKLOG
+    if soft != resource.RLIM_INFINITY and soft < needed:
+        wanted = needed if hard == resource.RLIM_INFINITY else min(needed, hard)
+        try:
+            resource.setrlimit(resource.RLIMIT_NOFILE, (wanted, hard))
+        except (ValueError, OSError):  # not allowed here: the limit stands, and is said
+            pass
+        soft, _ = resource.getrlimit(resource.RLIMIT_NOFILE)
     if soft == resource.RLIM_INFINITY:
         return MAX_CONNECTIONS
     return max(16, min(MAX_CONNECTIONS, soft - RESERVED_FILES - LISTEN_BACKLOG))
@@ -422,6 +434,10 @@ class BoundedServer:
         #: Per kind of refusal: when it was last said, and how many since.
         self._refusals: dict[str, tuple[float, int]] = {}
         self.max_connections = connection_limit()
+        if self.max_connections < MAX_CONNECTIONS:  # the files the process may open are too few: said, not silent
+            files = resource.getrlimit(resource.RLIMIT_NOFILE)[1]
+            self._refused("files", f"at most {self.max_connections:,} connections at once, not {MAX_CONNECTIONS:,}: "
+                          f"the process may open {files:,} files (raise `ulimit -Hn` to serve more)")  # fmt: skip
         self.max_connections_per_address = max(16, self.max_connections // CONNECTIONS_PER_ADDRESS_SHARE)
         #: Connections served now, by address (:func:`address_group`).
         self.connections_from: collections.Counter[str] = collections.Counter()

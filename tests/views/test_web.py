@@ -340,10 +340,29 @@ def test_pages_waiting_for_the_next_run_are_woken_by_a_new_run_only_never_by_tic
 
 LOW_FILES = """
 import resource, sys, runpy
-resource.setrlimit(resource.RLIMIT_NOFILE, (300, resource.getrlimit(resource.RLIMIT_NOFILE)[1]))
+resource.setrlimit(resource.RLIMIT_NOFILE, (300, 300))  # the hard limit too: the view cannot raise it
 sys.argv = ["autonomy", *sys.argv[1:]]
 runpy.run_module("autonomy", run_name="__main__")
 """
+
+
+MORE_FILES = """
+import resource
+resource.setrlimit(resource.RLIMIT_NOFILE, (1024, 8192))  # a shell's usual soft limit, under a higher hard one
+from autonomy.views.web import connection_limit
+print(connection_limit(), *resource.getrlimit(resource.RLIMIT_NOFILE))
+"""
+
+
+def test_a_view_raises_its_soft_limit_of_files_to_serve_every_connection_it_would():
+    """With a shell's soft limit of 1,024 files the cap of 4,096 connections silently fell to 640."""
+    import subprocess
+    import sys
+
+    from autonomy.views.web import LISTEN_BACKLOG, MAX_CONNECTIONS, RESERVED_FILES
+
+    said = subprocess.run([sys.executable, "-c", MORE_FILES], cwd=ROOT, capture_output=True, text=True, timeout=60)
+    assert said.stdout.split() == [str(MAX_CONNECTIONS), str(MAX_CONNECTIONS + RESERVED_FILES + LISTEN_BACKLOG), "8192"]
 
 
 def test_a_view_allowed_few_files_refuses_a_flood_past_them_in_one_line_and_serves_on(tmp_path):
@@ -366,6 +385,7 @@ def test_a_view_allowed_few_files_refuses_a_flood_past_them_in_one_line_and_serv
     )  # fmt: skip
     flood: list[socket.socket] = []
     try:
+        first = replay.stderr.readline()  # the view says first that it serves fewer connections than it would
         port = int(replay.stderr.readline().rsplit(":", 1)[1].strip(" /\n"))
         for _ in range(600):  # twice what the process may hold
             flood.append(socket.create_connection(("127.0.0.1", port), timeout=10))
@@ -389,6 +409,7 @@ def test_a_view_allowed_few_files_refuses_a_flood_past_them_in_one_line_and_serv
         _, said = replay.communicate(timeout=20)
     assert json.loads(page)["mode"] == "replay"
     assert refused >= 600 - 16 - LISTEN_BACKLOG  # 16 held (and a burst taken in at once), the rest told 503
+    assert first.startswith("view: at most 16 connections at once, not 4,096: the process may open 300 files")
     lines = [line for line in said.splitlines() if line.startswith("view:")]
     # each kind of refusal in one line: past its limit, and, on a busy machine where the refused ones are not
     # closed as fast as they come, the files run out for a moment too
