@@ -143,13 +143,17 @@ class GrootCrowd:
         self.context.destroy(linger=0)
 
 
-def non_readers(port: int, clients: int, requests: int = 20, path: str = "/api/run") -> list[socket.socket]:
-    """Connections that each ask ``path`` ``requests`` times at once and never read an answer."""
+def non_readers(
+    port: int, clients: int, requests: int = 20, path: str = "/api/run", source: str = ""
+) -> list[socket.socket]:
+    """Connections that each ask ``path`` ``requests`` times at once and never read an answer (from ``source``)."""
     ask = f"GET {path} HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\n\r\n".encode() * requests
     crowd = []
     for _ in range(clients):
         conn = socket.socket()
         conn.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)  # a small window: the answers back up in the server
+        if source:
+            conn.bind((source, 0))
         conn.connect(("127.0.0.1", port))
         conn.sendall(ask)
         crowd.append(conn)

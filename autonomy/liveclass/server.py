@@ -768,7 +768,7 @@ class ClassServer(BoundedServer):
         if path is None or not path.is_file():
             raise web.HTTPNotFound()
         headers = {"Content-Security-Policy": FEEDBACK_POLICY, **NO_STORE}
-        return await self._send_in_pieces(request, path, "text/html; charset=utf-8", headers)
+        return await self._send_in_pieces(request, path, "text/html; charset=utf-8", headers, page=True)
 
     # ------------------------------------------------------------------ the student's
 

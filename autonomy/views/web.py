@@ -64,6 +64,14 @@ LINGER_S = 2.0
 #: ``api/run`` answers on their way at once; past this a page is answered 503 and asks again a second
 #: later. Each holds a piece and the socket's buffer, about 200 KB at most: 50 MB in all.
 MAX_ANSWERS_SENDING = 256
+#: Pages (a feedback page, a file) on their way at once, apart from the answers of the API: readers of pages
+#: who read slowly, or never, hold these alone, never what a check's or a run's answer needs.
+MAX_PAGES_SENDING = 96
+#: Of those, to one address (an IPv6 address counted with its /64).
+MAX_PAGES_PER_ADDRESS = 16
+#: The slowest an answer may be read, over the whole of it, bytes a second (past :data:`ANSWER_STALL_S`): a page
+#: of 8 MB has about four minutes, however it is read, a piece just before each stall or not.
+MIN_ANSWER_BYTES_PER_S = 32_768
 #: An answer is sent in pieces of this size, the next once the page has read the last.
 ANSWER_PIECE_BYTES = 65_536
 #: A page that reads none of its answer for this long is let go.
@@ -445,6 +453,10 @@ class BoundedServer:
         self.max_answers_sending = MAX_ANSWERS_SENDING
         self._sending_to: collections.Counter[str] = collections.Counter()
         self.max_answers_per_address = MAX_ANSWERS_SENDING  # a server of many clients takes fewer (the class's)
+        self._pages_sending = 0
+        self.max_pages_sending = MAX_PAGES_SENDING
+        self._pages_to: collections.Counter[str] = collections.Counter()
+        self.max_pages_per_address = MAX_PAGES_PER_ADDRESS
 
     @property
     def url(self) -> str:
@@ -560,24 +572,33 @@ class BoundedServer:
             await self._runner.cleanup()
 
     async def _send_in_pieces(
-        self, request: web.Request, body: bytes | Path, content_type: str, headers: dict[str, str] | None = None
+        self,
+        request: web.Request,
+        body: bytes | Path,
+        content_type: str,
+        headers: dict[str, str] | None = None,
+        page: bool = False,
     ) -> web.StreamResponse:
         """Sends a large answer (bytes, or a file's) a piece at a time, as the client reads it.
 
         A client that does not read holds a piece of the answer (and the kernel's buffer), never a
-        copy of it; at most :attr:`max_answers_sending` answers are on their way at once, and
-        :attr:`max_answers_per_address` to one address (past that: 503, asked again a second later);
-        one not read for :data:`ANSWER_STALL_S` is given up.
+        copy of it. At most :attr:`max_answers_sending` answers are on their way at once, and
+        :attr:`max_answers_per_address` to one address (past that: 503, asked again a second later); a
+        ``page`` counts apart, within :attr:`max_pages_sending` and :attr:`max_pages_per_address`. One not
+        read for :data:`ANSWER_STALL_S`, or read slower than :data:`MIN_ANSWER_BYTES_PER_S`, is given up.
         """
-        address = request.remote or ""
-        if self._sending_to[address] >= self.max_answers_per_address:
-            self._refused("answers to one", "too many answers are on their way to one address at once")
-            return web.Response(status=503, text="too many answers are on their way to you at once\n", headers=_RETRY)
-        if self._answers_sending >= self.max_answers_sending:
-            self._refused("answers", "too many answers are on their way at once")
-            return web.Response(status=503, text="too many answers are on their way at once\n", headers=_RETRY)
-        self._answers_sending += 1
-        self._sending_to[address] += 1
+        address = address_group(request.remote or "")
+        kind = "pages" if page else "answers"
+        to, most_to = (self._pages_to, self.max_pages_per_address) if page else (
+            self._sending_to, self.max_answers_per_address)  # fmt: skip
+        if to[address] >= most_to:
+            self._refused(f"{kind} to one", f"too many {kind} are on their way to one address at once")
+            return web.Response(status=503, text=f"too many {kind} are on their way to you at once\n", headers=_RETRY)
+        sending = self._pages_sending if page else self._answers_sending
+        if sending >= (self.max_pages_sending if page else self.max_answers_sending):
+            self._refused(kind, f"too many {kind} are on their way at once")
+            return web.Response(status=503, text=f"too many {kind} are on their way at once\n", headers=_RETRY)
+        self._count_sending(page, address, 1)
         try:
             with body.open("rb") if isinstance(body, Path) else contextlib.nullcontext() as stream:
                 length = os.fstat(stream.fileno()).st_size if stream is not None else len(body)
@@ -587,16 +608,20 @@ class BoundedServer:
                 response.headers.setdefault("Content-Security-Policy", CONTENT_SECURITY_POLICY)
                 response.headers["X-Content-Type-Options"] = "nosniff"
                 await response.prepare(request)
+                until_s = self._clock.now() + ANSWER_STALL_S + length / MIN_ANSWER_BYTES_PER_S
                 for start in range(0, length, ANSWER_PIECE_BYTES):
                     piece = (
                         view[start : start + ANSWER_PIECE_BYTES]
                         if view is not None
                         else stream.read(ANSWER_PIECE_BYTES)
                     )
+                    left_s = min(ANSWER_STALL_S, until_s - self._clock.now())
                     try:
-                        await asyncio.wait_for(response.write(piece), ANSWER_STALL_S)
+                        if left_s <= 0:
+                            raise asyncio.TimeoutError
+                        await asyncio.wait_for(response.write(piece), left_s)
                     except asyncio.TimeoutError:
-                        self._refused("stalled", "a client stopped reading its answer; it was let go")
+                        self._refused("stalled", "a client stopped reading its answer, or read it too slowly; let go")
                         if request.transport is not None:
                             request.transport.abort()
                         return response
@@ -605,10 +630,18 @@ class BoundedServer:
         except ConnectionError:  # the client went
             return web.Response()
         finally:
-            self._answers_sending -= 1
-            self._sending_to[address] -= 1
-            if not self._sending_to[address]:
-                del self._sending_to[address]
+            self._count_sending(page, address, -1)
+
+    def _count_sending(self, page: bool, address: str, change: int) -> None:
+        """Counts an answer (or a page) to ``address`` as on its way (``change`` 1), or as gone (-1)."""
+        if page:
+            self._pages_sending += change
+        else:
+            self._answers_sending += change
+        to = self._pages_to if page else self._sending_to
+        to[address] += change
+        if not to[address]:
+            del to[address]
 
     def _refused(self, kind: str, text: str) -> None:
         """Says a refusal in one line: the first of its kind at once, then how many, at most every few seconds."""

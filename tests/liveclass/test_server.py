@@ -533,9 +533,9 @@ def test_a_long_history_is_listed_without_its_texts(served):
     assert me["works"] == []  # runs are not listed: their hand-ins alone are (below)
 
 
-def test_one_address_gets_its_share_of_the_answers_on_their_way_and_another_is_served(served):
+def test_one_address_gets_its_share_of_the_pages_on_their_way_and_another_is_served(served):
     server, codes = served
-    server.max_answers_per_address = 3
+    server.max_pages_per_address = 3
     status, ran = call(server, "/api/run", {"mission": SOLUTION}, codes["s1"])
     page_file(server.folder, "s1", ran["number"]).write_bytes(b"<!doctype html>" + b"x" * (MAX_PAGE_BYTES - 100))
     crowd = non_readers(server.port, 6, requests=1, path=ran["page"])
@@ -550,6 +550,53 @@ def test_one_address_gets_its_share_of_the_answers_on_their_way_and_another_is_s
     finally:
         for conn in crowd:
             conn.close()
+
+
+def test_slow_readers_of_pages_from_five_addresses_hold_the_pages_share_and_every_check_is_answered(served):
+    """Slow readers of a 7.75 MB page from 5 addresses refused 83 of 92 honest checks when pages were answers."""
+    from autonomy.views.web import MAX_PAGES_PER_ADDRESS, MAX_PAGES_SENDING
+
+    server, codes = served
+    status, ran = call(server, "/api/run", {"mission": SOLUTION}, codes["s1"])
+    page_file(server.folder, "s1", ran["number"]).write_bytes(b"<!doctype html>" + b"x" * (MAX_PAGE_BYTES - 100))
+    crowd = []
+    try:
+        for k in range(5):  # 64 readers an address, who never read: more than every answer's slot before
+            crowd += non_readers(server.port, 64, requests=1, path=ran["page"], source=f"127.0.0.{10 + k}")
+        time.sleep(1.0)
+        heads = [conn.recv(64).split(b"\r\n")[0] for conn in crowd]
+        served_pages = heads.count(b"HTTP/1.1 200 OK")
+        assert served_pages == min(MAX_PAGES_SENDING, 5 * MAX_PAGES_PER_ADDRESS)  # the pages' share, no more
+        assert heads.count(b"HTTP/1.1 503 Service Unavailable") == len(crowd) - served_pages
+        for _ in range(20):  # an honest student's checks, each with its tree: an answer sent in pieces too
+            status, checked = call(server, "/api/check", {"mission": SOLUTION}, codes["s2"])
+            assert status == 200 and checked["ok"] and checked["tree_svg"].startswith("<svg")
+    finally:
+        for conn in crowd:
+            conn.close()
+
+
+def test_a_page_read_too_slowly_over_the_whole_of_it_is_let_go(served, monkeypatch, caplog):
+    import autonomy.views.web as web_module
+
+    server, codes = served
+    monkeypatch.setattr(web_module, "ANSWER_STALL_S", 1.0)
+    monkeypatch.setattr(web_module, "MIN_ANSWER_BYTES_PER_S", 4 * 2**20)  # 8 MB: 1 s of stall, and 2 s for it
+    status, ran = call(server, "/api/run", {"mission": SOLUTION}, codes["s1"])
+    page_file(server.folder, "s1", ran["number"]).write_bytes(b"<!doctype html>" + b"x" * (MAX_PAGE_BYTES - 100))
+    (reader,) = non_readers(server.port, 1, requests=1, path=ran["page"])
+    read, started, held = 0, time.monotonic(), []
+    try:
+        reader.settimeout(5)
+        while time.monotonic() - started < 6:  # a piece every half second: it never stalls a whole second
+            read += len(reader.recv(4096))
+            held.append(server._pages_sending)
+            time.sleep(0.5)
+    finally:
+        reader.close()
+    # it was being sent, then let go at its deadline (what the kernel had taken still comes, and no more)
+    assert held[0] == 1 and held[-1] == 0 and read < MAX_PAGE_BYTES // 8
+    assert any("read it too slowly" in r.getMessage() for r in caplog.records)
 
 
 def test_students_whose_gradings_spin_hold_one_lane_and_the_class_is_graded_in_the_other(served):
