@@ -86,6 +86,9 @@ CHECKS_AT_ONCE = 2
 CHECK_CPU_SHARE_S = 2.0
 #: How far back a student's checks' CPU time is counted, seconds.
 CHECK_WINDOW_S = 10.0
+#: A check that took more CPU time than this, seconds, sends its student's next checks in :data:`CHECK_WINDOW_S` to
+#: the lane for costly checks, a thread of its own: a class's checks take a few milliseconds each.
+COSTLY_CHECK_S = 0.1
 #: After a wrong code, an address may try another code only this long later, doubling at each wrong one up to
 #: the most; a code tried sooner is refused at once, unchecked (codes that signed in from there are still taken).
 GUESS_WAIT_S = 0.25
@@ -316,6 +319,7 @@ class ClassServer(BoundedServer):
         self._lanes = [ThreadPoolExecutor(1, thread_name_prefix=f"autonomy-grading-{n}") for n in ("any", "quick")]
         self._waiting = [0, 0]
         self._checkers = ThreadPoolExecutor(CHECKS_AT_ONCE, thread_name_prefix="autonomy-check")
+        self._costly_checkers = ThreadPoolExecutor(1, thread_name_prefix="autonomy-costly-check")
         #: The rest off the loop (histories, the class at a glance, exports, the disk's bounds): never the checks'.
         self._chores = ThreadPoolExecutor(1, thread_name_prefix="autonomy-chores")
         #: Per student: the CPU time of each of their checks lately, when it ended (see :data:`CHECK_CPU_SHARE_S`).
@@ -379,6 +383,7 @@ class ClassServer(BoundedServer):
         for lane in self._lanes:
             lane.shutdown(wait=False, cancel_futures=True)
         self._checkers.shutdown(wait=False, cancel_futures=True)
+        self._costly_checkers.shutdown(wait=False, cancel_futures=True)
         self._chores.shutdown(wait=False, cancel_futures=True)
 
     # ------------------------------------------------------------------ who asks
@@ -498,8 +503,9 @@ class ClassServer(BoundedServer):
         """One request of a student's at a time: what it sends (``read``), worked on off the loop; or the refusal.
 
         A student whose checks took more than :data:`CHECK_CPU_SHARE_S` of CPU time in the last
-        :data:`CHECK_WINDOW_S` is asked to come back once enough of it is past: the checks' threads are the
-        class's, and a text made to be costly to check takes its student's share of them, not the class's.
+        :data:`CHECK_WINDOW_S` is asked to come back once enough of it is past, and one whose check took more than
+        :data:`COSTLY_CHECK_S` in it is checked in the lane for costly checks: the checks' threads are the
+        class's, and a text made to be costly to check takes its student's share of a lane of its own.
         """
         student = await self._one_at_a_time(request)
         if isinstance(student, web.Response):
@@ -516,8 +522,9 @@ class ClassServer(BoundedServer):
             sent = await read(request)
             if isinstance(sent, web.Response):
                 return sent
+            costly = any(cpu_s > COSTLY_CHECK_S for _, cpu_s in spent)  # in their own lane, apart from the class's
             done, cpu_s = await asyncio.get_running_loop().run_in_executor(
-                self._checkers, _costed, work, self.exercise, sent
+                self._costly_checkers if costly else self._checkers, _costed, work, self.exercise, sent
             )
             spent.append((self._clock.now(), cpu_s))
             return done
