@@ -2,7 +2,7 @@
 
 Starts ``autonomy class serve garage`` (a process of its own) with a roster of 40, then, for
 each attack in turn, runs the attack from this process and, beside it, an honest student on an
-address of their own (127.0.0.2) who checks every 0.2 s and runs every 3 s. Every honest
+address of their own (127.0.0.2) who checks every 0.2 s and runs 3 s after each run's answer. Every honest
 request is timed from before it is sent to its whole answer.
 
 The attacks (each held for the whole window):
@@ -103,8 +103,6 @@ def honest(port: int, code: str, seconds: float) -> dict:
     start = next_run = time.monotonic()
     while time.monotonic() - start < seconds:
         kind = "run" if time.monotonic() >= next_run else "check"
-        if kind == "run":
-            next_run += 3.0  # within the 10 runs a minute a student may make
         sent = time.monotonic()
         try:
             status, _ = request(port, f"/api/{kind}", {"mission": SOLUTION}, code, HONEST)
@@ -112,6 +110,8 @@ def honest(port: int, code: str, seconds: float) -> dict:
             seen["lost"] += 1
             continue
         took = time.monotonic() - sent
+        if kind == "run":
+            next_run = time.monotonic() + 3.0  # the next 3 s after its answer: within 10 runs a minute
         (seen[kind] if status == 200 else seen["refused"]).append(took if status == 200 else (kind, status))
         if kind == "check":
             time.sleep(max(0.0, 0.2 - took))
@@ -177,7 +177,7 @@ def main() -> None:
         finally:
             server.terminate()
             server.wait(timeout=30)
-    print(f"the honest student beside each attack ({args.seconds:g} s each): checks every 0.2 s, a run every 3 s")
+    print(f"the honest student beside each attack ({args.seconds:g} s each): checks every 0.2 s, a run 3 s after each")
     print(f"{'attack':<20}{'checks':>7}{'median':>9}{'p95':>9}{'slowest':>9}{'runs':>5}{'slowest':>9}{'refused':>8}")
     worst_p95, refused = 0.0, 0
     for name, seen in results.items():

@@ -116,6 +116,10 @@ def _feedback_page(
         report.notes.append(f"its feedback page could not be written: {err}")
 
 
+#: The share of its memory a worker has room for beyond what it was forked holding, whatever that was.
+ROOM_SHARE = 0.5
+
+
 def _worker(
     exercise: Exercise,
     allow_plugins: bool,
@@ -127,6 +131,7 @@ def _worker(
     names: dict[str, str] | None = None,
     corrections: dict[str, list[tuple[float, str]]] | None = None,
     by_name: bool = False,
+    niceness: int = 0,
 ) -> None:
     """A worker process's body: limits its memory, then grades the submissions it is sent, one at a time.
 
@@ -141,13 +146,18 @@ def _worker(
     next submission then gets a new worker.
     """
     os.setpgid(0, 0)
+    if niceness:  # behind whatever the machine does meanwhile (the class's server answering its checks)
+        os.nice(niceness)
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the grader ends its workers; a Ctrl-C is for the grader
     signal.signal(signal.SIGPROF, on_cpu_limit)
     # What the worker was forked with (modules, the exercise) lives as long as it does: left out of
     # the garbage collector's passes, which the records of each seed would otherwise repeat over it
     # (and each pass would copy the pages it touches from the grader).
     gc.freeze()
-    limit = memory_mb * 1024 * 1024
+    # what it was forked holding is not the submission's: a grader that grew (threads reserve memory) leaves
+    # each submission as much room as a small one does
+    inherited_mb = address_space_mb() or 0.0
+    limit = int(max(memory_mb, inherited_mb + memory_mb * ROOM_SHARE) * 2**20)
     try:
         resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
     except (ValueError, OSError):
@@ -222,6 +232,7 @@ def grade_class(
     corrections: dict[str, list[tuple[float, str]]] | None = None,
     start_method: str = "fork",
     by_name: bool = False,
+    niceness: int = 0,
 ) -> list[Report]:
     """Grades every submission in worker processes, at most ``workers`` at once.
 
@@ -240,7 +251,8 @@ def grade_class(
         workers: Processes at once (default: the machine's cores).
         cpu_s: CPU time a submission may take, all its seeds together.
         wall_s: Wall time a submission may take (default: ``WALL_PER_CPU`` times ``cpu_s``).
-        memory_mb: Memory a worker process may take.
+        memory_mb: Memory (address space) a worker process may take, and at least :data:`ROOM_SHARE` of it
+            more than it was forked holding.
         allow_plugins: Whether submissions may load Python plugins.
         on_report: Called with each report as it is ready (for a progress bar).
         traces: A folder to keep each run's trace in (see :func:`trace_path`), for its replay.
@@ -252,6 +264,8 @@ def grade_class(
         by_name: Each submission is graded from its own folder, its file named by its name alone in
             the report, the page and the runs (a class's server: where it keeps the file is none of the
             student's business). The submissions are files.
+        niceness: How far behind the machine's other work the workers run (``os.nice``): a class's
+            server's gradings let its answers to students go first. CPU time is counted the same.
 
     Returns:
         The reports, in the order of ``submissions``.
@@ -302,7 +316,19 @@ def grade_class(
         mine, theirs = context.Pipe(duplex=True)
         process = context.Process(
             target=_worker,
-            args=(exercise, allow_plugins, memory_mb, cpu_s, theirs, traces, feedback, names, corrections, by_name),
+            args=(
+                exercise,
+                allow_plugins,
+                memory_mb,
+                cpu_s,
+                theirs,
+                traces,
+                feedback,
+                names,
+                corrections,
+                by_name,
+                niceness,
+            ),  # fmt: skip
             daemon=True,
         )
         process.start()

@@ -36,11 +36,15 @@ import hmac
 import io
 import json
 import math
+import multiprocessing
+import os
 import re
 import secrets
+import signal
 import zipfile
 from collections.abc import Callable
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -50,6 +54,7 @@ from aiohttp import web
 from autonomy.classroom.cluster import ClusterUnfit
 from autonomy.classroom.exercise import Exercise
 from autonomy.classroom.gradebook import RosterEntry, RosterMatch
+from autonomy.classroom.limits import cpu_used_up_why
 from autonomy.classroom.overview import class_overview
 from autonomy.classroom.report import to_csv
 from autonomy.classroom.results import Report, file_names
@@ -57,6 +62,7 @@ from autonomy.clock import thread_cpu_time_s, wall_time_s
 from autonomy.errors import AutonomyError
 from autonomy.liveclass.store import ClassStore, StoreError, Student, Work, code_digest, token_digest
 from autonomy.liveclass.work import (
+    GRADING_NICENESS,
     MAX_MISSION_CHARS,
     as_blocks,
     as_text,
@@ -184,6 +190,17 @@ _PAGE_NAME = re.compile(r"(\d{1,12})-([0-9a-f]{32})\.html")
 def _as_seen(page: str | None, written_as: str | None) -> str | None:
     """A work's page's address, opening on its blocks when the work was made from blocks."""
     return f"{page}#as-blocks" if page and written_as == "blocks" else page
+
+
+def _costly_lane() -> ProcessPoolExecutor:
+    """The lane for costly checks: a process of its own, started from a clean one (see :func:`_behind`)."""
+    return ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("forkserver"), initializer=_behind)
+
+
+def _behind() -> None:
+    """The costly checks' process: behind the server as gradings are; a Ctrl-C is for the server, which ends it."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    os.nice(GRADING_NICENESS)
 
 
 def _costed(work: Callable[..., Any], *args: Any) -> tuple[Any, float]:
@@ -319,7 +336,8 @@ class ClassServer(BoundedServer):
         self._lanes = [ThreadPoolExecutor(1, thread_name_prefix=f"autonomy-grading-{n}") for n in ("any", "quick")]
         self._waiting = [0, 0]
         self._checkers = ThreadPoolExecutor(CHECKS_AT_ONCE, thread_name_prefix="autonomy-check")
-        self._costly_checkers = ThreadPoolExecutor(1, thread_name_prefix="autonomy-costly-check")
+        #: Costly checks, in a process of their own: what they cost is not the GIL the server's loop needs.
+        self._costly_checkers = _costly_lane()
         #: The rest off the loop (histories, the class at a glance, exports, the disk's bounds): never the checks'.
         self._chores = ThreadPoolExecutor(1, thread_name_prefix="autonomy-chores")
         #: Per student: the CPU time of each of their checks lately, when it ended (see :data:`CHECK_CPU_SHARE_S`).
@@ -505,7 +523,7 @@ class ClassServer(BoundedServer):
         A student whose checks took more than :data:`CHECK_CPU_SHARE_S` of CPU time in the last
         :data:`CHECK_WINDOW_S` is asked to come back once enough of it is past, and one whose check took more than
         :data:`COSTLY_CHECK_S` in it is checked in the lane for costly checks: the checks' threads are the
-        class's, and a text made to be costly to check takes its student's share of a lane of its own.
+        class's, and a text made to be costly to check takes its student's share of a lane of its own (a process).
         """
         student = await self._one_at_a_time(request)
         if isinstance(student, web.Response):
@@ -523,9 +541,14 @@ class ClassServer(BoundedServer):
             if isinstance(sent, web.Response):
                 return sent
             costly = any(cpu_s > COSTLY_CHECK_S for _, cpu_s in spent)  # in their own lane, apart from the class's
-            done, cpu_s = await asyncio.get_running_loop().run_in_executor(
-                self._costly_checkers if costly else self._checkers, _costed, work, self.exercise, sent
-            )
+            try:
+                done, cpu_s = await asyncio.get_running_loop().run_in_executor(
+                    self._costly_checkers if costly else self._checkers, _costed, work, self.exercise, sent
+                )
+            except BrokenProcessPool:  # the costly checks' process ended (its memory?): a new one for the next
+                self._costly_checkers = _costly_lane()
+                spent.append((self._clock.now(), CHECK_CPU_SHARE_S))
+                return _come_back(503, "your check could not be finished: check again in a moment", 1)
             spent.append((self._clock.now(), cpu_s))
             return done
         finally:
@@ -688,8 +711,12 @@ class ClassServer(BoundedServer):
         slow = self._slow(student)
         lane = 0 if slow or self._waiting[0] < self._waiting[1] else 1
         report, page = await self._graded_in(lane, grading, mission, student, number, hand_in, slow)
-        if not slow and report.cpu_s >= QUICK_GRADING_CPU_S:  # it needed more than the quick budget
-            self._long[student] = (self._clock.now(), report.cpu_s)
+        overran = report.cpu_s >= QUICK_GRADING_CPU_S or cpu_used_up_why(QUICK_GRADING_CPU_S) in report.problems
+        # not graded within the quick budget: more CPU time needed, or, on a machine busy with more than the
+        # class, more wall time (a mission with problems of its own never comes here: its check refused it)
+        if not slow and (overran or report.problems):
+            if overran:
+                self._long[student] = (self._clock.now(), report.cpu_s)
             report, page = await self._graded_in(0, grading, mission, student, number, hand_in, True)
         self._spent.setdefault(student, collections.deque()).append((self._clock.now(), report.cpu_s))
         if report.cpu_s > LONG_GRADING_S:

@@ -37,6 +37,9 @@ from autonomy.views.treesvg import svg_tree
 MISSION_LABEL = "mission.yaml"
 #: Longest mission text taken (a mission file may be 500,000 bytes; a class's are a few hundred).
 MAX_MISSION_CHARS = 100_000
+#: How far behind the server a grading's process runs (``os.nice``): on a machine busy grading, the server
+#: answers its students' checks first. A grading's CPU time, and so its marks, are the same.
+GRADING_NICENESS = 10
 #: Problems a check's answer lists; past them, one says how many more there are.
 PROBLEMS_SHOWN = 20
 #: Most nodes in a class's mission (its replays, on every seed, grow with them: a class's have a few dozen).
@@ -209,8 +212,9 @@ def grade_text(
     graded = exercise if hand_in else public_only(exercise)
     limits = {} if cpu_s is None else {"cpu_s": cpu_s}
     (report,) = grade_class(
-        graded, [(label, kept)], workers=1, feedback=made, start_method="forkserver", by_name=True, **limits
-    )
+        graded, [(label, kept)], workers=1, feedback=made, start_method="forkserver", by_name=True,
+        niceness=GRADING_NICENESS, **limits,
+    )  # fmt: skip
     page = page_file(folder, student, number)
     try:
         page_path(made, file_names([label])[label]).replace(page)

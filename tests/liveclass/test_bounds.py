@@ -235,8 +235,9 @@ def test_costly_checks_take_their_student_s_share_and_an_honest_student_s_checks
         thread.start()
     took_s = []
     try:
-        for _ in range(30):  # the honest student checks as their page does, more often
-            started = time.monotonic()
+        deadline = time.monotonic() + 30
+        while len(took_s) < 30 or (not all(refused.values()) and time.monotonic() < deadline):
+            started = time.monotonic()  # the honest student checks as their page does, more often, till both are held
             status, checked = honest_call(server, "/api/check", {"mission": SOLUTION}, codes["s3"])
             took_s.append(time.monotonic() - started)
             assert status == 200 and checked["ok"]
@@ -271,7 +272,7 @@ def test_colluding_students_first_spinning_gradings_hold_a_lane_for_their_quick_
     def grader(*args, **kwargs):  # the real grading, where it ran and with what budget noted
         report, page = graded(*args, **kwargs)
         lane = threading.current_thread().name.split("-")[2].split("_")[0]  # autonomy-grading-any_0: any
-        seen.append((args[1], lane, kwargs.get("cpu_s"), report.cpu_s))
+        seen.append((args[1], lane, kwargs.get("cpu_s"), report.cpu_s, bool(report.problems)))
         return report, page
 
     server._grader = grader
@@ -301,11 +302,10 @@ def test_colluding_students_first_spinning_gradings_hold_a_lane_for_their_quick_
         for thread in attackers:
             thread.join(120)
     for student in colluders:
-        theirs = [(lane, budget, cpu_s) for who, lane, budget, cpu_s in seen if who == student]
-        first = theirs[0]
-        assert first[1] == 0.5 and first[2] >= 0.5  # their first: the quick budget, used up in either lane
+        theirs = [(lane, budget, cut) for who, lane, budget, _, cut in seen if who == student]
+        assert theirs[0][1] == 0.5 and theirs[0][2]  # their first: the quick budget, not enough, in either lane
         assert all(lane == "any" and budget is None for lane, budget, _ in theirs[1:])  # then: the lane for anyone
-    honest = [(lane, budget) for who, lane, budget, _ in seen if who == "s9"]
-    assert all(budget == 0.5 for _, budget in honest)  # each run of theirs fits the quick budget
-    assert sum(lane == "quick" for lane, _ in honest) >= len(honest) - 1, honest  # in the lane the spinners left
+    honest = [(lane, budget, cut) for who, lane, budget, _, cut in seen if who == "s9"]
+    quick = [lane for lane, budget, cut in honest if budget == 0.5 and not cut]  # graded within the quick budget
+    assert len(quick) >= len(took_s) - 1 and quick.count("quick") >= len(quick) - 1, honest  # where spinners left
     assert sorted(took_s)[-2] < 10.0, took_s  # a margin: an honest run took 35.8 s behind four before its lane
