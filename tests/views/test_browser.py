@@ -334,7 +334,8 @@ def test_a_wide_tree_stays_readable_and_the_panel_follows_the_step_that_runs(tmp
 def test_a_hidden_tab_lets_go_of_its_stream_and_takes_the_run_up_again_when_shown(tmp_path, page, serve):
     """A browser keeps six connections to a server: tabs in the background must not hold them all."""
     mission = tmp_path / "waits.yaml"
-    mission.write_text("mission: waits\ntree:\n  sequence:\n    - wait: {seconds: 1.5}\n    - wait: {seconds: 1.5}\n")
+    # the second wait outlasts the hidden 2 s by 4 s: a busy machine's page has that long to take the run up again
+    mission.write_text("mission: waits\ntree:\n  sequence:\n    - wait: {seconds: 1.5}\n    - wait: {seconds: 4.5}\n")
     served = serve("run", str(mission), "--quiet", "--view")
     page.goto(served.url)
     until(page, "document.querySelector('#node-1')?.dataset.status === 'RUNNING'", timeout=10_000)
