@@ -307,5 +307,7 @@ def test_colluding_students_first_spinning_gradings_hold_a_lane_for_their_quick_
         assert all(lane == "any" and budget is None for lane, budget, _ in theirs[1:])  # then: the lane for anyone
     honest = [(lane, budget, cut) for who, lane, budget, _, cut in seen if who == "s9"]
     quick = [lane for lane, budget, cut in honest if budget == 0.5 and not cut]  # graded within the quick budget
-    assert len(quick) >= len(took_s) - 1 and quick.count("quick") >= len(quick) - 1, honest  # where spinners left
+    # their first, while the spinners' first gradings were under way, in the less busy lane; once the spinners
+    # were known to be slow, always the quick lane, which the spinners left
+    assert len(quick) >= len(took_s) - 1 and quick[-2:] == ["quick", "quick"], honest
     assert sorted(took_s)[-2] < 10.0, took_s  # a margin: an honest run took 35.8 s behind four before its lane
