@@ -659,6 +659,8 @@ class ClassServer(BoundedServer):
             self._refused(f"grading {type(err).__name__}", f"{why} (work {number})")
             self._finish(number, {"error": why}, None, None, why)
             self._change()
+            if kind == "run":  # its text is one of the runs' texts kept, as a graded run's is
+                await loop.run_in_executor(self._chores, self._forget_runs, student.id, number)
             return _refusal(500, why)
         shown = seen_by_student(self.exercise, report)
         problem = report.problems[0] if report.problems else ""
@@ -764,11 +766,18 @@ class ClassServer(BoundedServer):
                 if work["count"] <= last:
                     page_file(self.folder, student, work["number"]).unlink(missing_ok=True)
             if kind == "run":
-                work_file(self.folder, student, number, hand_in=False).unlink(missing_ok=True)
-                self.store.forget_old_runs(student, RUN_TEXTS_KEPT)
+                self._forget_runs(student, number)
             return page.is_file()
         except OSError:
             return False
+
+    def _forget_runs(self, student: str, number: int) -> None:
+        """A run's text file goes (the database keeps it), and the texts of the student's runs but their last ones."""
+        try:
+            work_file(self.folder, student, number, hand_in=False).unlink(missing_ok=True)
+        except OSError:
+            pass
+        self.store.forget_old_runs(student, RUN_TEXTS_KEPT)
 
     # ------------------------------------------------------------------ pages
 

@@ -659,6 +659,25 @@ def test_a_refused_run_s_text_counts_among_the_runs_texts_kept(served, monkeypat
     assert [server.store.work(n).problem for n in refused] == [server.store.work(refused[-1]).problem] * 4
 
 
+def test_a_run_whose_grading_failed_keeps_its_text_among_the_last_runs_alone(served, monkeypatch):
+    import autonomy.liveclass.server as server_module
+
+    server, codes = served
+    monkeypatch.setattr(server_module, "RUN_TEXTS_KEPT", 2)
+
+    def broken(*args, **kwargs):
+        raise RuntimeError("the grader broke")
+
+    server._grader = broken
+    failed = []
+    for k in range(4):
+        status, answer = call(server, "/api/run", {"mission": SOLUTION + f"# {k}\n"}, codes["s1"])
+        assert (status, answer["error"]) == (500, "the grading failed: RuntimeError")
+        failed.append(max(work["number"] for work in server.store.work_list("s1")))
+    assert [server.store.work(n).source != "" for n in failed] == [False, False, True, True]
+    assert not any(work_file(server.folder, "s1", n, hand_in=False).exists() for n in failed)
+
+
 def test_a_long_history_of_runs_is_not_listed_by_api_me(served):
     server, codes = served
     for number in range(3000):  # hours of runs, at the rate limits
