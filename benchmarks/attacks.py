@@ -27,11 +27,9 @@ import argparse
 import csv
 import http.client
 import json
-import re
 import resource
 import socket
 import statistics
-import subprocess
 import sys
 import tempfile
 import threading
@@ -43,6 +41,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from autonomy.liveclass.work import page_file  # noqa: E402
+from tests.liveclass.test_class_cli import serve  # noqa: E402
 
 SOLUTION = (ROOT / "exercises" / "solutions" / "garage.yaml").read_text()
 COSTLY = "mission: m\ntree:\n  sequence:\n    children:\n" + "".join(f"      - mvoe{k}: {{}}\n" for k in range(1000))
@@ -152,14 +151,8 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         roster = Path(tmp) / "roster.csv"
         roster.write_text("id,name,submission\n" + "".join(f"s{i},Student {i},s{i}\n" for i in range(40)))
-        server = subprocess.Popen(
-            [sys.executable, "-m", "autonomy", "class", "serve", "garage", "--roster", str(roster)]
-            + ["--dir", str(Path(tmp) / "class"), "--port", "0"],
-            cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-        )  # fmt: skip
+        server, port, _ = serve(Path(tmp))  # as the class's tests start it: the teacher's command
         try:
-            server.stderr.readline(), server.stderr.readline()
-            port = int(re.search(r":(\d+)/", server.stdout.readline()).group(1))
             with (Path(tmp) / "class" / "codes.csv").open() as stream:
                 codes = [row["code"] for row in csv.DictReader(stream)]
             for name in names:

@@ -192,6 +192,13 @@ def _as_seen(page: str | None, written_as: str | None) -> str | None:
     return f"{page}#as-blocks" if page and written_as == "blocks" else page
 
 
+def _lately(costs: collections.deque[tuple[float, float]], now_s: float, window_s: float) -> collections.deque:
+    """``costs`` (each ``(when_s, cpu_s)``, oldest first), those older than ``window_s`` let go: the same deque."""
+    while costs and now_s - costs[0][0] >= window_s:
+        costs.popleft()
+    return costs
+
+
 def _costly_lane() -> ProcessPoolExecutor:
     """The lane for costly checks: a process of its own, started from a clean one (see :func:`_behind`)."""
     return ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("forkserver"), initializer=_behind)
@@ -530,9 +537,7 @@ class ClassServer(BoundedServer):
             return student
         try:
             now_s = self._clock.now()
-            spent = self._checked.setdefault(student.id, collections.deque())
-            while spent and now_s - spent[0][0] >= CHECK_WINDOW_S:
-                spent.popleft()
+            spent = _lately(self._checked.setdefault(student.id, collections.deque()), now_s, CHECK_WINDOW_S)
             if spent and sum(cpu_s for _, cpu_s in spent) > CHECK_CPU_SHARE_S:
                 wait_s = CHECK_WINDOW_S - (now_s - spent[0][0])
                 why = "your last checks took much of the machine the class shares: check again in"
@@ -730,9 +735,7 @@ class ClassServer(BoundedServer):
         now_s = self._clock.now()
         if student in self._long and now_s - self._long[student][0] < SLOW_MEMORY_S:
             return True
-        spent = self._spent.get(student, collections.deque())
-        while spent and now_s - spent[0][0] >= GRADING_WINDOW_S:
-            spent.popleft()
+        spent = _lately(self._spent.get(student, collections.deque()), now_s, GRADING_WINDOW_S)
         return sum(cpu_s for _, cpu_s in spent) > GRADING_CPU_SHARE_S
 
     async def _graded_in(
