@@ -15,8 +15,9 @@ The attacks (each held for the whole window):
   - spinning runs: four colluding students running a mission of 450 nodes, as fast as answered.
 
 Reports, per attack: the honest student's checks (how many, median, p95, slowest) and runs
-(slowest), and how many of theirs were refused or lost. Target: check p95 under 100 ms and
-none refused during every attack (issue: "no one student, and no one address, can slow the class").
+(slowest), how many of theirs were refused or lost, and the server's memory once the attack let
+go. Target: check p95 under 100 ms and none refused during every attack: no one student, and
+no one address, can slow the class.
 
 Usage: python benchmarks/attacks.py [--seconds S]
 """
@@ -167,11 +168,16 @@ def main() -> None:
                     else:
                         thing.join(120)
                 time.sleep(3.0)  # the server lets go of what was held (lingering refusals, bodies' deadlines)
+                status = Path(f"/proc/{server.pid}/status").read_text()
+                results[name]["rss_mb"] = int(status.split("VmRSS:")[1].split()[0]) // 1024  # once let go
         finally:
             server.terminate()
             server.wait(timeout=30)
     print(f"the honest student beside each attack ({args.seconds:g} s each): checks every 0.2 s, a run 3 s after each")
-    print(f"{'attack':<20}{'checks':>7}{'median':>9}{'p95':>9}{'slowest':>9}{'runs':>5}{'slowest':>9}{'refused':>8}")
+    print(
+        f"{'attack':<20}{'checks':>7}{'median':>9}{'p95':>9}{'slowest':>9}{'runs':>5}{'slowest':>9}{'refused':>8}"
+        f"{'memory after':>14}"
+    )
     worst_p95, refused = 0.0, 0
     for name, seen in results.items():
         checks, runs = sorted(seen["check"]), sorted(seen["run"])
@@ -182,7 +188,7 @@ def main() -> None:
             f"{name:<20}{len(checks):>7}{median * 1000:>7.0f}ms{p95 * 1000:>7.0f}ms"
             f"{(checks[-1] if checks else float('inf')) * 1000:>7.0f}ms{len(runs):>5}"
             f"{(runs[-1] if runs else 0) * 1000:>7.0f}ms"
-            f"{len(seen['refused']) + seen['lost']:>8}"
+            f"{len(seen['refused']) + seen['lost']:>8}{seen['rss_mb']:>11} MB"
         )
         if seen["refused"]:
             print(f"{'':<20}refused: {seen['refused'][:5]}, lost {seen['lost']}")
