@@ -19,7 +19,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, replace
 from multiprocessing.connection import Connection, wait
 from pathlib import Path
-from typing import Any, cast
+from typing import Any, NamedTuple, cast
 
 from py_trees.blackboard import Blackboard
 
@@ -120,8 +120,19 @@ def _feedback_page(
 ROOM_SHARE = 0.5
 
 
+class Job(NamedTuple):
+    """A submission sent to a worker, and how it is graded there (None or empty: as the worker was started)."""
+
+    student: str
+    path: Path
+    exercise: str = ""  # which of the worker's exercises
+    cpu_s: float | None = None
+    feedback: Path | None = None
+    name: str = ""
+
+
 def _worker(
-    exercise: Exercise,
+    exercises: Exercise | dict[str, Exercise],
     allow_plugins: bool,
     memory_mb: int,
     cpu_s: float,
@@ -136,6 +147,8 @@ def _worker(
     """A worker process's body: limits its memory, then grades the submissions it is sent, one at a time.
 
     Each submission may use ``cpu_s`` of CPU time, counted by the kernel from where it starts.
+    ``exercises`` is the exercise, or several by name: a :class:`Job` says which (and may give its
+    own ``cpu_s``, feedback folder and name, for a worker kept from one work to the next).
 
     It leads a process group of its own, so that whatever a plugin starts goes with it. Each
     submission comes as (student, path) and goes back as (report or why not, whether the
@@ -146,6 +159,8 @@ def _worker(
     next submission then gets a new worker.
     """
     os.setpgid(0, 0)
+    if isinstance(exercises, Exercise):
+        exercises = {"": exercises}
     if niceness:  # behind whatever the machine does meanwhile (the class's server answering its checks)
         os.nice(niceness)
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the grader ends its workers; a Ctrl-C is for the grader
@@ -170,23 +185,25 @@ def _worker(
             return
         if job is None:
             return
-        student, path = job
+        job = Job(*job)
+        student, path = job.student, job.path
+        budget_s = cpu_s if job.cpu_s is None else job.cpu_s
         if by_name:  # graded from its own folder: the report, the page and the runs name the file alone
             os.chdir(path.parent)
             path = Path(path.name)
         Blackboard.clear()  # as a new worker has it: nothing of the last submission's trees
         if allow_plugins:  # what a plugin starts inherits it
-            cap_what_it_starts(cpu_s)
+            cap_what_it_starts(budget_s)
         report, failed = _graded(
-            exercise,
+            exercises[job.exercise],
             student,
             path,
             allow_plugins,
             memory_mb,
-            cpu_s,
+            budget_s,
             traces,
-            feedback,
-            (names or {}).get(student, ""),
+            job.feedback or feedback,
+            job.name or (names or {}).get(student, ""),
             (corrections or {}).get(student),
         )
         cpu_alarm(None)  # whatever happened in there, nothing goes off between submissions
@@ -204,6 +221,52 @@ def _worker(
         if last:
             channel.close()
             return
+
+
+def _start(context: Any, *args: Any) -> _Running:
+    """A new worker process, given :func:`_worker`'s arguments but its channel."""
+    mine, theirs = context.Pipe(duplex=True)
+    exercises, allow_plugins, memory_mb, cpu_s, *rest = args
+    process = context.Process(
+        target=_worker, args=(exercises, allow_plugins, memory_mb, cpu_s, theirs, *rest), daemon=True
+    )
+    process.start()
+    theirs.close()
+    return _Running(process, mine)
+
+
+def _outcome(worker: _Running, result: object, cpu_s: float) -> Report | tuple[str, float] | None:
+    """What a worker's answer comes to, once a worker that ended is joined.
+
+    Returns:
+        The report; or why it was not graded, with the CPU time to count it (a zero, not graded
+        again); or None: it failed in a worker that had graded another before, and is graded again
+        in a new one (perhaps what came before was the cause).
+    """
+    if result is None and worker.process.exitcode in (CPU_EXIT_CODE, -signal.SIGXCPU):  # not graded again
+        return cpu_used_up_why(cpu_s), cpu_s
+    if not isinstance(result, Report) and worker.used:
+        return None
+    if isinstance(result, Report):
+        return result
+    if isinstance(result, str):
+        return result, 0.0
+    return f"the grading process ended without a report (exit code {worker.process.exitcode})", 0.0
+
+
+def _wall_why(wall_s: float, cpu_s: float) -> str:
+    """Why a submission that took all its wall time scores nothing."""
+    why = f"took more than {wall_s:g} s of wall time" + (
+        ", waiting rather than working (a plugin that sleeps?)" if wall_s >= cpu_s else ""
+    )
+    return f"{why} (--wall-seconds gives more)"
+
+
+def _end(worker: _Running) -> None:
+    """Ends a worker, and whatever its submission started."""
+    _kill_group(worker.process)  # first: whatever the submission started ends with it
+    worker.process.join(5)
+    worker.channel.close()
 
 
 @dataclass
@@ -301,39 +364,18 @@ def grade_class(
     def give(worker: _Running, index: int) -> None:
         worker.index, worker.deadline_s = index, clock.now() + wall_s
         try:
-            worker.channel.send(submissions[index])
+            worker.channel.send(Job(*submissions[index]))
         except OSError:  # the worker is gone: reading from it says so, and the submission is graded again
             pass
 
     def end(worker: _Running) -> None:
-        _kill_group(worker.process)  # first: whatever the submission started ends with it
-        worker.process.join(5)
-        worker.channel.close()
+        _end(worker)
         if worker in pool:
             pool.remove(worker)
 
     def start(index: int) -> None:
-        mine, theirs = context.Pipe(duplex=True)
-        process = context.Process(
-            target=_worker,
-            args=(
-                exercise,
-                allow_plugins,
-                memory_mb,
-                cpu_s,
-                theirs,
-                traces,
-                feedback,
-                names,
-                corrections,
-                by_name,
-                niceness,
-            ),  # fmt: skip
-            daemon=True,
-        )
-        process.start()
-        theirs.close()
-        worker = _Running(process, mine)
+        args = (exercise, allow_plugins, memory_mb, cpu_s, traces, feedback, names, corrections, by_name, niceness)
+        worker = _start(context, *args)
         pool.append(worker)
         give(worker, index)
 
@@ -358,27 +400,20 @@ def grade_class(
                     result, last = None, True
                 if last or not isinstance(result, Report):
                     end(worker)
-                if result is None and worker.process.exitcode in (CPU_EXIT_CODE, -signal.SIGXCPU):  # not graded again
-                    finish(index, replace(failed(index, cpu_used_up_why(cpu_s)), cpu_s=cpu_s))
-                elif not isinstance(result, Report) and worker.used:
-                    start(index)  # perhaps what came before was the cause: a new worker, in the place it left
-                elif isinstance(result, Report):
-                    finish(index, result)
-                elif isinstance(result, str):
-                    finish(index, failed(index, result))
+                outcome = _outcome(worker, result, cpu_s)
+                if outcome is None:
+                    start(index)  # a new worker, in the place it left
+                elif isinstance(outcome, Report):
+                    finish(index, outcome)
                 else:
-                    why = f"the grading process ended without a report (exit code {worker.process.exitcode})"
-                    finish(index, failed(index, why))
+                    finish(index, replace(failed(index, outcome[0]), cpu_s=outcome[1]))
                 worker.used = True
             now = clock.now()
             for worker in list(pool):
                 if worker.index is not None and now >= worker.deadline_s:
                     index = worker.index
                     end(worker)
-                    why = f"took more than {wall_s:g} s of wall time" + (
-                        ", waiting rather than working (a plugin that sleeps?)" if wall_s >= cpu_s else ""
-                    )
-                    finish(index, failed(index, f"{why} (--wall-seconds gives more)"))
+                    finish(index, failed(index, _wall_why(wall_s, cpu_s)))
     finally:
         # a second Ctrl-C must not cut the clean-up short and leave workers behind
         blocked = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM, signal.SIGHUP})

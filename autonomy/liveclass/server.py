@@ -64,11 +64,11 @@ from autonomy.liveclass.store import ClassStore, StoreError, Student, Work, code
 from autonomy.liveclass.work import (
     GRADING_NICENESS,
     MAX_MISSION_CHARS,
+    LocalGrader,
     as_blocks,
     as_text,
     check,
     exercise_shown,
-    grade_text,
     page_file,
     palette,
     work_file,
@@ -316,7 +316,9 @@ class ClassServer(BoundedServer):
         self._key = key if key is not None else secrets.token_bytes(32)
         self._exercise_shown = exercise_shown(exercise)  # the same for every student: made once
         self._palette = json.dumps(palette(exercise)).encode()  # the blocks of the page's Blocks, made once
-        self._grader = grader or grade_text
+        #: This machine's workers, kept warm between works, unless another grader is given.
+        self._local = LocalGrader(exercise, lanes=2) if grader is None else None
+        self._grader = grader or self._local
         self._autograder = autograder
         #: Bumped at each change of the class table; teachers' pages wait on it.
         self._version = 0
@@ -358,7 +360,8 @@ class ClassServer(BoundedServer):
         self._reading_bytes = 0
         self.body_deadline_s = BODY_DEADLINE_S
         self.bodies_read_bytes = BODIES_READ_BYTES
-        store.fail_unfinished(UNFINISHED)  # left grading when the server last stopped: never to be finished
+        # a work is kept once graded, in one write; one kept as grading (by a server before that) is never finished
+        store.fail_unfinished(UNFINISHED)
 
     def _routes(self, app: web.Application) -> None:
         app.middlewares.append(self._keeping)
@@ -396,6 +399,8 @@ class ClassServer(BoundedServer):
 
     def _serving(self, loop: asyncio.AbstractEventLoop) -> None:
         self._changed = asyncio.Event()
+        if self._local is not None:  # its workers start now, not at the first works
+            loop.run_in_executor(self._chores, self._local.start)
 
     def _change(self) -> None:
         """The class table changed: the teachers' pages waiting on it are answered (on the server's loop)."""
@@ -410,6 +415,8 @@ class ClassServer(BoundedServer):
         self._checkers.shutdown(wait=False, cancel_futures=True)
         self._costly_checkers.shutdown(wait=False, cancel_futures=True)
         self._chores.shutdown(wait=False, cancel_futures=True)
+        if self._local is not None:
+            self._local.close()
 
     # ------------------------------------------------------------------ who asks
 
@@ -639,67 +646,74 @@ class ClassServer(BoundedServer):
 
     async def _grade(self, student: Student, mission: str, kind: str, from_blocks: bool = False) -> web.Response:
         loop = asyncio.get_running_loop()
+        forget = {"runs_kept": RUN_TEXTS_KEPT} if kind == "run" else {}
         checked = await loop.run_in_executor(self._checkers, check, self.exercise, mission)
         if not checked["ok"]:
             first = checked["problems"][0]
             problem = f"line {first['line']}, column {first['column']}: {first['message']}"
             kept = {"problems": checked["problems"][:PROBLEMS_KEPT]}
-            self.store.add_work(student.id, kind, mission[:MAX_MISSION_CHARS], kept, problem=problem)
-            if kind == "run":  # a refused run's text is one of the runs' texts kept: the last ones alone
-                await loop.run_in_executor(self._chores, self.store.forget_old_runs, student.id, RUN_TEXTS_KEPT)
+            # a refused run's text is one of the runs' texts kept: the last ones alone
+            self.store.add_work(student.id, kind, mission[:MAX_MISSION_CHARS], kept, problem=problem, **forget)
             self._change()
             return _json({"ok": False, "problems": checked["problems"]}, 422)
-        number = self.store.add_work(student.id, kind, mission, {"grading": True})
-        self._change()
+        number = self.store.new_number()  # kept once graded, in one write: until then its files alone have it
+        count = self.store.count(student.id, kind) + 1  # theirs: hand-in 3 is their third (one at a time each)
         try:
-            label = f"{'hand-in' if kind == 'handin' else 'run'} {self.store.count(student.id, kind)}"
+            label = f"{'hand-in' if kind == 'handin' else 'run'} {count}"
             grading = functools.partial(self._grader, label=label)  # what their page is headed by: no id
             report, page = await self._in_lane(student.id, grading, mission, number, kind == "handin")
         except Exception as err:  # noqa: BLE001 - said in one line, kept as the work's problem, answered 500
-            # a cluster that cannot grade says why (its workers gone); anything else, its kind alone
             if isinstance(err, OSError) and err.errno in DISK_ERRNOS:
-                self._unfinished(number)
-                raise  # the disk: said as the store's faults are
+                await loop.run_in_executor(self._chores, self._let_go, student.id, number, kind)
+                raise  # the disk: said as the store's faults are (nothing of the work is kept)
+            # a cluster that cannot grade says why (its workers gone); anything else, its kind alone
             why = f"the grading failed: {err if isinstance(err, ClusterUnfit) else type(err).__name__}"
             self._refused(f"grading {type(err).__name__}", f"{why} (work {number})")
-            self._finish(number, {"error": why}, None, None, why)
-            self._change()
-            if kind == "run":  # its text is one of the runs' texts kept, as a graded run's is
-                await loop.run_in_executor(self._chores, self._forget_runs, student.id, number)
+            self._keep(student.id, kind, mission, {"error": why}, None, None, why, number)
+            if kind == "run":  # its text is one of the runs' texts kept, as a graded run's is: in the database
+                await loop.run_in_executor(self._chores, self._let_go, student.id, number, kind, False)
             return _refusal(500, why)
         shown = seen_by_student(self.exercise, report)
         problem = report.problems[0] if report.problems else ""
         kept_result = {**report.to_json(), **({"written_as": "blocks"} if from_blocks else {})}
-        self._finish(number, kept_result, report.total, report.max_points, problem)
-        self._change()
-        kept = await loop.run_in_executor(self._chores, self._bound_disk, student.id, number, kind, page)
+        self._keep(student.id, kind, mission, kept_result, report.total, report.max_points, problem, number)
+        kept = await loop.run_in_executor(self._chores, self._bound_disk, student.id, number, kind, count, page)
         return _json(
             {
                 "ok": True,
                 "number": number,
                 "kind": kind,
-                "count": self.store.count(student.id, kind),  # their own: hand-in 3 is their third
+                "count": count,
                 "page": _as_seen(self._page_url(number), "blocks" if from_blocks else None) if kept else None,
                 "page_problem": "" if kept else f"its replay is over {MAX_PAGE_BYTES // 2**20} MB: too large to keep",
                 **shown,
             }
         )  # kept before it is said
 
-    def _finish(self, number: int, result: dict[str, Any], total: float | None, most: float | None, why: str) -> None:
-        """Keeps a work's end; where it cannot be kept, the work is marked unfinished if it can be, and it raises."""
-        try:
-            self.store.finish_work(number, result, total, most, why)
-        except StoreError:
-            self._unfinished(number)
-            raise
+    def _keep(
+        self, student: str, kind: str, mission: str, result: dict[str, Any], total: float | None,
+        most: float | None, why: str, number: int,
+    ) -> None:  # fmt: skip
+        """Keeps a graded work, in one write (the texts of the student's runs but their last ones forgotten in it).
 
-    def _unfinished(self, number: int) -> None:
-        """Marks a work as never finished (a shorter write than its result's, which may fit where that did not)."""
+        Where it cannot be kept, nothing of it is: its files go too, and it raises (see :meth:`_keeping`).
+        """
+        forget = {"runs_kept": RUN_TEXTS_KEPT} if kind == "run" else {}
         try:
-            self.store.finish_work(number, {"error": NOT_KEPT}, None, None, NOT_KEPT)
+            self.store.add_work(student, kind, mission, result, total, most, why, number=number, **forget)
         except StoreError:
-            pass  # then it is found at the next start (:meth:`ClassStore.fail_unfinished`)
+            self._let_go(student, number, kind)
+            raise
         self._change()
+
+    def _let_go(self, student: str, number: int, kind: str, page_too: bool = True) -> None:
+        """A work's files go: its text's (the database keeps it, or nothing does), and its page unless told."""
+        try:
+            work_file(self.folder, student, number, hand_in=kind == "handin").unlink(missing_ok=True)
+            if page_too:
+                page_file(self.folder, student, number).unlink(missing_ok=True)
+        except OSError:
+            pass
 
     async def _in_lane(
         self, student: str, grading: Callable[..., tuple[Report, Path]], mission: str, number: int, hand_in: bool
@@ -754,7 +768,7 @@ class ClassServer(BoundedServer):
         finally:
             self._waiting[lane] -= 1
 
-    def _bound_disk(self, student: str, number: int, kind: str, page: Path) -> bool:
+    def _bound_disk(self, student: str, number: int, kind: str, count: int, page: Path) -> bool:
         """Bounds what a student keeps on disk; whether this work's page is kept.
 
         No page over :data:`MAX_PAGE_BYTES`; the pages of their last :data:`RUN_PAGES_KEPT` runs and
@@ -764,23 +778,15 @@ class ClassServer(BoundedServer):
         try:
             if page.stat().st_size > MAX_PAGE_BYTES:
                 page.unlink()
-            last = self.store.count(student, kind) - (HANDIN_PAGES_KEPT if kind == "handin" else RUN_PAGES_KEPT)
+            last = count - (HANDIN_PAGES_KEPT if kind == "handin" else RUN_PAGES_KEPT)
             for work in self.store.work_list(student, kind):
                 if work["count"] <= last:
                     page_file(self.folder, student, work["number"]).unlink(missing_ok=True)
-            if kind == "run":
-                self._forget_runs(student, number)
+            if kind == "run":  # the database keeps its text (the last runs' alone)
+                self._let_go(student, number, kind, page_too=False)
             return page.is_file()
         except OSError:
             return False
-
-    def _forget_runs(self, student: str, number: int) -> None:
-        """A run's text file goes (the database keeps it), and the texts of the student's runs but their last ones."""
-        try:
-            work_file(self.folder, student, number, hand_in=False).unlink(missing_ok=True)
-        except OSError:
-            pass
-        self.store.forget_old_runs(student, RUN_TEXTS_KEPT)
 
     # ------------------------------------------------------------------ pages
 

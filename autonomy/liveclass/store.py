@@ -59,6 +59,15 @@ CREATE TABLE IF NOT EXISTS settings (key TEXT PRIMARY KEY, value TEXT NOT NULL);
 """
 
 
+_LAST_ID = "SELECT MAX(id) FROM works"
+
+
+def _forgetting(student: str, kept: int) -> tuple[str, tuple[Any, ...]]:
+    """The statement that forgets the texts of a student's runs but their last ``kept``."""
+    older = "SELECT id FROM works WHERE student = ? AND kind = 'run' ORDER BY id DESC LIMIT -1 OFFSET ?"
+    return f"UPDATE works SET source = '' WHERE source != '' AND id IN ({older})", (student, kept)  # noqa: S608
+
+
 class StoreError(AutonomyError):
     """The class's storage cannot be opened or written; the message says why."""
 
@@ -139,6 +148,8 @@ class ClassStore:
         except (OSError, sqlite3.Error) as err:
             raise StoreError(f"{self.folder}: cannot keep the class there: {err}") from err
         self._lock = threading.Lock()
+        #: The last work's number given out (see :meth:`new_number`): none is given twice, kept or not.
+        self._last_number = 0
 
     def close(self) -> None:
         """Closes the database."""
@@ -146,7 +157,7 @@ class ClassStore:
             self._db.close()
 
     def _write(self, statements: list[tuple[str, tuple[Any, ...]]]) -> int:
-        """Runs ``statements`` in one transaction, committed before it returns; the last row id."""
+        """Runs ``statements`` in one transaction, committed before it returns; the last row id inserted."""
         with self._lock:
             try:
                 self._db.execute("BEGIN IMMEDIATE")
@@ -248,17 +259,51 @@ class ClassStore:
         total: float | None = None,
         max_points: float | None = None,
         problem: str = "",
+        number: int | None = None,
+        runs_kept: int | None = None,
     ) -> int:
-        """Keeps a run or a hand-in, committed to disk before it returns; its number."""
-        return self._write(
-            [
-                (
-                    "INSERT INTO works (student, kind, at, source, total, max_points, problem, result) "
-                    "VALUES (?, ?, ?, ?, ?, ?, ?, ?)",
-                    (student, kind, wall_date(), source, total, max_points, problem, json.dumps(result)),
-                )
-            ]
-        )
+        """Keeps a run or a hand-in, in one write committed to disk before it returns; its number.
+
+        Args:
+            student: Whose it is.
+            kind: ``run`` or ``handin``.
+            source: Its mission's text.
+            result: What its grading gave, as JSON.
+            total: Its mark (None: not graded).
+            max_points: The mark it was out of.
+            problem: Its first problem ("" if none).
+            number: Its number, given by :meth:`new_number` before its grading (its files are named by it);
+                default: the next one.
+            runs_kept: Forget, in the same write, the texts of the student's runs but their last ``runs_kept``
+                (see :meth:`forget_old_runs`).
+        """
+        number = self.new_number() if number is None else number  # never one given out for a work under way
+        row = (student, kind, wall_date(), source, total, max_points, problem, json.dumps(result))
+        statements: list[tuple[str, tuple[Any, ...]]] = [
+            (
+                "INSERT INTO works (id, student, kind, at, source, total, max_points, problem, result) "
+                "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                (number, *row),
+            )
+        ]
+        if runs_kept is not None:
+            statements.append(_forgetting(student, runs_kept))
+        kept = self._write(statements)
+        with self._lock:
+            self._last_number = max(self._last_number, kept)
+        return kept
+
+    def new_number(self) -> int:
+        """The number of a work to come, to name its files while it is graded; :meth:`add_work` keeps it with it.
+
+        No other work gets it, whether or not it is ever kept (a grading that failed to be kept leaves a gap).
+        """
+        with self._lock:
+            if not self._last_number:
+                sequence = self._db.execute("SELECT seq FROM sqlite_sequence WHERE name = 'works'").fetchone()
+                self._last_number = max(sequence[0] if sequence else 0, self._db.execute(_LAST_ID).fetchone()[0] or 0)
+            self._last_number += 1
+            return self._last_number
 
     def finish_work(
         self, number: int, result: dict[str, Any], total: float | None, max_points: float | None, problem: str = ""
@@ -315,8 +360,7 @@ class ClassStore:
 
         A hand-in's text is never forgotten: every version handed in is kept.
         """
-        older = "SELECT id FROM works WHERE student = ? AND kind = 'run' ORDER BY id DESC LIMIT -1 OFFSET ?"
-        self._write([(f"UPDATE works SET source = '' WHERE source != '' AND id IN ({older})", (student, kept))])  # noqa: S608
+        self._write([_forgetting(student, kept)])
 
     def work(self, number: int) -> Work | None:
         """The run or hand-in numbered ``number``, or None."""

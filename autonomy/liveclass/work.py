@@ -6,6 +6,7 @@ Nothing here runs a student's Python: plugins are refused, as in grading.
 from __future__ import annotations
 
 import dataclasses
+import queue
 import tempfile
 from pathlib import Path
 from typing import Any
@@ -14,8 +15,10 @@ from autonomy.behaviours.tree import describe_tree
 from autonomy.classroom.cluster import connect, in_a_daemon, results
 from autonomy.classroom.exercise import Exercise
 from autonomy.classroom.job import PLUGINS_REFUSED, check_text
+from autonomy.classroom.limits import DEFAULT_CPU_S
 from autonomy.classroom.pool import grade_class
 from autonomy.classroom.results import Report, file_names, page_path
+from autonomy.classroom.warm import WarmWorkers
 from autonomy.mission import BUILTINS, MissionInvalid, build_tree
 from autonomy.mission.blocks import (
     block_at_line,
@@ -184,6 +187,7 @@ def grade_text(
     hand_in: bool,
     label: str = "",
     cpu_s: float | None = None,
+    workers: WarmWorkers | None = None,
 ) -> tuple[Report, Path]:
     """Grades a student's mission text as ``autonomy grade`` does, in a limited worker process.
 
@@ -201,6 +205,8 @@ def grade_text(
         label: Who the report and the page say it is (``hand-in 3``: a page may be projected); default
             the student's id and the number.
         cpu_s: The CPU time the grading may take (default :data:`~autonomy.classroom.limits.DEFAULT_CPU_S`).
+        workers: A worker kept warm for the class (see :class:`LocalGrader`), with the exercise as ``all`` and
+            its public seeds as ``public``; default: a worker started for this grading alone.
 
     Returns:
         The report, and the feedback page's path.
@@ -209,15 +215,19 @@ def grade_text(
     label = label or f"{file_names([student])[student]}-{number}"
     made = folder / "pages" / f".{number}"  # the page is made apart, then put where it is kept
     made.mkdir(parents=True, exist_ok=True)
-    graded = exercise if hand_in else public_only(exercise)
-    limits = {} if cpu_s is None else {"cpu_s": cpu_s}
-    (report,) = grade_class(
-        graded, [(label, kept)], workers=1, feedback=made, start_method="forkserver", by_name=True,
-        niceness=GRADING_NICENESS, **limits,
-    )  # fmt: skip
+    name = file_names([label])[label]
+    if workers is not None:
+        report = workers.grade("all" if hand_in else "public", label, kept, made, name, cpu_s or DEFAULT_CPU_S)
+    else:
+        graded = exercise if hand_in else public_only(exercise)
+        limits = {} if cpu_s is None else {"cpu_s": cpu_s}
+        (report,) = grade_class(
+            graded, [(label, kept)], workers=1, feedback=made, start_method="forkserver", by_name=True,
+            niceness=GRADING_NICENESS, **limits,
+        )  # fmt: skip
     page = page_file(folder, student, number)
     try:
-        page_path(made, file_names([label])[label]).replace(page)
+        page_path(made, name).replace(page)
     finally:
         for left in made.iterdir():
             left.unlink()
@@ -249,6 +259,57 @@ def grade_on_worker(
     with tempfile.TemporaryDirectory(prefix="autonomy-class-") as folder:
         report, page = grade_text(exercise, student, text, Path(folder), number, hand_in, label, cpu_s)
         return report, page.read_bytes()
+
+
+class LocalGrader:
+    """Grades the class's works on this machine as :func:`grade_text` does, in workers kept warm between works.
+
+    Each of the server's lanes grades one work at a time: there is one worker for each, started once and
+    kept while nothing a work did could have changed it (see :class:`~autonomy.classroom.warm.WarmWorkers`),
+    with the same limits, the same marks and the same page as a worker started for each work.
+
+    Args:
+        exercise: The class's exercise, with its hidden seeds drawn.
+        lanes: How many gradings at once (a worker each).
+    """
+
+    def __init__(self, exercise: Exercise, lanes: int) -> None:
+        self._exercise = exercise
+        exercises = {"all": exercise, "public": public_only(exercise)}
+        self._all = [WarmWorkers(exercises, niceness=GRADING_NICENESS) for _ in range(lanes)]
+        self._free: queue.SimpleQueue[WarmWorkers] = queue.SimpleQueue()
+        for workers in self._all:
+            self._free.put(workers)
+
+    def start(self) -> None:
+        """Starts every worker now, so that the first works do not wait for theirs."""
+        for workers in self._all:
+            workers.start()
+
+    def __call__(
+        self,
+        exercise: Exercise,
+        student: str,
+        text: str,
+        folder: Path,
+        number: int,
+        hand_in: bool,
+        label: str = "",
+        cpu_s: float | None = None,
+    ) -> tuple[Report, Path]:
+        """Grades one work as :func:`grade_text` does, in a warm worker (in one of its own for another exercise)."""
+        if exercise is not self._exercise:
+            return grade_text(exercise, student, text, folder, number, hand_in, label, cpu_s)
+        workers = self._free.get()
+        try:
+            return grade_text(exercise, student, text, folder, number, hand_in, label, cpu_s, workers)
+        finally:
+            self._free.put(workers)
+
+    def close(self) -> None:
+        """Ends the workers (a grading under way raises)."""
+        for workers in self._all:
+            workers.close()
 
 
 class DaskGrader:

@@ -8,6 +8,7 @@ text is escaped; the picture holds no script and fetches nothing.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 from typing import Any
 from xml.sax.saxutils import escape, quoteattr
@@ -187,16 +188,25 @@ def blocks_svg(workspace: dict[str, Any], definitions: list[dict[str, Any]], lab
     return svg.encode("ascii", "xmlcharrefreplace").decode("ascii")  # a page of it stays one byte a character
 
 
+@functools.cache
+def _builtin_definitions() -> list[dict[str, Any]]:
+    """The built-in nodes' blocks, made once a process (a page is drawn with every run graded)."""
+    from autonomy.mission import BUILTINS
+    from autonomy.mission.blocks import block_definitions
+
+    return block_definitions(BUILTINS)
+
+
 def mission_blocks_svg(text: str, label: str) -> str | None:
     """A mission file's text drawn as its blocks (None: not a mission the blocks hold).
 
     Its plugins are never imported: a mission that names any is not drawn.
     """
-    from autonomy.mission import BUILTINS, MissionInvalid, validate_text
-    from autonomy.mission.blocks import block_definitions, to_workspace
+    from autonomy.mission import MissionInvalid, validate_text
+    from autonomy.mission.blocks import to_workspace
 
     try:
         spec = validate_text(text, "mission", check_world=False, refuse_plugins="plugins are not drawn")
-        return blocks_svg(to_workspace(spec, text), block_definitions(BUILTINS), label)
+        return blocks_svg(to_workspace(spec, text), _builtin_definitions(), label)
     except (MissionInvalid, RecursionError, ValueError):
         return None

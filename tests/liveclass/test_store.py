@@ -43,6 +43,30 @@ def test_works_are_kept_in_order_and_the_class_table_says_the_last_of_each(tmp_p
     assert store.summary()[1]["last_problem"] == "mission.yaml:2:1: 'tree' is missing"
 
 
+def test_a_work_is_kept_in_one_write_under_the_number_it_was_graded_as_and_no_number_is_given_twice(tmp_path):
+    store = ClassStore(tmp_path)
+    store.enrol([("s1", "Ada"), ("s2", "Bob")])
+    grading = store.new_number()  # Ada's run, being graded: its files have the number, the database nothing yet
+    assert store.works("s1") == [] and store.summary()[0]["runs"] == 0
+    refused = store.add_work("s2", "run", "tree: a", {}, problem="refused")  # Bob's, kept meanwhile
+    writes = []
+    store._db.set_trace_callback(lambda sql: writes.append(sql) if sql == "COMMIT" else None)
+    for k in range(3):
+        store.add_work(
+            "s1", "run", f"tree: {k}", {"marks": [k]}, k, 10.0, number=grading if k == 0 else None, runs_kept=2
+        )
+    store._db.set_trace_callback(None)
+    assert len(writes) == 3  # one a work: its row, and the texts of her runs but the last two forgotten, at once
+    numbers = [w.id for w in store.works("s1")]
+    assert numbers[0] == grading and refused not in numbers and len(set(numbers + [refused])) == 4
+    assert [w.source for w in store.works("s1")] == ["", "tree: 1", "tree: 2"]
+    assert [w.result for w in store.works("s1")] == [{"marks": [0]}, {"marks": [1]}, {"marks": [2]}]
+    given = store.new_number()
+    store.close()
+    again = ClassStore(tmp_path)  # a new start gives none of the numbers kept
+    assert again.new_number() > max(numbers) and given > max(numbers)
+
+
 WRITER = """
 import sys
 from pathlib import Path

@@ -1,0 +1,99 @@
+"""Workers kept warm between works: the same marks, pages and limits as a worker started for each."""
+
+from __future__ import annotations
+
+import os
+import signal
+import threading
+import time
+
+import pytest
+
+from autonomy.classroom import find_submissions, grade_class, load_exercise
+from autonomy.classroom.limits import cpu_used_up_why
+from autonomy.classroom.results import page_path
+from autonomy.classroom.warm import WarmWorkers
+from tests.views.conftest import ROOT
+
+EXERCISES = ROOT / "exercises"
+GARAGE = load_exercise(EXERCISES / "garage.yaml")
+WORKS = [
+    EXERCISES / "solutions" / "garage.yaml",
+    EXERCISES / "wrong" / "garage_fixed_distance.yaml",
+    EXERCISES / "wrong" / "garage_park_then_beep.yaml",
+]
+#: A mission that keeps the CPU busy until its grading's time is up (a tree of many parallel waits).
+SPIN = "mission: spin\ntree:\n  parallel:\n    children:\n" + "      - wait: {seconds: 100}\n" * 450
+
+
+@pytest.fixture
+def warm():
+    workers = WarmWorkers({"garage": GARAGE})
+    yield workers
+    workers.close()
+
+
+def test_one_worker_grades_work_after_work_with_the_marks_and_the_pages_of_a_new_worker_for_each(warm, tmp_path):
+    (tmp_path / "cold").mkdir()
+    cold = grade_class(GARAGE, find_submissions(WORKS), workers=1, feedback=tmp_path / "cold", by_name=True)
+    warm.start()
+    first = warm.pid
+    for path, alone in zip(WORKS * 2, cold * 2, strict=True):  # each twice, in turn
+        pages = tmp_path / "warm" / f"{time.monotonic_ns()}"
+        pages.mkdir(parents=True)
+        report = warm.grade("garage", alone.student, path, pages, alone.student)
+        assert (report.total, report.marks, report.problems) == (alone.total, alone.marks, alone.problems)
+        assert report.file == path.name  # named by its name alone, as a class's server names it
+        assert page_path(pages, alone.student).read_bytes() == page_path(tmp_path / "cold", alone.student).read_bytes()
+        assert warm.pid == first  # the same process all along: no start paid for any of them
+    assert cold[0].total == GARAGE.max_points and len({report.total for report in cold}) == 3  # three marks apart
+
+
+def test_a_work_that_uses_up_its_cpu_time_scores_nothing_and_the_next_gets_a_new_worker(warm, tmp_path):
+    spin = tmp_path / "spin.yaml"
+    spin.write_text(SPIN)
+    warm.grade("garage", "ada", WORKS[0], tmp_path, "ada")  # a worker that graded before
+    first = warm.pid
+    started_s = time.process_time()
+    report = warm.grade("garage", "bob", spin, tmp_path, "bob", cpu_s=0.5)
+    assert report.total == 0 and report.problems == [cpu_used_up_why(0.5)]
+    assert report.cpu_s == pytest.approx(0.5, abs=0.5)
+    assert time.process_time() - started_s < 0.5  # its CPU time was the worker's, not the caller's
+    assert "used more than" in page_path(tmp_path, "bob").read_text()  # its page says why
+    assert warm.pid not in (None, first)  # whatever it left behind is gone with its worker
+    again = warm.grade("garage", "ada", WORKS[0], tmp_path, "ada")
+    assert again.total == GARAGE.max_points
+
+
+def test_a_worker_that_died_between_works_costs_the_next_work_nothing(warm, tmp_path):
+    warm.grade("garage", "ada", WORKS[0], tmp_path, "ada")
+    os.kill(warm.pid, signal.SIGKILL)  # as the kernel's out-of-memory killer would, while it waited
+    time.sleep(0.2)
+    report = warm.grade("garage", "bob", WORKS[0], tmp_path, "bob")
+    assert report.total == GARAGE.max_points and not report.problems  # graded again, in a new worker
+
+
+def test_closing_ends_the_worker_even_during_a_grading_and_no_grading_is_taken_after(tmp_path):
+    warm = WarmWorkers({"garage": GARAGE})
+    spin = tmp_path / "spin.yaml"
+    spin.write_text(SPIN)
+    warm.start()
+    pid = warm.pid
+    failed: list[BaseException] = []
+
+    def grade() -> None:
+        try:
+            warm.grade("garage", "bob", spin, tmp_path, "bob", cpu_s=30)
+        except RuntimeError as err:
+            failed.append(err)
+
+    grading = threading.Thread(target=grade)
+    grading.start()
+    time.sleep(0.5)
+    warm.close()
+    grading.join(10)
+    assert not grading.is_alive() and len(failed) == 1  # told, at once, not after its 30 s
+    with pytest.raises(ProcessLookupError):
+        os.kill(pid, 0)
+    with pytest.raises(RuntimeError, match="closed"):
+        warm.grade("garage", "ada", WORKS[0], tmp_path, "ada")
