@@ -92,6 +92,9 @@ bench: $(STAMP)
 	$(BIN)/python benchmarks/cluster.py
 	$(BIN)/python benchmarks/work.py
 	$(BIN)/python benchmarks/liveclass.py
+	$(BIN)/python benchmarks/runcost.py
+	$(BIN)/python benchmarks/attacks.py
+	$(BIN)/python benchmarks/overview.py
 	$(BIN)/python benchmarks/blocks.py
 
 ## vendor: the built browser libraries the package ships (Blockly, CodeMirror), anew from package-lock.json; needs node and npm

@@ -84,10 +84,29 @@ async def _student(session, url: str, code: str, seconds: float, seen: dict, rng
             await asyncio.sleep(max(0.0, CHECK_EVERY_S - took))
 
 
+async def glance(session, url: str, headers: dict, seen: dict, again: asyncio.Event) -> None:
+    """The teacher's class at a glance, as their page asks for it: once at a time, again if the class changed since."""
+    while True:
+        again.clear()
+        sent = time.monotonic()
+        try:
+            async with session.get(url + "api/overview", headers=headers) as answer:
+                await answer.read()
+                (seen["glances"] if answer.status == 200 else seen["refused"]).append(time.monotonic() - sent)
+        except (aiohttp.ClientError, asyncio.TimeoutError) as err:
+            seen["lost"].append(type(err).__name__)
+        if not again.is_set():
+            return
+
+
 async def teacher(session, url: str, token: str, seconds: float, seen: dict) -> None:
-    """The teacher's page: the class table, asked again at each change; its answers' times and the versions seen."""
+    """The teacher's page: the class table, asked again at each change, and the class at a glance after it.
+
+    Keeps its answers' times, the versions seen, and the class at a glance's answers' times.
+    """
     headers = {"Authorization": f"Bearer {token}"}
     start, version = time.monotonic(), None
+    seen["glances"], again, glancing = [], asyncio.Event(), None
     while time.monotonic() - start < seconds:
         path = "api/class" if version is None else f"api/class?after={version}"
         sent = time.monotonic()
@@ -105,6 +124,11 @@ async def teacher(session, url: str, token: str, seconds: float, seen: dict) -> 
             continue
         version = table["version"]
         seen["versions"] = version
+        again.set()
+        if glancing is None or glancing.done():
+            glancing = asyncio.ensure_future(glance(session, url, headers, seen, again))
+    if glancing is not None:
+        await glancing
 
 
 def address(k: int) -> str:
@@ -194,13 +218,19 @@ def main() -> None:
         )
         if got["refused"]:
             print(f"         refused: {dict(collections.Counter(got['refused']))}")
-    answered = seen["class"].get("answered", [])
+    answered = [0.0] + [t for t in seen["class"].get("answered", []) if t <= args.seconds]  # while the class works
     gap_s = max((b - a for a, b in zip(answered, answered[1:], strict=False)), default=float("inf"))
     print(
         f"the teacher's page: {len(seen['class']['times'])} answers for {seen['class'].get('versions', 0)} changes "
         f"of the class table, {len(seen['class']['refused'])} refused, {len(seen['class']['lost'])} lost; "
         f"the longest wait between two: {gap_s:.2f} s"
     )
+    glances = sorted(seen["class"]["glances"])
+    if glances:
+        print(
+            f"the class at a glance: {len(glances)} answers, median {statistics.median(glances) * 1000:.0f} ms, "
+            f"slowest {glances[-1] * 1000:.0f} ms"
+        )
     p95 = {
         kind: sorted(seen[kind]["times"])[int(len(seen[kind]["times"]) * 0.95)] for kind in ("check", "run", "handin")
     }

@@ -153,6 +153,9 @@ EXERCISE = "exercise"
 CLASS_WAIT_S = 20.0
 #: Teachers' pages waiting on the class at once (a teacher has one or two: the desk and the projector).
 CLASS_WAITERS = 16
+#: The class at a glance is made again at most this often while the class changes (a class of 300 changes
+#: ten times a second; each making reads every student's latest work): a change is shown within as long.
+OVERVIEW_EVERY_S = 1.5
 #: The pages' files, and their types.
 PAGE_FILES = {
     "student.html": "text/html",
@@ -326,6 +329,11 @@ class ClassServer(BoundedServer):
         self._class_waiters = 0
         #: The class at a glance's last making: the class's version it is of, and its JSON (to come, or made).
         self._overview_making: tuple[int, asyncio.Future[bytes]] | None = None
+        #: The class table's last making, as the class at a glance's; its rows as shown, by student (read off the
+        #: loop, by the chores alone; None: to be read whole); the students whose rows changed since (None: all).
+        self._table_making: tuple[int, asyncio.Future[bytes]] | None = None
+        self._table_rows: dict[str, dict[str, Any]] | None = None
+        self._stale: set[str] | None = None
         self.max_request_bytes = MAX_REQUEST_BYTES
         self.max_answers_per_address = MAX_ANSWERS_PER_ADDRESS
         self.exercise = exercise
@@ -349,6 +357,9 @@ class ClassServer(BoundedServer):
         self._costly_checkers = _costly_lane()
         #: The rest off the loop (histories, the class at a glance, exports, the disk's bounds): never the checks'.
         self._chores = ThreadPoolExecutor(1, thread_name_prefix="autonomy-chores")
+        #: The teacher's views (the class table, the class at a glance), off the loop and never before a run's chores.
+        self._views = ThreadPoolExecutor(1, thread_name_prefix="autonomy-views")
+        self._overview_at_s = -math.inf
         #: Per student: the CPU time of each of their checks lately, when it ended (see :data:`CHECK_CPU_SHARE_S`).
         self._checked: dict[str, collections.deque[tuple[float, float]]] = {}
         #: Students with a request under way (a check, a run or a hand-in): one at a time each.
@@ -402,8 +413,15 @@ class ClassServer(BoundedServer):
         if self._local is not None:  # its workers start now, not at the first works
             loop.run_in_executor(self._chores, self._local.start)
 
-    def _change(self) -> None:
-        """The class table changed: the teachers' pages waiting on it are answered (on the server's loop)."""
+    def _change(self, student: str | None = None) -> None:
+        """The class table changed (a student's row; None: any): the teachers' pages waiting on it are answered.
+
+        On the server's loop.
+        """
+        if student is None:
+            self._stale = None
+        elif self._stale is not None:
+            self._stale.add(student)
         self._version += 1
         if self._changed is not None:
             self._changed.set()
@@ -415,6 +433,7 @@ class ClassServer(BoundedServer):
         self._checkers.shutdown(wait=False, cancel_futures=True)
         self._costly_checkers.shutdown(wait=False, cancel_futures=True)
         self._chores.shutdown(wait=False, cancel_futures=True)
+        self._views.shutdown(wait=False, cancel_futures=True)
         if self._local is not None:
             self._local.close()
 
@@ -451,7 +470,7 @@ class ClassServer(BoundedServer):
             if student.id not in self._signed_in:
                 self._signed_in.add(student.id)
                 self.store.sign_in(student.id)
-                self._change()
+                self._change(student.id)
             return student
         wrong = 1 if now_s - last_s > GUESS_MEMORY_S else wrong + 1  # a right code in between forgets nothing
         wait_s = min(MOST_GUESS_WAIT_S, GUESS_WAIT_S * 2 ** (wrong - 1))
@@ -654,7 +673,7 @@ class ClassServer(BoundedServer):
             kept = {"problems": checked["problems"][:PROBLEMS_KEPT]}
             # a refused run's text is one of the runs' texts kept: the last ones alone
             self.store.add_work(student.id, kind, mission[:MAX_MISSION_CHARS], kept, problem=problem, **forget)
-            self._change()
+            self._change(student.id)
             return _json({"ok": False, "problems": checked["problems"]}, 422)
         number = self.store.new_number()  # kept once graded, in one write: until then its files alone have it
         count = self.store.count(student.id, kind) + 1  # theirs: hand-in 3 is their third (one at a time each)
@@ -704,7 +723,7 @@ class ClassServer(BoundedServer):
         except StoreError:
             self._let_go(student, number, kind)
             raise
-        self._change()
+        self._change(student)
 
     def _let_go(self, student: str, number: int, kind: str, page_too: bool = True) -> None:
         """A work's files go: its text's (the database keeps it, or nothing does), and its page unless told."""
@@ -887,38 +906,80 @@ class ClassServer(BoundedServer):
                 pass
             finally:
                 self._class_waiters -= 1
-        students = self.store.summary()
-        for row in students:
-            row["id"], row["name"] = printable(row["id"]), printable(row["name"])
-            # a work made from blocks: its page opens with them (#as-blocks), as its student last saw it
-            row["latest_page"] = _as_seen(self._page_url(row.pop("last_graded")), row.pop("last_graded_as"))
-            row["handin_page"] = _as_seen(self._page_url(row.pop("last_handin")), row.pop("last_handin_as"))
-        return _json(
-            {
-                "version": self._version,
-                "exercise": self.exercise.name,
-                "title": self.exercise.title,
-                "max_points": self.exercise.max_points,
-                "deadline_s": self._deadline_s(),
-                "now_s": wall_time_s(),
-                "students": students,
-            }
-        )
+        while True:  # one making at a time, for every teacher's page: of this version, or the next to come
+            version, making = self._version, self._table_making
+            if making is not None and making[0] == version and not _failed(making[1]):
+                break
+            if making is not None and not making[1].done():  # an earlier version's, under way: then this one
+                await asyncio.wait([asyncio.shield(making[1])])
+                continue
+            stale, self._stale = self._stale, set()  # the making reads these again (every row, if None)
+            making = (version, asyncio.get_running_loop().run_in_executor(self._views, self._table_now, stale))
+            self._table_making = making
+            break
+        rows = await asyncio.shield(making[1])
+        head = {
+            "version": making[0],
+            "exercise": self.exercise.name,
+            "title": self.exercise.title,
+            "max_points": self.exercise.max_points,
+            "deadline_s": self._deadline_s(),
+            "now_s": wall_time_s(),
+        }
+        body = json.dumps(head).encode()[:-1] + b', "students": ' + rows + b"}"
+        return web.Response(body=body, content_type="application/json", headers=NO_STORE)
+
+    def _table_now(self, stale: set[str] | None) -> bytes:
+        """The class table's rows as JSON, read again for the ``stale`` students alone (None: all), off the loop.
+
+        A long lesson's thousands of works are read once; after that, each change reads the works of the
+        student it is of. Should a making fail, the next reads every row.
+        """
+        try:
+            if self._table_rows is None or stale is None:
+                self._table_rows = {row["id"]: self._shown_row(row) for row in self.store.summary()}
+            elif stale:
+                for row in self.store.summary(stale):
+                    student = row["id"]
+                    self._table_rows[student] = self._shown_row(row)
+            return json.dumps(list(self._table_rows.values())).encode()
+        except BaseException:
+            self._table_rows = None
+            raise
+
+    def _shown_row(self, row: dict[str, Any]) -> dict[str, Any]:
+        """A student's row of the class table as the teacher's page shows it."""
+        row["id"], row["name"] = printable(row["id"]), printable(row["name"])
+        # a work made from blocks: its page opens with them (#as-blocks), as its student last saw it
+        row["latest_page"] = _as_seen(self._page_url(row.pop("last_graded")), row.pop("last_graded_as"))
+        row["handin_page"] = _as_seen(self._page_url(row.pop("last_handin")), row.pop("last_handin_as"))
+        return row
 
     async def _overview_of(self, request: web.Request) -> web.Response:
         """The class at a glance (:func:`class_overview`) of each student's latest graded work.
 
-        Made once for each version of the class, one making at a time, off the loop: a teacher's pages asking
-        as often as they like cost at most one making under way, and none while the class has not changed.
+        Made once for each version of the class, one making at a time, off the loop, at most one every
+        :data:`OVERVIEW_EVERY_S`: a teacher's pages asking as often as they like cost at most one making under
+        way, and none while the class has not changed. Each answer is of the class as it was when asked, or later.
         """
         if not self._teacher(request):
             return _refusal(401, "the class at a glance is the teacher's: use the teacher's token")
-        version, making = self._version, self._overview_making
-        if making is None or (making[0] != version and making[1].done()) or _failed(making[1]):
+        while True:  # one making at a time, at most one every OVERVIEW_EVERY_S, of the class as it is then
+            version, making = self._version, self._overview_making
+            if making is not None and making[0] == version and not _failed(making[1]):
+                break
+            if making is not None and not making[1].done():  # an earlier version's, under way: then this one
+                await asyncio.wait([asyncio.shield(making[1])])
+                continue
+            wait_s = self._overview_at_s + OVERVIEW_EVERY_S - self._clock.now()
+            if wait_s > 0:  # made lately: the changes meanwhile are shown together, a little later
+                await asyncio.sleep(wait_s)
+                continue
             loop = asyncio.get_running_loop()
-            making = (version, loop.run_in_executor(self._chores, self._overview_now, version))
-            self._overview_making = making
-        body = await asyncio.shield(making[1])  # the making of an earlier version, while it is under way
+            making = (version, loop.run_in_executor(self._views, self._overview_now, version))
+            self._overview_making, self._overview_at_s = making, self._clock.now()
+            break
+        body = await asyncio.shield(making[1])
         return web.Response(body=body, content_type="application/json", headers=NO_STORE)
 
     def _overview_now(self, version: int) -> bytes:

@@ -351,6 +351,53 @@ def test_the_class_at_a_glance_is_each_student_s_latest_graded_work_made_once_a_
     assert seen["maps"][1]["collisions"] and seen["worlds"][seen["maps"][1]["world"]]["arena_mm"] == [3000, 1200]
 
 
+def test_the_class_table_reads_again_the_rows_of_the_students_who_changed_alone(served):
+    server, codes = served
+    read: list[object] = []
+    summary = server.store.summary
+    server.store.summary = lambda students=None: (read.append(students and sorted(students)), summary(students))[1]
+    status, first = call(server, "/api/class", code="teacher-token", method="GET")
+    assert status == 200 and read == [None]  # the first table reads every row
+    assert call(server, "/api/run", {"mission": SOLUTION}, codes["s1"])[0] == 200  # Ada signs in and runs
+    status, table = call(server, "/api/class", code="teacher-token", method="GET")
+    assert read == [None, ["s1"]] and table["version"] > first["version"]  # her row alone is read again
+    ada, bob = table["students"]
+    assert (ada["id"], ada["runs"], ada["signed_in"] != "", ada["latest_page"] is not None) == ("s1", 1, True, True)
+    assert (bob["id"], bob["runs"], bob["signed_in"]) == ("s2", 0, "")
+    assert call(server, "/api/class", code="teacher-token", method="GET")[1] == {**table, "now_s": ANY_NUMBER}
+    assert read == [None, ["s1"]]  # nothing changed: nothing read
+    assert call(server, "/api/deadline", {"deadline_s": None}, "teacher-token")[0] == 200  # any row may change
+    call(server, "/api/class", code="teacher-token", method="GET")
+    assert read[-1] is None
+
+
+class _AnyNumber:
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, float)
+
+
+ANY_NUMBER = _AnyNumber()
+
+
+def test_the_class_at_a_glance_is_made_at_most_every_few_seconds_and_shows_the_class_as_it_is_then(
+    served, monkeypatch
+):
+    import autonomy.liveclass.server as server_module
+
+    monkeypatch.setattr(server_module, "OVERVIEW_EVERY_S", 1.0)
+    server, codes = served
+    made: list[int] = []
+    making = server._overview_now
+    server._overview_now = lambda version: (made.append(version), making(version))[1]
+    asked_s = time.monotonic()  # before the first making: the second starts a second after it, at the soonest
+    assert call(server, "/api/overview", code="teacher-token", method="GET")[1]["graded"] == 0
+    assert call(server, "/api/run", {"mission": SOLUTION}, codes["s1"])[0] == 200  # a change, and another
+    assert call(server, "/api/run", {"mission": SOLUTION}, codes["s2"])[0] == 200
+    status, seen = call(server, "/api/overview", code="teacher-token", method="GET")
+    assert status == 200 and seen["graded"] == 2 and seen["version"] == server._version  # not an older making
+    assert len(made) == 2 and time.monotonic() - asked_s >= 1.0  # the second waited for its turn: both changes in it
+
+
 def test_the_exports_hold_each_student_s_last_hand_in(served):
     server, codes = served
     call(server, "/api/handin", {"mission": TYPO.replace("mvoe", "move")}, codes["s1"])
