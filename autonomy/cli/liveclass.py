@@ -61,7 +61,7 @@ def _serve(
 
     from autonomy.classroom.gradescope import build_autograder
     from autonomy.classroom.secret import SecretError, read_secret
-    from autonomy.liveclass.server import DEADLINE, EXERCISE, TEACHER_TOKEN, ClassServer
+    from autonomy.liveclass.server import DEADLINE, EXERCISE, TEACHER_TOKEN, ClassServer, disk_said
     from autonomy.liveclass.store import token_digest
 
     folder = Path(args.dir)
@@ -138,6 +138,7 @@ def _serve(
     links = _write_links(folder / "codes.csv", f"http://{f'[{first}]' if ':' in first else first}:{server.port}/")
     if links is not None:
         print(f"each student's sign-in link (no code to type) is in {links}", file=sys.stderr)
+    print(disk_said(students), file=sys.stderr)
     print(f"http://{shown}:{server.port}/", flush=True)
     signal.signal(signal.SIGTERM, _interrupt)
     try:

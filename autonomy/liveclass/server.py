@@ -81,8 +81,9 @@ from autonomy.views.web import BoundedServer, address_group, nonced_page, query_
 
 #: Runs one student may start in a minute; past that they are told when they can run again.
 RUNS_PER_MINUTE = 10
-#: Hand-ins one student may make in a minute.
+#: Hand-ins one student may make in a minute, and in an hour (every hand-in is kept for good: see :func:`disk_bound`).
 HANDINS_PER_MINUTE = 4
+HANDINS_PER_HOUR = 20
 #: A wrong guess is forgotten after this long without another from the same address.
 GUESS_MEMORY_S = 600.0
 #: Checks at once (drawing a tree of 500 nodes takes a tenth of a second): off the server's loop.
@@ -122,10 +123,25 @@ GRADING_WINDOW_S = 60.0
 RUN_PAGES_KEPT = 5
 HANDIN_PAGES_KEPT = 20
 MAX_PAGE_BYTES = 8 * 1024 * 1024
+#: Bytes of the pages kept per student, their runs' and their hand-ins': the newest first, within the counts above.
+RUN_PAGE_BYTES_KEPT = 8 * 1024 * 1024
+HANDIN_PAGE_BYTES_KEPT = 16 * 1024 * 1024
+#: Runs of a student whose seeds' results (their maps) are kept: their last; the older keep their marks.
+RUN_RESULTS_KEPT = 5
+#: Largest result kept with a work, as JSON: past it, its seeds' maps (paths, contacts, beeps, turns) are left out.
+MAX_RESULT_BYTES = 64 * 1024
+#: Longest problem kept with a work (the first of them: the class table shows it).
+MAX_PROBLEM_CHARS = 500
+#: What a work's row holds besides its text and its result (the date, the mark, the problem, the indexes), at most.
+WORK_ROW_BYTES = 4 * MAX_PROBLEM_CHARS + 512
+#: What the database's write-ahead log may hold before it is folded back (SQLite's default: 1,000 pages of 4 KB).
+WAL_BYTES = 4 * 1024 * 1024
 #: A student whose grading took longer than :data:`LONG_GRADING_S` within this long is graded in the lane for anyone.
 SLOW_MEMORY_S = 600.0
 #: Texts of a student's runs kept in the class's database, their last (every hand-in's is kept).
 RUN_TEXTS_KEPT = 20
+#: A mission's text is at most this many bytes (UTF-8: at most four a character).
+MAX_TEXT_BYTES = 4 * MAX_MISSION_CHARS
 #: Problems kept with a work that had problems (a student sees them all when they check).
 PROBLEMS_KEPT = 20
 #: What a student is told who sends a request while their last is under way.
@@ -223,6 +239,46 @@ def _costed(work: Callable[..., Any], *args: Any) -> tuple[Any, float]:
 def _failed(future: asyncio.Future[Any]) -> bool:
     """Whether a making ended without its result (to be made again, not answered 500 until the class changes)."""
     return future.done() and (future.cancelled() or future.exception() is not None)
+
+
+def _bounded(result: dict[str, Any]) -> dict[str, Any]:
+    """A work's result as kept: within :data:`MAX_RESULT_BYTES`, its seeds' maps left out if need be, then its seeds."""
+    if len(json.dumps(result)) <= MAX_RESULT_BYTES:
+        return result
+    maps = ("path", "collisions", "beeps", "turns")
+    seeds = [{key: ([] if key in maps else value) for key, value in seed.items()} for seed in result.get("seeds", [])]
+    smaller = {**result, "seeds": seeds, "problems": result.get("problems", [])[:PROBLEMS_KEPT]}
+    if len(json.dumps(smaller)) <= MAX_RESULT_BYTES:
+        return smaller
+    return {key: value for key, value in smaller.items() if key in ("total", "max_points", "marks", "written_as")}
+
+
+def disk_bound(students: int, hours: float) -> tuple[int, int, int]:
+    """The most a class keeps on disk, in bytes, however its students send their works.
+
+    Returns a student's at any time, what a student adds an hour, and a lesson's of ``students`` for
+    ``hours``. At any time: a student's pages (their last runs' and hand-ins', within
+    :data:`RUN_PAGE_BYTES_KEPT` and :data:`HANDIN_PAGE_BYTES_KEPT`; pages past them are removed as they
+    go, and two more may be on their way), and their last runs' texts and results. Every hour: their
+    hand-ins (each text twice, in its file and in the database, and its result) and their runs' rows,
+    each as often as the rate limits let them.
+    """
+    pages = RUN_PAGE_BYTES_KEPT + HANDIN_PAGE_BYTES_KEPT + 2 * MAX_PAGE_BYTES
+    at_once = pages + RUN_TEXTS_KEPT * MAX_TEXT_BYTES + RUN_RESULTS_KEPT * MAX_RESULT_BYTES
+    hand_in = 2 * MAX_TEXT_BYTES + MAX_RESULT_BYTES + WORK_ROW_BYTES
+    hourly = HANDINS_PER_HOUR * hand_in + 60 * RUNS_PER_MINUTE * WORK_ROW_BYTES  # an old run: its row alone
+    return at_once, hourly, math.ceil(students * (at_once + hourly * hours)) + WAL_BYTES
+
+
+def disk_said(students: int, hours: float = 2.0) -> str:
+    """What ``class serve`` says at its start of the class's disk: :func:`disk_bound`'s figures, in one line."""
+    at_once, hourly, lesson = disk_bound(students, hours)
+    return (
+        f"disk: at most {lesson / 2**30:.1f} GB for a {hours:g}-hour lesson of {students} students "
+        f"({at_once / 2**20:.0f} MB a student at once: the pages of their last {RUN_PAGES_KEPT} runs and "
+        f"{HANDIN_PAGES_KEPT} hand-ins, their last runs' texts; {hourly / 2**20:.0f} MB more a student an hour, "
+        "handing in as often as allowed); older pages are removed as they go (the exports keep each last hand-in's)"
+    )
 
 
 def _report_of(result: dict[str, Any]) -> Report:
@@ -650,6 +706,13 @@ class ClassServer(BoundedServer):
                 wait_s = 60.0 - (now_s - done[0])
                 why = f"{most} {'hand-ins' if hand_in else 'runs'} a minute at most: you can {verb} again in"
                 return _come_back(429, f"{why} {max(1, math.ceil(wait_s))} s", wait_s)
+            hour = self._runs.setdefault((student.id, "handin-hour"), collections.deque()) if hand_in else None
+            while hour and now_s - hour[0] >= 3600.0:
+                hour.popleft()
+            if hour is not None and len(hour) >= HANDINS_PER_HOUR:
+                wait_s = 3600.0 - (now_s - hour[0])
+                why = f"{HANDINS_PER_HOUR} hand-ins an hour at most: you can hand in again in"
+                return _come_back(429, f"{why} {max(1, math.ceil(wait_s / 60))} min", wait_s)
             ended_s, took_s = self._long.get(student.id, (0.0, 0.0))
             if now_s < ended_s + took_s:  # their last grading was long: the others' go first
                 wait_s = ended_s + took_s - now_s
@@ -659,17 +722,19 @@ class ClassServer(BoundedServer):
             if isinstance(mission, web.Response):
                 return mission
             done.append(self._clock.now())
+            if hour is not None:
+                hour.append(self._clock.now())
             return await self._grade(student, mission, kind, request.query.get("as") == "blocks")
         finally:
             self._done(student)
 
     async def _grade(self, student: Student, mission: str, kind: str, from_blocks: bool = False) -> web.Response:
         loop = asyncio.get_running_loop()
-        forget = {"runs_kept": RUN_TEXTS_KEPT} if kind == "run" else {}
+        forget = {"runs_kept": RUN_TEXTS_KEPT, "results_kept": RUN_RESULTS_KEPT} if kind == "run" else {}
         checked = await loop.run_in_executor(self._checkers, check, self.exercise, mission)
         if not checked["ok"]:
             first = checked["problems"][0]
-            problem = f"line {first['line']}, column {first['column']}: {first['message']}"
+            problem = f"line {first['line']}, column {first['column']}: {first['message']}"[:MAX_PROBLEM_CHARS]
             kept = {"problems": checked["problems"][:PROBLEMS_KEPT]}
             # a refused run's text is one of the runs' texts kept: the last ones alone
             self.store.add_work(student.id, kind, mission[:MAX_MISSION_CHARS], kept, problem=problem, **forget)
@@ -717,9 +782,11 @@ class ClassServer(BoundedServer):
 
         Where it cannot be kept, nothing of it is: its files go too, and it raises (see :meth:`_keeping`).
         """
-        forget = {"runs_kept": RUN_TEXTS_KEPT} if kind == "run" else {}
+        forget = {"runs_kept": RUN_TEXTS_KEPT, "results_kept": RUN_RESULTS_KEPT} if kind == "run" else {}
         try:
-            self.store.add_work(student, kind, mission, result, total, most, why, number=number, **forget)
+            self.store.add_work(
+                student, kind, mission, _bounded(result), total, most, why[:MAX_PROBLEM_CHARS], number=number, **forget
+            )
         except StoreError:
             self._let_go(student, number, kind)
             raise
@@ -791,16 +858,25 @@ class ClassServer(BoundedServer):
         """Bounds what a student keeps on disk; whether this work's page is kept.
 
         No page over :data:`MAX_PAGE_BYTES`; the pages of their last :data:`RUN_PAGES_KEPT` runs and
-        :data:`HANDIN_PAGES_KEPT` hand-ins; the texts of their last :data:`RUN_TEXTS_KEPT` runs, in the
-        database alone (a hand-in's text is kept for good, in both).
+        :data:`HANDIN_PAGES_KEPT` hand-ins, within :data:`RUN_PAGE_BYTES_KEPT` and
+        :data:`HANDIN_PAGE_BYTES_KEPT` (the newest first); the texts of their last :data:`RUN_TEXTS_KEPT` runs,
+        in the database alone (a hand-in's text is kept for good, in both).
         """
         try:
             if page.stat().st_size > MAX_PAGE_BYTES:
                 page.unlink()
-            last = count - (HANDIN_PAGES_KEPT if kind == "handin" else RUN_PAGES_KEPT)
-            for work in self.store.work_list(student, kind):
-                if work["count"] <= last:
-                    page_file(self.folder, student, work["number"]).unlink(missing_ok=True)
+            if kind == "handin":
+                most, most_bytes = HANDIN_PAGES_KEPT, HANDIN_PAGE_BYTES_KEPT
+            else:
+                most, most_bytes = RUN_PAGES_KEPT, RUN_PAGE_BYTES_KEPT
+            kept_bytes = 0
+            # the newest first; one past the count too (the older ones went when they were past it)
+            for k, older in enumerate(self.store.latest(student, kind, most + 1)):
+                path = page_file(self.folder, student, older)
+                size = path.stat().st_size if path.is_file() else 0
+                kept_bytes += size
+                if k >= most or (k > 0 and kept_bytes > most_bytes):
+                    path.unlink(missing_ok=True)
             if kind == "run":  # the database keeps its text (the last runs' alone)
                 self._let_go(student, number, kind, page_too=False)
             return page.is_file()

@@ -262,6 +262,7 @@ class ClassStore:
         problem: str = "",
         number: int | None = None,
         runs_kept: int | None = None,
+        results_kept: int | None = None,
     ) -> int:
         """Keeps a run or a hand-in, in one write committed to disk before it returns; its number.
 
@@ -277,6 +278,9 @@ class ClassStore:
                 default: the next one.
             runs_kept: Forget, in the same write, the texts of the student's runs but their last ``runs_kept``
                 (see :meth:`forget_old_runs`).
+            results_kept: Forget, in the same write, the results of the student's runs but their last
+                ``results_kept`` (each keeps its mark and its first problem, in its row; and why the server
+                failed it, if it did).
         """
         number = self.new_number() if number is None else number  # never one given out for a work under way
         row = (student, kind, wall_date(), source, total, max_points, problem, json.dumps(result))
@@ -289,6 +293,15 @@ class ClassStore:
         ]
         if runs_kept is not None:
             statements.append(_forgetting(student, runs_kept))
+        if results_kept is not None:  # an old run keeps its mark and its first problem, in its row
+            older = "SELECT id FROM works WHERE student = ? AND kind = 'run' ORDER BY id DESC LIMIT -1 OFFSET ?"
+            statements.append(
+                (
+                    f"UPDATE works SET result = '{{}}' WHERE id IN ({older}) AND result != '{{}}' "  # noqa: S608
+                    "AND json_type(result, '$.error') IS NULL AND json_type(result, '$.grading') IS NULL",
+                    (student, results_kept),
+                )
+            )
         kept = self._write(statements)
         with self._lock:
             self._last_number = max(self._last_number, kept)
@@ -346,6 +359,13 @@ class ClassStore:
         )
         keys = ("number", "kind", "count", "at", "total", "max_points", "problem", "written_as")
         return [dict(zip(keys, row, strict=True)) for row in rows]
+
+    def latest(self, student: str, kind: str, count: int) -> list[int]:
+        """The numbers of a student's last ``count`` works of ``kind``, the newest first."""
+        rows = self._read(
+            "SELECT id FROM works WHERE student = ? AND kind = ? ORDER BY id DESC LIMIT ?", (student, kind, count)
+        )
+        return [row[0] for row in rows]
 
     def last_source(self, student: str) -> str:
         """The text of a student's last run or hand-in ("" if none)."""

@@ -85,6 +85,19 @@ def test_a_hand_in_acknowledged_right_before_a_kill_9_is_there_with_its_marks_af
     assert again.returncode == 0 and "Traceback" not in said
 
 
+def test_serve_says_at_its_start_what_a_lesson_of_the_class_may_keep_on_disk(tmp_path):
+    from autonomy.liveclass.server import disk_said
+
+    (tmp_path / "roster.csv").write_text("id,name,submission\n1001,Ada Lovelace,ada\n1002,Bob Jones,bob\n")
+    server, _, _ = serve(tmp_path)
+    try:
+        lines = [server.stderr.readline().rstrip("\n") for _ in range(2)]  # the links' line, then the disk's
+    finally:
+        server.send_signal(signal.SIGINT)
+        server.communicate(timeout=30)
+    assert lines[-1] == disk_said(2) and "GB for a 2-hour lesson of 2 students" in lines[-1]
+
+
 def test_a_deadline_given_to_serve_closes_hand_ins_and_is_said(tmp_path):
     (tmp_path / "roster.csv").write_text("id,name,submission\n1001,Ada Lovelace,ada\n")
     process = subprocess.Popen(

@@ -379,9 +379,7 @@ class _AnyNumber:
 ANY_NUMBER = _AnyNumber()
 
 
-def test_the_class_at_a_glance_is_made_at_most_every_few_seconds_and_shows_the_class_as_it_is_then(
-    served, monkeypatch
-):
+def test_the_class_at_a_glance_is_made_at_most_every_few_seconds_and_shows_the_class_as_it_is_then(served, monkeypatch):
     import autonomy.liveclass.server as server_module
 
     monkeypatch.setattr(server_module, "OVERVIEW_EVERY_S", 1.0)
@@ -451,6 +449,62 @@ def test_a_page_too_large_is_not_kept_and_a_student_s_older_run_pages_go(served,
     assert pages == sorted(page_file(server.folder, "s1", a["number"]).name for a in answers[-RUN_PAGES_KEPT:])
     kept = [page_file(server.folder, "s1", answer["number"]).is_file() for answer in answers]
     assert kept == [False] * 3 + [True] * RUN_PAGES_KEPT
+
+
+def test_a_student_s_pages_are_kept_within_their_bytes_and_old_runs_keep_their_marks_alone(served, monkeypatch):
+    import autonomy.liveclass.server as server_module
+
+    server, codes = served
+    _, first = call(server, "/api/run", {"mission": SOLUTION}, codes["s1"])
+    size = page_file(server.folder, "s1", first["number"]).stat().st_size
+    monkeypatch.setattr(server_module, "RUN_PAGE_BYTES_KEPT", int(2.5 * size))  # room for two of them, not five
+    monkeypatch.setattr(server_module, "RUN_RESULTS_KEPT", 3)
+    numbers = [first["number"]] + [
+        call(server, "/api/run", {"mission": SOLUTION}, codes["s1"])[1]["number"] for _ in range(5)
+    ]
+    kept = [page_file(server.folder, "s1", n).is_file() for n in numbers]
+    assert kept == [False] * 4 + [True] * 2  # the newest first, within the bytes
+    works = [server.store.work(n) for n in numbers]
+    assert [bool(w.result) for w in works] == [False] * 3 + [True] * 3  # the last runs' results alone
+    assert all(w.total == 10 and w.problem == "" for w in works)  # the older keep their marks
+    assert server.store.summary(["s1"])[0]["runs"] == 6  # and are counted
+
+
+def test_a_result_too_large_to_keep_loses_its_maps_and_keeps_its_marks():
+    from autonomy.liveclass.server import MAX_RESULT_BYTES, _bounded
+
+    seed = {"seed": 1, "shares": [1.0], "path": [[0.0, 0.0]] * 20_000, "collisions": [], "beeps": [], "turns": []}
+    result = {"total": 7.5, "max_points": 10, "marks": [7.5], "problems": [], "seeds": [seed] * 3}
+    kept = _bounded(result)
+    assert len(json.dumps(kept)) <= MAX_RESULT_BYTES < len(json.dumps(result))
+    assert (kept["total"], kept["marks"]) == (7.5, [7.5]) and kept["seeds"][0] == {**seed, "path": []}
+    assert _bounded({**result, "seeds": [seed]}) == {**result, "seeds": [{**seed, "path": []}]}
+    small = {**result, "seeds": [{**seed, "path": [[1.0, 2.0]]}]}
+    assert _bounded(small) is small  # within the bound: kept whole
+
+
+def test_a_student_hands_in_so_many_times_an_hour_and_is_told_when_again(served, monkeypatch):
+    import autonomy.liveclass.server as server_module
+
+    server, codes = served
+    monkeypatch.setattr(server_module, "HANDINS_PER_HOUR", 2)
+    assert [call(server, "/api/handin", {"mission": SOLUTION}, codes["s1"])[0] for _ in range(2)] == [200, 200]
+    status, said = call(server, "/api/handin", {"mission": SOLUTION}, codes["s1"])
+    assert status == 429 and said["error"].startswith("2 hand-ins an hour at most: you can hand in again in 60 min")
+    assert call(server, "/api/handin", {"mission": SOLUTION}, codes["s2"])[0] == 200  # another's are their own
+
+
+def test_the_disk_a_lesson_may_take_is_said_from_the_bounds_it_is_kept_within():
+    from autonomy.liveclass import server as bounds
+
+    at_once, hourly, lesson = bounds.disk_bound(300, 2.0)
+    pages = bounds.RUN_PAGE_BYTES_KEPT + bounds.HANDIN_PAGE_BYTES_KEPT + 2 * bounds.MAX_PAGE_BYTES
+    assert at_once >= pages + bounds.RUN_TEXTS_KEPT * bounds.MAX_TEXT_BYTES
+    assert hourly >= bounds.HANDINS_PER_HOUR * (2 * bounds.MAX_TEXT_BYTES + bounds.MAX_RESULT_BYTES)
+    assert lesson == 300 * (at_once + 2 * hourly) + bounds.WAL_BYTES
+    said = bounds.disk_said(300)
+    assert said.startswith(f"disk: at most {lesson / 2**30:.1f} GB for a 2-hour lesson of 300 students")
+    assert "\n" not in said
 
 
 def costing(graded, cpu_s: float, wall_s: float = 0.0, clock: VirtualClock | None = None):
