@@ -15,7 +15,12 @@ Targets: p95 under 100 ms for a check, 2 s for a run and 3 s for a hand-in; none
 lost; the server under 500 MB; the class folder under 1 GB; the teacher's page answered at
 least every 2 s.
 
-Usage: python benchmarks/liveclass.py [--seconds S] [--students N]
+With ``--dask N``, the class is graded on a Dask LocalCluster of N worker processes on loopback
+(one thread each, started in a process of its own) in place of the server's own workers.
+
+Also reports the server's own CPU time (its process alone, not its workers'), a request.
+
+Usage: python benchmarks/liveclass.py [--seconds S] [--students N] [--dask N]
 """
 
 from __future__ import annotations
@@ -24,6 +29,7 @@ import argparse
 import asyncio
 import collections
 import csv
+import os
 import random
 import re
 import statistics
@@ -175,19 +181,45 @@ def folder_mb(folder: Path) -> float:
     return sum(f.stat().st_size for f in folder.rglob("*") if f.is_file()) / 2**20
 
 
+#: A LocalCluster of N workers on loopback, in a process of its own: prints its address, lives until stdin closes.
+CLUSTER = """
+import sys
+import dask, distributed
+with dask.config.set({"distributed.worker.daemon": False}):
+    with distributed.LocalCluster(n_workers=int(sys.argv[1]), threads_per_worker=1, processes=True,
+                                  host="127.0.0.1", dashboard_address=None) as cluster:
+        print(cluster.scheduler_address, flush=True)
+        sys.stdin.read()
+"""
+
+
+def cpu_s(pid: int) -> float:
+    """A process's own CPU time so far (user and system, not its children's)."""
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seconds", type=float, default=300.0)
     parser.add_argument("--students", type=int, default=300)
+    parser.add_argument("--dask", type=int, default=0, help="grade on a LocalCluster of this many workers")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as folder:
         roster = Path(folder) / "roster.csv"
         roster.write_text(
             "id,name,submission\n" + "".join(f"{1000 + i},Student {i},s{i}\n" for i in range(args.students))
         )
+        cluster, on = None, []
+        if args.dask:
+            cluster = subprocess.Popen(
+                [sys.executable, "-c", CLUSTER, str(args.dask)],
+                cwd=ROOT, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
+            )  # fmt: skip
+            on = ["--dask", cluster.stdout.readline().strip()]
         server = subprocess.Popen(
             [sys.executable, "-m", "autonomy", "class", "serve", "garage", "--roster", str(roster)]
-            + ["--dir", str(Path(folder) / "class"), "--port", "0"],
+            + ["--dir", str(Path(folder) / "class"), "--port", "0", *on],
             cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
         )  # fmt: skip
         try:
@@ -196,13 +228,20 @@ def main() -> None:
             url = server.stdout.readline().strip()
             with (Path(folder) / "class" / "codes.csv").open() as stream:
                 codes = [row["code"] for row in csv.DictReader(stream)]
+            before_s = cpu_s(server.pid)
             seen = asyncio.run(play(url, codes, token, args.seconds))
+            server_cpu_s = cpu_s(server.pid) - before_s
             rss_mb, all_mb = memory_mb(server.pid)
             kept_mb = folder_mb(Path(folder) / "class")
         finally:
             server.terminate()
             server.wait(timeout=30)
-    print(f"{args.students} students, {args.seconds:g} s, each from an address of their own")
+            if cluster is not None:
+                cluster.communicate("", timeout=60)
+    where = f"on a LocalCluster of {args.dask} workers" if args.dask else "by the server's own workers"
+    print(f"{args.students} students, {args.seconds:g} s, each from an address of their own; graded {where}")
+    requests = sum(len(got["times"]) + len(got["refused"]) for got in seen.values())
+    print(f"the server's own CPU: {server_cpu_s / requests * 1000:.2f} ms a request ({requests} requests)")
     print(
         f"the server's memory at the end: {rss_mb} MB, {all_mb} MB with its workers; the class folder: {kept_mb:.0f} MB"
     )

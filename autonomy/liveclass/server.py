@@ -406,7 +406,12 @@ class ClassServer(BoundedServer):
         self._spent: dict[str, collections.deque[tuple[float, float]]] = {}
         #: Two gradings at once (the machine's two cores), in two lanes: anyone's, and one for students whose
         #: gradings are quick; and how many wait in each.
-        self._lanes = [ThreadPoolExecutor(1, thread_name_prefix=f"autonomy-grading-{n}") for n in ("any", "quick")]
+        # (on a cluster, each lane as many as half its workers' threads: the cluster's lanes in place of this machine's)
+        slots = getattr(grader, "slots", 2)
+        self._lanes = [
+            ThreadPoolExecutor(size, thread_name_prefix=f"autonomy-grading-{name}")
+            for name, size in (("any", max(1, slots // 2)), ("quick", max(1, slots - slots // 2)))
+        ]
         self._waiting = [0, 0]
         self._checkers = ThreadPoolExecutor(CHECKS_AT_ONCE, thread_name_prefix="autonomy-check")
         #: Costly checks, in a process of their own: what they cost is not the GIL the server's loop needs.

@@ -8,6 +8,7 @@ from __future__ import annotations
 import dataclasses
 import queue
 import tempfile
+import threading
 from pathlib import Path
 from typing import Any
 
@@ -257,8 +258,32 @@ def grade_on_worker(
 
         return call_in_child(grade_on_worker, exercise, student, text, number, hand_in, label, cpu_s)
     with tempfile.TemporaryDirectory(prefix="autonomy-class-") as folder:
-        report, page = grade_text(exercise, student, text, Path(folder), number, hand_in, label, cpu_s)
+        report, page = _warm_for(exercise)(exercise, student, text, Path(folder), number, hand_in, label, cpu_s)
         return report, page.read_bytes()
+
+
+#: Exercises a Dask worker keeps warm workers for at once (a cluster may grade several classes).
+WARM_EXERCISES = 4
+#: On a Dask worker: each exercise's warm workers, by the exercise (sent once, as :class:`DaskGrader` does).
+_WARM: dict[int, LocalGrader] = {}
+_WARM_LOCK = threading.Lock()
+
+
+def _warm_for(exercise: Exercise) -> LocalGrader:
+    """The warm workers of ``exercise`` in this process, started at its first grading; as many as its threads."""
+    with _WARM_LOCK:
+        grader = _WARM.get(id(exercise))
+        if grader is None:
+            try:
+                from distributed import get_worker
+
+                lanes = get_worker().state.nthreads
+            except (ImportError, ValueError, AttributeError):
+                lanes = 1
+            while len(_WARM) >= WARM_EXERCISES:  # the oldest class's go
+                _WARM.pop(next(iter(_WARM))).close()
+            grader = _WARM[id(exercise)] = LocalGrader(exercise, lanes=max(1, lanes))
+        return grader
 
 
 class LocalGrader:
@@ -332,6 +357,15 @@ class DaskGrader:
     def __init__(self, address: str) -> None:
         self._address = address
         self._client = connect(address)
+        self._exercise: tuple[Exercise, Any] | None = None  # sent to every worker once, and kept there
+        #: The gradings the cluster does at once: its workers' threads when it was joined.
+        self.slots = max(1, sum(w.get("nthreads", 1) for w in self._client.scheduler_info()["workers"].values()))
+
+    def _sent(self, exercise: Exercise) -> Any:
+        """The exercise as the workers hold it (sent at its first grading): each keeps its warm workers for it."""
+        if self._exercise is None or self._exercise[0] is not exercise:
+            self._exercise = (exercise, self._client.scatter(exercise, broadcast=True, hash=False))
+        return self._exercise[1]
 
     def __call__(
         self,
@@ -346,7 +380,9 @@ class DaskGrader:
     ) -> tuple[Report, Path]:
         """Grades one work on the cluster; keeps its text and its page in ``folder`` as :func:`grade_text` does."""
         _keep(folder, student, text, number, hand_in)
-        task = self._client.submit(grade_on_worker, exercise, student, text, number, hand_in, label, cpu_s, pure=False)
+        task = self._client.submit(
+            grade_on_worker, self._sent(exercise), student, text, number, hand_in, label, cpu_s, pure=False
+        )
         ((_, (report, page)),) = results(self._client, [task], self._address)
         path = page_file(folder, student, number)
         path.parent.mkdir(parents=True, exist_ok=True)

@@ -62,3 +62,26 @@ def test_serve_with_no_scheduler_at_the_address_says_so_in_one_line(tmp_path):
     )  # fmt: skip
     assert done.returncode == 2 and done.stdout == ""
     assert done.stderr.count("\n") == 1 and "no Dask scheduler answers there" in done.stderr
+
+
+#: Run on each worker of the cluster: the process ids of the grading workers it keeps warm.
+WARM_PIDS = "[w.pid for g in __import__('autonomy.liveclass.work', fromlist=['_WARM'])._WARM.values() for w in g._all]"
+
+
+def test_a_cluster_s_workers_keep_their_grading_workers_from_one_work_to_the_next(cluster, tmp_path):  # noqa: F811
+    from autonomy.liveclass.work import DaskGrader
+
+    exercise = load_exercise(ROOT / "exercises" / "garage.yaml").with_secret(b"a class's secret")
+    grader = DaskGrader(cluster)
+    try:
+        assert grader.slots == 2  # the cluster's two workers, a thread each: the server's two lanes
+        first = [grader(exercise, "ada", SOLUTION, tmp_path, k, False, "run")[0] for k in range(1, 5)]
+        warm = grader._client.run(eval, WARM_PIDS)
+        later = [grader(exercise, "ada", WRONG, tmp_path, k, True, "hand-in")[0] for k in range(5, 9)]
+        still = grader._client.run(eval, WARM_PIDS)
+    finally:
+        grader.close()
+    here = grade_text(exercise, "ada", WRONG, tmp_path / "here", 9, True, "hand-in")[0]
+    assert [r.total for r in first] == [10.0] * 4 and {r.total for r in later} == {here.total}
+    assert any(pid is not None for pids in warm.values() for pid in pids)  # started at a worker's first grading
+    assert still == warm  # and the same processes graded the works after
