@@ -59,12 +59,47 @@ class WarmWorkers:
         self._ready: _Running | None = None
         self._busy: _Running | None = None
         self._closed = False
+        #: Guards the workers ready and busy, and whether they were closed (``close`` takes it too, not ``_lock``).
+        self._state = threading.Lock()
 
     def start(self) -> None:
         """Starts the worker now, if none is ready: the first work does not wait for its start."""
         with self._lock:
+            self._prestart()
+
+    def _prestart(self) -> None:
+        """A worker ready for the next work, started now unless one is (or the workers were closed)."""
+        with self._state:
+            if self._ready is not None or self._closed:
+                return
+        self._keep_ready(self._new())
+
+    def _keep_ready(self, worker: _Running) -> None:
+        """Keeps ``worker`` for the next work; ends it if one is kept already, or the workers were closed."""
+        with self._state:
             if self._ready is None and not self._closed:
-                self._ready = self._new()
+                self._ready = worker
+                return
+        _end(worker)
+
+    def _take(self) -> _Running:
+        """The worker ready (a new one if none is), now busy; raises if the workers were closed."""
+        with self._state:
+            if self._closed:
+                raise RuntimeError("the grading workers were closed")
+            worker, self._ready = self._ready, None
+        worker = worker or self._new()
+        with self._state:
+            if not self._closed:
+                self._busy = worker
+                return worker
+        _end(worker)
+        raise RuntimeError("the grading workers were closed")
+
+    @property
+    def closed(self) -> bool:
+        """Whether the workers were closed (gradings raise)."""
+        return self._closed
 
     @property
     def pid(self) -> int | None:
@@ -102,15 +137,12 @@ class WarmWorkers:
         wall_s = WALL_PER_CPU * cpu_s if wall_s is None else wall_s
         job = Job(student, path.resolve(), exercise, cpu_s, feedback.resolve(), name)
         with self._lock:
-            if self._closed:
-                raise RuntimeError("the grading workers were closed")
             try:
                 outcome = self._graded(job, wall_s)
                 if outcome is None:  # failed where another was graded before: again, in a new worker
                     outcome = self._graded(job, wall_s)
             finally:
-                if self._ready is None and not self._closed:  # the next one starts while nothing waits on it
-                    self._ready = self._new()
+                self._prestart()  # the next one starts while nothing waits on it
         if isinstance(outcome, Report):
             return outcome
         why, counted_s = outcome if outcome is not None else ("the grading failed twice", 0.0)
@@ -118,30 +150,29 @@ class WarmWorkers:
 
     def _graded(self, job: Job, wall_s: float) -> Report | tuple[str, float] | None:
         """One grading in the worker ready (a new one if none is): as :func:`~autonomy.classroom.pool._outcome`."""
-        if self._closed:
-            raise RuntimeError("the grading workers were closed")
-        worker, self._ready = self._ready or self._new(), None
-        self._busy = worker
+        worker = self._take()
         try:
-            worker.channel.send(job)
-        except OSError:  # gone: reading from it says so
-            pass
-        if not wait([worker.channel], timeout=wall_s):
-            _end(worker)
-            return _wall_why(wall_s, job.cpu_s or DEFAULT_CPU_S), 0.0
-        try:
-            result, last = worker.channel.recv()
-        except (EOFError, OSError, ValueError, TypeError):
-            result, last = None, True
+            try:
+                worker.channel.send(job)
+            except OSError:  # gone: reading from it says so
+                pass
+            if not wait([worker.channel], timeout=wall_s):
+                _end(worker)
+                return _wall_why(wall_s, job.cpu_s or DEFAULT_CPU_S), 0.0
+            try:
+                result, last = worker.channel.recv()
+            except (EOFError, OSError, ValueError, TypeError):
+                result, last = None, True
         finally:
-            self._busy = None
+            with self._state:
+                self._busy = None
         if self._closed:  # ended meanwhile: this grading is not answered
             _end(worker)
             raise RuntimeError("the grading workers were closed")
         if last or not isinstance(result, Report):
             _end(worker)
         else:
-            self._ready = worker
+            self._keep_ready(worker)
         outcome = _outcome(worker, result, job.cpu_s or DEFAULT_CPU_S)
         worker.used = True
         return outcome
@@ -160,8 +191,9 @@ class WarmWorkers:
 
     def close(self) -> None:
         """Ends the workers, the one grading now too (its grading raises, as any after this does)."""
-        self._closed = True
-        for worker in (self._busy, self._ready):
-            if worker is not None:
-                _end(worker)
-        self._ready = None
+        with self._state:
+            self._closed = True
+            ending = [worker for worker in (self._busy, self._ready) if worker is not None]
+            self._ready = None
+        for worker in ending:
+            _end(worker)

@@ -273,15 +273,17 @@ def _warm_for(exercise: Exercise) -> LocalGrader:
     """The warm workers of ``exercise`` in this process, started at its first grading; as many as its threads."""
     with _WARM_LOCK:
         grader = _WARM.get(id(exercise))
-        if grader is None:
+        if grader is not None:
+            _WARM[id(exercise)] = _WARM.pop(id(exercise))  # the last used, last to go
+        else:
             try:
                 from distributed import get_worker
 
                 lanes = get_worker().state.nthreads
             except (ImportError, ValueError, AttributeError):
                 lanes = 1
-            while len(_WARM) >= WARM_EXERCISES:  # the oldest class's go
-                _WARM.pop(next(iter(_WARM))).close()
+            while len(_WARM) >= WARM_EXERCISES:  # the least lately used class's go, once their gradings end
+                threading.Thread(target=_WARM.pop(next(iter(_WARM))).retire, daemon=True).start()
             grader = _WARM[id(exercise)] = LocalGrader(exercise, lanes=max(1, lanes))
         return grader
 
@@ -305,6 +307,7 @@ class LocalGrader:
         self._free: queue.SimpleQueue[WarmWorkers] = queue.SimpleQueue()
         for workers in self._all:
             self._free.put(workers)
+        self._closed = False
 
     def start(self) -> None:
         """Starts every worker now, so that the first works do not wait for theirs."""
@@ -323,18 +326,30 @@ class LocalGrader:
         cpu_s: float | None = None,
     ) -> tuple[Report, Path]:
         """Grades one work as :func:`grade_text` does, in a warm worker (in one of its own for another exercise)."""
+        if self._closed:
+            raise RuntimeError("the grading workers were closed")
         if exercise is not self._exercise:
             return grade_text(exercise, student, text, folder, number, hand_in, label, cpu_s)
         workers = self._free.get()
         try:
+            if workers.closed:  # retired (see :meth:`retire`): a worker of its own
+                return grade_text(exercise, student, text, folder, number, hand_in, label, cpu_s)
             return grade_text(exercise, student, text, folder, number, hand_in, label, cpu_s, workers)
         finally:
             self._free.put(workers)
 
     def close(self) -> None:
-        """Ends the workers (a grading under way raises)."""
+        """Ends the workers (a grading under way raises, as any after this does)."""
+        self._closed = True
         for workers in self._all:
             workers.close()
+
+    def retire(self) -> None:
+        """Ends each worker once its grading under way, if any, has ended; a grading after is done cold."""
+        for _ in self._all:
+            workers = self._free.get()
+            workers.close()
+            self._free.put(workers)
 
 
 class DaskGrader:

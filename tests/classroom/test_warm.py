@@ -97,3 +97,45 @@ def test_closing_ends_the_worker_even_during_a_grading_and_no_grading_is_taken_a
         os.kill(pid, 0)
     with pytest.raises(RuntimeError, match="closed"):
         warm.grade("garage", "ada", WORKS[0], tmp_path, "ada")
+
+
+def test_closing_while_a_worker_is_being_started_leaves_none_behind(tmp_path):
+    warm = WarmWorkers({"garage": GARAGE})
+    made = []
+    new = warm._new
+
+    def slow_start():  # the moment a worker takes to start, made long
+        worker = new()
+        made.append(worker)
+        time.sleep(0.5)
+        return worker
+
+    warm._new = slow_start
+    starting = threading.Thread(target=warm.start)
+    starting.start()
+    time.sleep(0.1)
+    warm.close()  # while it starts
+    starting.join(10)
+    assert warm.pid is None and len(made) == 1
+    made[0].process.join(5)
+    assert not made[0].process.is_alive()  # ended as it was kept, not left idle for good
+
+
+def test_a_retired_class_s_workers_finish_the_grading_under_way_and_the_next_is_graded_cold(tmp_path):
+    from autonomy.liveclass.work import LocalGrader
+
+    grader = LocalGrader(GARAGE, lanes=1)
+    text = WORKS[0].read_text()
+    answers = []
+    grading = threading.Thread(target=lambda: answers.append(grader(GARAGE, "ada", SPIN, tmp_path, 1, True, cpu_s=1.0)))
+    grading.start()
+    time.sleep(0.3)
+    grader.retire()  # waits for that grading, then ends its worker
+    grading.join(30)
+    ((report, _),) = answers
+    assert report.total == 0 and report.problems == [cpu_used_up_why(1.0)]  # graded to its end, not cut off
+    again, page = grader(GARAGE, "bob", text, tmp_path, 2, True)  # after: in a worker of its own
+    assert again.total == GARAGE.max_points and page.is_file()
+    grader.close()
+    with pytest.raises(RuntimeError, match="closed"):
+        grader(GARAGE, "cy", text, tmp_path, 3, True)
