@@ -495,3 +495,67 @@ def test_a_preview_of_a_run_of_many_events_carries_the_last_ones_only():
     assert all(len(record["events"]) <= PREVIEW_EVENTS for record in previews)
     assert previews[-1]["events"][-1]["message"].startswith("5000:")  # the latest are kept
     assert len(body) < 3_000_000  # the whole run's events are 5 MB
+
+
+def test_one_address_s_waiting_websockets_take_its_share_and_a_page_from_another_is_served():
+    """The attack: one address opens WebSockets and leaves them waiting; its share fills, never the view."""
+    server = ViewServer("127.0.0.1", 0)
+    server.max_connections_per_address = 20
+    server.start()
+    port = server.port
+
+    async def attack_then_honest() -> tuple[list[str], str, list[tuple[str, str]]]:
+        url, origin = f"ws://127.0.0.1:{port}/api/next?run=", f"http://127.0.0.1:{port}"
+        attacker = aiohttp.ClientSession(connector=aiohttp.TCPConnector(limit=0, local_addr=("127.0.0.1", 0)))
+        honest = aiohttp.ClientSession(connector=aiohttp.TCPConnector(local_addr=("127.0.0.2", 0)))
+        held, refused = [], []
+        try:
+            for _ in range(20):
+                held.append(await attacker.ws_connect(url, headers={"Origin": origin}))
+            for _ in range(10):  # past its share: each refused at once
+                try:
+                    await attacker.ws_connect(url, headers={"Origin": origin})
+                    refused.append("opened")
+                except (aiohttp.WSServerHandshakeError, aiohttp.ClientError) as err:
+                    refused.append(type(err).__name__)
+            async with honest.get(f"http://127.0.0.1:{port}/", headers={"Host": f"127.0.0.1:{port}"}) as page:
+                seen = f"{page.status} {len(await page.read()) > 0}"
+            async with honest.ws_connect(url, headers={"Origin": origin}) as socket:  # and its page's socket
+                waiting = [("opened", str(not socket.closed))]
+            return refused, seen, waiting
+        finally:
+            for socket in held:
+                await socket.close()
+            await attacker.close()
+            await honest.close()
+
+    try:
+        with ThreadPoolExecutor(1) as pool:
+            refused, page, socket = pool.submit(asyncio.run, attack_then_honest()).result(timeout=60)
+        assert "opened" not in refused and len(refused) == 10
+        assert page == "200 True" and socket == [("opened", "True")]
+    finally:
+        server.stop()
+
+
+def test_an_ipv6_client_s_connections_are_counted_with_its_64_and_refused_past_its_share():
+    import socket
+
+    from autonomy.views.web import address_group
+
+    server = ViewServer("::1", 0)
+    server.max_connections_per_address = 8
+    server.start()
+    held = []
+    try:
+        for _ in range(8):
+            held.append(socket.create_connection(("::1", server.port), timeout=10))
+        threading.Event().wait(0.3)
+        assert server.connections_from[address_group("::1")] == 8
+        assert address_group("::1") == address_group("::2") == "::/64"  # any address of that /64 is the same one
+        with socket.create_connection(("::1", server.port), timeout=10) as extra:
+            assert extra.recv(200).startswith(b"HTTP/1.1 503 Service Unavailable")
+    finally:
+        for conn in held:
+            conn.close()
+        server.stop()
