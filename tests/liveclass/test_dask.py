@@ -69,7 +69,7 @@ WARM_PIDS = "[w.pid for g in __import__('autonomy.liveclass.work', fromlist=['_W
 
 
 def test_a_cluster_s_workers_keep_their_grading_workers_from_one_work_to_the_next(cluster, tmp_path):  # noqa: F811
-    from autonomy.liveclass.work import DaskGrader
+    from autonomy.liveclass.work import WARM_EXERCISES, DaskGrader
 
     exercise = load_exercise(ROOT / "exercises" / "garage.yaml").with_secret(b"a class's secret")
     grader = DaskGrader(cluster)
@@ -83,5 +83,8 @@ def test_a_cluster_s_workers_keep_their_grading_workers_from_one_work_to_the_nex
         grader.close()
     here = grade_text(exercise, "ada", WRONG, tmp_path / "here", 9, True, "hand-in")[0]
     assert [r.total for r in first] == [10.0] * 4 and {r.total for r in later} == {here.total}
-    assert any(pid is not None for pids in warm.values() for pid in pids)  # started at a worker's first grading
-    assert still == warm  # and the same processes graded the works after
+    kept = {pid for pids in warm.values() for pid in pids if pid is not None}
+    assert kept  # started at a worker's first grading of the class
+    after = {pid for pids in still.values() for pid in pids if pid is not None}
+    assert kept <= after  # and kept for the works after (a worker whose first it was then started its own)
+    assert len(after - kept) <= len(still) and all(len(pids) <= WARM_EXERCISES for pids in still.values())
