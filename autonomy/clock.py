@@ -90,6 +90,17 @@ class VirtualClock:
                 self._now_s = when_s
 
 
+async def pause(clock: Clock, seconds: float) -> None:
+    """Waits ``seconds`` on ``clock`` without holding an event loop: for real, or advancing simulated time."""
+    import asyncio
+
+    if clock.is_virtual:
+        clock.sleep(seconds)
+        await asyncio.sleep(0)
+    elif seconds > 0:
+        await asyncio.sleep(seconds)
+
+
 def wait_readable(fd: int, timeout_s: float) -> bool:
     """Waits, in real time, at most ``timeout_s`` for ``fd`` to have bytes (or an end) to read.
 

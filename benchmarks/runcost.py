@@ -26,7 +26,6 @@ from __future__ import annotations
 import argparse
 import http.client
 import json
-import os
 import statistics
 import sys
 import tempfile
@@ -42,6 +41,7 @@ from autonomy.classroom.job import grade_one  # noqa: E402
 from autonomy.classroom.report import write_feedback_page  # noqa: E402
 from autonomy.liveclass.work import grade_text, public_only  # noqa: E402
 from autonomy.views.page import ReplayMaker  # noqa: E402
+from benchmarks.liveclass import cpu_s  # noqa: E402 - a process's own CPU time, as the class benchmark reads it
 from tests.liveclass.test_class_cli import serve  # noqa: E402
 
 SOLUTION_PATH = ROOT / "exercises" / "solutions" / "garage.yaml"
@@ -63,12 +63,6 @@ def run(port: int, code: str) -> float:
     if answer.status != 200:
         raise SystemExit(f"a run was answered {answer.status}")
     return took
-
-
-def cpu_of(pid: int) -> float:
-    """A process's own CPU time so far (user and system, not its children's), in seconds."""
-    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
-    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
 def timed(call: Callable[[], object]) -> float:
@@ -117,12 +111,12 @@ def main() -> None:
                 run(port, code)
                 grade_one(exercise, "s", SOLUTION_PATH)
             answers, here = [], []
-            cpu_before = cpu_of(process.pid)
+            cpu_before = cpu_s(process.pid)
             for k in range(options.runs):
                 answers.append(run(port, codes[k % STUDENTS]))
                 here.append(timed(lambda: grade_one(exercise, "s", SOLUTION_PATH)))
                 time.sleep(6.0 / STUDENTS)  # each student within their runs a minute
-            server_cpu_s = (cpu_of(process.pid) - cpu_before) / options.runs
+            server_cpu_s = (cpu_s(process.pid) - cpu_before) / options.runs
         finally:
             process.terminate()
             process.wait(30)

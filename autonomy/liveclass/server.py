@@ -58,7 +58,7 @@ from autonomy.classroom.limits import cpu_used_up_why
 from autonomy.classroom.overview import class_overview
 from autonomy.classroom.report import to_csv
 from autonomy.classroom.results import Report, file_names
-from autonomy.clock import thread_cpu_time_s, wall_time_s
+from autonomy.clock import Clock, pause, thread_cpu_time_s, wall_time_s
 from autonomy.errors import AutonomyError
 from autonomy.liveclass.store import ClassStore, StoreError, Student, Work, code_digest, token_digest
 from autonomy.liveclass.work import (
@@ -241,6 +241,39 @@ def _failed(future: asyncio.Future[Any]) -> bool:
     return future.done() and (future.cancelled() or future.exception() is not None)
 
 
+class _Makings:
+    """What a teacher's pages ask for, made of the class as it is: one making at a time, for every page asking."""
+
+    def __init__(self) -> None:
+        self._last: tuple[int, asyncio.Future[Any]] | None = None
+        self._started_s = -math.inf
+
+    async def of(
+        self, clock: Clock, version: Callable[[], int], make: Callable[[int], asyncio.Future[Any]], every_s: float = 0.0
+    ) -> tuple[int, Any]:
+        """The making of the class's version now (``version()``), and what it made; ``make`` starts one.
+
+        A making of an earlier version under way is waited for first, then the class's is made: an answer
+        is never of a class older than asked. At most one making starts every ``every_s`` on ``clock``
+        (the changes meanwhile are shown together, a little later).
+        """
+        while True:
+            now, last = version(), self._last
+            if last is not None and last[0] == now and not _failed(last[1]):
+                break
+            if last is not None and not last[1].done():
+                await asyncio.wait([asyncio.shield(last[1])])
+                continue
+            wait_s = self._started_s + every_s - clock.now()
+            if wait_s > 0:
+                await pause(clock, wait_s)
+                continue
+            last = self._last = (now, make(now))
+            self._started_s = clock.now()
+            break
+        return last[0], await asyncio.shield(last[1])
+
+
 def _bounded(result: dict[str, Any]) -> dict[str, Any]:
     """A work's result as kept: within :data:`MAX_RESULT_BYTES`, its seeds' maps left out if need be, then its seeds."""
     if len(json.dumps(result)) <= MAX_RESULT_BYTES:
@@ -383,11 +416,10 @@ class ClassServer(BoundedServer):
         self._version = 0
         self._changed: asyncio.Event | None = None
         self._class_waiters = 0
-        #: The class at a glance's last making: the class's version it is of, and its JSON (to come, or made).
-        self._overview_making: tuple[int, asyncio.Future[bytes]] | None = None
-        #: The class table's last making, as the class at a glance's; its rows as shown, by student (read off the
-        #: loop, by the chores alone; None: to be read whole); the students whose rows changed since (None: all).
-        self._table_making: tuple[int, asyncio.Future[bytes]] | None = None
+        #: The class at a glance's makings, and the class table's (their JSON); the table's rows as shown, by
+        #: student (read off the loop, in the views' thread alone; None: to be read whole); the students whose
+        #: rows changed since (None: all).
+        self._overview, self._table = _Makings(), _Makings()
         self._table_rows: dict[str, dict[str, Any]] | None = None
         self._stale: set[str] | None = None
         self.max_request_bytes = MAX_REQUEST_BYTES
@@ -420,7 +452,6 @@ class ClassServer(BoundedServer):
         self._chores = ThreadPoolExecutor(1, thread_name_prefix="autonomy-chores")
         #: The teacher's views (the class table, the class at a glance), off the loop and never before a run's chores.
         self._views = ThreadPoolExecutor(1, thread_name_prefix="autonomy-views")
-        self._overview_at_s = -math.inf
         #: Per student: the CPU time of each of their checks lately, when it ended (see :data:`CHECK_CPU_SHARE_S`).
         self._checked: dict[str, collections.deque[tuple[float, float]]] = {}
         #: Students with a request under way (a check, a run or a hand-in): one at a time each.
@@ -987,20 +1018,14 @@ class ClassServer(BoundedServer):
                 pass
             finally:
                 self._class_waiters -= 1
-        while True:  # one making at a time, for every teacher's page: of this version, or the next to come
-            version, making = self._version, self._table_making
-            if making is not None and making[0] == version and not _failed(making[1]):
-                break
-            if making is not None and not making[1].done():  # an earlier version's, under way: then this one
-                await asyncio.wait([asyncio.shield(making[1])])
-                continue
+
+        def make(version: int) -> asyncio.Future[bytes]:
             stale, self._stale = self._stale, set()  # the making reads these again (every row, if None)
-            making = (version, asyncio.get_running_loop().run_in_executor(self._views, self._table_now, stale))
-            self._table_making = making
-            break
-        rows = await asyncio.shield(making[1])
+            return asyncio.get_running_loop().run_in_executor(self._views, self._table_now, stale)
+
+        version, rows = await self._table.of(self._clock, lambda: self._version, make)
         head = {
-            "version": making[0],
+            "version": version,
             "exercise": self.exercise.name,
             "title": self.exercise.title,
             "max_points": self.exercise.max_points,
@@ -1045,22 +1070,13 @@ class ClassServer(BoundedServer):
         """
         if not self._teacher(request):
             return _refusal(401, "the class at a glance is the teacher's: use the teacher's token")
-        while True:  # one making at a time, at most one every OVERVIEW_EVERY_S, of the class as it is then
-            version, making = self._version, self._overview_making
-            if making is not None and making[0] == version and not _failed(making[1]):
-                break
-            if making is not None and not making[1].done():  # an earlier version's, under way: then this one
-                await asyncio.wait([asyncio.shield(making[1])])
-                continue
-            wait_s = self._overview_at_s + OVERVIEW_EVERY_S - self._clock.now()
-            if wait_s > 0:  # made lately: the changes meanwhile are shown together, a little later
-                await asyncio.sleep(wait_s)
-                continue
-            loop = asyncio.get_running_loop()
-            making = (version, loop.run_in_executor(self._views, self._overview_now, version))
-            self._overview_making, self._overview_at_s = making, self._clock.now()
-            break
-        body = await asyncio.shield(making[1])
+        loop = asyncio.get_running_loop()
+        _, body = await self._overview.of(
+            self._clock,
+            lambda: self._version,
+            lambda version: loop.run_in_executor(self._views, self._overview_now, version),
+            OVERVIEW_EVERY_S,
+        )
         return web.Response(body=body, content_type="application/json", headers=NO_STORE)
 
     def _overview_now(self, version: int) -> bytes:
