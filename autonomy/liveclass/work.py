@@ -9,6 +9,7 @@ import dataclasses
 import queue
 import tempfile
 import threading
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -253,12 +254,20 @@ def grade_on_worker(
     exercise: Exercise, student: str, text: str, number: int, hand_in: bool, label: str = "", cpu_s: float | None = None
 ) -> tuple[Report, bytes]:
     """:func:`grade_text` on a Dask worker, in a folder of its own there: the report, and the feedback page's bytes."""
-    if in_a_daemon():  # graded in a process of its own, which may start the submission's (see child.py)
+    if in_a_daemon():  # graded in a process of its own, for this work alone (see child.py): nothing kept warm
         from autonomy.classroom.child import call_in_child
 
-        return call_in_child(grade_on_worker, exercise, student, text, number, hand_in, label, cpu_s)
+        return call_in_child(_graded_by, grade_text, exercise, student, text, number, hand_in, label, cpu_s)
+    return _graded_by(_warm_for(exercise), exercise, student, text, number, hand_in, label, cpu_s)
+
+
+def _graded_by(
+    grader: Callable[..., tuple[Report, Path]], exercise: Exercise, student: str, text: str, number: int,
+    hand_in: bool, label: str, cpu_s: float | None,
+) -> tuple[Report, bytes]:  # fmt: skip
+    """A work graded by ``grader`` (``grade_text``'s arguments) in a folder of its own: the report, the page's bytes."""
     with tempfile.TemporaryDirectory(prefix="autonomy-class-") as folder:
-        report, page = _warm_for(exercise)(exercise, student, text, Path(folder), number, hand_in, label, cpu_s)
+        report, page = grader(exercise, student, text, Path(folder), number, hand_in, label, cpu_s)
         return report, page.read_bytes()
 
 
