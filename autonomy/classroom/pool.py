@@ -14,9 +14,10 @@ import multiprocessing
 import os
 import resource
 import signal
+import threading
 import traceback
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from multiprocessing.connection import Connection, wait
 from pathlib import Path
 from typing import Any, NamedTuple, cast
@@ -263,10 +264,19 @@ def _wall_why(wall_s: float, cpu_s: float) -> str:
 
 
 def _end(worker: _Running) -> None:
-    """Ends a worker, and whatever its submission started."""
-    _kill_group(worker.process)  # first: whatever the submission started ends with it
-    worker.process.join(5)
-    worker.channel.close()
+    """Ends a worker, and whatever its submission started; once, whoever else ends it at the same time.
+
+    Two threads may end the same worker at once (the grading that waited on it, and the grader being
+    closed): the second waits for the first, then finds it ended (its channel closed twice would close
+    whatever file had taken its number meanwhile).
+    """
+    with worker.ending:
+        if worker.ended:
+            return
+        _kill_group(worker.process)  # first: whatever the submission started ends with it
+        worker.process.join(5)
+        worker.channel.close()
+        worker.ended = True
 
 
 @dataclass
@@ -278,6 +288,8 @@ class _Running:
     index: int | None = None
     deadline_s: float = 0.0
     used: bool = False
+    ended: bool = False
+    ending: threading.Lock = field(default_factory=threading.Lock)
 
 
 def grade_class(

@@ -159,6 +159,33 @@ def test_a_second_class_marked_by_hand_is_within_the_bands_written_first():
     assert len(bands) == 26 and outside == []
 
 
+#: A third class, written blind: by a teacher who read the docs and the exercises' texts alone (never the grader's
+#: code, its tests or its marks), ten students each for garage, bump and an exercise of their own (deliver, in a
+#: world of their own), tricks of each principle among them; the bands (with why) written, and their SHA-256 kept,
+#: before any was graded. All 30 were within their bands at their first grading.
+BLIND_CLASS = Path(__file__).parent / "blind_class"
+
+
+def test_a_class_written_blind_is_within_the_bands_written_first_on_the_shipped_exercises_and_the_teacher_s_own():
+    from autonomy.classroom.gradebook import outside_bands, read_expected
+
+    bands = read_expected(BLIND_CLASS / "expected.csv")
+    outside = []
+    for short, path in (
+        ("g", EXERCISES / "garage.yaml"),
+        ("b", EXERCISES / "bump.yaml"),
+        ("w", BLIND_CLASS / "deliver.yaml"),
+    ):
+        exercise = load_exercise(path)
+        students = [student for student in bands if student.split("_")[0] == short]
+        reports = [grade_one(exercise, s, BLIND_CLASS / f"{s}.yaml") for s in students]
+        assert [r.problems for r in reports] == [[]] * len(reports), path.name
+        told = outside_bands(exercise, reports, {s: bands[s] for s in students})
+        assert told[-1].endswith(f" of {len(students)} students within the band expected")
+        outside += told[:-1]
+    assert len(bands) == 30 and outside == []
+
+
 def test_every_wrong_file_says_what_a_fair_teacher_gives_it():
     """The tricks shipped in exercises/wrong/ carry their fair mark, the one the test above holds the tool to."""
     for name, fair in FAIR.items():

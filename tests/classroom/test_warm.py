@@ -10,7 +10,8 @@ import time
 import pytest
 
 from autonomy.classroom import find_submissions, grade_class, load_exercise
-from autonomy.classroom.limits import cpu_used_up_why
+from autonomy.classroom.limits import WALL_PER_CPU, cpu_used_up_why
+from autonomy.classroom.pool import _wall_why
 from autonomy.classroom.results import page_path
 from autonomy.classroom.warm import WarmWorkers
 from tests.views.conftest import ROOT
@@ -133,9 +134,35 @@ def test_a_retired_class_s_workers_finish_the_grading_under_way_and_the_next_is_
     grader.retire()  # waits for that grading, then ends its worker
     grading.join(30)
     ((report, _),) = answers
-    assert report.total == 0 and report.problems == [cpu_used_up_why(1.0)]  # graded to its end, not cut off
+    # graded to its end, not cut off: out of its CPU time (or, on a machine too busy to give it 1 s of CPU in 10 s,
+    # of its wall time)
+    assert report.total == 0 and report.problems in ([cpu_used_up_why(1.0)], [_wall_why(WALL_PER_CPU * 1.0, 1.0)])
     again, page = grader(GARAGE, "bob", text, tmp_path, 2, True)  # after: in a worker of its own
     assert again.total == GARAGE.max_points and page.is_file()
     grader.close()
     with pytest.raises(RuntimeError, match="closed"):
         grader(GARAGE, "cy", text, tmp_path, 3, True)
+
+
+def test_a_worker_ended_by_two_threads_at_once_is_ended_once():
+    """The grading that waited on it and the closing grader may end one worker together: its pipe is closed once."""
+    from autonomy.classroom.pool import _end
+
+    warm = WarmWorkers({"garage": GARAGE})
+    worker = warm._new()
+    closes = []
+    close = worker.channel.close
+
+    def slow_close() -> None:  # the moment between a pipe's close and its being marked closed, made long
+        closes.append(threading.current_thread().name)
+        time.sleep(0.3)
+        close()
+
+    worker.channel.close = slow_close
+    enders = [threading.Thread(target=_end, args=(worker,)) for _ in range(2)]
+    for ender in enders:
+        ender.start()
+    for ender in enders:
+        ender.join(10)
+    assert len(closes) == 1 and worker.ended and not worker.process.is_alive()
+    warm.close()
