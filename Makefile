@@ -87,6 +87,7 @@ bench: $(STAMP)
 	$(BIN)/python benchmarks/groot.py
 	$(BIN)/python benchmarks/crowd.py
 	$(BIN)/python benchmarks/grading.py
+	$(BIN)/python benchmarks/scenarios.py
 	$(BIN)/python benchmarks/fixed_plans.py
 	$(BIN)/python benchmarks/feedback.py
 	$(BIN)/python benchmarks/cluster.py

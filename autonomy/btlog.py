@@ -89,6 +89,8 @@ class BtlogWriter:
         #: The status code last written for each record node (a change of feedback alone is not written).
         self._written: dict[int, int] = {}
         self.failure = ""
+        #: How many status changes were written.
+        self.changes_written = 0
 
     def __call__(self, record: Record) -> None:
         """Writes the header, or one tick's changes; once writing fails, notes why and stops."""
@@ -113,6 +115,7 @@ class BtlogWriter:
                     uids = self.uids
                     changes = sorted((uid, written[node_id]) for node_id in changed for uid in uids.get(node_id, ()))
                     self.write_changes(round(record.time_s * 1_000_000), changes)
+                    self.changes_written += len(changes)
                 if self._flush.due():
                     self.stream.flush()
             elif isinstance(record, RunEnd):

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+from pathlib import Path
+
 import py_trees
 from py_trees.common import Status
 
@@ -79,3 +82,8 @@ def tree_of(yaml_tree: str, subtrees: str = "") -> py_trees.behaviour.Behaviour:
     """Builds a tree from the YAML of a mission's tree: block (indented two spaces)."""
     text = f"mission: test\n{subtrees}tree:\n{yaml_tree}"
     return build_tree(validate_text(text, "test.yaml"))
+
+
+def mission_files(paths: Iterable[Path]) -> list[Path]:
+    """The mission files of ``paths``, sorted: their scenario files (``NAME.test.yaml``, docs/testing.md) left out."""
+    return sorted(path for path in paths if not path.name.endswith(".test.yaml"))

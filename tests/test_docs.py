@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import re
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -34,7 +35,19 @@ def test_the_docs_have_yaml_blocks_to_check():
 def test_a_yaml_block_of_the_docs_is_taken_as_it_stands(page, number, block, tmp_path):
     first = block.lstrip().split(":", 1)[0]
     where = f"{page.name}, YAML block {number}"
-    if first == "mission":
+    scenarios = re.match(r"# (\w+\.test\.yaml)\n", block)
+    if scenarios:  # a scenario file, named in its first line, beside the shipped missions
+        from autonomy.scenarios import load_scenarios
+
+        for mission in (m for m in (ROOT / "missions").iterdir() if m.is_file()):
+            shutil.copy(mission, tmp_path / mission.name)
+        for other in BLOCKS:  # the page's own missions too, as the page names them
+            named = re.match(r"mission: (\w+)\n", other[2]) if other[0] == page else None
+            if named:
+                (tmp_path / f"{named.group(1)}.yaml").write_text(other[2])
+        (tmp_path / scenarios.group(1)).write_text(block)
+        assert load_scenarios(tmp_path / scenarios.group(1)).scenarios  # raises with every problem
+    elif first == "mission":
         base = ROOT / "missions"
         plugins = re.search(r"^plugins: \[(\w+)\]", block, re.M)
         if plugins:  # the plugin the page shows, saved beside the mission as the page says
@@ -49,7 +62,9 @@ def test_a_yaml_block_of_the_docs_is_taken_as_it_stands(page, number, block, tmp
         (tmp_path / "world.yaml").write_text(block)
         assert load_world(tmp_path / "world.yaml").width_mm > 0
     else:
-        pytest.fail(f"{where} is not a mission, an exercise or a world: say which, so that it can be checked")
+        pytest.fail(
+            f"{where} is not a mission, an exercise, a world or a scenario file (# NAME.test.yaml first): say which"
+        )
 
 
 def test_each_tree_picture_of_the_tutorial_is_the_mission_above_it_as_autonomy_show_draws_it():

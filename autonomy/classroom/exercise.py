@@ -109,12 +109,23 @@ class ExerciseInvalid(AutonomyError):
         super().__init__("\n".join(str(p) for p in self.problems))
 
 
-class _Reader(CriteriaReader):
+class ExerciseReader(CriteriaReader):
+    """Reads an exercise file's values (its world, seeds, criteria...), noting each problem where it stands.
+
+    Args:
+        source: The file's name, as its problems say it.
+        base_dir: Where a world file or a solution it names is looked for.
+    """
+
+    #: What the file is, as its problems say it (a world file is looked for beside it).
+    kind = "exercise"
+
     def __init__(self, source: str, base_dir: Path) -> None:
         super().__init__(source)
         self.base_dir = base_dir
 
     def exercise(self, root: Located, default_name: str) -> Exercise | None:
+        """The exercise the file's root holds (None: its problems noted)."""
         if not isinstance(root.value, dict):
             self.problem(root, "", "an exercise file is a mapping with world:, time_limit_s:, seeds: and criteria:")
             return None
@@ -175,8 +186,9 @@ class _Reader(CriteriaReader):
             return None
         return str(Path(name) if Path(name).is_absolute() else self.base_dir / name)
 
-    def world(self, located: Located) -> tuple[World | None, str]:
-        name = self.text(located, "world")
+    def world(self, located: Located, where: str = "world") -> tuple[World | None, str]:
+        """The world named there (a shipped one, or a file beside), and how it was named (None: a problem noted)."""
+        name = self.text(located, where)
         if name is None:
             return None, ""
         ref = name
@@ -187,27 +199,28 @@ class _Reader(CriteriaReader):
                 if exists(path):
                     why = f"'{name}' is not a world file (a folder, a device or a pipe)"
                 elif Path(name).suffix or "/" in name:  # a file's name: that file is missing
-                    why = f"the world file '{name}' is not there (beside the exercise: {path})"
+                    why = f"the world file '{name}' is not there (beside the {self.kind}: {path})"
                 else:
                     hint = suggest(name, list(SHIPPED))
                     why = (
                         f"no world named '{name}'{hint}: use one of {', '.join(SHIPPED)}, or a world file beside the "
-                        f"exercise ({name}.yaml)"
+                        f"{self.kind} ({name}.yaml)"
                     )
-                self.problem(located, "world", why)
+                self.problem(located, where, why)
                 return None, ""
         try:
             return load_world(ref), ref
         except WorldInvalid as err:
             self.problem(
-                located, "world", f"the world file {ref} is not valid ({len(err.problems)} listed with its name)"
+                located, where, f"the world file {ref} is not valid ({len(err.problems)} listed with its name)"
             )
             self.problems += err.problems
         except WorldError as err:
-            self.problem(located, "world", str(err))
+            self.problem(located, where, str(err))
         return None, ""
 
     def seeds(self, located: Located) -> list[Seed]:
+        """The seeds listed there (``[1, 2]``, or ``{seed: 4, noise_mm: 2, faults: ...}`` items), problems noted."""
         if not isinstance(located.value, list) or not located.value:
             self.problem(located, "seeds", "expected a list of seeds: [1, 2, 3], or {seed: 4, noise_mm: 2}")
             return []
@@ -249,6 +262,7 @@ class _Reader(CriteriaReader):
         return seeds
 
     def allowed(self, located: Located) -> tuple[str, ...] | None:
+        """The node types listed there, as the registry names them (None: a problem noted)."""
         known = sorted(BUILTINS.names())
         if not isinstance(located.value, list) or not located.value:
             self.problem(located, "allowed_nodes", "expected a list of node types, e.g. [sequence, move, turn, beep]")
@@ -280,7 +294,7 @@ def load_exercise(path: str | Path) -> Exercise:
         ) from None
     root, errors = parse(text)
     problems = [Problem(label, e.line, e.column, "", e.message) for e in errors]
-    reader = _Reader(label, path.parent)
+    reader = ExerciseReader(label, path.parent)
     exercise = reader.exercise(root, path.stem) if root is not None else None
     problems += reader.problems
     if problems or exercise is None:

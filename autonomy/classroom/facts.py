@@ -151,6 +151,9 @@ class RunFacts:
         node_kinds: Each node's type, by id (``move``).
         rest_touching: Whether the robot, where it came to rest last, touches a wall or an obstacle (is less
             than ``CONTACT_CLEAR_MM`` clear of it).
+        last_tick_s: When the mission's last tick was.
+        left_going: Whether the run ended with the robot still told to drive or turn (its wheels' target not
+            zero): the stop at the end did not reach it.
     """
 
     nodes: int
@@ -171,6 +174,7 @@ class RunFacts:
     node_kinds: list[str] = field(default_factory=list)
     rest_touching: bool = False
     last_tick_s: float = math.inf
+    left_going: bool = False
 
     def running_at(self, time_s: float) -> str:
         """The label of the node that was running at ``time_s`` (the mission's last, after its end), or empty."""

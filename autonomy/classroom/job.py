@@ -9,7 +9,7 @@ run this job in limited processes; the outputs read its :class:`Report` alone.
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 from typing import Any
 from urllib.parse import urlencode
@@ -23,6 +23,7 @@ from autonomy.classroom.told import named_node
 from autonomy.client import Client
 from autonomy.errors import LinkError
 from autonomy.mission import MissionInvalid, MissionSpec, NodeSpec, Problem, validate_text
+from autonomy.record import Record
 from autonomy.runner import Runner
 from autonomy.source import UnreadableFile, read_text
 from autonomy.trace import TraceWriter
@@ -145,28 +146,37 @@ def seed_url(exercise: Exercise, seed: Seed, virtual: bool = True) -> str:
 
 
 def run_seed(
-    exercise: Exercise, spec: MissionSpec, seed: Seed, trace: Path | None = None, replay: ReplayMaker | None = None
+    exercise: Exercise,
+    spec: MissionSpec,
+    seed: Seed,
+    trace: Path | None = None,
+    replay: ReplayMaker | None = None,
+    watchers: Sequence[Callable[[Record], None]] = (),
 ) -> RunFacts:
     """Runs ``spec`` once on ``seed`` in the exercise's world, in virtual time; returns its facts.
 
     The facts are gathered as the records come, and the records let go: a long run is not
     held in memory (nor gone over again and again by the garbage collector). With ``trace``,
     the run is also written there as a trace, and with ``replay`` made into a page's replay (nodes'
-    states included, either way).
+    states included, either way); each of ``watchers`` is given every record too, the nodes' states
+    in them.
     """
     client = Client.open(seed_url(exercise, seed))
     gatherer = Gatherer()
     stream = trace.open("w", encoding="utf-8") if trace is not None else None
     try:
         listeners: list[Any] = [gatherer] + ([TraceWriter(stream)] if stream is not None else [])
-        listeners += [replay] if replay is not None else []
-        replayed = stream is not None or replay is not None
+        listeners += ([replay] if replay is not None else []) + list(watchers)
+        replayed = stream is not None or replay is not None or bool(watchers)
         runner = Runner.for_mission(
             spec, client, max_seconds=exercise.time_limit_s, listeners=listeners, node_states=replayed, tips=True
         )  # the judge reads the emulator's own account: the nodes' states are looked for only for a replay
         runner.run()
-        emulator = client.port.emulator  # type: ignore[attr-defined]  # an emu:// link's port has its emulator
-        return facts_of(gatherer, emulator.robot, exercise.time_limit_s, runner.tips or [])
+        robot = client.port.emulator.robot  # type: ignore[attr-defined]  # an emu:// link's port has its emulator
+        left_going = bool(robot.target_speed_mm_s or robot.turn_remaining_deg)  # as the run left it, before it settles
+        facts = facts_of(gatherer, robot, exercise.time_limit_s, runner.tips or [])
+        facts.left_going = left_going
+        return facts
     finally:
         client.close()
         if stream is not None:

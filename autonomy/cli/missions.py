@@ -8,21 +8,65 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from autonomy.cli.common import EXIT_OK, EXIT_USAGE, _fail, _load, _problems, _shown, _tcp_port
+from autonomy.cli.common import EXIT_OK, EXIT_USAGE, _fail, _load, _problems, _shown, _tcp_port, _world_failed
+from autonomy.emulator import WorldError
 from autonomy.words import plural
 
 
-def _is_exercise(path: str) -> bool:
-    """Whether a file is an exercise: a mapping with ``criteria:`` and no ``mission:`` at its top."""
+def _kind_of(path: str) -> str:
+    """What a file to check is: an exercise, a world, a scenario file or (else) a mission.
+
+    An exercise has ``criteria:`` at its top, a world ``arena_mm:``, a scenario file is a ``NAME.test.yaml``;
+    anything else is read as a mission, whose reader says what is wrong with it.
+    """
     import re
 
+    from autonomy.scenarios.files import SUFFIX
     from autonomy.source import UnreadableFile, read_text
 
+    if path.endswith(SUFFIX):
+        return "scenarios"
     try:
         text = read_text(Path(path))
     except UnreadableFile:
-        return False  # the mission's reader says why
-    return bool(re.search(r"^criteria\s*:", text, re.M)) and not re.search(r"^mission\s*:", text, re.M)
+        return "mission"  # the mission's reader says why
+    if re.search(r"^mission\s*:", text, re.M):
+        return "mission"
+    if re.search(r"^criteria\s*:", text, re.M):
+        return "exercise"
+    return "world" if re.search(r"^arena_mm\s*:", text, re.M) else "mission"
+
+
+def _check_world(path: str) -> bool:
+    """Validates a world file: every problem at its place, or what it holds."""
+    from autonomy.emulator import load_world
+    from autonomy.words import plural
+
+    try:
+        world = load_world(path)
+    except WorldError as err:
+        _world_failed(err)
+        return False
+    zones = f", zones {', '.join(zone.name for zone in world.zones)}" if world.zones else ""
+    size = f"{world.width_mm / 1000:g} x {world.height_mm / 1000:g} m"
+    print(_shown(f"{path}: ok (world '{world.name}', {size}, {plural(len(world.obstacles), 'obstacle')}{zones})"))
+    return True
+
+
+def _check_scenarios(path: str) -> bool:
+    """Validates a scenario file and the mission it tests: every problem at its place, or what it holds."""
+    from autonomy.scenarios import ScenariosInvalid, load_scenarios
+    from autonomy.words import plural
+
+    try:
+        tests = load_scenarios(path)
+    except ScenariosInvalid as err:
+        _problems(err.problems)
+        return False
+    print(
+        _shown(f"{path}: ok ({plural(len(tests.scenarios), 'scenario')} of {tests.mission}; autonomy test runs them)")
+    )
+    return True
 
 
 def _check_exercise(path: str, secret_file: str | None) -> bool:
@@ -84,8 +128,16 @@ def cmd_check(args: argparse.Namespace) -> int:
 
     bad = 0
     for path in args.missions:
-        if _is_exercise(path):
-            bad += not _check_exercise(path, getattr(args, "secret_file", None))
+        kind = _kind_of(path)
+        if kind != "mission":
+            secret = getattr(args, "secret_file", None)
+            bad += not (
+                _check_exercise(path, secret)
+                if kind == "exercise"
+                else _check_world(path)
+                if kind == "world"
+                else _check_scenarios(path)
+            )
             continue
         spec = _load(path)
         if spec is None:
@@ -119,8 +171,11 @@ def cmd_show(args: argparse.Namespace) -> int:
         "svg": lambda: svg_tree(nodes, spec.name),
     }
     out = args.output if args.output not in (None, "-") else None
-    suffix = out.rsplit(".", 1)[-1].lower() if out and "." in out else ""
-    form = args.format or {"svg": "svg", "dot": "dot"}.get(suffix, "unicode")
+    suffix = out.rsplit(".", 1)[-1].lower() if out and "." in out.rsplit("/", 1)[-1] else ""
+    if suffix not in ("", "svg", "dot", "gv", "txt"):  # a picture's name holding text would not open as one
+        return _fail(f"-o {out}: a tree is written as .svg (a picture), .dot (Graphviz) or .txt, not .{suffix}",
+                     EXIT_USAGE)  # fmt: skip
+    form = args.format or {"svg": "svg", "dot": "dot", "gv": "dot"}.get(suffix, "unicode")
     return _write_out(render[form](), out)
 
 

@@ -35,6 +35,7 @@ from autonomy.cli.common import (
 from autonomy.client import DEFAULT_BAUD, SUPPORTED_BAUD_RATES, Client
 from autonomy.emulator import WorldError
 from autonomy.errors import AutonomyError
+from autonomy.words import plural
 
 
 class _Output:
@@ -236,7 +237,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     from autonomy.trace import TraceWriter
     from autonomy.views.lines import LinePrinter
 
-    spec = _load(args.mission)
+    spec = _load(args.mission, check_world=not args.exercise)  # an exercise runs in its own world, as graded
     if spec is None:
         return EXIT_USAGE
     graded = None
@@ -379,6 +380,12 @@ def cmd_run(args: argparse.Namespace) -> int:
     code = {SUCCEEDED: EXIT_OK, FAILED: EXIT_FAILED, LINK_LOST: EXIT_LINK, INTERRUPTED: EXIT_INTERRUPTED}.get(
         summary.outcome, EXIT_FAILED
     )
+    if not args.quiet:  # what was written, and where, after the summary
+        if writer is not None and not writer.failure:
+            output(_shown(f"trace: {args.trace}, {plural(summary.ticks, 'tick')}"))
+        if btlog_writer is not None and not btlog_writer.failure:
+            changes = plural(btlog_writer.changes_written, "status change")
+            output(_shown(f"btlog: {args.btlog}, {changes} of {plural(len(btlog_writer.uids), 'node')}"))
     lost = (writer is not None and writer.failure) or (btlog_writer is not None and btlog_writer.failure)
     return EXIT_FAILED if code == EXIT_OK and lost else code
 

@@ -31,6 +31,15 @@ def fit(text: str, width: int) -> str:
     return text if len(text) <= width else text[: width - 1] + "…"
 
 
+def event_text(kind: str, message: str) -> str:
+    """An event as a line says it: ``beep: 3 tones``.
+
+    A message that names its kind already (``collision (front sensor 0 mm, ...)``) is said alone, not as
+    ``collision: collision (...)``.
+    """
+    return message if message == kind or message.startswith(kind + " ") else f"{kind}: {message}"
+
+
 def leaf_text(name: str, feedback: str) -> str:
     """A running leaf as the views show it: its name, and its feedback in parentheses."""
     return f"{name} ({feedback})" if feedback else name
@@ -73,7 +82,7 @@ class LinePrinter:
             self._tick(record)
         for event in record.events:
             if event.kind not in ("stop",) and not (isinstance(record, RunEnd) and event.kind == "exception"):
-                self.write(fit(f"{'':10}{event.kind}: {event.message}", WIDTH))
+                self.write(fit(f"{'':10}{event_text(event.kind, event.message)}", WIDTH))
 
     def _columns(self, record: TickRecord) -> str:
         s = record.status

@@ -20,7 +20,7 @@ from rich.text import Text
 
 from autonomy.clock import Clock, RealClock
 from autonomy.record import Event, Record, RunEnd, RunHeader, TickRecord, TreeState
-from autonomy.views.lines import fit, printable
+from autonomy.views.lines import event_text, fit, printable
 from autonomy.views.treetext import (
     LEGEND_STATUS,
     SHAPE_SYMBOLS,
@@ -116,7 +116,7 @@ class LiveView:
 
     def _note(self, events: list[Event]) -> None:
         for event in events:
-            self.log.append(printable(f"{event.kind}: {event.message}"))
+            self.log.append(printable(event_text(event.kind, event.message)))
 
     def render(self) -> Layout | Text:
         """The whole screen (or, on a terminal too small for it, what size it needs)."""

@@ -23,6 +23,7 @@ from py_trees.common import OneShotPolicy, ParallelPolicy, Status
 
 from autonomy.behaviours import ClockTimeout, RobotBehaviour, RobotContext, engine
 from autonomy.clock import VirtualClock
+from tests.harness import mission_files
 
 MISSIONS = Path(__file__).resolve().parents[2] / "missions"
 STATUSES = [Status.RUNNING, Status.SUCCESS, Status.FAILURE]
@@ -173,7 +174,7 @@ def test_the_engine_ticks_and_stops_any_tree_as_py_trees_does(spec, ticks, halt_
 def test_every_node_of_a_shipped_mission_is_ticked_and_stopped_by_the_engine_itself():
     from autonomy.mission import build_tree, load_mission
 
-    for path in sorted(MISSIONS.glob("*.yaml")):
+    for path in mission_files(MISSIONS.glob("*.yaml")):
         for node in build_tree(load_mission(path)).iterate():
             assert type(node).tick in engine._KNOWN, (path.name, node.name)  # not run as a generator
             assert type(node).stop in engine._KNOWN, (path.name, node.name)  # nor stopped through its method

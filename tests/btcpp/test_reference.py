@@ -20,9 +20,9 @@ from autonomy.record import RunHeader
 from autonomy.runner import Runner
 from tests.btcpp import reference
 from tests.btcpp.reference import bt
-from tests.harness import Recorder
+from tests.harness import Recorder, mission_files
 
-MISSIONS = sorted(Path("missions").glob("*.yaml"))
+MISSIONS = mission_files(Path("missions").glob("*.yaml"))
 
 
 def reference_tree(spec, script=None):

@@ -9,8 +9,9 @@ import pytest
 from autonomy.mission import MissionInvalid, load_mission, validate_text
 from autonomy.mission.btcpp import ExportError, export_xml, palette_xml, to_yaml
 from autonomy.mission.registry import BUILTINS
+from tests.harness import mission_files
 
-MISSIONS = sorted(Path("missions").glob("*.yaml"))
+MISSIONS = mission_files(Path("missions").glob("*.yaml"))
 
 
 def shape(spec):

@@ -277,3 +277,29 @@ def test_a_usage_error_shows_no_control_character_of_what_was_typed():
     result = autonomy("replay", "x.jsonl", "--speed", "\x1b[31mred\x07")
     assert result.returncode == 2 and "\x1b" not in result.stderr and "\x07" not in result.stderr
     assert "expected a playback speed, got '�[31mred�'" in result.stderr
+
+
+def test_check_takes_a_world_file_and_a_scenario_file_as_it_takes_missions_and_exercises(tmp_path):
+    world = tmp_path / "hall.yaml"
+    world.write_text(
+        "name: hall\narena_mm: [3000, 1000]\nzones:\n  station: {box: {from_mm: [2500, 0], to_mm: [3000, 900]}}\n"
+    )
+    done = autonomy("check", str(world), "missions/square.test.yaml")
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.splitlines() == [
+        f"{world}: ok (world 'hall', 3 x 1 m, 0 obstacles, zones station)",
+        "missions/square.test.yaml: ok (2 scenarios of missions/square.yaml; autonomy test runs them)",
+    ]
+    world.write_text("name: hall\narena_mm: [3000, 1000]\nobstacels: []\n")
+    assert_one_line_error(
+        autonomy("check", str(world)), 2, f"{world}:3:1: obstacels: unknown key 'obstacels' (did you mean 'obstacles'?)"
+    )
+
+
+def test_show_writes_a_tree_as_svg_dot_or_text_and_refuses_a_picture_s_name_it_could_not_be(tmp_path):
+    for name in ("tree.png", "tree.jpg", "tree.pdf"):
+        refused = autonomy("show", "missions/square.yaml", "-o", str(tmp_path / name))
+        assert_one_line_error(refused, 2, "a tree is written as .svg (a picture), .dot (Graphviz) or .txt")
+        assert not (tmp_path / name).exists()
+    written = autonomy("show", "missions/square.yaml", "-o", str(tmp_path / "tree.svg"))
+    assert written.returncode == 0 and (tmp_path / "tree.svg").read_text().startswith("<svg")

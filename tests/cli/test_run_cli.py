@@ -415,3 +415,30 @@ def test_a_run_as_an_exercise_grades_it_on_one_seed_says_the_grader_s_marks(tmp_
     assert_one_line_error(refused, 2, "the exercise 'garage' has no public seed 3: its seeds are 8, 52, 56, 80")
     refused = autonomy("run", wrong, "--exercise", "garage", "--world", "box")
     assert_one_line_error(refused, 2, "leave out --port and --world")
+
+
+def test_a_run_as_an_exercise_takes_the_exercise_s_world_not_the_one_its_mission_names(tmp_path):
+    # a student's mission naming the teacher's world, which is beside the exercise and not beside the mission
+    mission = tmp_path / "mine.yaml"
+    mission.write_text((ROOT / "exercises" / "solutions" / "garage.yaml").read_text().replace("world: garage", "")
+                       .replace("mission:", "world: the_teachers_hall\nmission:", 1))  # fmt: skip
+    assert "world: the_teachers_hall" in mission.read_text()
+    alone = autonomy("run", str(mission), "--fast", "--quiet")
+    assert alone.returncode == 2 and "no world named 'the_teachers_hall'" in alone.stderr
+    ran = autonomy("run", str(mission), "--exercise", "garage", "--fast", "--quiet")
+    assert ran.returncode == 0, ran.stderr
+    assert "As the grader marks it, seed 8: 10 of 10 points" in ran.stdout
+
+
+def test_a_run_says_what_its_trace_and_log_hold_and_a_collision_once(tmp_path):
+    trace, btlog = tmp_path / "run.jsonl", tmp_path / "run.btlog"
+    ran = autonomy("run", "missions/beep_on_collision.yaml", "--fast", "--trace", str(trace), "--btlog", str(btlog))
+    assert ran.returncode == 0, ran.stderr
+    ticks = sum(1 for line in trace.read_text().splitlines() if '"tick"' in line.split(",", 1)[0])
+    said = ran.stdout.splitlines()
+    assert said[-2] == f"trace: {trace}, {ticks} ticks" and ticks > 500  # after the summary
+    assert re.fullmatch(rf"btlog: {re.escape(str(btlog))}, \d+ status changes of 7 nodes", said[-1])
+    collisions = [line.strip() for line in ran.stdout.splitlines() if "collision (front sensor" in line]
+    assert len(collisions) == 3 and all(line.startswith("collision (front sensor") for line in collisions)
+    quiet = autonomy("run", "missions/square.yaml", "--fast", "--quiet", "--trace", str(trace))
+    assert quiet.returncode == 0 and quiet.stderr == "" and "trace:" not in quiet.stdout

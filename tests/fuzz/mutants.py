@@ -9,8 +9,10 @@ import random
 import re
 from pathlib import Path
 
+from tests.harness import mission_files
+
 ROOT = Path(__file__).resolve().parents[2]
-SOURCES = sorted([*ROOT.glob("missions/*.yaml"), *ROOT.glob("exercises/*/*.yaml")])
+SOURCES = mission_files([*ROOT.glob("missions/*.yaml"), *ROOT.glob("exercises/*/*.yaml")])
 
 #: Characters and snippets that break files in interesting ways.
 PALETTE = [

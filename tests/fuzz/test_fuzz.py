@@ -18,6 +18,7 @@ from autonomy.errors import FramingError
 from autonomy.mission import MissionInvalid, MissionSpec, validate_text
 from autonomy.protocol import ReplyDecoder, ReplyKind
 from tests.fuzz.mutants import ROOT, WORDS, mutant
+from tests.harness import mission_files
 
 LONG = os.environ.get("AUTONOMY_FUZZ_CASES")
 MUTANTS = int(LONG or 3000)
@@ -106,7 +107,7 @@ def _exported() -> list[tuple[str, str]]:
     from autonomy.mission import load_mission
     from autonomy.mission.btcpp import export_xml
 
-    return [(str(p.with_suffix(".xml")), export_xml(load_mission(p))) for p in sorted(MISSIONS.glob("*.yaml"))]
+    return [(str(p.with_suffix(".xml")), export_xml(load_mission(p))) for p in mission_files(MISSIONS.glob("*.yaml"))]
 
 
 XML_PIECES = [

@@ -31,9 +31,10 @@ from autonomy.mission.blocks import (
     workspace_json,
 )
 from autonomy.mission.registry import leaf_type
+from tests.harness import mission_files
 
 ROOT = Path(__file__).resolve().parents[2]
-SHIPPED = sorted([*ROOT.glob("missions/*.yaml"), *ROOT.glob("autonomy/exercises/solutions/*.yaml")])
+SHIPPED = mission_files([*ROOT.glob("missions/*.yaml"), *ROOT.glob("autonomy/exercises/solutions/*.yaml")])
 
 
 def shape(spec) -> list:

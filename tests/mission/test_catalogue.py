@@ -8,6 +8,7 @@ import yaml
 
 from autonomy.mission import BUILTINS, load_mission
 from autonomy.mission.catalogue import catalogue_text, json_schema, with_reference
+from tests.harness import mission_files
 
 ROOT = Path(__file__).resolve().parents[2]
 SCHEMA = json_schema(BUILTINS)
@@ -18,7 +19,7 @@ def test_schema_is_a_valid_json_schema():
     jsonschema.Draft202012Validator.check_schema(SCHEMA)
 
 
-@pytest.mark.parametrize("path", sorted((ROOT / "missions").glob("*.yaml")), ids=lambda p: p.stem)
+@pytest.mark.parametrize("path", mission_files((ROOT / "missions").glob("*.yaml")), ids=lambda p: p.stem)
 def test_every_shipped_mission_matches_the_schema(path):
     document = yaml.safe_load(path.read_text())
     # A mission with plugins is checked against the schema of its own registry (built-ins + plugins).

@@ -6,6 +6,7 @@ import pytest
 
 from autonomy.mission import validate_text
 from autonomy.mission.lint import lint
+from tests.harness import mission_files
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -69,7 +70,8 @@ def test_warnings_follow_subtrees_to_where_they_are_used():
 
 
 @pytest.mark.parametrize(
-    "path", sorted((ROOT / "missions").glob("*.yaml")) + sorted((ROOT / "exercises" / "solutions").glob("*.yaml"))
+    "path",
+    mission_files((ROOT / "missions").glob("*.yaml")) + sorted((ROOT / "exercises" / "solutions").glob("*.yaml")),
 )
 def test_shipped_missions_and_reference_solutions_give_no_warning(path):
     from autonomy.mission import load_mission

@@ -12,7 +12,7 @@ from autonomy.emulator import Emulator
 from autonomy.mission import build_tree, load_mission
 from autonomy.protocol import Beep, Get, Move, ServoBy, ServoTo, Stop, Turn
 from autonomy.runner import SUCCEEDED, Runner, RunSummary
-from tests.harness import Recorder
+from tests.harness import Recorder, mission_files
 
 MISSIONS = Path(__file__).resolve().parents[2] / "missions"
 
@@ -34,7 +34,7 @@ def motions(emulator: Emulator) -> list:
 
 
 def test_every_mission_file_is_valid():
-    names = sorted(p.stem for p in MISSIONS.glob("*.yaml"))
+    names = [p.stem for p in mission_files(MISSIONS.glob("*.yaml"))]
     assert {"square", "wander", "move_until_wall", "beep_on_collision", "servo_scan", "patrol", "explore"} <= set(names)
     for name in names:
         load_mission(MISSIONS / f"{name}.yaml")

@@ -1,0 +1,250 @@
+"""``autonomy test``: a mission's scenario files run, a line a scenario, and which of its nodes' statuses none saw."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+from autonomy.cli.common import EXIT_FAILED, EXIT_OK, EXIT_USAGE, _bounded, _fail, _problems, _shown
+
+
+def cmd_test(args: argparse.Namespace) -> int:
+    """Finds the scenario files, runs every scenario on each of its seeds, and says which held."""
+    from autonomy.clock import cpu_time_s
+    from autonomy.scenarios import Coverage, ScenariosInvalid, find_scenario_files, load_scenarios
+    from autonomy.scenarios.running import ScenarioOutcome, SeedOutcome, run_scenario
+
+    paths = find_scenario_files(args.paths or ["."])
+    missing = [p for p in paths if not p.is_file()]
+    if missing:
+        return _fail(f"{missing[0]}: no such scenario file (a NAME.test.yaml, or a folder holding some)", EXIT_USAGE)
+    if not paths:
+        where = " ".join(args.paths or ["."])
+        return _fail(f"no scenario files (NAME.test.yaml beside NAME.yaml) under {where}", EXIT_USAGE)
+    files = []
+    for path in paths:
+        try:
+            files.append(load_scenarios(path))
+        except ScenariosInvalid as err:
+            return _problems(err.problems)
+    started_s = cpu_time_s()
+    outcomes: list[ScenarioOutcome] = []
+    coverages: list[tuple[Any, Coverage]] = []
+    for tests in files:
+        coverage = Coverage(tests.nodes)
+        coverages.append((tests, coverage))
+        for scenario in tests.scenarios:
+            try:
+                outcome = run_scenario(tests, scenario, coverage)
+            except (Exception, SystemExit) as err:  # noqa: BLE001 - a plugin's error is this scenario's failure
+                why = f"the run stopped with {type(err).__name__}: {err}"
+                outcome = ScenarioOutcome(
+                    str(tests.path), scenario.name, scenario.line, [SeedOutcome("", "", 0.0, [why])], 0.0
+                )
+            outcomes.append(outcome)
+            if not args.json:
+                _say(outcome)
+    took_s = cpu_time_s() - started_s
+    failed = sum(not o.passed for o in outcomes)
+    if args.junit:
+        try:
+            Path(args.junit).write_text(junit_xml(outcomes), encoding="utf-8")
+        except OSError as err:
+            return _fail(f"cannot write {args.junit}: {err.strerror or err}", EXIT_USAGE)
+    report = as_json(outcomes, coverages)
+    if not args.json:
+        runs = sum(len(o.seeds) for o in outcomes)
+        simulated_s = sum(o.simulated_s for o in outcomes)
+        print(
+            f"{len(outcomes)} scenarios: {len(outcomes) - failed} passed, {failed} failed "
+            f"({runs} runs, {simulated_s:,.1f} simulated s in {took_s:.2f} s of CPU time)"
+        )
+        for tests, coverage in coverages:
+            seen, possible = coverage.pairs
+            print(
+                _shown(
+                    f"coverage of {tests.mission.name}: {seen} of {possible} node statuses seen "
+                    f"({coverage.percent:.0f}%)"
+                )
+            )
+            if args.coverage:
+                print(coverage_table(coverage))
+    scores = _mutation(args, files, outcomes) if args.mutate else []
+    if args.json and scores:
+        report["mutation"] = [
+            {"file": str(tests.path), "mission": str(tests.mission), "percent": round(score.percent, 1),
+             "caught": score.caught, "survived": score.survived}
+            for tests, score in scores
+        ]  # fmt: skip
+    if args.json:
+        json.dump(report, sys.stdout, indent=1)
+        sys.stdout.write("\n")
+    below = [c for _, c in coverages if args.fail_under is not None and c.percent < args.fail_under]
+    if below and not args.json:
+        print(f"coverage under {args.fail_under:g}% for {len(below)} of {len(coverages)} missions", file=sys.stderr)
+    return EXIT_FAILED if failed or below else EXIT_OK
+
+
+def _mutation(args: argparse.Namespace, files: list[Any], outcomes: list[Any]) -> list[tuple[Any, Any]]:
+    """Each file's mutation score (its scenarios must pass first); said as lines unless ``--json``."""
+    from autonomy.scenarios.running import mutation_score
+
+    if any(not o.passed for o in outcomes):
+        if not args.json:
+            print("mutants: not tried, as a scenario fails already (a mutant is caught when a scenario fails)")
+        return []
+    scores = []
+    for tests in files:
+        score = mutation_score(tests)
+        scores.append((tests, score))
+        if not args.json:
+            total = len(score.caught) + len(score.survived)
+            print(
+                _shown(f"mutants of {tests.mission.name}: {len(score.caught)} of {total} caught ({score.percent:.0f}%)")
+            )
+            for change in score.survived:
+                print(_shown(f"  your tests pass even when {change}"))
+    return scores
+
+
+def _say(outcome: Any) -> None:
+    """One line for a scenario; under a failed one, a line for each thing that did not hold, on each seed."""
+    seeds = len(outcome.seeds)
+    head = f"{outcome.file}:{outcome.line}: {outcome.name}"
+    if outcome.passed:
+        print(
+            _shown(f"ok    {head} ({seeds} {'seed' if seeds == 1 else 'seeds'}, {outcome.simulated_s:.1f} simulated s)")
+        )
+        return
+    print(_shown(f"FAIL  {head}"))
+    for seed in outcome.seeds:
+        for failure in seed.failures:
+            where = f"{seed.seed}: " if seed.seed else ""
+            print(_shown(f"      {where}{failure}"))
+        if seed.failures and seed.running:
+            print(
+                _shown(
+                    f"      {seed.seed}: the mission ended at {seed.time_s:g} s ({seed.outcome}), "
+                    f"{seed.running} running last"
+                )
+            )
+
+
+def coverage_table(coverage: Any) -> str:
+    """The tree, a node a line, with each status it can return marked seen (+) or never seen (-)."""
+    depth: dict[int, int] = {}
+    lines = []
+    for node in coverage.nodes:
+        depth[node.id] = 0 if node.parent is None else depth[node.parent] + 1
+        seen = coverage.seen.get(node.id, set())
+        marks = "  ".join(f"{'+' if s in seen else '-'}{s}" for s in coverage.possible(node))
+        lines.append(f"  {marks:32} {'  ' * depth[node.id]}{_shown(node.name)} ({node.type})")
+    return "\n".join(lines)
+
+
+def as_json(outcomes: list[Any], coverages: list[tuple[Any, Any]]) -> dict[str, Any]:
+    """What ``--json`` prints: each scenario with its seeds, and each mission's coverage."""
+    from autonomy.scenarios.files import node_paths
+
+    return {
+        "passed": sum(o.passed for o in outcomes),
+        "failed": sum(not o.passed for o in outcomes),
+        "scenarios": [
+            {
+                "file": o.file,
+                "line": o.line,
+                "name": o.name,
+                "passed": o.passed,
+                "seeds": [
+                    {
+                        "seed": s.seed,
+                        "outcome": s.outcome,
+                        "time_s": s.time_s,
+                        "failures": s.failures,
+                        "running": s.running,
+                    }
+                    for s in o.seeds
+                ],
+            }
+            for o in outcomes
+        ],
+        "coverage": [
+            {
+                "file": str(tests.path),
+                "mission": str(tests.mission),
+                "percent": round(coverage.percent, 1),
+                "seen": coverage.pairs[0],
+                "possible": coverage.pairs[1],
+                "nodes": [
+                    {
+                        "id": node.id,
+                        "path": path,
+                        "type": node.type,
+                        "seen": sorted(coverage.seen.get(node.id, set()) & set(coverage.possible(node))),
+                        "never": sorted(set(coverage.possible(node)) - coverage.seen.get(node.id, set())),
+                    }
+                    for node, path in zip(tests.nodes, node_paths(tests.nodes), strict=True)
+                ],
+            }
+            for tests, coverage in coverages
+        ],
+    }
+
+
+def junit_xml(outcomes: list[Any]) -> str:
+    """The scenarios as JUnit XML: a test suite a file, a test case a scenario, a failure for each that failed."""
+    import xml.etree.ElementTree as ET
+
+    suites = ET.Element("testsuites", tests=str(len(outcomes)), failures=str(sum(not o.passed for o in outcomes)))
+    by_file: dict[str, list[Any]] = {}
+    for outcome in outcomes:
+        by_file.setdefault(outcome.file, []).append(outcome)
+    for file, ones in by_file.items():
+        suite = ET.SubElement(
+            suites, "testsuite", name=file, tests=str(len(ones)), failures=str(sum(not o.passed for o in ones))
+        )
+        for outcome in ones:
+            case = ET.SubElement(suite, "testcase", classname=file, name=outcome.name, time=f"{outcome.cpu_s:.3f}")
+            if not outcome.passed:
+                lines = [f"{s.seed}: {f}" if s.seed else f for s in outcome.seeds for f in s.failures]
+                failure = ET.SubElement(case, "failure", message=_xml_text(lines[0]))
+                failure.text = _xml_text("\n".join(lines))
+    return ET.tostring(suites, encoding="unicode", xml_declaration=True) + "\n"
+
+
+def _xml_text(text: str) -> str:
+    """``text`` with the characters XML 1.0 cannot hold (control characters but tab and newline) as U+FFFD."""
+    return "".join(
+        c if c in "\t\n\r" or (" " <= c and c not in "\ufffe\uffff" and not "\ud800" <= c <= "\udfff") else "\ufffd"
+        for c in text
+    )
+
+
+def add_parsers(sub: Any) -> None:
+    """Adds ``autonomy test`` to the command line's subparsers."""
+    parser = sub.add_parser(
+        "test", help="run a mission's scenario files (NAME.test.yaml beside NAME.yaml): each scenario a line"
+    )
+    parser.add_argument(
+        "paths", nargs="*", metavar="PATH", help="scenario files, or folders searched for them (default: here)"
+    )
+    parser.add_argument("--json", action="store_true", help="print the results as JSON, not lines")
+    parser.add_argument("--junit", metavar="FILE", help="also write the results as JUnit XML, for CI")
+    parser.add_argument(
+        "--coverage", action="store_true", help="list each node with the statuses some scenario saw it return"
+    )
+    parser.add_argument(
+        "--mutate",
+        action="store_true",
+        help="then change the mission a little, one thing at a time, and say which changes no scenario notices",
+    )
+    parser.add_argument(
+        "--fail-under",
+        type=_bounded(float, 0, 100, "a percentage"),
+        metavar="PERCENT",
+        help="fail (exit 1) when a mission's node statuses seen are under PERCENT",
+    )
+    parser.set_defaults(func=cmd_test)

@@ -1,0 +1,348 @@
+"""Scenario files: a mission's tests, beside it, in the words of the exercises (docs/testing.md).
+
+A scenario file is ``NAME.test.yaml`` beside the mission ``NAME.yaml``::
+
+    scenarios:
+      - name: parks in the garage
+        world: garage
+        seeds: [1, 2, 3]
+        time_limit_s: 30
+        expect:
+          outcome: succeeded
+          within_s: 20
+          criteria:
+            - rest_in_zone: garage
+            - max_collisions: 0
+        nodes:
+          - node: to the end
+            reaches: SUCCESS
+            before_s: 15
+          - node: back off
+            runs: false
+
+Each scenario runs the mission once on each of its seeds, in virtual time, and holds when every
+seed meets all it expects. It is read as a mission or an exercise is: every problem at once, as
+``FILE:LINE:COL``, with a did-you-mean; a node it names must be in the mission's tree.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from autonomy.behaviours.tree import describe_tree
+from autonomy.classroom.exercise import MAX_TIME_LIMIT_S, Exercise, ExerciseInvalid, ExerciseReader, Seed
+from autonomy.mission import MissionInvalid, MissionSpec, build_tree, load_mission
+from autonomy.record import NodeInfo
+from autonomy.runner import CRASHED, FAILED, INTERRUPTED, LINK_LOST, SUCCEEDED, TIME_LIMIT
+from autonomy.source import Located, Problem, UnreadableFile, parse, read_text, suggest
+
+#: What a scenario file ends in; the mission it tests is the same name without ``.test``.
+SUFFIX = ".test.yaml"
+TOP_LEVEL = ("mission", "scenarios")
+SCENARIO_KEYS = ("name", "world", "seeds", "time_limit_s", "expect", "nodes")
+EXPECT_KEYS = ("outcome", "within_s", "criteria")
+NODE_KEYS = ("node", "reaches", "before_s", "never", "after_s", "runs")
+#: The outcomes a run may end with, as ``autonomy run`` says them.
+OUTCOMES = (SUCCEEDED, FAILED, TIME_LIMIT, LINK_LOST, CRASHED, INTERRUPTED)
+#: The statuses a node's check may name (py_trees' own words).
+STATUSES = ("SUCCESS", "FAILURE", "RUNNING")
+#: A scenario's time limit when it sets none, simulated seconds.
+DEFAULT_TIME_LIMIT_S = 60.0
+MAX_SCENARIOS = 200
+
+
+@dataclass(frozen=True)
+class NodeCheck:
+    """What one node must do in a scenario's runs.
+
+    Attributes:
+        node: The node as the file names it: its name, its path of names from the root (``root/avoid``),
+            or its type (every node of that type).
+        ids: The ids of the tree's nodes it names.
+        kind: ``reaches`` (the node returns ``status``, before ``time_s`` if set), ``never`` (the node
+            is never ``status`` after ``time_s``, 0 if not set) or ``runs`` (the node is ticked at all,
+            or, when ``expected`` is False, never).
+        status: The status it is about (``SUCCESS``, ``FAILURE``, ``RUNNING``); empty for ``runs``.
+        time_s: ``before_s`` or ``after_s``, simulated seconds from the start; None: not set.
+        expected: For ``runs``: whether it must run (True) or must not (False).
+        line: Where the check stands in the file.
+    """
+
+    node: str
+    ids: tuple[int, ...]
+    kind: str
+    status: str = ""
+    time_s: float | None = None
+    expected: bool = True
+    line: int = 0
+
+    @property
+    def words(self) -> str:
+        """What it asks, in a few words: ``'to the end' reaches SUCCESS before 15 s``."""
+        if self.kind == "runs":
+            return f"'{self.node}' {'runs' if self.expected else 'never runs'}"
+        if self.kind == "reaches":
+            return f"'{self.node}' reaches {self.status}" + (f" before {self.time_s:g} s" if self.time_s else "")
+        return f"'{self.node}' is never {self.status}" + (f" after {self.time_s:g} s" if self.time_s else "")
+
+
+@dataclass
+class Scenario:
+    """One scenario: where the mission runs, and what must hold on each of its seeds.
+
+    Attributes:
+        name: What the scenario is called.
+        line: Where it starts in its file.
+        exercise: Its world, seeds, time limit and criteria, as an exercise holds them (each criterion
+            must hold in full on every seed).
+        outcomes: The outcomes the run may end with (empty: any).
+        within_s: When the mission must have ended by, simulated seconds (None: any time within the limit).
+        nodes: What its nodes must do.
+    """
+
+    name: str
+    line: int
+    exercise: Exercise
+    outcomes: tuple[str, ...] = ()
+    within_s: float | None = None
+    nodes: list[NodeCheck] = field(default_factory=list)
+
+
+@dataclass
+class ScenarioFile:
+    """A read scenario file: the mission it tests, its tree, and its scenarios.
+
+    Attributes:
+        path: The scenario file.
+        mission: The mission file it tests.
+        spec: The mission, validated (its plugins loaded, as ``autonomy run`` loads them).
+        nodes: The mission's tree, as a run's header describes it.
+        scenarios: Its scenarios, in the file's order.
+    """
+
+    path: Path
+    mission: Path
+    spec: MissionSpec
+    nodes: list[NodeInfo]
+    scenarios: list[Scenario]
+
+
+class ScenariosInvalid(ExerciseInvalid):
+    """A scenario file with problems (its mission's too); :attr:`problems` lists every one."""
+
+
+def mission_of(path: Path) -> Path:
+    """The mission a scenario file tests when it names none: ``NAME.yaml`` beside ``NAME.test.yaml``."""
+    name = path.name[: -len(SUFFIX)] if path.name.endswith(SUFFIX) else path.stem
+    return path.with_name(name + ".yaml")
+
+
+def node_paths(nodes: list[NodeInfo]) -> list[str]:
+    """Each node's path of names from the root, by id (``root/avoid/back off``)."""
+    paths: list[str] = []
+    for node in nodes:  # parents come before their children
+        paths.append(node.name if node.parent is None else f"{paths[node.parent]}/{node.name}")
+    return paths
+
+
+def named(nodes: list[NodeInfo], node: str) -> tuple[int, ...]:
+    """The ids of the nodes ``node`` names: by name, by path from the root, by the end of a path, else by type."""
+    paths = node_paths(nodes)
+    by_name = tuple(n.id for n in nodes if n.name == node)
+    by_path = tuple(i for i, p in enumerate(paths) if p == node or p.endswith("/" + node))
+    return by_name or by_path or tuple(n.id for n in nodes if n.type == node)
+
+
+class _Reader(ExerciseReader):
+    kind = "scenario file"
+
+    def file(self, root: Located, path: Path) -> tuple[Path | None, list[Located]]:
+        """The mission's path and the scenarios' items, their problems noted."""
+        if not isinstance(root.value, dict):
+            self.problem(root, "", "a scenario file is a mapping with scenarios: (a list), and mission: if it is not "
+                         f"{mission_of(path).name}")  # fmt: skip
+            return None, []
+        doc: dict[str, Located] = root.value
+        for key in doc:
+            if key not in TOP_LEVEL:
+                self.problem(root.keys[key], key, f"unknown key '{key}'{suggest(key, list(TOP_LEVEL))}")
+        mission = mission_of(path)
+        if "mission" in doc:
+            name = self.text(doc["mission"], "mission")
+            mission = (self.base_dir / name) if name is not None else None
+        items = doc.get("scenarios")
+        if items is None:
+            self.problem(root, "", "'scenarios' is missing: a list of scenarios, each with name: and world:")
+            return mission, []
+        if not isinstance(items.value, list) or not items.value:
+            self.problem(items, "scenarios", "expected a list of scenarios, each with name: and world:")
+            return mission, []
+        if len(items.value) > MAX_SCENARIOS:
+            self.problem(items, "scenarios", f"at most {MAX_SCENARIOS} scenarios in a file")
+            return mission, []
+        return mission, items.value
+
+    def scenario(self, item: Located, where: str, nodes: list[NodeInfo], names: set[str]) -> Scenario | None:
+        if not isinstance(item.value, dict):
+            self.problem(item, where, "a scenario is a mapping: name:, world:, and what it expects (expect:, nodes:)")
+            return None
+        doc: dict[str, Located] = item.value
+        for key in doc:
+            if key not in SCENARIO_KEYS:
+                self.problem(
+                    item.keys[key], f"{where}.{key}", f"unknown key '{key}'{suggest(key, list(SCENARIO_KEYS))}"
+                )
+        for key in ("name", "world"):
+            if key not in doc:
+                self.problem(item, where, f"'{key}' is missing")
+        name = self.text(doc["name"], f"{where}.name") if "name" in doc else None
+        if name is not None and name in names:
+            self.problem(doc["name"], f"{where}.name", f"another scenario is named '{name}': each is told by its name")
+        names.add(name or "")
+        world, world_ref = self.world(doc["world"], f"{where}.world") if "world" in doc else (None, "")
+        seeds = self.seeds(doc["seeds"]) if "seeds" in doc else [Seed(1)]
+        limit = DEFAULT_TIME_LIMIT_S
+        if "time_limit_s" in doc:
+            limit = self.number(doc["time_limit_s"], f"{where}.time_limit_s", 0.1, MAX_TIME_LIMIT_S)
+        outcomes, within_s, criteria = (
+            self.expect(doc["expect"], f"{where}.expect", world) if "expect" in doc else ((), None, [])
+        )
+        checks = self.nodes(doc["nodes"], f"{where}.nodes", nodes) if "nodes" in doc else []
+        if "expect" not in doc and "nodes" not in doc:
+            self.problem(
+                item, where, "a scenario checks something: expect: (outcome, within_s, criteria), nodes:, or both"
+            )
+        if name is None or world is None or limit is None:
+            return None
+        exercise = Exercise(name, name, "", world, world_ref, float(limit), seeds, None, criteria, self.label)
+        return Scenario(name, item.line, exercise, outcomes, within_s, checks)
+
+    def expect(self, located: Located, where: str, world: object) -> tuple[tuple[str, ...], float | None, list]:
+        if not isinstance(located.value, dict):
+            self.problem(located, where, "expect: is a mapping of outcome:, within_s: and criteria:")
+            return (), None, []
+        doc: dict[str, Located] = located.value
+        for key in doc:
+            if key not in EXPECT_KEYS:
+                self.problem(
+                    located.keys[key], f"{where}.{key}", f"unknown key '{key}'{suggest(key, list(EXPECT_KEYS))}"
+                )
+        outcomes: list[str] = []
+        if "outcome" in doc:
+            given = doc["outcome"].value if isinstance(doc["outcome"].value, list) else [doc["outcome"]]
+            for value in given:
+                text = self.text(value, f"{where}.outcome")
+                if text is not None and text not in OUTCOMES:
+                    self.problem(value, f"{where}.outcome", f"unknown outcome '{text}'{suggest(text, list(OUTCOMES))}: "
+                                 f"one of {', '.join(OUTCOMES)}")  # fmt: skip
+                elif text is not None:
+                    outcomes.append(text)
+        within_s = (
+            self.number(doc["within_s"], f"{where}.within_s", 0.0, MAX_TIME_LIMIT_S) if "within_s" in doc else None
+        )
+        criteria = self.criteria(doc["criteria"], world) if "criteria" in doc else []  # type: ignore[arg-type]
+        return tuple(outcomes), within_s, criteria
+
+    def nodes(self, located: Located, where: str, nodes: list[NodeInfo]) -> list[NodeCheck]:
+        if not isinstance(located.value, list) or not located.value:
+            self.problem(located, where, "nodes: is a list, e.g. - {node: avoid, runs: true}")
+            return []
+        checks = []
+        for index, item in enumerate(located.value):
+            check = self.node(item, f"{where}[{index}]", nodes)
+            if check is not None:
+                checks.append(check)
+        return checks
+
+    def node(self, item: Located, where: str, nodes: list[NodeInfo]) -> NodeCheck | None:
+        if not isinstance(item.value, dict):
+            self.problem(item, where, "a node's check is a mapping, e.g. {node: avoid, reaches: SUCCESS, before_s: 10}")
+            return None
+        doc: dict[str, Located] = item.value
+        for key in doc:
+            if key not in NODE_KEYS:
+                self.problem(item.keys[key], f"{where}.{key}", f"unknown key '{key}'{suggest(key, list(NODE_KEYS))}")
+        if "node" not in doc:
+            self.problem(item, where, "'node' is missing: the node's name, or its path from the root")
+            return None
+        node = self.text(doc["node"], f"{where}.node")
+        ids = named(nodes, node) if node is not None else ()
+        if node is not None and not ids:
+            names = [n.name for n in nodes]
+            self.problem(doc["node"], f"{where}.node", f"no node named '{node}' in the mission{suggest(node, names)}")
+        kinds = [key for key in ("reaches", "never", "runs") if key in doc]
+        if len(kinds) != 1:
+            self.problem(item, where, "a node's check says one of reaches: STATUS, never: STATUS or runs: true/false")
+            return None
+        kind = kinds[0]
+        for key, own in (("before_s", "reaches"), ("after_s", "never")):
+            if key in doc and kind != own:
+                self.problem(doc[key], f"{where}.{key}", f"{key} goes with {own}:")
+        if kind == "runs":
+            if not isinstance(doc["runs"].value, bool):
+                self.problem(
+                    doc["runs"], f"{where}.runs", "runs: is true (the node runs at least once) or false (never)"
+                )
+                return None
+            return NodeCheck(node or "", ids, "runs", expected=doc["runs"].value, line=item.line) if ids else None
+        status_text = self.text(doc[kind], f"{where}.{kind}")
+        status = status_text.upper() if status_text is not None else None
+        if status is not None and status not in STATUSES:
+            self.problem(doc[kind], f"{where}.{kind}", f"unknown status '{status_text}': one of {', '.join(STATUSES)}")
+            return None
+        time_key = "before_s" if kind == "reaches" else "after_s"
+        time_s = self.number(doc[time_key], f"{where}.{time_key}", 0.0, MAX_TIME_LIMIT_S) if time_key in doc else None
+        if status is None or not ids:
+            return None
+        return NodeCheck(node or "", ids, kind, status, None if time_s is None else float(time_s), line=item.line)
+
+
+def load_scenarios(path: str | Path) -> ScenarioFile:
+    """Reads and validates a scenario file, and the mission it tests (its plugins loaded, as ``autonomy run`` does).
+
+    Raises:
+        ScenariosInvalid: the file, or its mission, cannot be read or has problems (all of them).
+    """
+    path = Path(path)
+    label = str(path)
+    try:
+        text = read_text(path)
+    except UnreadableFile as err:
+        raise ScenariosInvalid([Problem(label, err.line, err.column, "", f"cannot read it: {err.reason}")]) from None
+    root, errors = parse(text)
+    problems = [Problem(label, e.line, e.column, "", e.message) for e in errors]
+    if root is None:
+        raise ScenariosInvalid(problems or [Problem(label, 1, 1, "", "not a scenario file")])
+    reader = _Reader(label, path.parent)
+    mission, items = reader.file(root, path)
+    problems += reader.problems
+    if mission is None:
+        raise ScenariosInvalid(problems)
+    try:
+        spec = load_mission(mission)
+    except MissionInvalid as err:
+        raise ScenariosInvalid(
+            problems + [Problem(label, 1, 1, "mission", f"the mission {mission} it tests has problems:")] + err.problems
+        ) from None
+    except OSError as err:
+        raise ScenariosInvalid(
+            problems + [Problem(label, 1, 1, "mission", f"cannot read the mission it tests, {mission}: {err}")]
+        ) from None
+    nodes = describe_tree(build_tree(spec))
+    reader.problems = []
+    names: set[str] = set()
+    scenarios = [reader.scenario(item, f"scenarios[{k}]", nodes, names) for k, item in enumerate(items)]
+    problems += reader.problems
+    if problems:
+        raise ScenariosInvalid(problems)
+    return ScenarioFile(path, mission, spec, nodes, [s for s in scenarios if s is not None])
+
+
+def find_scenario_files(paths: list[str | Path]) -> list[Path]:
+    """The scenario files under ``paths`` (files as given; folders searched for ``*.test.yaml``), sorted, once each."""
+    found: list[Path] = []
+    for given in paths:
+        path = Path(given)
+        found += sorted(path.rglob("*" + SUFFIX)) if path.is_dir() else [path]
+    return list(dict.fromkeys(found))

@@ -1,0 +1,221 @@
+"""Running a mission's scenarios: each seed in virtual time, what it expects checked, its nodes' statuses watched.
+
+A scenario's run is judged as a grading judges one (:func:`~autonomy.classroom.job.run_seed`, the
+emulator's own account), and each of its nodes' statuses is followed from the run's records, so
+that what a node did, and which of its statuses no scenario ever saw, can be told.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from autonomy.classroom.exercise import Seed
+from autonomy.classroom.job import run_seed, verdicts_of
+from autonomy.clock import cpu_time_s
+from autonomy.errors import LinkError
+from autonomy.record import NodeInfo, Record, RunEnd, RunHeader, TickRecord
+from autonomy.scenarios.files import STATUSES, NodeCheck, Scenario, ScenarioFile
+
+
+class NodeWatch:
+    """A listener that keeps, for each node, when its status changed and to what.
+
+    Attributes:
+        changes: By node id, each (time_s, status) its status changed to, in order.
+        end_s: When the run ended (its end record's time).
+    """
+
+    def __init__(self) -> None:
+        self.changes: dict[int, list[tuple[float, str]]] = {}
+        self.end_s = 0.0
+
+    def __call__(self, record: Record) -> None:
+        """Takes one record."""
+        if type(record) is TickRecord:
+            for node, state in record.nodes.items():
+                self.changes.setdefault(node, []).append((record.time_s, state.status))
+        elif isinstance(record, RunHeader):
+            self.changes, self.end_s = {}, 0.0
+        elif isinstance(record, RunEnd):
+            self.end_s = record.time_s
+
+    def seen(self, node: int) -> set[str]:
+        """The statuses ``node`` returned in the run (of SUCCESS, FAILURE and RUNNING)."""
+        return {status for _, status in self.changes.get(node, []) if status in STATUSES}
+
+    def holds(self, check: NodeCheck) -> tuple[bool, str]:
+        """Whether ``check`` held in this run, and, where it did not, what the node did instead."""
+        changes = [(t, s, node) for node in check.ids for t, s in self.changes.get(node, [])]
+        if check.kind == "runs":
+            ran = [t for t, s, _ in changes if s in STATUSES]
+            if check.expected:
+                return bool(ran), "it never ran"
+            return not ran, f"it ran at {min(ran):g} s" if ran else ""
+        if check.kind == "reaches":
+            times = [t for t, s, _ in changes if s == check.status]
+            if not times:
+                others = sorted({s for _, s, _ in changes if s in STATUSES})
+                return False, f"it never returned {check.status}" + (f" (only {', '.join(others)})" if others else "")
+            first = min(times)
+            if check.time_s is not None and first > check.time_s:
+                return False, f"it first returned {check.status} at {first:g} s"
+            return True, ""
+        after_s = check.time_s or 0.0
+        for node in check.ids:
+            steps = self.changes.get(node, [])
+            for k, (t, status) in enumerate(steps):
+                until_s = steps[k + 1][0] if k + 1 < len(steps) else self.end_s
+                # it was that status from t until its next change: at some moment after after_s?
+                if status == check.status and (t >= after_s or until_s > after_s):
+                    return False, f"it was {status} at {max(t, after_s):g} s"
+        return True, ""
+
+
+@dataclass
+class SeedOutcome:
+    """One seed's run of a scenario: whether it held, and each thing that did not.
+
+    Attributes:
+        seed: The seed, as an exercise labels it (``seed 2 (noise 3 mm)``).
+        outcome: The run's outcome.
+        time_s: When the mission ended.
+        failures: What was expected and what happened instead, one line each (empty: it held).
+        running: The node that was running when the run went wrong (empty: none named).
+    """
+
+    seed: str
+    outcome: str
+    time_s: float
+    failures: list[str] = field(default_factory=list)
+    running: str = ""
+
+
+@dataclass
+class ScenarioOutcome:
+    """A scenario's runs, one a seed.
+
+    Attributes:
+        file: The scenario file.
+        name: The scenario's name.
+        line: Where it starts in its file.
+        seeds: Each seed's run.
+        simulated_s: The simulated seconds its runs took in all.
+        cpu_s: The CPU time its runs took, seconds.
+    """
+
+    file: str
+    name: str
+    line: int
+    seeds: list[SeedOutcome]
+    simulated_s: float
+    cpu_s: float = 0.0
+
+    @property
+    def passed(self) -> bool:
+        """Whether every seed held."""
+        return all(not seed.failures for seed in self.seeds)
+
+
+@dataclass
+class Coverage:
+    """Which statuses each node of a mission returned across its scenarios' runs.
+
+    Attributes:
+        nodes: The mission's tree.
+        seen: By node id, the statuses some run saw it return.
+    """
+
+    nodes: list[NodeInfo]
+    seen: dict[int, set[str]] = field(default_factory=dict)
+
+    @staticmethod
+    def possible(node: NodeInfo) -> tuple[str, ...]:
+        """The statuses a node of its kind can return: a condition answers at once (SUCCESS or FAILURE)."""
+        return ("SUCCESS", "FAILURE") if node.category == "condition" else STATUSES
+
+    @property
+    def pairs(self) -> tuple[int, int]:
+        """How many node x status pairs were seen, of how many can occur."""
+        seen = sum(len(self.seen.get(n.id, set()) & set(self.possible(n))) for n in self.nodes)
+        return seen, sum(len(self.possible(n)) for n in self.nodes)
+
+    @property
+    def percent(self) -> float:
+        """The share of the node x status pairs seen, in percent."""
+        seen, possible = self.pairs
+        return 100.0 * seen / possible if possible else 100.0
+
+
+def run_scenario(tests: ScenarioFile, scenario: Scenario, coverage: Coverage | None = None) -> ScenarioOutcome:
+    """Runs one scenario on each of its seeds and checks what it expects; adds what its nodes did to ``coverage``."""
+    seeds = []
+    simulated_s = 0.0
+    started_s = cpu_time_s()
+    for seed in scenario.exercise.seeds:
+        outcome = _run_seed(tests, scenario, seed, coverage)
+        simulated_s += outcome.time_s
+        seeds.append(outcome)
+    return ScenarioOutcome(str(tests.path), scenario.name, scenario.line, seeds, simulated_s, cpu_time_s() - started_s)
+
+
+def _run_seed(tests: ScenarioFile, scenario: Scenario, seed: Seed, coverage: Coverage | None) -> SeedOutcome:
+    watch = NodeWatch()
+    try:
+        facts = run_seed(scenario.exercise, tests.spec, seed, watchers=[watch])
+    except LinkError as err:
+        return SeedOutcome(seed.label, "no run", 0.0, [f"no run: the link failed before the mission started ({err})"])
+    if coverage is not None:
+        for node in watch.changes:
+            coverage.seen.setdefault(node, set()).update(watch.seen(node))
+    failures = []
+    if scenario.outcomes and facts.outcome not in scenario.outcomes:
+        failures.append(f"expected the mission to end {' or '.join(scenario.outcomes)}, but it {facts.outcome}")
+    if scenario.within_s is not None and facts.time_s > scenario.within_s + 1e-9:
+        failures.append(f"expected it to end within {scenario.within_s:g} s, but it ended at {facts.time_s:g} s")
+    for criterion, verdict in zip(scenario.exercise.criteria, verdicts_of(scenario.exercise, seed, facts), strict=True):
+        if not verdict.held:
+            failures.append(f"expected {criterion.shown}: {verdict.line}")
+    for check in scenario.nodes:
+        held, instead = watch.holds(check)
+        if not held:
+            failures.append(f"expected {check.words}, but {instead}")
+    if facts.left_going:
+        failures.append("the run ended with the robot still told to drive: the stop at the end never reached it")
+    running = facts.running_at(facts.time_s) if failures else ""
+    return SeedOutcome(seed.label, facts.outcome, round(facts.time_s, 2), failures, running)
+
+
+@dataclass
+class MutationScore:
+    """How many of a mission's mutants its scenarios caught (see :mod:`autonomy.scenarios.mutants`).
+
+    Attributes:
+        caught: The changes some scenario failed on.
+        survived: The changes every scenario passed: "your tests pass even when ...".
+    """
+
+    caught: list[str] = field(default_factory=list)
+    survived: list[str] = field(default_factory=list)
+
+    @property
+    def percent(self) -> float:
+        """The share of the mutants caught, in percent (100 when there are none)."""
+        total = len(self.caught) + len(self.survived)
+        return 100.0 * len(self.caught) / total if total else 100.0
+
+
+def mutation_score(tests: ScenarioFile) -> MutationScore:
+    """Runs the file's scenarios on each mutant of its mission, up to the first that fails; which were caught."""
+    from dataclasses import replace
+
+    from autonomy.scenarios.mutants import mutants
+
+    score = MutationScore()
+    for mutant in mutants(tests.spec):
+        mutated = replace(tests, spec=mutant.spec)
+        try:
+            caught = any(not run_scenario(mutated, scenario).passed for scenario in tests.scenarios)
+        except Exception:  # noqa: BLE001 - a mutant its run cannot take fails its tests: caught
+            caught = True
+        (score.caught if caught else score.survived).append(mutant.change)
+    return score
