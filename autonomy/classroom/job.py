@@ -136,11 +136,14 @@ def check_text(
     return spec, []
 
 
-def seed_url(exercise: Exercise, seed: Seed, virtual: bool = True) -> str:
-    """The ``emu://`` address a seed of the exercise is run on: its world, the seed, its noise and faults."""
+def seed_url(exercise: Exercise, seed: Seed, virtual: bool = True, more: dict[str, object] | None = None) -> str:
+    """The ``emu://`` address a seed of the exercise is run on: its world, the seed, its noise and faults.
+
+    ``more`` are further emulator options (``battery``), as ``emu://`` takes them.
+    """
     options: dict[str, object] = {"world": exercise.world_ref, "seed": seed.seed}
     options |= {"time": "virtual"} if virtual else {}
-    options |= {"noise": seed.noise_mm} | ({"faults": seed.faults} if seed.faults else {})
+    options |= {"noise": seed.noise_mm} | ({"faults": seed.faults} if seed.faults else {}) | (more or {})
     # a world file's path may hold bytes that are not UTF-8: they go through the URL as they are
     return "emu://?" + urlencode(options, errors="surrogateescape")
 
@@ -152,6 +155,7 @@ def run_seed(
     trace: Path | None = None,
     replay: ReplayMaker | None = None,
     watchers: Sequence[Callable[[Record], None]] = (),
+    emulator: dict[str, object] | None = None,
 ) -> RunFacts:
     """Runs ``spec`` once on ``seed`` in the exercise's world, in virtual time; returns its facts.
 
@@ -159,9 +163,9 @@ def run_seed(
     held in memory (nor gone over again and again by the garbage collector). With ``trace``,
     the run is also written there as a trace, and with ``replay`` made into a page's replay (nodes'
     states included, either way); each of ``watchers`` is given every record too, the nodes' states
-    in them.
+    in them. ``emulator`` holds further emulator options (``battery``: see :func:`seed_url`).
     """
-    client = Client.open(seed_url(exercise, seed))
+    client = Client.open(seed_url(exercise, seed, more=emulator))
     gatherer = Gatherer()
     stream = trace.open("w", encoding="utf-8") if trace is not None else None
     try:

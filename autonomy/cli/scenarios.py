@@ -4,18 +4,21 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 from pathlib import Path
 from typing import Any
 
 from autonomy.cli.common import EXIT_FAILED, EXIT_OK, EXIT_USAGE, _bounded, _fail, _problems, _shown
 
+#: The simulated seconds the scenarios may take in all, at most, past which they run a process a core by default.
+PARALLEL_FROM_S = 600.0
+
 
 def cmd_test(args: argparse.Namespace) -> int:
     """Finds the scenario files, runs every scenario on each of its seeds, and says which held."""
-    from autonomy.clock import cpu_time_s
     from autonomy.scenarios import Coverage, ScenariosInvalid, find_scenario_files, load_scenarios
-    from autonomy.scenarios.running import ScenarioOutcome, SeedOutcome, run_scenario
+    from autonomy.scenarios.running import ScenarioOutcome, run_all
 
     paths = find_scenario_files(args.paths or ["."])
     missing = [p for p in paths if not p.is_file()]
@@ -30,31 +33,27 @@ def cmd_test(args: argparse.Namespace) -> int:
             files.append(load_scenarios(path))
         except ScenariosInvalid as err:
             return _problems(err.problems)
-    started_s = cpu_time_s()
     outcomes: list[ScenarioOutcome] = []
-    coverages: list[tuple[Any, Coverage]] = []
-    for tests in files:
-        coverage = Coverage(tests.nodes)
-        coverages.append((tests, coverage))
-        for scenario in tests.scenarios:
-            try:
-                outcome = run_scenario(tests, scenario, coverage)
-            except (Exception, SystemExit) as err:  # noqa: BLE001 - a plugin's error is this scenario's failure
-                why = f"the run stopped with {type(err).__name__}: {err}"
-                outcome = ScenarioOutcome(
-                    str(tests.path), scenario.name, scenario.line, [SeedOutcome("", "", 0.0, [why])], 0.0
-                )
-            outcomes.append(outcome)
-            if not args.json:
-                _say(outcome)
-    took_s = cpu_time_s() - started_s
+    coverages = {id(tests): (tests, Coverage(tests.nodes)) for tests in files}
+    # a process a core pays for its start when there is much to run: over ten simulated minutes at most
+    most_s = sum(s.exercise.time_limit_s * len(s.exercise.seeds) for tests in files for s in tests.scenarios)
+    jobs = args.jobs or ((os.cpu_count() or 1) if most_s > PARALLEL_FROM_S else 1)
+    for tests, outcome, seen in run_all(files, jobs):
+        for node, statuses in seen.items():
+            coverages[id(tests)][1].seen.setdefault(node, set()).update(statuses)
+        outcomes.append(outcome)
+        if not args.json:
+            _say(outcome)
+    took_s = sum(o.cpu_s for o in outcomes)
     failed = sum(not o.passed for o in outcomes)
-    if args.junit:
-        try:
-            Path(args.junit).write_text(junit_xml(outcomes), encoding="utf-8")
-        except OSError as err:
-            return _fail(f"cannot write {args.junit}: {err.strerror or err}", EXIT_USAGE)
-    report = as_json(outcomes, coverages)
+    written = [(args.junit, lambda: junit_xml(outcomes)), (args.html, lambda: coverage_html(list(coverages.values())))]
+    for path, made in written:
+        if path:
+            try:
+                Path(path).write_text(made(), encoding="utf-8")
+            except OSError as err:
+                return _fail(f"cannot write {path}: {err.strerror or err}", EXIT_USAGE)
+    report = as_json(outcomes, list(coverages.values()))
     if not args.json:
         runs = sum(len(o.seeds) for o in outcomes)
         simulated_s = sum(o.simulated_s for o in outcomes)
@@ -62,7 +61,7 @@ def cmd_test(args: argparse.Namespace) -> int:
             f"{len(outcomes)} scenarios: {len(outcomes) - failed} passed, {failed} failed "
             f"({runs} runs, {simulated_s:,.1f} simulated s in {took_s:.2f} s of CPU time)"
         )
-        for tests, coverage in coverages:
+        for tests, coverage in coverages.values():
             seen, possible = coverage.pairs
             print(
                 _shown(
@@ -82,7 +81,7 @@ def cmd_test(args: argparse.Namespace) -> int:
     if args.json:
         json.dump(report, sys.stdout, indent=1)
         sys.stdout.write("\n")
-    below = [c for _, c in coverages if args.fail_under is not None and c.percent < args.fail_under]
+    below = [c for _, c in coverages.values() if args.fail_under is not None and c.percent < args.fail_under]
     if below and not args.json:
         print(f"coverage under {args.fail_under:g}% for {len(below)} of {len(coverages)} missions", file=sys.stderr)
     return EXIT_FAILED if failed or below else EXIT_OK
@@ -237,9 +236,20 @@ def add_parsers(sub: Any) -> None:
         "--coverage", action="store_true", help="list each node with the statuses some scenario saw it return"
     )
     parser.add_argument(
+        "-j",
+        "--jobs",
+        type=_bounded(int, 1, 256, "a number of processes"),
+        metavar="N",
+        help="run N scenarios at once, each in a process of its own (default: one a core, when they may take "
+        "more than 10 simulated minutes in all)",
+    )
+    parser.add_argument(
         "--mutate",
         action="store_true",
         help="then change the mission a little, one thing at a time, and say which changes no scenario notices",
+    )
+    parser.add_argument(
+        "--html", metavar="FILE", help="also write each tree drawn with its nodes filled by coverage, one offline page"
     )
     parser.add_argument(
         "--fail-under",
@@ -248,3 +258,58 @@ def add_parsers(sub: Any) -> None:
         help="fail (exit 1) when a mission's node statuses seen are under PERCENT",
     )
     parser.set_defaults(func=cmd_test)
+
+
+#: A node's coverage as its box is filled on the page: every status it can return seen, some, none.
+COVERAGE_FILLS = {"full": "#c8e6c9", "part": "#ffe0b2", "none": "#ffcdd2"}
+
+
+def coverage_html(coverages: list[tuple[Any, Any]]) -> str:
+    """One offline page: each mission's tree, each node's box filled by how many of its statuses some run saw.
+
+    Below each tree, the same as a table (each status seen or never seen, in words), for those who do not
+    tell the fills apart.
+    """
+    from html import escape
+
+    from autonomy.scenarios.files import node_paths
+    from autonomy.views.lines import printable
+    from autonomy.views.treesvg import svg_tree
+
+    style = "".join(f".{kind} rect{{fill:{fill}}}" for kind, fill in COVERAGE_FILLS.items())
+    parts = [
+        '<!doctype html>\n<html lang="en"><head><meta charset="utf-8">',
+        "<meta http-equiv=\"Content-Security-Policy\" content=\"default-src 'none'; style-src 'unsafe-inline'\">",
+        f"<title>Coverage of the missions' trees</title><style>body{{font-family:sans-serif;margin:1em}}"
+        f"table{{border-collapse:collapse}}td,th{{border:1px solid #999;padding:2px 6px;text-align:left}}"
+        f"svg{{max-width:100%;height:auto}}{style}</style></head><body>",
+        "<h1>Coverage of the missions' trees</h1>",
+        "<p>Each node's box: green, every status it can return was seen in some scenario's run; orange, some; "
+        "red, none (it never ran). The table under each tree says which.</p>",
+    ]
+    for number, (tests, coverage) in enumerate(coverages, start=1):
+        seen_pairs, possible = coverage.pairs
+        drawn = svg_tree(tests.nodes, f"{tests.mission.name}: coverage", legend=False)
+        for node in tests.nodes:  # each tree's nodes told apart from the next tree's: m2-node-3
+            got = coverage.seen.get(node.id, set()) & set(coverage.possible(node))
+            kind = "full" if len(got) == len(coverage.possible(node)) else "part" if got else "none"
+            drawn = drawn.replace(
+                f'<g class="node" id="node-{node.id}"', f'<g class="node {kind}" id="m{number}-node-{node.id}"'
+            )
+        parts.append(f"<h2>{escape(printable(tests.mission.name))}</h2>")
+        parts.append(f"<p>{seen_pairs} of {possible} node statuses seen ({coverage.percent:.0f}%), "
+                     f"by {escape(printable(tests.path.name))}.</p>")  # fmt: skip
+        parts.append(f'<figure>{drawn}<figcaption>the tree of {escape(printable(tests.mission.name))}, '
+                     "each box filled by its coverage</figcaption></figure>")  # fmt: skip
+        parts.append(f'<table id="m{number}"><tr><th>node</th><th>type</th><th>seen</th><th>never seen</th></tr>')
+        for node, path in zip(tests.nodes, node_paths(tests.nodes), strict=True):
+            got = coverage.seen.get(node.id, set())
+            never = [s for s in coverage.possible(node) if s not in got]
+            parts.append(
+                f"<tr><td>{escape(printable(path))}</td><td>{escape(node.type)}</td>"
+                f"<td>{', '.join(s for s in coverage.possible(node) if s in got) or 'nothing'}</td>"
+                f"<td>{', '.join(never) or '-'}</td></tr>"
+            )
+        parts.append("</table>")
+    parts.append("</body></html>\n")
+    return "\n".join(parts)

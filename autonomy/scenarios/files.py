@@ -40,7 +40,7 @@ from autonomy.source import Located, Problem, UnreadableFile, parse, read_text, 
 #: What a scenario file ends in; the mission it tests is the same name without ``.test``.
 SUFFIX = ".test.yaml"
 TOP_LEVEL = ("mission", "scenarios")
-SCENARIO_KEYS = ("name", "world", "seeds", "time_limit_s", "expect", "nodes")
+SCENARIO_KEYS = ("name", "world", "seeds", "time_limit_s", "battery", "expect", "nodes")
 EXPECT_KEYS = ("outcome", "within_s", "criteria")
 NODE_KEYS = ("node", "reaches", "before_s", "never", "after_s", "runs")
 #: The outcomes a run may end with, as ``autonomy run`` says them.
@@ -99,6 +99,7 @@ class Scenario:
         outcomes: The outcomes the run may end with (empty: any).
         within_s: When the mission must have ended by, simulated seconds (None: any time within the limit).
         nodes: What its nodes must do.
+        battery: The battery's level at the start, 0..255 (None: the emulator's, 230).
     """
 
     name: str
@@ -107,6 +108,7 @@ class Scenario:
     outcomes: tuple[str, ...] = ()
     within_s: float | None = None
     nodes: list[NodeCheck] = field(default_factory=list)
+    battery: int | None = None
 
 
 @dataclass
@@ -213,10 +215,13 @@ class _Reader(ExerciseReader):
             self.problem(
                 item, where, "a scenario checks something: expect: (outcome, within_s, criteria), nodes:, or both"
             )
+        battery = self.number(doc["battery"], f"{where}.battery", 0, 255, whole=True) if "battery" in doc else None
         if name is None or world is None or limit is None:
             return None
         exercise = Exercise(name, name, "", world, world_ref, float(limit), seeds, None, criteria, self.label)
-        return Scenario(name, item.line, exercise, outcomes, within_s, checks)
+        return Scenario(
+            name, item.line, exercise, outcomes, within_s, checks, None if battery is None else int(battery)
+        )
 
     def expect(self, located: Located, where: str, world: object) -> tuple[tuple[str, ...], float | None, list]:
         if not isinstance(located.value, dict):

@@ -7,6 +7,9 @@ that what a node did, and which of its statuses no scenario ever saw, can be tol
 
 from __future__ import annotations
 
+import multiprocessing
+from collections.abc import Iterator
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
 
 from autonomy.classroom.exercise import Seed
@@ -161,7 +164,8 @@ def run_scenario(tests: ScenarioFile, scenario: Scenario, coverage: Coverage | N
 def _run_seed(tests: ScenarioFile, scenario: Scenario, seed: Seed, coverage: Coverage | None) -> SeedOutcome:
     watch = NodeWatch()
     try:
-        facts = run_seed(scenario.exercise, tests.spec, seed, watchers=[watch])
+        more = {"battery": scenario.battery} if scenario.battery is not None else None
+        facts = run_seed(scenario.exercise, tests.spec, seed, watchers=[watch], emulator=more)
     except LinkError as err:
         return SeedOutcome(seed.label, "no run", 0.0, [f"no run: the link failed before the mission started ({err})"])
     if coverage is not None:
@@ -219,3 +223,53 @@ def mutation_score(tests: ScenarioFile) -> MutationScore:
             caught = True
         (score.caught if caught else score.survived).append(mutant.change)
     return score
+
+
+def _guarded(tests: ScenarioFile, scenario: Scenario) -> tuple[ScenarioOutcome, dict[int, set[str]]]:
+    """One scenario run, and the statuses its nodes returned; a plugin's error (``sys.exit`` too) is its failure."""
+    coverage = Coverage(tests.nodes)
+    try:
+        return run_scenario(tests, scenario, coverage), coverage.seen
+    except (Exception, SystemExit) as err:  # noqa: BLE001 - whatever the author's Python did: this scenario's failure
+        why = f"the run stopped with {type(err).__name__}: {err}"
+        return ScenarioOutcome(
+            str(tests.path), scenario.name, scenario.line, [SeedOutcome("", "", 0.0, [why])], 0.0
+        ), {}
+
+
+#: In a worker process: the scenario files read there, by path (each read once, its mission's plugins with it).
+_READ: dict[str, ScenarioFile] = {}
+
+
+def _in_worker(path: str, index: int) -> tuple[ScenarioOutcome, dict[int, set[str]]]:
+    """Scenario ``index`` of the file at ``path``, run in a worker process (the file read there once)."""
+    from autonomy.scenarios.files import load_scenarios
+
+    if path not in _READ:
+        _READ[path] = load_scenarios(path)
+    tests = _READ[path]
+    return _guarded(tests, tests.scenarios[index])
+
+
+def run_all(
+    files: list[ScenarioFile], jobs: int = 1
+) -> Iterator[tuple[ScenarioFile, ScenarioOutcome, dict[int, set[str]]]]:
+    """Every scenario of ``files``, in their order: its file, its outcome and the statuses its nodes returned.
+
+    With ``jobs`` above 1, the scenarios run in as many worker processes at once (each reads the files
+    itself, as ``autonomy test`` read them), and come back in the files' order all the same.
+    """
+    work = [(tests, k) for tests in files for k in range(len(tests.scenarios))]
+    if jobs <= 1 or len(work) <= 1:
+        for tests, k in work:
+            yield (tests, *_guarded(tests, tests.scenarios[k]))
+        return
+    context = multiprocessing.get_context("forkserver")
+    with ProcessPoolExecutor(max_workers=min(jobs, len(work)), mp_context=context) as pool:
+        futures = [pool.submit(_in_worker, str(tests.path), k) for tests, k in work]
+        try:
+            for (tests, _), future in zip(work, futures, strict=True):
+                yield (tests, *future.result())
+        finally:
+            for future in futures:
+                future.cancel()

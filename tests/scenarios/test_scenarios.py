@@ -308,3 +308,41 @@ def test_autonomy_test_mutate_says_each_change_no_scenario_notices_and_the_score
     scenario_file(tmp_path, failing)
     tried = autonomy_test(str(tmp_path), "--mutate")
     assert tried.returncode == 1 and "mutants: not tried, as a scenario fails already" in tried.stdout
+
+
+def test_a_scenario_s_battery_is_the_emulator_s_at_the_start(tmp_path):
+    path = scenario_file(
+        tmp_path,
+        "scenarios:\n  - name: low\n    world: corridor\n    battery: 45\n    time_limit_s: 5\n"
+        "    expect: {outcome: succeeded, within_s: 1}\n"
+        "  - name: fit\n    world: corridor\n    time_limit_s: 5\n    expect: {outcome: stopped at the time limit}\n",
+        mission="patrol",
+    )
+    tests = load_scenarios(path)
+    assert [s.battery for s in tests.scenarios] == [45, None]
+    assert all(run_scenario(tests, s).passed for s in tests.scenarios)  # below 50 the patrol ends at once
+    path.write_text(path.read_text().replace("battery: 45", "battery: 256"))
+    with pytest.raises(ScenariosInvalid, match=r"patrol.test.yaml:4:14: scenarios\[0\].battery: "):
+        load_scenarios(path)
+
+
+def test_scenarios_run_in_processes_of_their_own_say_the_same_in_the_same_order(tmp_path):
+    two = GOOD + GOOD.replace("scenarios:\n", "").replace("and beeps", "and beeps, again")
+    scenario_file(tmp_path, two)
+    shutil.copy(MISSIONS / "patrol.yaml", tmp_path / "patrol.yaml")
+    shutil.copy(MISSIONS / "patrol.test.yaml", tmp_path / "patrol.test.yaml")
+    alone = autonomy_test(str(tmp_path), "-j", "1", "--json")
+    apart = autonomy_test(str(tmp_path), "-j", "2", "--json")
+    assert alone.returncode == apart.returncode == 0, apart.stderr
+    assert json.loads(alone.stdout) == json.loads(apart.stdout)
+    names = [s["name"] for s in json.loads(apart.stdout)["scenarios"]]
+    assert names[:2] == ["stops short of the wall and beeps", "stops short of the wall and beeps, again"]
+    assert len(names) == 5  # and the patrol's three, after them (the files in their order)
+
+
+def test_the_first_scenario_of_the_docs_is_the_one_shipped_beside_its_mission():
+    import re
+
+    page = (ROOT / "docs" / "testing.md").read_text()
+    first = re.findall(r"```yaml\n(.*?)```", page, re.S)[0]
+    assert first == (MISSIONS / "move_until_wall.test.yaml").read_text()
