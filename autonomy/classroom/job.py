@@ -21,6 +21,7 @@ from autonomy.classroom.results import Report, SeedResult, file_names
 from autonomy.classroom.submissions import mission_file, readable
 from autonomy.classroom.told import named_node
 from autonomy.client import Client
+from autonomy.emulator.script import SensorScript
 from autonomy.errors import LinkError
 from autonomy.mission import MissionInvalid, MissionSpec, NodeSpec, Problem, validate_text
 from autonomy.record import Record
@@ -156,6 +157,7 @@ def run_seed(
     replay: ReplayMaker | None = None,
     watchers: Sequence[Callable[[Record], None]] = (),
     emulator: dict[str, object] | None = None,
+    script: SensorScript | None = None,
 ) -> RunFacts:
     """Runs ``spec`` once on ``seed`` in the exercise's world, in virtual time; returns its facts.
 
@@ -163,9 +165,13 @@ def run_seed(
     held in memory (nor gone over again and again by the garbage collector). With ``trace``,
     the run is also written there as a trace, and with ``replay`` made into a page's replay (nodes'
     states included, either way); each of ``watchers`` is given every record too, the nodes' states
-    in them. ``emulator`` holds further emulator options (``battery``: see :func:`seed_url`).
+    in them. ``emulator`` holds further emulator options (``battery``: see :func:`seed_url`), and
+    ``script`` what the robot's sensors report from the run's start on, whatever its world holds.
     """
     client = Client.open(seed_url(exercise, seed, more=emulator))
+    if script is not None:
+        robot = client.port.emulator.robot  # type: ignore[attr-defined]  # an emu:// link's port has its emulator
+        robot.script, robot.script_from_s = script, client.clock.now()  # the model is brought to the clock's time
     gatherer = Gatherer()
     stream = trace.open("w", encoding="utf-8") if trace is not None else None
     try:

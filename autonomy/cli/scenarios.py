@@ -10,6 +10,7 @@ from pathlib import Path
 from typing import Any
 
 from autonomy.cli.common import EXIT_FAILED, EXIT_OK, EXIT_USAGE, _bounded, _fail, _problems, _shown
+from autonomy.words import plural
 
 #: The simulated seconds the scenarios may take in all, at most, past which they run a process a core by default.
 PARALLEL_FROM_S = 600.0
@@ -58,8 +59,8 @@ def cmd_test(args: argparse.Namespace) -> int:
         runs = sum(len(o.seeds) for o in outcomes)
         simulated_s = sum(o.simulated_s for o in outcomes)
         print(
-            f"{len(outcomes)} scenarios: {len(outcomes) - failed} passed, {failed} failed "
-            f"({runs} runs, {simulated_s:,.1f} simulated s in {took_s:.2f} s of CPU time)"
+            f"{plural(len(outcomes), 'scenario')}: {len(outcomes) - failed} passed, {failed} failed "
+            f"({plural(runs, 'run')}, {simulated_s:,.1f} simulated s in {took_s:.2f} s of CPU time)"
         )
         for tests, coverage in coverages.values():
             seen, possible = coverage.pairs

@@ -126,7 +126,7 @@ class Firmware:
             return Parameter("B", round(robot.battery)).encode()
         if parameter == "V":
             return Parameter("V", robot.velocity_v()).encode()
-        return Parameter("A", max(-99, min(99, round(robot.tilt_deg)))).encode()
+        return Parameter("A", max(-99, min(99, round(robot.reported_tilt_deg)))).encode()
 
     def status(self) -> Status:
         """Returns the robot's state as a status packet."""
@@ -140,7 +140,7 @@ class Firmware:
             robot.auto_mode,
             robot.collided,
             robot.moving,
-            -127 if (tilt := round(robot.tilt_deg)) < -127 else 127 if tilt > 127 else tilt,
+            -127 if (tilt := round(robot.reported_tilt_deg)) < -127 else 127 if tilt > 127 else tilt,
             encode_heading(robot.heading_deg),
             robot.front_distance_mm(),
             round(robot.odometer_mm) % 65536,

@@ -13,6 +13,7 @@ import math
 import random
 from dataclasses import dataclass, field
 
+from autonomy.emulator.script import SensorScript
 from autonomy.emulator.world import EPSILON_MM, ROBOT_RADIUS_MM, SENSOR_CONE_DEG, Pose, World
 
 MODE_IDLE = 0
@@ -118,6 +119,9 @@ class Robot:
         self.auto_mode = True
         self.fallen = False
         self.collided_until_s = -math.inf
+        #: What the sensors report whatever the world holds (None: what it holds), from ``script_from_s`` on.
+        self.script: SensorScript | None = None
+        self.script_from_s = 0.0
         self.impacts: list[Impact] = []
         self.beeps: list[tuple[float, tuple[int, int, int], int]] = []
         #: Where the robot was at each beep, in the order of :attr:`beeps`.
@@ -167,8 +171,18 @@ class Robot:
 
     @property
     def collided(self) -> bool:
-        """The collision flag: set on impact and held ``collision_hold_s``."""
-        return self.time_s < self.collided_until_s
+        """The collision flag: set on impact (or a scripted bump) and held ``collision_hold_s``."""
+        if self.time_s < self.collided_until_s:
+            return True
+        script = self.script
+        return script is not None and script.bumped_at(self.time_s - self.script_from_s, self.params.collision_hold_s)
+
+    @property
+    def reported_tilt_deg(self) -> float:
+        """The tilt the robot reports: its own, or the script's."""
+        script = self.script
+        scripted = script.tilt_at(self.time_s - self.script_from_s) if script is not None else None
+        return self.tilt_deg if scripted is None else float(scripted)
 
     @property
     def healthy(self) -> bool:
@@ -200,7 +214,11 @@ class Robot:
         return gap
 
     def front_distance_mm(self) -> int:
-        """The front sensor's reading, 0..``sensor_max_mm``."""
+        """The front sensor's reading, 0..``sensor_max_mm`` (the script's, when it says one)."""
+        if self.script is not None:
+            scripted = self.script.front_at(self.time_s - self.script_from_s)
+            if scripted is not None:
+                return scripted
         p = self.params
         # beyond its range plus ten standard deviations of noise, nothing can read below the range
         gap = self.true_front_gap_mm(p.sensor_max_mm + 10 * p.sensor_noise_mm + 1)

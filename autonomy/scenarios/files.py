@@ -32,6 +32,7 @@ from pathlib import Path
 
 from autonomy.behaviours.tree import describe_tree
 from autonomy.classroom.exercise import MAX_TIME_LIMIT_S, Exercise, ExerciseInvalid, ExerciseReader, Seed
+from autonomy.emulator.script import SensorScript
 from autonomy.mission import MissionInvalid, MissionSpec, build_tree, load_mission
 from autonomy.record import NodeInfo
 from autonomy.runner import CRASHED, FAILED, INTERRUPTED, LINK_LOST, SUCCEEDED, TIME_LIMIT
@@ -40,7 +41,8 @@ from autonomy.source import Located, Problem, UnreadableFile, parse, read_text, 
 #: What a scenario file ends in; the mission it tests is the same name without ``.test``.
 SUFFIX = ".test.yaml"
 TOP_LEVEL = ("mission", "scenarios")
-SCENARIO_KEYS = ("name", "world", "seeds", "time_limit_s", "battery", "expect", "nodes")
+SCENARIO_KEYS = ("name", "world", "seeds", "time_limit_s", "battery", "sensors", "expect", "nodes")
+SENSOR_KEYS = ("front_mm", "bumps_s", "tilt_deg")
 EXPECT_KEYS = ("outcome", "within_s", "criteria")
 NODE_KEYS = ("node", "reaches", "before_s", "never", "after_s", "runs")
 #: The outcomes a run may end with, as ``autonomy run`` says them.
@@ -100,6 +102,7 @@ class Scenario:
         within_s: When the mission must have ended by, simulated seconds (None: any time within the limit).
         nodes: What its nodes must do.
         battery: The battery's level at the start, 0..255 (None: the emulator's, 230).
+        script: What the sensors report, by time, whatever the world holds (None: what it holds).
     """
 
     name: str
@@ -109,6 +112,7 @@ class Scenario:
     within_s: float | None = None
     nodes: list[NodeCheck] = field(default_factory=list)
     battery: int | None = None
+    script: SensorScript | None = None
 
 
 @dataclass
@@ -216,12 +220,56 @@ class _Reader(ExerciseReader):
                 item, where, "a scenario checks something: expect: (outcome, within_s, criteria), nodes:, or both"
             )
         battery = self.number(doc["battery"], f"{where}.battery", 0, 255, whole=True) if "battery" in doc else None
+        script = self.sensors(doc["sensors"], f"{where}.sensors") if "sensors" in doc else None
         if name is None or world is None or limit is None:
             return None
         exercise = Exercise(name, name, "", world, world_ref, float(limit), seeds, None, criteria, self.label)
-        return Scenario(
-            name, item.line, exercise, outcomes, within_s, checks, None if battery is None else int(battery)
-        )
+        battery = None if battery is None else int(battery)
+        return Scenario(name, item.line, exercise, outcomes, within_s, checks, battery, script)
+
+    def sensors(self, located: Located, where: str) -> SensorScript | None:
+        """What the sensors report, by time: ``front_mm``, ``tilt_deg`` (``[[from_s, value], ...]``), ``bumps_s``."""
+        if not isinstance(located.value, dict) or not located.value:
+            self.problem(located, where, "sensors: is a mapping, e.g. {front_mm: [[0, 255], [2.5, 80]], bumps_s: [3]}")
+            return None
+        doc: dict[str, Located] = located.value
+        for key in doc:
+            if key not in SENSOR_KEYS:
+                self.problem(
+                    located.keys[key], f"{where}.{key}", f"unknown key '{key}'{suggest(key, list(SENSOR_KEYS))}"
+                )
+        front = self.steps(doc["front_mm"], f"{where}.front_mm", 0, 255) if "front_mm" in doc else ()
+        tilt = self.steps(doc["tilt_deg"], f"{where}.tilt_deg", -127, 127) if "tilt_deg" in doc else ()
+        bumps: list[float] = []
+        if "bumps_s" in doc:
+            given = doc["bumps_s"]
+            if not isinstance(given.value, list) or not given.value:
+                self.problem(given, f"{where}.bumps_s", "bumps_s: is a list of times, e.g. [3, 7.5]")
+            else:
+                for k, value in enumerate(given.value):
+                    time_s = self.number(value, f"{where}.bumps_s[{k}]", 0, MAX_TIME_LIMIT_S)
+                    if time_s is not None:
+                        bumps.append(float(time_s))
+        return SensorScript(front or (), tuple(sorted(bumps)), tilt or ())
+
+    def steps(self, located: Located, where: str, low: int, high: int) -> tuple[tuple[float, int], ...] | None:
+        """``[[from_s, value], ...]``: from each time on, the value; in time order."""
+        why = f"expected a list of [from_s, value] pairs, e.g. [[0, 255], [2.5, 80]] (value {low} to {high})"
+        if not isinstance(located.value, list) or not located.value:
+            self.problem(located, where, why)
+            return None
+        steps: list[tuple[float, int]] = []
+        for k, item in enumerate(located.value):
+            if not isinstance(item.value, list) or len(item.value) != 2:
+                self.problem(item, f"{where}[{k}]", why)
+                continue
+            time_s = self.number(item.value[0], f"{where}[{k}][0]", 0, MAX_TIME_LIMIT_S)
+            value = self.number(item.value[1], f"{where}[{k}][1]", low, high, whole=True)
+            if time_s is not None and value is not None:
+                if steps and time_s <= steps[-1][0]:
+                    self.problem(item, f"{where}[{k}]", f"the times go up: {time_s:g} s comes after {steps[-1][0]:g} s")
+                steps.append((float(time_s), int(value)))
+        return tuple(steps)
 
     def expect(self, located: Located, where: str, world: object) -> tuple[tuple[str, ...], float | None, list]:
         if not isinstance(located.value, dict):

@@ -165,7 +165,7 @@ def _run_seed(tests: ScenarioFile, scenario: Scenario, seed: Seed, coverage: Cov
     watch = NodeWatch()
     try:
         more = {"battery": scenario.battery} if scenario.battery is not None else None
-        facts = run_seed(scenario.exercise, tests.spec, seed, watchers=[watch], emulator=more)
+        facts = run_seed(scenario.exercise, tests.spec, seed, watchers=[watch], emulator=more, script=scenario.script)
     except LinkError as err:
         return SeedOutcome(seed.label, "no run", 0.0, [f"no run: the link failed before the mission started ({err})"])
     if coverage is not None:

@@ -6,6 +6,7 @@ import json
 import shutil
 import subprocess
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import junitparser
@@ -186,7 +187,7 @@ def test_autonomy_test_says_a_line_a_scenario_and_exits_0_when_all_hold(tmp_path
     assert lines[0].startswith("ok    ") and lines[0].endswith(
         "move_until_wall.test.yaml:2: stops short of the wall and beeps (2 seeds, 5.5 simulated s)"
     )
-    assert lines[1].startswith("1 scenarios: 1 passed, 0 failed (2 runs, 5.5 simulated s in ")
+    assert lines[1].startswith("1 scenario: 1 passed, 0 failed (2 runs, 5.5 simulated s in ")
     assert lines[2] == "coverage of move_until_wall.yaml: 5 of 9 node statuses seen (56%)"
 
 
@@ -346,3 +347,104 @@ def test_the_first_scenario_of_the_docs_is_the_one_shipped_beside_its_mission():
     page = (ROOT / "docs" / "testing.md").read_text()
     first = re.findall(r"```yaml\n(.*?)```", page, re.S)[0]
     assert first == (MISSIONS / "move_until_wall.test.yaml").read_text()
+
+
+def test_scripted_sensors_say_what_the_scenario_says_from_each_time_on_whatever_the_world_holds(tmp_path):
+    path = scenario_file(
+        tmp_path,
+        """\
+scenarios:
+  - name: a wall the sensor sees at 2 s stops the drive, on an empty floor
+    world: empty
+    time_limit_s: 10
+    sensors:
+      front_mm: [[0, 255], [2, 80]]
+    expect:
+      outcome: succeeded
+      within_s: 2.2
+      criteria:
+        - max_collisions: 0
+    nodes:
+      - node: beep
+        reaches: SUCCESS
+        before_s: 2.2
+""",
+    )
+    tests = load_scenarios(path)
+    (outcome,) = [run_scenario(tests, s) for s in tests.scenarios]
+    assert outcome.passed, outcome.seeds
+    assert 2.0 <= outcome.seeds[0].time_s <= 2.2  # the drive ended at the first poll after 2 s
+    # without the script, the empty floor's sensor sees nothing: the drive goes on to the time limit
+    (unscripted,) = [run_scenario(tests, replace(s, script=None)) for s in tests.scenarios]
+    assert unscripted.seeds[0].outcome == "stopped at the time limit"
+
+
+def test_a_scripted_bump_sets_off_what_a_bump_would_and_is_no_impact_to_the_judge(tmp_path):
+    path = scenario_file(
+        tmp_path,
+        """\
+scenarios:
+  - name: a bump at 3 s, with no wall
+    world: empty
+    time_limit_s: 12
+    sensors:
+      bumps_s: [3]
+    expect:
+      criteria:
+        - max_collisions: 0
+    nodes:
+      - node: bumped
+        reaches: RUNNING
+        before_s: 3.2
+      - node: move 20 s
+        reaches: FAILURE
+        before_s: 3.2
+""",
+        mission="beep_on_collision",
+    )
+    tests = load_scenarios(path)
+    (outcome,) = [run_scenario(tests, s) for s in tests.scenarios]
+    assert outcome.passed, outcome.seeds
+
+
+def test_the_robot_reports_what_its_script_says_through_the_protocol_and_drives_as_its_world_lets_it():
+    from autonomy.emulator.script import SensorScript
+
+    client = Client.open("emu://?world=empty&time=virtual")
+    try:
+        robot = client.port.emulator.robot
+        robot.script = SensorScript(front_mm=((1.0, 80), (2.0, 30)), bumps_s=(1.5,), tilt_deg=((2.5, -40),))
+        robot.script_from_s = started_s = client.clock.now()  # the robot's model is brought to the clock's time
+        hold_s = robot.params.collision_hold_s
+        seen = []
+        client.move(2)
+        client.clock.sleep(0.05)  # polls between the script's times, never on one
+        for _ in range(30):  # every 0.1 s for 3 s, the status packet as the protocol carries it
+            asked_s = client.clock.now() - started_s
+            status = client.status()
+            seen.append((asked_s, status.front_distance_mm, status.collided, status.tilt_deg))
+            client.clock.sleep(0.1)
+        client.stop()
+    finally:
+        client.close()
+    for time_s, front, collided, tilt in seen:
+        assert front == (255 if time_s < 1.0 else 80 if time_s < 2.0 else 30), (time_s, front)
+        assert collided == (1.5 <= time_s < 1.5 + hold_s), (time_s, collided)
+        assert tilt == -40 if time_s >= 2.5 else abs(tilt) < 20, (time_s, tilt)  # before: its own lean, driving
+    assert robot.impacts == [] and robot.odometer_mm > 300  # it drove on through the wall the sensor "saw"
+
+
+def test_scripted_sensors_that_cannot_be_are_refused_at_their_place(tmp_path):
+    path = scenario_file(
+        tmp_path,
+        "scenarios:\n  - name: x\n    world: empty\n    expect: {within_s: 5}\n    sensors:\n"
+        "      front_mm: [[0, 255], [2, 300], [3, 100], [1, 80]]\n      bumps_s: [-1]\n      tlit_deg: [[0, 5]]\n",
+    )
+    with pytest.raises(ScenariosInvalid) as raised:
+        load_scenarios(path)
+    assert [str(p).replace(str(path), "F") for p in raised.value.problems] == [
+        "F:6:32: scenarios[0].sensors.front_mm[1][1]: must be from 0 to 255, got 300",
+        "F:6:48: scenarios[0].sensors.front_mm[3]: the times go up: 1 s comes after 3 s",
+        "F:7:17: scenarios[0].sensors.bumps_s[0]: must be from 0 to 3,600, got -1",
+        "F:8:7: scenarios[0].sensors.tlit_deg: unknown key 'tlit_deg' (did you mean 'tilt_deg'?)",
+    ]
