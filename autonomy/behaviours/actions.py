@@ -302,6 +302,7 @@ class Stop(RobotAction):
     """Stop every movement."""
 
     node_type = "stop"
+    statuses = ("SUCCESS", "FAILURE")  # answered at once
     doc = "Stop every movement (X)."
 
     @returns_status
@@ -314,6 +315,7 @@ class Beep(RobotAction):
     """Beep three tones."""
 
     node_type = "beep"
+    statuses = ("SUCCESS", "FAILURE")  # answered at once
     doc = "Beep three tones (S)."
     params = (
         Param("tones", "tones", "three tones, 1 lowest .. 9 highest", default=[5, 7, 9]),
@@ -331,6 +333,7 @@ class Servo(RobotAction):
     """Move a servo to an angle, or by a step; succeeds once the robot accepted it."""
 
     node_type = "servo"
+    statuses = ("SUCCESS", "FAILURE")  # answered at once
     doc = "Move servo id to an absolute angle (M) or by a step (D); done when accepted (add a wait to let it arrive)."
     params = (
         Param("id", "int", "which servo", required=True, minimum=0, maximum=2),
@@ -361,6 +364,7 @@ class Wait(RobotAction):
     """Wait a while without sending anything."""
 
     node_type = "wait"
+    statuses = ("SUCCESS", "RUNNING")  # it cannot fail
     doc = "Stay RUNNING for a number of seconds, then succeed."
     params = (
         Param(
@@ -388,6 +392,7 @@ class Log(RobotAction):
     """Show a message to the person watching."""
 
     node_type = "log"
+    statuses = ("SUCCESS",)
     doc = "Show a message in the run's output and trace, then succeed."
     params = (Param("message", "string", "what to show", required=True, example="'hello'"),)
 

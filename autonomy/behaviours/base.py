@@ -198,6 +198,8 @@ class RobotBehaviour(py_trees.behaviour.Behaviour):
     exactly_one_of: ClassVar[tuple[tuple[str, ...], ...]] = ()
     #: "action" or "condition".
     category: ClassVar[str] = "action"
+    #: The statuses the node can return (what a mission's tests can cover: ``autonomy test``).
+    statuses: ClassVar[tuple[str, ...]] = ("SUCCESS", "FAILURE", "RUNNING")
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         """Checks what every ``update`` of a subclass returns (py_trees would only log it and go on)."""
@@ -362,6 +364,7 @@ class RobotCondition(RobotBehaviour):
     """A condition: SUCCESS when :meth:`check` holds on the polled status, else FAILURE."""
 
     category: ClassVar[str] = "condition"
+    statuses: ClassVar[tuple[str, ...]] = ("SUCCESS", "FAILURE")
 
     def check(self) -> bool:
         """Returns whether the condition holds; reads only the polled values."""

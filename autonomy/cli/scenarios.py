@@ -35,7 +35,7 @@ def cmd_test(args: argparse.Namespace) -> int:
         except ScenariosInvalid as err:
             return _problems(err.problems)
     outcomes: list[ScenarioOutcome] = []
-    coverages = {id(tests): (tests, Coverage(tests.nodes)) for tests in files}
+    coverages = {id(tests): (tests, Coverage(tests.nodes, statuses=tests.statuses)) for tests in files}
     # a process a core pays for its start when there is much to run: over ten simulated minutes at most
     most_s = sum(s.exercise.time_limit_s * len(s.exercise.seeds) for tests in files for s in tests.scenarios)
     jobs = args.jobs or ((os.cpu_count() or 1) if most_s > PARALLEL_FROM_S else 1)

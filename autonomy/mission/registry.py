@@ -41,6 +41,7 @@ class NodeType:
         aliases: Other names for the same type.
         children_param: For composites, the parameter that a short form (a bare list) fills.
         origin: ``built-in`` or the plugin module that declared it.
+        statuses: The statuses a node of the type can return (what a mission's tests can cover).
     """
 
     name: str
@@ -53,6 +54,7 @@ class NodeType:
     aliases: tuple[str, ...] = ()
     children_param: str = ""
     origin: str = "built-in"
+    statuses: tuple[str, ...] = ("SUCCESS", "FAILURE", "RUNNING")
 
     def param(self, name: str) -> Param | None:
         """The parameter called ``name``, or None."""
@@ -88,6 +90,8 @@ def leaf_type(cls: type[RobotBehaviour], origin: str = "built-in") -> NodeType:
         raise ValueError(f"{name}.params must be a tuple of Param(...), got {cls.params!r}"[:200])
     if not isinstance(cls.exactly_one_of, tuple):
         raise ValueError(f"{name}.exactly_one_of must be a tuple of tuples of parameter names")
+    if not cls.statuses or not set(cls.statuses) <= {"SUCCESS", "FAILURE", "RUNNING"}:
+        raise ValueError(f"{name}.statuses must name some of SUCCESS, FAILURE and RUNNING, got {cls.statuses!r}"[:200])
     if not isinstance(cls.doc, str):
         raise ValueError(f"{name}.doc must be one line of text, got {cls.doc!r}"[:200])
     described = (cls.__doc__ or "").strip().splitlines()
@@ -100,6 +104,7 @@ def leaf_type(cls: type[RobotBehaviour], origin: str = "built-in") -> NodeType:
         label=_leaf_label(cls),
         exactly_one_of=cls.exactly_one_of,
         origin=origin,
+        statuses=tuple(cls.statuses),
     )
 
 
@@ -123,8 +128,10 @@ def _composite(name: str, doc: str, extra: tuple[Param, ...], build: Builder, la
     )
 
 
-def _decorator(name: str, doc: str, extra: tuple[Param, ...], build: Builder, label: Callable) -> NodeType:
-    return NodeType(name, "decorator", doc, (*extra, DO), build, label)
+def _decorator(
+    name: str, doc: str, extra: tuple[Param, ...], build: Builder, label: Callable, statuses: tuple[str, ...] = ()
+) -> NodeType:
+    return NodeType(name, "decorator", doc, (*extra, DO), build, label, statuses=statuses or NodeType.statuses)
 
 
 def _only(children: list[Behaviour]) -> Behaviour:
@@ -205,6 +212,7 @@ BUILTIN_STRUCTURE = (
         (),
         lambda n, a, c: py_trees.decorators.FailureIsSuccess(n, _only(c)),
         lambda a: "force success",
+        ("SUCCESS", "RUNNING"),
     ),
     _decorator(
         "force_failure",
@@ -212,6 +220,7 @@ BUILTIN_STRUCTURE = (
         (),
         lambda n, a, c: py_trees.decorators.SuccessIsFailure(n, _only(c)),
         lambda a: "force failure",
+        ("FAILURE", "RUNNING"),
     ),
     _decorator(
         "once",

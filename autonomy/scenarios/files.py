@@ -125,6 +125,7 @@ class ScenarioFile:
         spec: The mission, validated (its plugins loaded, as ``autonomy run`` loads them).
         nodes: The mission's tree, as a run's header describes it.
         scenarios: Its scenarios, in the file's order.
+        statuses: By the type of each of its nodes, the statuses a node of it can return.
     """
 
     path: Path
@@ -132,6 +133,7 @@ class ScenarioFile:
     spec: MissionSpec
     nodes: list[NodeInfo]
     scenarios: list[Scenario]
+    statuses: dict[str, tuple[str, ...]] = field(default_factory=dict)
 
 
 class ScenariosInvalid(ExerciseInvalid):
@@ -389,7 +391,12 @@ def load_scenarios(path: str | Path) -> ScenarioFile:
     problems += reader.problems
     if problems:
         raise ScenariosInvalid(problems)
-    return ScenarioFile(path, mission, spec, nodes, [s for s in scenarios if s is not None])
+    statuses = {}
+    for node in nodes:
+        known = spec.registry.get(node.type) if node.type in spec.registry.names() else None
+        if known is not None:
+            statuses[node.type] = known.statuses
+    return ScenarioFile(path, mission, spec, nodes, [s for s in scenarios if s is not None], statuses)
 
 
 def find_scenario_files(paths: list[str | Path]) -> list[Path]:

@@ -126,14 +126,18 @@ class Coverage:
     Attributes:
         nodes: The mission's tree.
         seen: By node id, the statuses some run saw it return.
+        statuses: By node type, the statuses a node of it can return (its type says: a condition answers
+            SUCCESS or FAILURE, a beep is never RUNNING, a wait never fails); a type not in it, all three.
     """
 
     nodes: list[NodeInfo]
     seen: dict[int, set[str]] = field(default_factory=dict)
+    statuses: dict[str, tuple[str, ...]] = field(default_factory=dict)
 
-    @staticmethod
-    def possible(node: NodeInfo) -> tuple[str, ...]:
-        """The statuses a node of its kind can return: a condition answers at once (SUCCESS or FAILURE)."""
+    def possible(self, node: NodeInfo) -> tuple[str, ...]:
+        """The statuses ``node`` can return, as its type says."""
+        if node.type in self.statuses:
+            return self.statuses[node.type]
         return ("SUCCESS", "FAILURE") if node.category == "condition" else STATUSES
 
     @property
@@ -227,7 +231,7 @@ def mutation_score(tests: ScenarioFile) -> MutationScore:
 
 def _guarded(tests: ScenarioFile, scenario: Scenario) -> tuple[ScenarioOutcome, dict[int, set[str]]]:
     """One scenario run, and the statuses its nodes returned; a plugin's error (``sys.exit`` too) is its failure."""
-    coverage = Coverage(tests.nodes)
+    coverage = Coverage(tests.nodes, statuses=tests.statuses)
     try:
         return run_scenario(tests, scenario, coverage), coverage.seen
     except (Exception, SystemExit) as err:  # noqa: BLE001 - whatever the author's Python did: this scenario's failure
