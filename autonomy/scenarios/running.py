@@ -135,7 +135,9 @@ class Coverage:
     statuses: dict[str, tuple[str, ...]] = field(default_factory=dict)
 
     def possible(self, node: NodeInfo) -> tuple[str, ...]:
-        """The statuses ``node`` can return, as its type says."""
+        """The statuses ``node`` can return, as its type says (a ``repeat`` forever never succeeds)."""
+        if node.type == "repeat" and node.params.get("times") is None:
+            return ("FAILURE", "RUNNING")
         if node.type in self.statuses:
             return self.statuses[node.type]
         return ("SUCCESS", "FAILURE") if node.category == "condition" else STATUSES
