@@ -34,6 +34,9 @@ def cmd_test(args: argparse.Namespace) -> int:
             files.append(load_scenarios(path))
         except ScenariosInvalid as err:
             return _problems(err.problems)
+    refused = _outputs_refused(args, files)
+    if refused:
+        return _fail(refused, EXIT_USAGE)
     outcomes: list[ScenarioOutcome] = []
     coverages = {id(tests): (tests, Coverage(tests.nodes, statuses=tests.statuses)) for tests in files}
     # a process a core pays for its start when there is much to run: over ten simulated minutes at most
@@ -67,7 +70,7 @@ def cmd_test(args: argparse.Namespace) -> int:
             print(
                 _shown(
                     f"coverage of {tests.mission.name}: {seen} of {possible} node statuses seen "
-                    f"({coverage.percent:.0f}%)"
+                    f"({_percent(coverage.percent)})"
                 )
             )
             if args.coverage:
@@ -84,8 +87,38 @@ def cmd_test(args: argparse.Namespace) -> int:
         sys.stdout.write("\n")
     below = [c for _, c in coverages.values() if args.fail_under is not None and c.percent < args.fail_under]
     if below and not args.json:
-        print(f"coverage under {args.fail_under:g}% for {len(below)} of {len(coverages)} missions", file=sys.stderr)
+        names = ", ".join(
+            f"{tests.mission.name} ({_percent(c.percent)})" for tests, c in coverages.values() if c in below
+        )
+        print(_shown(f"coverage under {args.fail_under:g}%: {names}"), file=sys.stderr)
     return EXIT_FAILED if failed or below else EXIT_OK
+
+
+def _outputs_refused(args: argparse.Namespace, files: list[Any]) -> str:
+    """Why ``--junit`` or ``--html`` cannot be written (empty: they can), said before anything runs.
+
+    Neither may be a file the run reads (a scenario file or its mission), nor the other one; each must be a
+    file that can be written now, not only after the scenarios have run.
+    """
+    read = {path.resolve() for tests in files for path in (tests.path, tests.mission)}
+    written: dict[Path, str] = {}
+    for option, given in (("--junit", args.junit), ("--html", args.html)):
+        if given is None:
+            continue
+        if not given.strip():
+            return f"{option} needs a file's name"
+        path = Path(given).resolve()
+        if path in read:
+            return f"{option} {given} is a file the tests read: give a file of its own"
+        if path in written:
+            return f"{option} and {written[path]} are the same file: give each its own"
+        written[path] = option
+        try:
+            with open(path, "a", encoding="utf-8"):  # can be written (made, if it was not there)
+                pass
+        except OSError as err:
+            return f"cannot write {given}: {err.strerror or err}"
+    return ""
 
 
 def _mutation(args: argparse.Namespace, files: list[Any], outcomes: list[Any]) -> list[tuple[Any, Any]]:
@@ -102,9 +135,8 @@ def _mutation(args: argparse.Namespace, files: list[Any], outcomes: list[Any]) -
         scores.append((tests, score))
         if not args.json:
             total = len(score.caught) + len(score.survived)
-            print(
-                _shown(f"mutants of {tests.mission.name}: {len(score.caught)} of {total} caught ({score.percent:.0f}%)")
-            )
+            caught = f"{len(score.caught)} of {total} caught ({_percent(score.percent)})"
+            print(_shown(f"mutants of {tests.mission.name}: {caught}"))
             for change in score.survived:
                 print(_shown(f"  your tests pass even when {change}"))
     return scores
@@ -133,14 +165,22 @@ def _say(outcome: Any) -> None:
             )
 
 
+def _percent(value: float) -> str:
+    """A share as it is said: ``62.5%``, ``88%`` (one decimal at most, and none when it is whole)."""
+    return f"{round(value, 1):g}%"
+
+
 def coverage_table(coverage: Any) -> str:
     """The tree, a node a line, with each status it can return marked seen (+) or never seen (-)."""
+    from autonomy.scenarios.files import STATUSES
+
     depth: dict[int, int] = {}
     lines = []
     for node in coverage.nodes:
         depth[node.id] = 0 if node.parent is None else depth[node.parent] + 1
         seen = coverage.seen.get(node.id, set())
-        marks = "  ".join(f"{'+' if s in seen else '-'}{s}" for s in coverage.possible(node))
+        possible = coverage.possible(node)  # a column each status, blank where the type cannot return it
+        marks = "  ".join(f"{'+' if s in seen else '-'}{s}" if s in possible else " " * (len(s) + 1) for s in STATUSES)
         lines.append(f"  {marks:32} {'  ' * depth[node.id]}{_shown(node.name)} ({node.type})")
     return "\n".join(lines)
 
@@ -298,7 +338,7 @@ def coverage_html(coverages: list[tuple[Any, Any]]) -> str:
                 f'<g class="node" id="node-{node.id}"', f'<g class="node {kind}" id="m{number}-node-{node.id}"'
             )
         parts.append(f"<h2>{escape(printable(tests.mission.name))}</h2>")
-        parts.append(f"<p>{seen_pairs} of {possible} node statuses seen ({coverage.percent:.0f}%), "
+        parts.append(f"<p>{seen_pairs} of {possible} node statuses seen ({_percent(coverage.percent)}), "
                      f"by {escape(printable(tests.path.name))}.</p>")  # fmt: skip
         parts.append(f'<figure>{drawn}<figcaption>the tree of {escape(printable(tests.mission.name))}, '
                      "each box filled by its coverage</figcaption></figure>")  # fmt: skip

@@ -27,8 +27,10 @@ seed meets all it expects. It is read as a mission or an exercise is: every prob
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import TypeVar
 
 from autonomy.behaviours.tree import describe_tree
 from autonomy.classroom.exercise import MAX_TIME_LIMIT_S, Exercise, ExerciseInvalid, ExerciseReader, Seed
@@ -38,6 +40,7 @@ from autonomy.record import NodeInfo
 from autonomy.runner import CRASHED, FAILED, INTERRUPTED, LINK_LOST, SUCCEEDED, TIME_LIMIT
 from autonomy.source import Located, Problem, UnreadableFile, parse, read_text, suggest
 
+T = TypeVar("T")
 #: What a scenario file ends in; the mission it tests is the same name without ``.test``.
 SUFFIX = ".test.yaml"
 TOP_LEVEL = ("mission", "scenarios")
@@ -128,6 +131,11 @@ class ScenarioFile:
         statuses: By the type of each of its nodes, the statuses a node of it can return.
     """
 
+    @property
+    def paths(self) -> list[str]:
+        """Each node's path of names from the root, by id."""
+        return node_paths(self.nodes)
+
     path: Path
     mission: Path
     spec: MissionSpec
@@ -146,6 +154,11 @@ def mission_of(path: Path) -> Path:
     return path.with_name(name + ".yaml")
 
 
+def mission_of_test(path: Path) -> Path:
+    """Where the scenarios of the mission ``path`` go: ``NAME.test.yaml`` beside ``NAME.yaml``."""
+    return path.with_name(path.stem + SUFFIX)
+
+
 def node_paths(nodes: list[NodeInfo]) -> list[str]:
     """Each node's path of names from the root, by id (``root/avoid/back off``)."""
     paths: list[str] = []
@@ -155,11 +168,34 @@ def node_paths(nodes: list[NodeInfo]) -> list[str]:
 
 
 def named(nodes: list[NodeInfo], node: str) -> tuple[int, ...]:
-    """The ids of the nodes ``node`` names: by name, by path from the root, by the end of a path, else by type."""
-    paths = node_paths(nodes)
+    """The ids of the nodes ``node`` names: by name, else by type; or by a path.
+
+    A path (``wander for a minute/avoid``) is the node's own name last, and names of its ancestors before
+    it, in order (not every one of them).
+    """
     by_name = tuple(n.id for n in nodes if n.name == node)
-    by_path = tuple(i for i, p in enumerate(paths) if p == node or p.endswith("/" + node))
-    return by_name or by_path or tuple(n.id for n in nodes if n.type == node)
+    if by_name or "/" not in node:
+        return by_name or tuple(n.id for n in nodes if n.type == node)
+    wanted = node.split("/")
+    return tuple(n.id for n in nodes if _along(_names_to(nodes, n.id), wanted))
+
+
+def _names_to(nodes: list[NodeInfo], node: int) -> list[str]:
+    """The names from the root down to ``node``, itself last."""
+    names = []
+    at: int | None = node
+    while at is not None:
+        names.append(nodes[at].name)
+        at = nodes[at].parent
+    return names[::-1]
+
+
+def _along(names: list[str], wanted: list[str]) -> bool:
+    """Whether ``wanted`` names the node ``names`` leads to: its own name last, its ancestors' before it, in order."""
+    if not names or names[-1] != wanted[-1]:
+        return False
+    ancestors = iter(names[:-1])
+    return all(any(name == want for name in ancestors) for want in wanted[:-1])
 
 
 class _Reader(ExerciseReader):
@@ -172,6 +208,11 @@ class _Reader(ExerciseReader):
                          f"{mission_of(path).name}")  # fmt: skip
             return None, []
         doc: dict[str, Located] = root.value
+        if "tree" in doc and "scenarios" not in doc:  # a mission given for its tests
+            self.problem(
+                root, "", f"this is a mission, not its tests: they go in {mission_of_test(path).name} beside it"
+            )
+            return None, []
         for key in doc:
             if key not in TOP_LEVEL:
                 self.problem(root.keys[key], key, f"unknown key '{key}'{suggest(key, list(TOP_LEVEL))}")
@@ -192,6 +233,8 @@ class _Reader(ExerciseReader):
         return mission, items.value
 
     def scenario(self, item: Located, where: str, nodes: list[NodeInfo], names: set[str]) -> Scenario | None:
+        """One scenario (None: its problems noted)."""
+        start = len(self.problems)
         if not isinstance(item.value, dict):
             self.problem(item, where, "a scenario is a mapping: name:, world:, and what it expects (expect:, nodes:)")
             return None
@@ -209,7 +252,7 @@ class _Reader(ExerciseReader):
             self.problem(doc["name"], f"{where}.name", f"another scenario is named '{name}': each is told by its name")
         names.add(name or "")
         world, world_ref = self.world(doc["world"], f"{where}.world") if "world" in doc else (None, "")
-        seeds = self.seeds(doc["seeds"]) if "seeds" in doc else [Seed(1)]
+        seeds = self.prefixed(f"{where}.", lambda: self.seeds(doc["seeds"])) if "seeds" in doc else [Seed(1)]
         limit = DEFAULT_TIME_LIMIT_S
         if "time_limit_s" in doc:
             limit = self.number(doc["time_limit_s"], f"{where}.time_limit_s", 0.1, MAX_TIME_LIMIT_S)
@@ -217,10 +260,11 @@ class _Reader(ExerciseReader):
             self.expect(doc["expect"], f"{where}.expect", world) if "expect" in doc else ((), None, [])
         )
         checks = self.nodes(doc["nodes"], f"{where}.nodes", nodes) if "nodes" in doc else []
-        if "expect" not in doc and "nodes" not in doc:
-            self.problem(
-                item, where, "a scenario checks something: expect: (outcome, within_s, criteria), nodes:, or both"
-            )
+        if "expect" not in doc and "nodes" not in doc or not (outcomes or within_s is not None or criteria or checks):
+            if len(self.problems) == start or "expect" not in doc and "nodes" not in doc:  # said once
+                self.problem(
+                    item, where, "a scenario checks something: expect: (outcome, within_s, criteria), nodes:, or both"
+                )
         battery = self.number(doc["battery"], f"{where}.battery", 0, 255, whole=True) if "battery" in doc else None
         script = self.sensors(doc["sensors"], f"{where}.sensors") if "sensors" in doc else None
         if name is None or world is None or limit is None:
@@ -228,6 +272,13 @@ class _Reader(ExerciseReader):
         exercise = Exercise(name, name, "", world, world_ref, float(limit), seeds, None, criteria, self.label)
         battery = None if battery is None else int(battery)
         return Scenario(name, item.line, exercise, outcomes, within_s, checks, battery, script)
+
+    def prefixed(self, prefix: str, read: Callable[[], T]) -> T:
+        """What ``read`` reads, each problem it notes said at its place in the scenario (``scenarios[0].seeds``)."""
+        before = len(self.problems)
+        value = read()
+        self.problems[before:] = [replace(p, path=prefix + p.path) for p in self.problems[before:]]
+        return value
 
     def sensors(self, located: Located, where: str) -> SensorScript | None:
         """What the sensors report, by time: ``front_mm``, ``tilt_deg`` (``[[from_s, value], ...]``), ``bumps_s``."""
@@ -296,7 +347,9 @@ class _Reader(ExerciseReader):
         within_s = (
             self.number(doc["within_s"], f"{where}.within_s", 0.0, MAX_TIME_LIMIT_S) if "within_s" in doc else None
         )
-        criteria = self.criteria(doc["criteria"], world) if "criteria" in doc else []  # type: ignore[arg-type]
+        criteria = (
+            self.prefixed(f"{where}.", lambda: self.criteria(doc["criteria"], world)) if "criteria" in doc else []  # type: ignore[arg-type]
+        )
         return tuple(outcomes), within_s, criteria
 
     def nodes(self, located: Located, where: str, nodes: list[NodeInfo]) -> list[NodeCheck]:
@@ -400,9 +453,25 @@ def load_scenarios(path: str | Path) -> ScenarioFile:
 
 
 def find_scenario_files(paths: list[str | Path]) -> list[Path]:
-    """The scenario files under ``paths`` (files as given; folders searched for ``*.test.yaml``), sorted, once each."""
+    """The scenario files under ``paths``, sorted, once each (the same file by two names, once).
+
+    A folder is searched for ``*.test.yaml``; a file is taken as it is, and a mission's ``NAME.yaml`` stands
+    for the ``NAME.test.yaml`` beside it, when there is one (else it is taken, and its reader says what it is).
+    """
     found: list[Path] = []
     for given in paths:
         path = Path(given)
-        found += sorted(path.rglob("*" + SUFFIX)) if path.is_dir() else [path]
-    return list(dict.fromkeys(found))
+        if path.is_dir():
+            found += sorted(path.rglob("*" + SUFFIX))
+        elif not path.name.endswith(SUFFIX) and path.with_name(path.stem + SUFFIX).is_file():
+            found.append(path.with_name(path.stem + SUFFIX))
+        else:
+            found.append(path)
+    seen: set[Path] = set()
+    once = []
+    for path in found:
+        key = path.resolve() if path.exists() else path
+        if key not in seen:
+            seen.add(key)
+            once.append(path)
+    return once

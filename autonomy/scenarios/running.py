@@ -17,6 +17,7 @@ from autonomy.classroom.job import run_seed, verdicts_of
 from autonomy.clock import cpu_time_s
 from autonomy.errors import LinkError
 from autonomy.record import NodeInfo, Record, RunEnd, RunHeader, TickRecord
+from autonomy.runner import FAILED, INTERRUPTED, SUCCEEDED, TIME_LIMIT
 from autonomy.scenarios.files import STATUSES, NodeCheck, Scenario, ScenarioFile
 
 
@@ -46,32 +47,53 @@ class NodeWatch:
         """The statuses ``node`` returned in the run (of SUCCESS, FAILURE and RUNNING)."""
         return {status for _, status in self.changes.get(node, []) if status in STATUSES}
 
-    def holds(self, check: NodeCheck) -> tuple[bool, str]:
-        """Whether ``check`` held in this run, and, where it did not, what the node did instead."""
-        changes = [(t, s, node) for node in check.ids for t, s in self.changes.get(node, [])]
+    def holds(self, check: NodeCheck, paths: list[str] | None = None) -> tuple[bool, str]:
+        """Whether ``check`` held in this run, for each node it names; where not, what one of them did instead.
+
+        A check that names several nodes (a type, or a name some share) holds when it holds for every one
+        of them; ``paths`` (each node's path of names, by id) says which one did not.
+        """
+        for node in check.ids:
+            held, instead = self._holds(check, node)
+            if not held:
+                if len(check.ids) > 1 and paths is not None and node < len(paths):
+                    instead = f"'{paths[node]}' (one of the {len(check.ids)} it names): {instead}"
+                return False, instead
+        return True, ""
+
+    def _holds(self, check: NodeCheck, node: int) -> tuple[bool, str]:
+        changes = self.changes.get(node, [])
         if check.kind == "runs":
-            ran = [t for t, s, _ in changes if s in STATUSES]
+            ran = [t for t, s in changes if s in STATUSES]
             if check.expected:
                 return bool(ran), "it never ran"
             return not ran, f"it ran at {min(ran):g} s" if ran else ""
         if check.kind == "reaches":
-            times = [t for t, s, _ in changes if s == check.status]
+            times = [t for t, s in changes if s == check.status]
             if not times:
-                others = sorted({s for _, s, _ in changes if s in STATUSES})
+                others = sorted({s for _, s in changes if s in STATUSES})
                 return False, f"it never returned {check.status}" + (f" (only {', '.join(others)})" if others else "")
             first = min(times)
             if check.time_s is not None and first > check.time_s:
                 return False, f"it first returned {check.status} at {first:g} s"
             return True, ""
         after_s = check.time_s or 0.0
-        for node in check.ids:
-            steps = self.changes.get(node, [])
-            for k, (t, status) in enumerate(steps):
-                until_s = steps[k + 1][0] if k + 1 < len(steps) else self.end_s
-                # it was that status from t until its next change: at some moment after after_s?
-                if status == check.status and (t >= after_s or until_s > after_s):
-                    return False, f"it was {status} at {max(t, after_s):g} s"
+        for k, (t, status) in enumerate(changes):
+            until_s = changes[k + 1][0] if k + 1 < len(changes) else self.end_s
+            # it was that status from t until its next change: at some moment after after_s?
+            if status == check.status and (t >= after_s or until_s > after_s):
+                return False, f"it was {status} at {max(t, after_s):g} s"
         return True, ""
+
+
+#: The outcomes a scenario that names none takes: the mission ended, or its time ran out; not a crash, a lost
+#: link or an interruption, which are never what a scenario tests unless it says so.
+ENDED_AS_WRITTEN = (SUCCEEDED, FAILED, TIME_LIMIT)
+
+
+def _ended(outcome: str) -> str:
+    """An outcome after "the mission": ``succeeded``, ``was stopped at the time limit``, ``lost the link``..."""
+    return f"was {outcome}" if outcome.startswith("stopped") or outcome == INTERRUPTED else outcome
 
 
 @dataclass
@@ -178,15 +200,24 @@ def _run_seed(tests: ScenarioFile, scenario: Scenario, seed: Seed, coverage: Cov
         for node in watch.changes:
             coverage.seen.setdefault(node, set()).update(watch.seen(node))
     failures = []
-    if scenario.outcomes and facts.outcome not in scenario.outcomes:
-        failures.append(f"expected the mission to end {' or '.join(scenario.outcomes)}, but it {facts.outcome}")
-    if scenario.within_s is not None and facts.time_s > scenario.within_s + 1e-9:
-        failures.append(f"expected it to end within {scenario.within_s:g} s, but it ended at {facts.time_s:g} s")
+    allowed = scenario.outcomes or ENDED_AS_WRITTEN
+    if facts.outcome not in allowed:
+        said = " or ".join(f"'{outcome}'" for outcome in allowed)
+        why = f": {facts.reason}" if facts.reason and facts.outcome not in (SUCCEEDED, TIME_LIMIT) else ""
+        failures.append(f"expected the outcome {said}, but the mission {_ended(facts.outcome)}{why}")
+    if scenario.within_s is not None:
+        if facts.outcome not in (SUCCEEDED, FAILED):
+            ended = _ended(facts.outcome)
+            failures.append(
+                f"expected it to end by itself within {scenario.within_s:g} s, but it {ended} at {facts.time_s:g} s"
+            )
+        elif facts.time_s > scenario.within_s + 1e-9:
+            failures.append(f"expected it to end within {scenario.within_s:g} s, but it ended at {facts.time_s:g} s")
     for criterion, verdict in zip(scenario.exercise.criteria, verdicts_of(scenario.exercise, seed, facts), strict=True):
         if not verdict.held:
             failures.append(f"expected {criterion.shown}: {verdict.line}")
     for check in scenario.nodes:
-        held, instead = watch.holds(check)
+        held, instead = watch.holds(check, tests.paths)
         if not held:
             failures.append(f"expected {check.words}, but {instead}")
     if facts.left_going:
@@ -236,7 +267,9 @@ def _guarded(tests: ScenarioFile, scenario: Scenario) -> tuple[ScenarioOutcome, 
     coverage = Coverage(tests.nodes, statuses=tests.statuses)
     try:
         return run_scenario(tests, scenario, coverage), coverage.seen
-    except (Exception, SystemExit) as err:  # noqa: BLE001 - whatever the author's Python did: this scenario's failure
+    except KeyboardInterrupt:
+        raise
+    except BaseException as err:  # noqa: BLE001 - whatever the author's Python did (sys.exit too): this scenario's failure
         why = f"the run stopped with {type(err).__name__}: {err}"
         return ScenarioOutcome(
             str(tests.path), scenario.name, scenario.line, [SeedOutcome("", "", 0.0, [why])], 0.0

@@ -189,7 +189,7 @@ def test_autonomy_test_says_a_line_a_scenario_and_exits_0_when_all_hold(tmp_path
         "move_until_wall.test.yaml:2: stops short of the wall and beeps (2 seeds, 5.5 simulated s)"
     )
     assert lines[1].startswith("1 scenario: 1 passed, 0 failed (2 runs, 5.5 simulated s in ")
-    assert lines[2] == "coverage of move_until_wall.yaml: 5 of 8 node statuses seen (62%)"
+    assert lines[2] == "coverage of move_until_wall.yaml: 5 of 8 node statuses seen (62.5%)"
 
 
 def test_autonomy_test_fails_with_each_miss_on_its_own_line_and_writes_junit_a_junit_reader_reads(tmp_path):
@@ -226,9 +226,9 @@ def test_autonomy_test_fails_under_a_coverage_asked_for_and_refuses_what_it_cann
     scenario_file(tmp_path, GOOD)
     under = autonomy_test(str(tmp_path), "--fail-under", "90")
     assert under.returncode == 1
-    assert "coverage under 90% for 1 of 1 missions" in under.stderr
-    assert autonomy_test(str(tmp_path), "--fail-under", "63").returncode == 1
-    assert autonomy_test(str(tmp_path), "--fail-under", "62").returncode == 0
+    assert "coverage under 90%: move_until_wall.yaml (62.5%)" in under.stderr
+    assert autonomy_test(str(tmp_path), "--fail-under", "62.6").returncode == 1
+    assert autonomy_test(str(tmp_path), "--fail-under", "62.5").returncode == 0
     nothing = autonomy_test(str(tmp_path / "nowhere"))
     assert (nothing.returncode, nothing.stdout) == (2, "")
     assert "no such scenario file" in nothing.stderr and "Traceback" not in nothing.stderr
@@ -294,7 +294,7 @@ def test_autonomy_test_mutate_says_each_change_no_scenario_notices_and_the_score
     done = autonomy_test(str(tmp_path), "--mutate")
     assert done.returncode == 0, done.stderr
     lines = done.stdout.splitlines()
-    at = lines.index("mutants of move_until_wall.yaml: 4 of 7 caught (57%)")
+    at = lines.index("mutants of move_until_wall.yaml: 4 of 7 caught (57.1%)")
     assert lines[at + 1 :] == [
         "  your tests pass even when 'move until < 100 mm' (move, line 6) has speed 2 instead of 3",
         "  your tests pass even when 'move until < 100 mm' (move, line 6) has until_obstacle_mm 80 instead of 100",
@@ -485,3 +485,82 @@ def test_what_a_node_can_return_is_its_type_s_and_a_plugin_s_node_may_say_it():
 
     with pytest.raises(ValueError, match=r"Wrong.statuses must name some of SUCCESS, FAILURE and RUNNING"):
         leaf_type(Wrong)
+
+
+BOOM = """\
+from py_trees.common import Status
+
+from autonomy.behaviours import RobotAction
+
+
+class Boom(RobotAction):
+    node_type = "boom"
+    doc = "Raises at once."
+
+    def update(self) -> Status:
+        raise ValueError("boom")
+"""
+
+
+def test_a_crash_or_a_lost_link_fails_a_scenario_that_did_not_ask_for_it_and_says_why(tmp_path):
+    (tmp_path / "boom.py").write_text(BOOM)
+    (tmp_path / "crash.yaml").write_text("mission: crash\nplugins: [boom]\ntree:\n  sequence: [boom]\n")
+    (tmp_path / "crash.test.yaml").write_text(
+        "scenarios:\n  - name: asks for nothing but no crash of a wall\n    world: box\n"
+        "    expect: {criteria: [{max_collisions: 0}]}\n"
+        "  - name: asks for the crash\n    world: box\n    expect: {outcome: stopped by an error}\n"
+    )
+    tests = load_scenarios(tmp_path / "crash.test.yaml")
+    crashed, asked = [run_scenario(tests, s) for s in tests.scenarios]
+    assert asked.passed
+    (failure,) = crashed.seeds[0].failures
+    assert (
+        failure.startswith(
+            "expected the outcome 'succeeded' or 'failed' or 'stopped at the time limit', "
+            "but the mission was stopped by an error: "
+        )
+        and "ValueError: boom" in failure
+    ), failure
+    lost = scenario_file(
+        tmp_path,
+        "scenarios:\n  - name: a dead link\n    world: box\n    seeds: [{seed: 1, faults: 'drop=0.3'}]\n"
+        "    expect: {criteria: [{max_collisions: 0}]}\n",
+    )
+    (outcome,) = [run_scenario(load_scenarios(lost), s) for s in load_scenarios(lost).scenarios]
+    assert not outcome.passed and outcome.seeds[0].outcome in ("lost the link", "no run"), outcome.seeds
+
+
+def test_within_s_asks_the_mission_to_end_by_itself_and_a_check_of_several_nodes_holds_for_each(tmp_path):
+    path = scenario_file(
+        tmp_path,
+        "scenarios:\n  - name: never ends\n    world: empty\n    time_limit_s: 2\n    expect: {within_s: 100}\n"
+        "  - name: every wait\n    world: box\n    time_limit_s: 2\n    nodes:\n"
+        "      - {node: wait, reaches: SUCCESS}\n      - {node: fine steps back/wait 0.1 s, runs: false}\n",
+        mission="servo_scan",
+    )
+    tests = load_scenarios(path)
+    never, waits = [run_scenario(tests, s) for s in tests.scenarios]
+    assert never.seeds[0].failures == [
+        "expected it to end by itself within 100 s, but it was stopped at the time limit at 2 s"
+    ]
+    # the fine steps' wait is named by an ancestor and its own name; the waits after 2 s never ran
+    (failure,) = waits.seeds[0].failures
+    assert failure.startswith("expected 'wait' reaches SUCCESS, but '") and " (one of the " in failure, failure
+
+
+def test_a_check_of_nothing_a_mission_given_for_its_tests_and_outputs_over_inputs_are_refused(tmp_path):
+    path = scenario_file(tmp_path, "scenarios:\n  - name: nothing\n    world: box\n    expect: {}\n")
+    with pytest.raises(ScenariosInvalid, match="a scenario checks something"):
+        load_scenarios(path)
+    given = autonomy_test(str(tmp_path / "move_until_wall.yaml"))  # the mission: its tests are beside it
+    assert "a scenario checks something" in given.stderr
+    path.unlink()
+    alone = autonomy_test(str(tmp_path / "move_until_wall.yaml"))
+    assert (
+        alone.returncode == 2
+        and "this is a mission, not its tests: they go in move_until_wall.test.yaml" in alone.stderr
+    )
+    scenario_file(tmp_path, GOOD)
+    over = autonomy_test(str(tmp_path), "--junit", str(tmp_path / "move_until_wall.yaml"))
+    assert over.returncode == 2 and "is a file the tests read" in over.stderr and over.stdout == ""
+    assert (tmp_path / "move_until_wall.yaml").read_text().startswith("mission:")
