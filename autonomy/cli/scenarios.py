@@ -5,11 +5,21 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import signal
 import sys
 from pathlib import Path
 from typing import Any
 
-from autonomy.cli.common import EXIT_FAILED, EXIT_OK, EXIT_USAGE, _bounded, _fail, _problems, _shown
+from autonomy.cli.common import (
+    EXIT_FAILED,
+    EXIT_INTERRUPTED,
+    EXIT_OK,
+    EXIT_USAGE,
+    _bounded,
+    _fail,
+    _problems,
+    _shown,
+)
 from autonomy.words import plural
 
 #: The simulated seconds the scenarios may take in all, at most, past which they run a process a core by default.
@@ -42,12 +52,18 @@ def cmd_test(args: argparse.Namespace) -> int:
     # a process a core pays for its start when there is much to run: over ten simulated minutes at most
     most_s = sum(s.exercise.time_limit_s * len(s.exercise.seeds) for tests in files for s in tests.scenarios)
     jobs = args.jobs or ((os.cpu_count() or 1) if most_s > PARALLEL_FROM_S else 1)
-    for tests, outcome, seen in run_all(files, jobs):
-        for node, statuses in seen.items():
-            coverages[id(tests)][1].seen.setdefault(node, set()).update(statuses)
-        outcomes.append(outcome)
-        if not args.json:
-            _say(outcome)
+    total = sum(len(tests.scenarios) for tests in files)
+    signal.signal(signal.SIGTERM, _interrupt)  # as Ctrl-C: the workers ended, the run said interrupted
+    try:
+        for tests, outcome, seen in run_all(files, jobs):
+            for node, statuses in seen.items():
+                coverages[id(tests)][1].seen.setdefault(node, set()).update(statuses)
+            outcomes.append(outcome)
+            if not args.json:
+                _say(outcome)
+    except KeyboardInterrupt:  # Ctrl-C: the runs under way were stopped, their workers ended
+        print(f"autonomy: interrupted after {len(outcomes)} of {plural(total, 'scenario')}", file=sys.stderr)
+        return EXIT_INTERRUPTED
     took_s = sum(o.cpu_s for o in outcomes)
     failed = sum(not o.passed for o in outcomes)
     written = [(args.junit, lambda: junit_xml(outcomes)), (args.html, lambda: coverage_html(list(coverages.values())))]
@@ -92,6 +108,10 @@ def cmd_test(args: argparse.Namespace) -> int:
         )
         print(_shown(f"coverage under {args.fail_under:g}%: {names}"), file=sys.stderr)
     return EXIT_FAILED if failed or below else EXIT_OK
+
+
+def _interrupt(*_: object) -> None:
+    raise KeyboardInterrupt
 
 
 def _outputs_refused(args: argparse.Namespace, files: list[Any]) -> str:

@@ -8,13 +8,17 @@ that what a node did, and which of its statuses no scenario ever saw, can be tol
 from __future__ import annotations
 
 import multiprocessing
+import os
+import signal
+import threading
 from collections.abc import Iterator
 from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field
 
 from autonomy.classroom.exercise import Seed
 from autonomy.classroom.job import run_seed, verdicts_of
-from autonomy.clock import cpu_time_s
+from autonomy.clock import RealClock, cpu_time_s
 from autonomy.errors import LinkError
 from autonomy.record import NodeInfo, Record, RunEnd, RunHeader, TickRecord
 from autonomy.runner import FAILED, INTERRUPTED, SUCCEEDED, TIME_LIMIT
@@ -196,6 +200,8 @@ def _run_seed(tests: ScenarioFile, scenario: Scenario, seed: Seed, coverage: Cov
         facts = run_seed(scenario.exercise, tests.spec, seed, watchers=[watch], emulator=more, script=scenario.script)
     except LinkError as err:
         return SeedOutcome(seed.label, "no run", 0.0, [f"no run: the link failed before the mission started ({err})"])
+    if facts.outcome == INTERRUPTED:  # Ctrl-C: the run was stopped; so is the rest
+        raise KeyboardInterrupt
     if coverage is not None:
         for node in watch.changes:
             coverage.seen.setdefault(node, set()).update(watch.seen(node))
@@ -290,25 +296,88 @@ def _in_worker(path: str, index: int) -> tuple[ScenarioOutcome, dict[int, set[st
     return _guarded(tests, tests.scenarios[index])
 
 
+def _worker_start(main_pid: int) -> None:
+    """In a worker process: Ctrl-C is for the command (it ends the workers), and a worker whose command is gone ends."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+    def watch() -> None:
+        clock = RealClock()
+        while _alive(main_pid):
+            clock.sleep(0.5)
+        os._exit(1)  # the command was killed outright: nothing waits for this worker
+
+    threading.Thread(target=watch, name="the command's watch", daemon=True).start()
+
+
+def _alive(pid: int) -> bool:
+    """Whether process ``pid`` still runs (a process ended but not yet reaped by its parent does not)."""
+    try:
+        os.kill(pid, 0)
+    except (ProcessLookupError, PermissionError):  # gone (or another's process has its number now)
+        return False
+    try:
+        with open(f"/proc/{pid}/stat", encoding="ascii", errors="replace") as stat:
+            return stat.read().rsplit(")", 1)[-1].split()[0] != "Z"
+    except (OSError, IndexError):  # no /proc here: it answered, so it runs
+        return True
+
+
+def _ended_why(tests: ScenarioFile, k: int) -> tuple[ScenarioOutcome, dict[int, set[str]]]:
+    """The outcome of a scenario whose process ended under it (``os._exit`` in a plugin, or killed)."""
+    scenario = tests.scenarios[k]
+    why = "the scenario's process ended while it ran (a plugin's os._exit, or killed): no outcome"
+    return ScenarioOutcome(str(tests.path), scenario.name, scenario.line, [SeedOutcome("", "", 0.0, [why])], 0.0), {}
+
+
+def _pool(jobs: int) -> ProcessPoolExecutor:
+    context = multiprocessing.get_context("forkserver")
+    return ProcessPoolExecutor(max_workers=jobs, mp_context=context, initializer=_worker_start, initargs=(os.getpid(),))
+
+
+def _end_pool(pool: ProcessPoolExecutor) -> None:
+    """Ends a pool's workers now, whatever they are doing (a plugin may sleep for ever)."""
+    processes = list((getattr(pool, "_processes", None) or {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for process in processes:
+        if process.is_alive():
+            process.kill()
+    for process in processes:
+        process.join(5)
+
+
 def run_all(
     files: list[ScenarioFile], jobs: int = 1
 ) -> Iterator[tuple[ScenarioFile, ScenarioOutcome, dict[int, set[str]]]]:
     """Every scenario of ``files``, in their order: its file, its outcome and the statuses its nodes returned.
 
-    With ``jobs`` above 1, the scenarios run in as many worker processes at once (each reads the files
-    itself, as ``autonomy test`` read them), and come back in the files' order all the same.
+    With ``jobs`` above 1, or a mission with plugins (whose Python may end its process), the scenarios run
+    in worker processes (each reads the files itself, as ``autonomy test`` read them), and come back in the
+    files' order all the same. A worker that ends under its scenario fails that scenario alone: when the
+    pool breaks, the scenarios it held run again one at a time, each in a pool of its own, to tell which.
+    Ctrl-C ends the workers at once and raises ``KeyboardInterrupt``.
     """
     work = [(tests, k) for tests in files for k in range(len(tests.scenarios))]
-    if jobs <= 1 or len(work) <= 1:
+    apart = jobs > 1 and len(work) > 1 or any(tests.spec.plugins for tests in files)
+    if not apart:
         for tests, k in work:
             yield (tests, *_guarded(tests, tests.scenarios[k]))
         return
-    context = multiprocessing.get_context("forkserver")
-    with ProcessPoolExecutor(max_workers=min(jobs, len(work)), mp_context=context) as pool:
+    pool = _pool(max(1, min(jobs, len(work))))
+    try:
         futures = [pool.submit(_in_worker, str(tests.path), k) for tests, k in work]
-        try:
-            for (tests, _), future in zip(work, futures, strict=True):
+        for index, ((tests, k), future) in enumerate(zip(work, futures, strict=True)):
+            try:
                 yield (tests, *future.result())
-        finally:
-            for future in futures:
-                future.cancel()
+            except BrokenProcessPool:
+                _end_pool(pool)
+                for tests, k in work[index:]:  # one at a time, in a pool of its own: which one ended its process
+                    pool = _pool(1)
+                    try:
+                        yield (tests, *pool.submit(_in_worker, str(tests.path), k).result())
+                    except BrokenProcessPool:
+                        yield (tests, *_ended_why(tests, k))
+                    finally:
+                        _end_pool(pool)
+                return
+    finally:
+        _end_pool(pool)
