@@ -139,9 +139,9 @@ def _serve(
     if links is not None:
         print(f"each student's sign-in link (no code to type) is in {links}", file=sys.stderr)
     print(disk_said(students), file=sys.stderr)
-    print(f"http://{shown}:{server.port}/", flush=True)
     signal.signal(signal.SIGTERM, _interrupt)
-    try:
+    try:  # from the moment its address is said, a Ctrl-C ends the class as it should (it was a race)
+        print(f"http://{shown}:{server.port}/", flush=True)
         server.wait()
     except KeyboardInterrupt:
         pass

@@ -257,9 +257,9 @@ def cmd_edit(args: argparse.Namespace) -> int:
     _warn_if_public(args.host, "the editor's runs are", "watch them")
     made = "" if path.exists() else " (a new file: it is made when you save)"
     print(f"editing {path}{made}; the page is at (its key is new at each start):", file=sys.stderr)
-    print(server.page_url, flush=True)
     signal.signal(signal.SIGTERM, _interrupt)
-    try:
+    try:  # from the moment its address is said, a Ctrl-C ends the editor as it should
+        print(server.page_url, flush=True)
         server.wait()
     except KeyboardInterrupt:
         pass

@@ -33,22 +33,19 @@ def cmd_emulator(args: argparse.Namespace) -> int:
         return _fail(str(err), EXIT_USAGE)
     except OSError as err:
         return _fail(f"cannot serve on {args.tcp[0]}:{args.tcp[1]}: {err.strerror or err}", EXIT_LINK)
-    print(server.url, flush=True)
-    if getattr(server, "public", False):
-        where = "every network address" if args.tcp[0] in ("0.0.0.0", "::", "") else "a network address"
-        print(
-            f"autonomy: warning: serving on {where} ({args.tcp[0]}): anyone who can reach this "
-            "machine can drive the robot; use 127.0.0.1 unless you mean it",
-            file=sys.stderr,
-            flush=True,
-        )
-    print(
-        f"emulated robot in world '{emulator.world.name}', {args.baud} baud, faults: {emulator.faults}; Ctrl-C to stop",
-        file=sys.stderr,
-        flush=True,
-    )
     signal.signal(signal.SIGTERM, lambda *_: server.stop_soon())
-    try:
+    try:  # from the moment its address is said, a Ctrl-C stops it as it should
+        print(server.url, flush=True)
+        if getattr(server, "public", False):
+            where = "every network address" if args.tcp[0] in ("0.0.0.0", "::", "") else "a network address"
+            print(
+                f"autonomy: warning: serving on {where} ({args.tcp[0]}): anyone who can reach this "
+                "machine can drive the robot; use 127.0.0.1 unless you mean it",
+                file=sys.stderr,
+                flush=True,
+            )
+        said = f"emulated robot in world '{emulator.world.name}', {args.baud} baud, faults: {emulator.faults}"
+        print(f"{said}; Ctrl-C to stop", file=sys.stderr, flush=True)
         server.serve_forever()
     except KeyboardInterrupt:
         server.stop_soon()
