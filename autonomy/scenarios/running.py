@@ -10,15 +10,15 @@ from __future__ import annotations
 import multiprocessing
 import os
 import signal
-import threading
 from collections.abc import Iterator
 from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field
 
+from autonomy.classroom.child import end_with
 from autonomy.classroom.exercise import Seed
 from autonomy.classroom.job import run_seed, verdicts_of
-from autonomy.clock import RealClock, cpu_time_s
+from autonomy.clock import cpu_time_s
 from autonomy.errors import LinkError
 from autonomy.record import NodeInfo, Record, RunEnd, RunHeader, TickRecord
 from autonomy.runner import FAILED, INTERRUPTED, SUCCEEDED, TIME_LIMIT
@@ -299,27 +299,7 @@ def _in_worker(path: str, index: int) -> tuple[ScenarioOutcome, dict[int, set[st
 def _worker_start(main_pid: int) -> None:
     """In a worker process: Ctrl-C is for the command (it ends the workers), and a worker whose command is gone ends."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-
-    def watch() -> None:
-        clock = RealClock()
-        while _alive(main_pid):
-            clock.sleep(0.5)
-        os._exit(1)  # the command was killed outright: nothing waits for this worker
-
-    threading.Thread(target=watch, name="the command's watch", daemon=True).start()
-
-
-def _alive(pid: int) -> bool:
-    """Whether process ``pid`` still runs (a process ended but not yet reaped by its parent does not)."""
-    try:
-        os.kill(pid, 0)
-    except (ProcessLookupError, PermissionError):  # gone (or another's process has its number now)
-        return False
-    try:
-        with open(f"/proc/{pid}/stat", encoding="ascii", errors="replace") as stat:
-            return stat.read().rsplit(")", 1)[-1].split()[0] != "Z"
-    except (OSError, IndexError):  # no /proc here: it answered, so it runs
-        return True
+    end_with(main_pid)
 
 
 def _ended_why(tests: ScenarioFile, k: int) -> tuple[ScenarioOutcome, dict[int, set[str]]]:

@@ -166,3 +166,38 @@ def test_a_worker_ended_by_two_threads_at_once_is_ended_once():
         ender.join(10)
     assert len(closes) == 1 and worker.ended and not worker.process.is_alive()
     warm.close()
+
+
+def test_a_grading_child_ends_soon_after_the_process_that_started_it_is_killed(tmp_path):
+    """A Dask daemon's grading child (classroom/child.py) whose worker was killed outright does not live on."""
+    import subprocess
+    import sys
+
+    script = tmp_path / "parent.py"
+    script.write_text(
+        "import pickle, subprocess, sys, time\n"
+        "child = subprocess.Popen([sys.executable, '-m', 'autonomy.classroom.child'], stdin=subprocess.PIPE)\n"
+        "child.stdin.write(pickle.dumps((time.sleep, (3600,))))\n"  # a call that takes an hour, as a long grading
+        "child.stdin.close()\n"
+        "print(child.pid, flush=True)\n"
+        "time.sleep(3600)\n"
+    )
+    parent = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE, text=True)
+    child = int(parent.stdout.readline())
+    time.sleep(0.5)
+    os.kill(child, 0)  # waiting, alive
+    parent.kill()
+    parent.wait(10)
+    deadline = time.monotonic() + 5
+    while time.monotonic() < deadline:
+        try:
+            os.kill(child, 0)
+        except ProcessLookupError:
+            break
+        state = open(f"/proc/{child}/stat").read().rsplit(")", 1)[1].split()[0]
+        if state == "Z":
+            break
+        time.sleep(0.1)
+    else:
+        os.kill(child, signal.SIGKILL)
+        raise AssertionError("the grading child lived on after its parent was killed")
