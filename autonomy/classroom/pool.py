@@ -24,6 +24,7 @@ from typing import Any, NamedTuple, cast
 
 from py_trees.blackboard import Blackboard
 
+from autonomy.classroom.child import end_with
 from autonomy.classroom.exercise import Exercise
 from autonomy.classroom.job import grade_one
 from autonomy.classroom.limits import (
@@ -160,6 +161,9 @@ def _worker(
     next submission then gets a new worker.
     """
     os.setpgid(0, 0)
+    # it ends with the grader: a grader killed outright cannot end it, and a worker forked beside others holds
+    # their channels' other ends too, so that none of them ever reads the end of its own
+    end_with(os.getppid())
     if isinstance(exercises, Exercise):
         exercises = {"": exercises}
     if niceness:  # behind whatever the machine does meanwhile (the class's server answering its checks)

@@ -6,6 +6,7 @@ import os
 import signal
 import threading
 import time
+from pathlib import Path
 
 import pytest
 
@@ -201,3 +202,45 @@ def test_a_grading_child_ends_soon_after_the_process_that_started_it_is_killed(t
     else:
         os.kill(child, signal.SIGKILL)
         raise AssertionError("the grading child lived on after its parent was killed")
+
+
+def test_grading_workers_forked_side_by_side_end_soon_after_their_grader_is_killed(tmp_path):
+    """Each holds the other's channel: their grader killed outright, neither would ever read the end of its own."""
+    import subprocess
+    import sys
+
+    script = tmp_path / "grader.py"
+    script.write_text(
+        "import multiprocessing, time\n"
+        "from autonomy.classroom import load_exercise\n"
+        "from autonomy.classroom.pool import _start\n"
+        "if __name__ == '__main__':\n"
+        "    exercise = load_exercise('exercises/garage.yaml')\n"
+        "    context = multiprocessing.get_context('fork')\n"
+        "    workers = [_start(context, {'garage': exercise}, False, 512, 10.0, None, None, None, None, True, 0)\n"
+        "               for _ in range(2)]\n"
+        "    print(*(w.process.pid for w in workers), flush=True)\n"
+        "    time.sleep(3600)\n"
+    )
+    root = Path(__file__).resolve().parents[2]
+    grader = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE, text=True, cwd=root)
+    pids = [int(pid) for pid in grader.stdout.readline().split()]
+    time.sleep(1.0)
+    for pid in pids:
+        os.kill(pid, 0)  # waiting for work, alive
+    grader.kill()
+    grader.wait(10)
+    deadline = time.monotonic() + 5
+    left = set(pids)
+    while left and time.monotonic() < deadline:
+        for pid in list(left):
+            try:
+                os.kill(pid, 0)
+                if open(f"/proc/{pid}/stat").read().rsplit(")", 1)[1].split()[0] == "Z":
+                    left.discard(pid)
+            except ProcessLookupError:
+                left.discard(pid)
+        time.sleep(0.1)
+    for pid in left:
+        os.kill(pid, signal.SIGKILL)
+    assert left == set(), "grading workers lived on after their grader was killed"
