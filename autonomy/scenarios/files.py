@@ -213,9 +213,7 @@ class _Reader(ExerciseReader):
                 root, "", f"this is a mission, not its tests: they go in {mission_of_test(path).name} beside it"
             )
             return None, []
-        for key in doc:
-            if key not in TOP_LEVEL:
-                self.problem(root.keys[key], key, f"unknown key '{key}'{suggest(key, list(TOP_LEVEL))}")
+        self.known_keys(root, "", TOP_LEVEL)
         mission = mission_of(path)
         if "mission" in doc:
             name = self.text(doc["mission"], "mission")
@@ -232,6 +230,13 @@ class _Reader(ExerciseReader):
             return mission, []
         return mission, items.value
 
+    def known_keys(self, located: Located, where: str, allowed: tuple[str, ...]) -> None:
+        """Notes each key of the mapping ``located`` that is not one of ``allowed``, with a did-you-mean."""
+        for key in located.value:
+            if key not in allowed:
+                path = f"{where}.{key}" if where else key
+                self.problem(located.keys[key], path, f"unknown key '{key}'{suggest(key, list(allowed))}")
+
     def scenario(self, item: Located, where: str, nodes: list[NodeInfo], names: set[str]) -> Scenario | None:
         """One scenario (None: its problems noted)."""
         start = len(self.problems)
@@ -239,11 +244,7 @@ class _Reader(ExerciseReader):
             self.problem(item, where, "a scenario is a mapping: name:, world:, and what it expects (expect:, nodes:)")
             return None
         doc: dict[str, Located] = item.value
-        for key in doc:
-            if key not in SCENARIO_KEYS:
-                self.problem(
-                    item.keys[key], f"{where}.{key}", f"unknown key '{key}'{suggest(key, list(SCENARIO_KEYS))}"
-                )
+        self.known_keys(item, where, SCENARIO_KEYS)
         for key in ("name", "world"):
             if key not in doc:
                 self.problem(item, where, f"'{key}' is missing")
@@ -286,11 +287,7 @@ class _Reader(ExerciseReader):
             self.problem(located, where, "sensors: is a mapping, e.g. {front_mm: [[0, 255], [2.5, 80]], bumps_s: [3]}")
             return None
         doc: dict[str, Located] = located.value
-        for key in doc:
-            if key not in SENSOR_KEYS:
-                self.problem(
-                    located.keys[key], f"{where}.{key}", f"unknown key '{key}'{suggest(key, list(SENSOR_KEYS))}"
-                )
+        self.known_keys(located, where, SENSOR_KEYS)
         front = self.steps(doc["front_mm"], f"{where}.front_mm", 0, 255) if "front_mm" in doc else ()
         tilt = self.steps(doc["tilt_deg"], f"{where}.tilt_deg", -127, 127) if "tilt_deg" in doc else ()
         bumps: list[float] = []
@@ -329,11 +326,7 @@ class _Reader(ExerciseReader):
             self.problem(located, where, "expect: is a mapping of outcome:, within_s: and criteria:")
             return (), None, []
         doc: dict[str, Located] = located.value
-        for key in doc:
-            if key not in EXPECT_KEYS:
-                self.problem(
-                    located.keys[key], f"{where}.{key}", f"unknown key '{key}'{suggest(key, list(EXPECT_KEYS))}"
-                )
+        self.known_keys(located, where, EXPECT_KEYS)
         outcomes: list[str] = []
         if "outcome" in doc:
             given = doc["outcome"].value if isinstance(doc["outcome"].value, list) else [doc["outcome"]]
@@ -368,9 +361,7 @@ class _Reader(ExerciseReader):
             self.problem(item, where, "a node's check is a mapping, e.g. {node: avoid, reaches: SUCCESS, before_s: 10}")
             return None
         doc: dict[str, Located] = item.value
-        for key in doc:
-            if key not in NODE_KEYS:
-                self.problem(item.keys[key], f"{where}.{key}", f"unknown key '{key}'{suggest(key, list(NODE_KEYS))}")
+        self.known_keys(item, where, NODE_KEYS)
         if "node" not in doc:
             self.problem(item, where, "'node' is missing: the node's name, or its path from the root")
             return None
@@ -463,8 +454,8 @@ def find_scenario_files(paths: list[str | Path]) -> list[Path]:
         path = Path(given)
         if path.is_dir():
             found += sorted(path.rglob("*" + SUFFIX))
-        elif not path.name.endswith(SUFFIX) and path.with_name(path.stem + SUFFIX).is_file():
-            found.append(path.with_name(path.stem + SUFFIX))
+        elif not path.name.endswith(SUFFIX) and mission_of_test(path).is_file():
+            found.append(mission_of_test(path))
         else:
             found.append(path)
     seen: set[Path] = set()
