@@ -27,6 +27,18 @@ def offered(page) -> list[str]:
     return page.locator(".cm-tooltip-autocomplete li .cm-completionLabel").all_text_contents()
 
 
+# CodeMirror takes no Enter on a list of completions drawn less than this long ago (its `interactionDelay`, 75 ms:
+# a list that appears under a key already on its way is not taken by it)
+LIST_SETTLES_MS = 200
+
+
+def take_completion(page) -> None:
+    """Takes the completion selected, as a person does: with Enter, once the list is drawn and has stood a moment."""
+    until(page, "missionText.completing() === 'active'")
+    page.wait_for_timeout(LIST_SETTLES_MS)
+    keys(page, "Enter")
+
+
 def test_the_served_codemirror_is_the_one_recorded_and_pinned(classroom):
     student_url, _, _ = classroom
     record = vendored("codemirror")
@@ -74,7 +86,7 @@ def test_the_text_is_highlighted_completed_and_marked_and_keeps_its_keys(browser
         until(page, "!document.querySelector('.cm-tooltip-autocomplete').textContent.includes('sequence')")
         assert offered(page)[0] == "move"
         assert "Drive straight" in page.text_content(".cm-completionInfo")  # the help the docs show
-        keys(page, "Enter")
+        take_completion(page)
         assert page.evaluate("missionText.value").endswith("    - move: ")
         # within a node's mapping: its parameters, with their ranges
         page.keyboard.type("{")
@@ -85,7 +97,7 @@ def test_the_text_is_highlighted_completed_and_marked_and_keeps_its_keys(browser
         until(page, "document.querySelectorAll('.cm-tooltip-autocomplete li').length === 1")
         assert "from 1, to 4" in page.text_content(".cm-tooltip-autocomplete li[aria-selected=true]")
         assert violations(page) == []  # the list of completions open
-        keys(page, "Enter")
+        take_completion(page)
         page.keyboard.type("2, until_obstacle_mm: 150}")
         keys(page, "Escape")  # the list closes, if it is open
         assert page.evaluate("missionText.value") == FIXED.rstrip("\n")
