@@ -154,6 +154,7 @@ class RunFacts:
         last_tick_s: When the mission's last tick was.
         left_going: Whether the run ended with the robot still told to drive or turn (its wheels' target not
             zero): the stop at the end did not reach it.
+        servo_moves: Each servo command the robot carried out: (time_s, servo id, the angle it was sent to).
     """
 
     nodes: int
@@ -175,6 +176,7 @@ class RunFacts:
     rest_touching: bool = False
     last_tick_s: float = math.inf
     left_going: bool = False
+    servo_moves: list[tuple[float, int, float]] = field(default_factory=list)
 
     def running_at(self, time_s: float) -> str:
         """The label of the node that was running at ``time_s`` (the mission's last, after its end), or empty."""
@@ -328,6 +330,7 @@ def facts_of(
         stills=stills,
         rest_hit=rest_hit,
         running=list(running or []),
+        servo_moves=[(t - offset_s, servo, angle) for t, servo, angle in robot.servo_moves],
         last_tick_s=gathered.last_tick_s,
         node_labels=[node_label(node) for node in header.nodes],
         node_kinds=[node.type for node in header.nodes],

@@ -33,6 +33,8 @@ from autonomy.protocol import (
 
 #: Commands that move something: refused in manual mode, fallen, or on a flat battery.
 MOTION = (Move, Turn, ServoTo, ServoBy)
+#: A command's name as a sensor script's refusals say it (:data:`~autonomy.emulator.script.REFUSABLE`).
+_SCRIPTED: dict[type, str] = {Beep: "beep", Move: "move", Turn: "turn", ServoTo: "servo", ServoBy: "servo"}
 #: Valid frames kept parsed (there are a few thousand possible; a run uses a handful).
 PARSED_LIMIT = 4096
 
@@ -93,6 +95,13 @@ class Firmware:
             return self._get(command.parameter)
         robot = self.robot
         if isinstance(command, MOTION) and not robot.can_move:
+            return NO
+        script = robot.script
+        if (
+            script is not None
+            and script.refuses
+            and script.refused(_SCRIPTED.get(type(command), ""), robot.script_time_s)
+        ):
             return NO
         if isinstance(command, Beep):
             robot.beep(command.tones, command.volume)

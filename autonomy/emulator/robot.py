@@ -124,6 +124,8 @@ class Robot:
         self.script_from_s = 0.0
         self.impacts: list[Impact] = []
         self.beeps: list[tuple[float, tuple[int, int, int], int]] = []
+        #: Each servo command carried out: (time_s, servo id, the angle it was sent to, degrees).
+        self.servo_moves: list[tuple[float, int, float]] = []
         #: Where the robot was at each beep, in the order of :attr:`beeps`.
         self.beep_poses: list[Pose] = []
         #: Whether it was driving or turning at each beep (braking to a stop is not), as :attr:`beeps`.
@@ -175,13 +177,13 @@ class Robot:
         if self.time_s < self.collided_until_s:
             return True
         script = self.script
-        return script is not None and script.bumped_at(self.time_s - self.script_from_s, self.params.collision_hold_s)
+        return script is not None and script.bumped_at(self.script_time_s, self.params.collision_hold_s)
 
     @property
     def reported_tilt_deg(self) -> float:
         """The tilt the robot reports: its own, or the script's."""
         script = self.script
-        scripted = script.tilt_at(self.time_s - self.script_from_s) if script is not None else None
+        scripted = script.tilt_at(self.script_time_s) if script is not None else None
         return self.tilt_deg if scripted is None else float(scripted)
 
     @property
@@ -216,7 +218,7 @@ class Robot:
     def front_distance_mm(self) -> int:
         """The front sensor's reading, 0..``sensor_max_mm`` (the script's, when it says one)."""
         if self.script is not None:
-            scripted = self.script.front_at(self.time_s - self.script_from_s)
+            scripted = self.script.front_at(self.script_time_s)
             if scripted is not None:
                 return scripted
         p = self.params
@@ -258,9 +260,15 @@ class Robot:
         self.target_speed_mm_s = 0.0
         self.turn_remaining_deg = 0.0
 
+    @property
+    def script_time_s(self) -> float:
+        """The time as the sensor script counts it: seconds since it was set."""
+        return self.time_s - self.script_from_s
+
     def servo_to(self, servo_id: int, angle_deg: float) -> None:
-        """Sends servo ``servo_id`` towards an absolute angle."""
+        """Sends servo ``servo_id`` towards an absolute angle (kept in :attr:`servo_moves`)."""
         self.servo_target_deg[servo_id] = max(-99.0, min(99.0, float(angle_deg)))
+        self.servo_moves.append((self.time_s, servo_id, self.servo_target_deg[servo_id]))
 
     def servo_by(self, servo_id: int, delta_deg: float) -> None:
         """Sends servo ``servo_id`` ``delta_deg`` from where it is now."""

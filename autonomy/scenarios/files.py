@@ -34,7 +34,7 @@ from typing import TypeVar
 
 from autonomy.behaviours.tree import describe_tree
 from autonomy.classroom.exercise import MAX_TIME_LIMIT_S, Exercise, ExerciseInvalid, ExerciseReader, Seed
-from autonomy.emulator.script import SensorScript
+from autonomy.emulator.script import REFUSABLE, SensorScript
 from autonomy.mission import MissionInvalid, MissionSpec, build_tree, load_mission
 from autonomy.record import NodeInfo
 from autonomy.runner import CRASHED, FAILED, INTERRUPTED, LINK_LOST, SUCCEEDED, TIME_LIMIT
@@ -45,8 +45,10 @@ T = TypeVar("T")
 SUFFIX = ".test.yaml"
 TOP_LEVEL = ("mission", "scenarios")
 SCENARIO_KEYS = ("name", "world", "seeds", "time_limit_s", "battery", "sensors", "expect", "nodes")
-SENSOR_KEYS = ("front_mm", "bumps_s", "tilt_deg")
-EXPECT_KEYS = ("outcome", "within_s", "criteria")
+SENSOR_KEYS = ("front_mm", "bumps_s", "tilt_deg", "refuses")
+EXPECT_KEYS = ("outcome", "within_s", "criteria", "beeps", "distance_mm", "servos")
+BEEP_KEYS = ("count", "volume")
+SERVO_KEYS = ("id", "angles")
 NODE_KEYS = ("node", "reaches", "before_s", "never", "after_s", "runs")
 #: The outcomes a run may end with, as ``autonomy run`` says them.
 OUTCOMES = (SUCCEEDED, FAILED, TIME_LIMIT, LINK_LOST, CRASHED, INTERRUPTED)
@@ -65,13 +67,14 @@ class NodeCheck:
         node: The node as the file names it: its name, its path of names from the root (``root/avoid``),
             or its type (every node of that type).
         ids: The ids of the tree's nodes it names.
-        kind: ``reaches`` (the node returns ``status``, before ``time_s`` if set), ``never`` (the node
-            is never ``status`` after ``time_s``, 0 if not set) or ``runs`` (the node is ticked at all,
-            or, when ``expected`` is False, never).
+        kind: ``reaches`` (the node returns ``status``, before ``time_s`` if set, at ``from_s`` or after
+            if set), ``never`` (the node is never ``status`` after ``time_s``, 0 if not set) or ``runs``
+            (the node is ticked at all, or, when ``expected`` is False, never).
         status: The status it is about (``SUCCESS``, ``FAILURE``, ``RUNNING``); empty for ``runs``.
         time_s: ``before_s`` or ``after_s``, simulated seconds from the start; None: not set.
         expected: For ``runs``: whether it must run (True) or must not (False).
         line: Where the check stands in the file.
+        from_s: For ``reaches``: its ``after_s``, the time from which the status counts (None: from the start).
     """
 
     node: str
@@ -81,6 +84,7 @@ class NodeCheck:
     time_s: float | None = None
     expected: bool = True
     line: int = 0
+    from_s: float | None = None
 
     @property
     def words(self) -> str:
@@ -88,7 +92,8 @@ class NodeCheck:
         if self.kind == "runs":
             return f"'{self.node}' {'runs' if self.expected else 'never runs'}"
         if self.kind == "reaches":
-            return f"'{self.node}' reaches {self.status}" + (f" before {self.time_s:g} s" if self.time_s else "")
+            after = f" after {self.from_s:g} s" if self.from_s else ""
+            return f"'{self.node}' reaches {self.status}{after}" + (f" before {self.time_s:g} s" if self.time_s else "")
         return f"'{self.node}' is never {self.status}" + (f" after {self.time_s:g} s" if self.time_s else "")
 
 
@@ -106,6 +111,10 @@ class Scenario:
         nodes: What its nodes must do.
         battery: The battery's level at the start, 0..255 (None: the emulator's, 230).
         script: What the sensors report, by time, whatever the world holds (None: what it holds).
+        beeps: How many beeps that make a sound (volume 1 or more) the run has, exactly (None: any).
+        beep_volume: The volume each of them must have (None: any).
+        distance_mm: The least and the most the robot may drive in all, forward and back (None: any).
+        servos: For each servo it names, every angle it was sent to, in order, whole degrees.
     """
 
     name: str
@@ -116,6 +125,10 @@ class Scenario:
     nodes: list[NodeCheck] = field(default_factory=list)
     battery: int | None = None
     script: SensorScript | None = None
+    beeps: int | None = None
+    beep_volume: int | None = None
+    distance_mm: tuple[float, float] | None = None
+    servos: tuple[tuple[int, tuple[int, ...]], ...] = ()
 
 
 @dataclass
@@ -257,22 +270,22 @@ class _Reader(ExerciseReader):
         limit = DEFAULT_TIME_LIMIT_S
         if "time_limit_s" in doc:
             limit = self.number(doc["time_limit_s"], f"{where}.time_limit_s", 0.1, MAX_TIME_LIMIT_S)
-        outcomes, within_s, criteria = (
-            self.expect(doc["expect"], f"{where}.expect", world) if "expect" in doc else ((), None, [])
+        outcomes, within_s, criteria, measures = (
+            self.expect(doc["expect"], f"{where}.expect", world) if "expect" in doc else ((), None, [], {})
         )
         checks = self.nodes(doc["nodes"], f"{where}.nodes", nodes) if "nodes" in doc else []
-        if "expect" not in doc and "nodes" not in doc or not (outcomes or within_s is not None or criteria or checks):
+        checked = outcomes or within_s is not None or criteria or checks or measures
+        if "expect" not in doc and "nodes" not in doc or not checked:
             if len(self.problems) == start or "expect" not in doc and "nodes" not in doc:  # said once
-                self.problem(
-                    item, where, "a scenario checks something: expect: (outcome, within_s, criteria), nodes:, or both"
-                )
+                self.problem(item, where, "a scenario checks something: expect: (outcome, within_s, criteria, beeps, "
+                             "distance_mm, servos), nodes:, or both")  # fmt: skip
         battery = self.number(doc["battery"], f"{where}.battery", 0, 255, whole=True) if "battery" in doc else None
         script = self.sensors(doc["sensors"], f"{where}.sensors") if "sensors" in doc else None
         if name is None or world is None or limit is None:
             return None
         exercise = Exercise(name, name, "", world, world_ref, float(limit), seeds, None, criteria, self.label)
         battery = None if battery is None else int(battery)
-        return Scenario(name, item.line, exercise, outcomes, within_s, checks, battery, script)
+        return Scenario(name, item.line, exercise, outcomes, within_s, checks, battery, script, **measures)
 
     def prefixed(self, prefix: str, read: Callable[[], T]) -> T:
         """What ``read`` reads, each problem it notes said at its place in the scenario (``scenarios[0].seeds``)."""
@@ -282,7 +295,11 @@ class _Reader(ExerciseReader):
         return value
 
     def sensors(self, located: Located, where: str) -> SensorScript | None:
-        """What the sensors report, by time: ``front_mm``, ``tilt_deg`` (``[[from_s, value], ...]``), ``bumps_s``."""
+        """What the sensors report, and what the robot refuses, by time.
+
+        ``front_mm`` and ``tilt_deg`` are ``[[from_s, value], ...]``, ``bumps_s`` a list of times, and
+        ``refuses`` the commands the robot answers NO from a time on (``{move: 12.5}``).
+        """
         if not isinstance(located.value, dict) or not located.value:
             self.problem(located, where, "sensors: is a mapping, e.g. {front_mm: [[0, 255], [2.5, 80]], bumps_s: [3]}")
             return None
@@ -300,7 +317,31 @@ class _Reader(ExerciseReader):
                     time_s = self.number(value, f"{where}.bumps_s[{k}]", 0, MAX_TIME_LIMIT_S)
                     if time_s is not None:
                         bumps.append(float(time_s))
-        return SensorScript(front or (), tuple(sorted(bumps)), tilt or ())
+        refuses = self.refusals(doc["refuses"], f"{where}.refuses") if "refuses" in doc else ()
+        return SensorScript(front or (), tuple(sorted(bumps)), tilt or (), refuses)
+
+    def refusals(self, located: Located, where: str) -> tuple[tuple[str, float], ...]:
+        """``{command: from_s, ...}``: from that time on, the robot answers NO to that command."""
+        why = (
+            f"refuses: maps commands to the time they are refused from, e.g. {{move: 12.5}} (of {', '.join(REFUSABLE)})"
+        )
+        if not isinstance(located.value, dict) or not located.value:
+            self.problem(located, where, why)
+            return ()
+        refusals = []
+        for command, value in located.value.items():
+            if command == "stop":
+                self.problem(located.keys[command], f"{where}.stop", "a stop is never refused: the run's end stops the "
+                             f"robot whatever a scenario says (refuses: takes {', '.join(REFUSABLE)})")  # fmt: skip
+                continue
+            if command not in REFUSABLE:
+                self.problem(located.keys[command], f"{where}.{command}",
+                             f"unknown command '{command}'{suggest(str(command), list(REFUSABLE))}: {why}")  # fmt: skip
+                continue
+            from_s = self.number(value, f"{where}.{command}", 0, MAX_TIME_LIMIT_S)
+            if from_s is not None:
+                refusals.append((str(command), float(from_s)))
+        return tuple(refusals)
 
     def steps(self, located: Located, where: str, low: int, high: int) -> tuple[tuple[float, int], ...] | None:
         """``[[from_s, value], ...]``: from each time on, the value; in time order."""
@@ -321,10 +362,13 @@ class _Reader(ExerciseReader):
                 steps.append((float(time_s), int(value)))
         return tuple(steps)
 
-    def expect(self, located: Located, where: str, world: object) -> tuple[tuple[str, ...], float | None, list]:
+    def expect(
+        self, located: Located, where: str, world: object
+    ) -> tuple[tuple[str, ...], float | None, list, dict[str, object]]:
+        """The outcomes, the time, the criteria and the measures (``beeps``...: Scenario's fields) it expects."""
         if not isinstance(located.value, dict):
-            self.problem(located, where, "expect: is a mapping of outcome:, within_s: and criteria:")
-            return (), None, []
+            self.problem(located, where, f"expect: is a mapping of {', '.join(EXPECT_KEYS)}")
+            return (), None, [], {}
         doc: dict[str, Located] = located.value
         self.known_keys(located, where, EXPECT_KEYS)
         outcomes: list[str] = []
@@ -343,7 +387,80 @@ class _Reader(ExerciseReader):
         criteria = (
             self.prefixed(f"{where}.", lambda: self.criteria(doc["criteria"], world)) if "criteria" in doc else []  # type: ignore[arg-type]
         )
-        return tuple(outcomes), within_s, criteria
+        measures: dict[str, object] = {}
+        if "beeps" in doc:
+            measures.update(self.beeps(doc["beeps"], f"{where}.beeps"))
+        if "distance_mm" in doc:
+            span = self.span(doc["distance_mm"], f"{where}.distance_mm")
+            if span is not None:
+                measures["distance_mm"] = span
+        if "servos" in doc:
+            servos = self.servos(doc["servos"], f"{where}.servos")
+            if servos:
+                measures["servos"] = servos
+        return tuple(outcomes), within_s, criteria, measures
+
+    def beeps(self, located: Located, where: str) -> dict[str, int]:
+        """``beeps: N`` or ``{count: N, volume: V}``: how many beeps that make a sound, and how loud each is."""
+        if not isinstance(located.value, dict):
+            count = self.number(located, where, 0, 10_000, whole=True)
+            return {} if count is None else {"beeps": int(count)}
+        doc: dict[str, Located] = located.value
+        self.known_keys(located, where, BEEP_KEYS)
+        if "count" not in doc:
+            self.problem(
+                located, where, "'count' is missing: how many beeps that make a sound, e.g. {count: 2, volume: 4}"
+            )
+            return {}
+        count = self.number(doc["count"], f"{where}.count", 0, 10_000, whole=True)
+        volume = self.number(doc["volume"], f"{where}.volume", 1, 9, whole=True) if "volume" in doc else None
+        found = {} if count is None else {"beeps": int(count)}
+        return found | ({"beep_volume": int(volume)} if volume is not None else {})
+
+    def span(self, located: Located, where: str) -> tuple[float, float] | None:
+        """``[LOW, HIGH]``, millimetres, LOW no more than HIGH."""
+        if not isinstance(located.value, list) or len(located.value) != 2:
+            self.problem(located, where, "expected [LOW, HIGH] in mm, e.g. [1150, 1250]")
+            return None
+        low, high = (self.number(v, f"{where}[{k}]", 0, 1e9) for k, v in enumerate(located.value))
+        if low is None or high is None:
+            return None
+        if low > high:
+            self.problem(located, where, f"the least, {low:g} mm, is more than the most, {high:g} mm")
+            return None
+        return float(low), float(high)
+
+    def servos(self, located: Located, where: str) -> tuple[tuple[int, tuple[int, ...]], ...]:
+        """``[{id: 0, angles: [-60, -30]}, ...]``: each angle a servo was sent to, in order."""
+        why = "servos: is a list of {id: SERVO, angles: [...]}, e.g. [{id: 0, angles: [-60, 0, 60]}]"
+        if not isinstance(located.value, list) or not located.value:
+            self.problem(located, where, why)
+            return ()
+        servos: dict[int, tuple[int, ...]] = {}
+        for k, item in enumerate(located.value):
+            at = f"{where}[{k}]"
+            if not isinstance(item.value, dict):
+                self.problem(item, at, why)
+                continue
+            doc: dict[str, Located] = item.value
+            self.known_keys(item, at, SERVO_KEYS)
+            missing = [key for key in SERVO_KEYS if key not in doc]
+            if missing:
+                self.problem(item, at, f"'{missing[0]}' is missing: {why}")
+                continue
+            servo = self.number(doc["id"], f"{at}.id", 0, 2, whole=True)
+            given = doc["angles"]
+            if not isinstance(given.value, list):
+                self.problem(given, f"{at}.angles", "angles: is a list of whole degrees, -99 to 99, e.g. [-60, 0, 60]")
+                continue
+            angles = [self.number(v, f"{at}.angles[{j}]", -99, 99, whole=True) for j, v in enumerate(given.value)]
+            if servo is None or None in angles:
+                continue
+            if servo in servos:
+                self.problem(doc["id"], f"{at}.id", f"servo {servo} is named twice: say all its angles in one list")
+                continue
+            servos[int(servo)] = tuple(int(a) for a in angles)
+        return tuple(sorted(servos.items()))
 
     def nodes(self, located: Located, where: str, nodes: list[NodeInfo]) -> list[NodeCheck]:
         if not isinstance(located.value, list) or not located.value:
@@ -375,9 +492,10 @@ class _Reader(ExerciseReader):
             self.problem(item, where, "a node's check says one of reaches: STATUS, never: STATUS or runs: true/false")
             return None
         kind = kinds[0]
-        for key, own in (("before_s", "reaches"), ("after_s", "never")):
-            if key in doc and kind != own:
-                self.problem(doc[key], f"{where}.{key}", f"{key} goes with {own}:")
+        if "before_s" in doc and kind != "reaches":
+            self.problem(doc["before_s"], f"{where}.before_s", "before_s goes with reaches:")
+        if "after_s" in doc and kind == "runs":
+            self.problem(doc["after_s"], f"{where}.after_s", "after_s goes with reaches: or never:")
         if kind == "runs":
             if not isinstance(doc["runs"].value, bool):
                 self.problem(
@@ -392,9 +510,18 @@ class _Reader(ExerciseReader):
             return None
         time_key = "before_s" if kind == "reaches" else "after_s"
         time_s = self.number(doc[time_key], f"{where}.{time_key}", 0.0, MAX_TIME_LIMIT_S) if time_key in doc else None
+        from_s = None
+        if kind == "reaches" and "after_s" in doc:
+            from_s = self.number(doc["after_s"], f"{where}.after_s", 0.0, MAX_TIME_LIMIT_S)
+            if from_s is not None and time_s is not None and from_s >= time_s:
+                self.problem(doc["after_s"], f"{where}.after_s", f"after_s ({from_s:g} s) must come before before_s "
+                             f"({time_s:g} s): the window it is reached in")  # fmt: skip
+                return None
         if status is None or not ids:
             return None
-        return NodeCheck(node or "", ids, kind, status, None if time_s is None else float(time_s), line=item.line)
+        time_s = None if time_s is None else float(time_s)
+        from_s = None if from_s is None else float(from_s)
+        return NodeCheck(node or "", ids, kind, status, time_s, line=item.line, from_s=from_s)
 
 
 def load_scenarios(path: str | Path) -> ScenarioFile:

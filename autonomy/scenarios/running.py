@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 
 from autonomy.classroom.child import end_with
 from autonomy.classroom.exercise import Seed
+from autonomy.classroom.facts import RunFacts
 from autonomy.classroom.job import run_seed, verdicts_of
 from autonomy.clock import cpu_time_s
 from autonomy.errors import LinkError
@@ -73,7 +74,11 @@ class NodeWatch:
                 return bool(ran), "it never ran"
             return not ran, f"it ran at {min(ran):g} s" if ran else ""
         if check.kind == "reaches":
-            times = [t for t, s in changes if s == check.status]
+            every = [t for t, s in changes if s == check.status]
+            from_s = check.from_s or 0.0
+            times = [t for t in every if t >= from_s - 1e-9]
+            if every and not times:
+                return False, f"it returned {check.status} only before {from_s:g} s (last at {max(every):g} s)"
             if not times:
                 others = sorted({s for _, s in changes if s in STATUSES})
                 return False, f"it never returned {check.status}" + (f" (only {', '.join(others)})" if others else "")
@@ -159,14 +164,65 @@ class Coverage:
     nodes: list[NodeInfo]
     seen: dict[int, set[str]] = field(default_factory=dict)
     statuses: dict[str, tuple[str, ...]] = field(default_factory=dict)
+    _possible: dict[int, tuple[str, ...]] = field(default_factory=dict, init=False, repr=False)
 
     def possible(self, node: NodeInfo) -> tuple[str, ...]:
-        """The statuses ``node`` can return, as its type says (a ``repeat`` forever never succeeds)."""
-        if node.type == "repeat" and node.params.get("times") is None:
-            return ("FAILURE", "RUNNING")
+        """The statuses ``node`` can return: what its type says, and what its children let it.
+
+        A leaf returns what its type declares (a condition answers SUCCESS or FAILURE, a beep is never
+        RUNNING). A composite or a decorator returns what its children's statuses lead to: a sequence of
+        conditions is never RUNNING, a sequence of things that never fail never fails, a ``repeat``
+        forever never succeeds.
+        """
+        if not self._possible:
+            for each in reversed(self.nodes):  # children come after their parents
+                self._possible[each.id] = self._of(each)
+        return self._possible.get(node.id) or self._of(node)
+
+    def _own(self, node: NodeInfo) -> set[str]:
         if node.type in self.statuses:
-            return self.statuses[node.type]
-        return ("SUCCESS", "FAILURE") if node.category == "condition" else STATUSES
+            return set(self.statuses[node.type])
+        return {"SUCCESS", "FAILURE"} if node.category == "condition" else set(STATUSES)
+
+    def _of(self, node: NodeInfo) -> tuple[str, ...]:
+        own = self._own(node)
+        kids = [set(self._possible.get(n.id, ())) for n in self.nodes if n.parent == node.id]
+        if not kids or node.category not in ("composite", "decorator", "reference"):
+            return tuple(s for s in STATUSES if s in own)
+        every = {s: all(s in k for k in kids) for s in STATUSES}
+        some = {s: any(s in k for k in kids) for s in STATUSES}
+        kind = node.type
+        if kind in ("sequence", "while"):
+            can = {"SUCCESS": every["SUCCESS"], "FAILURE": some["FAILURE"], "RUNNING": some["RUNNING"]}
+        elif kind in ("selector", "fallback"):
+            can = {"SUCCESS": some["SUCCESS"], "FAILURE": every["FAILURE"], "RUNNING": some["RUNNING"]}
+        elif kind == "parallel":
+            success = every["SUCCESS"] if node.params.get("policy", "all") == "all" else some["SUCCESS"]
+            can = {"SUCCESS": success, "FAILURE": some["FAILURE"], "RUNNING": some["RUNNING"] or len(kids) > 1}
+        elif kind == "repeat":
+            times = node.params.get("times")
+            can = {"SUCCESS": times is not None and some["SUCCESS"], "FAILURE": some["FAILURE"],
+                   "RUNNING": some["RUNNING"] or some["SUCCESS"] and (times is None or times > 1)}  # fmt: skip
+        elif kind == "retry":
+            again = some["FAILURE"] and node.params.get("attempts", 1) > 1
+            can = {"SUCCESS": some["SUCCESS"], "FAILURE": some["FAILURE"], "RUNNING": some["RUNNING"] or again}
+        elif kind == "timeout":
+            can = {
+                "SUCCESS": some["SUCCESS"],
+                "FAILURE": some["FAILURE"] or some["RUNNING"],
+                "RUNNING": some["RUNNING"],
+            }
+        elif kind == "invert":
+            can = {"SUCCESS": some["FAILURE"], "FAILURE": some["SUCCESS"], "RUNNING": some["RUNNING"]}
+        elif kind == "force_success":
+            can = {"SUCCESS": some["SUCCESS"] or some["FAILURE"], "FAILURE": False, "RUNNING": some["RUNNING"]}
+        elif kind == "force_failure":
+            can = {"SUCCESS": False, "FAILURE": some["SUCCESS"] or some["FAILURE"], "RUNNING": some["RUNNING"]}
+        elif kind in ("once", "subtree"):
+            can = some
+        else:  # a plugin's composite or decorator: what its type declares
+            can = {s: True for s in STATUSES}
+        return tuple(s for s in STATUSES if can[s] and s in own)
 
     @property
     def pairs(self) -> tuple[int, int]:
@@ -222,6 +278,7 @@ def _run_seed(tests: ScenarioFile, scenario: Scenario, seed: Seed, coverage: Cov
     for criterion, verdict in zip(scenario.exercise.criteria, verdicts_of(scenario.exercise, seed, facts), strict=True):
         if not verdict.held:
             failures.append(f"expected {criterion.shown}: {verdict.line}")
+    failures += _measured(scenario, facts)
     for check in scenario.nodes:
         held, instead = watch.holds(check, tests.paths)
         if not held:
@@ -230,6 +287,39 @@ def _run_seed(tests: ScenarioFile, scenario: Scenario, seed: Seed, coverage: Cov
         failures.append("the run ended with the robot still told to drive: the stop at the end never reached it")
     running = facts.running_at(facts.time_s) if failures else ""
     return SeedOutcome(seed.label, facts.outcome, round(facts.time_s, 2), failures, running)
+
+
+def _count(n: int, what: str) -> str:
+    return f"{n} {what}" + ("" if n == 1 else "s")
+
+
+def _measured(scenario: Scenario, facts: RunFacts) -> list[str]:
+    """What the run's beeps, distance and servo moves did where the scenario expects otherwise, a line each."""
+    failures = []
+    audible = facts.sounded
+    if scenario.beeps is not None and len(audible) != scenario.beeps:
+        silent = len(facts.beeps) - len(audible)
+        also = f" (and {_count(silent, 'silent one')}, at volume 0)" if silent else ""
+        failures.append(f"expected {_count(scenario.beeps, 'beep')}, but it beeped {len(audible)} times{also}")
+    if scenario.beep_volume is not None:
+        other = next((beep for beep in audible if beep.volume != scenario.beep_volume), None)
+        if other is not None:
+            failures.append(
+                f"expected every beep at volume {scenario.beep_volume}, but it beeped at volume {other.volume} "
+                f"at {other.time_s:g} s"
+            )
+    if scenario.distance_mm is not None:
+        low, high = scenario.distance_mm
+        if not low - 1e-6 <= facts.distance_mm <= high + 1e-6:
+            failures.append(
+                f"expected it to drive {low:,.0f} to {high:,.0f} mm in all, but it drove {facts.distance_mm:,.0f} mm"
+            )
+    for servo, angles in scenario.servos:
+        sent = [round(angle) for _, at, angle in facts.servo_moves if at == servo]
+        if sent != list(angles):
+            said = ", ".join(f"{a:g}" for a in sent) if sent else "none"
+            failures.append(f"expected servo {servo} sent to {list(angles)}, but it was sent to [{said}]")
+    return failures
 
 
 @dataclass
