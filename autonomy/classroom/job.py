@@ -24,7 +24,7 @@ from autonomy.client import Client
 from autonomy.emulator.script import SensorScript
 from autonomy.errors import LinkError
 from autonomy.mission import MissionInvalid, MissionSpec, NodeSpec, Problem, validate_text
-from autonomy.record import Record
+from autonomy.record import Pose, Record
 from autonomy.runner import Runner
 from autonomy.source import UnreadableFile, read_text
 from autonomy.trace import TraceWriter
@@ -158,6 +158,7 @@ def run_seed(
     watchers: Sequence[Callable[[Record], None]] = (),
     emulator: dict[str, object] | None = None,
     script: SensorScript | None = None,
+    start: Pose | None = None,
 ) -> RunFacts:
     """Runs ``spec`` once on ``seed`` in the exercise's world, in virtual time; returns its facts.
 
@@ -166,9 +167,12 @@ def run_seed(
     the run is also written there as a trace, and with ``replay`` made into a page's replay (nodes'
     states included, either way); each of ``watchers`` is given every record too, the nodes' states
     in them. ``emulator`` holds further emulator options (``battery``: see :func:`seed_url`), and
-    ``script`` what the robot's sensors report from the run's start on, whatever its world holds.
+    ``script`` what the robot's sensors report from the run's start on, whatever its world holds;
+    ``start``, where the robot starts instead of the world's start.
     """
     client = Client.open(seed_url(exercise, seed, more=emulator))
+    if start is not None:
+        client.port.emulator.robot.place(start)  # type: ignore[attr-defined]  # an emu:// link's port has its emulator
     if script is not None:
         robot = client.port.emulator.robot  # type: ignore[attr-defined]  # an emu:// link's port has its emulator
         robot.script, robot.script_from_s = script, client.clock.now()  # the model is brought to the clock's time

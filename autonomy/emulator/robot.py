@@ -148,6 +148,13 @@ class Robot:
         # The last sensor reading's pose and its gap: a robot that has not moved sees the same.
         self._seen: tuple[float, float, float, float, float] = (math.nan, math.nan, math.nan, math.nan, 0.0)
 
+    def place(self, pose: Pose) -> None:
+        """Puts the robot, standing, at ``pose`` instead of its world's start (before a run: its trail starts there)."""
+        self.x_mm, self.y_mm, self.heading_deg = pose.x_mm, pose.y_mm, pose.heading_deg
+        self.trail = [(self.time_s, self.pose)]
+        self._free_at = (self.x_mm, self.y_mm, -math.inf)
+        self._seen = (math.nan, math.nan, math.nan, math.nan, 0.0)
+
     # ------------------------------------------------------------------ readings
 
     @property

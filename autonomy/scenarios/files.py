@@ -35,8 +35,9 @@ from typing import TypeVar
 from autonomy.behaviours.tree import describe_tree
 from autonomy.classroom.exercise import MAX_TIME_LIMIT_S, Exercise, ExerciseInvalid, ExerciseReader, Seed
 from autonomy.emulator.script import REFUSABLE, SensorScript
+from autonomy.emulator.world import ROBOT_RADIUS_MM, World
 from autonomy.mission import MissionInvalid, MissionSpec, build_tree, load_mission
-from autonomy.record import NodeInfo
+from autonomy.record import NodeInfo, Pose
 from autonomy.runner import CRASHED, FAILED, INTERRUPTED, LINK_LOST, SUCCEEDED, TIME_LIMIT
 from autonomy.source import Located, Problem, UnreadableFile, parse, read_text, suggest
 
@@ -44,7 +45,8 @@ T = TypeVar("T")
 #: What a scenario file ends in; the mission it tests is the same name without ``.test``.
 SUFFIX = ".test.yaml"
 TOP_LEVEL = ("mission", "scenarios")
-SCENARIO_KEYS = ("name", "world", "seeds", "time_limit_s", "battery", "sensors", "expect", "nodes")
+SCENARIO_KEYS = ("name", "world", "seeds", "start", "time_limit_s", "battery", "sensors", "expect", "nodes")
+START_KEYS = ("x_mm", "y_mm", "heading_deg")
 SENSOR_KEYS = ("front_mm", "bumps_s", "tilt_deg", "refuses")
 EXPECT_KEYS = ("outcome", "within_s", "criteria", "beeps", "distance_mm", "servos")
 BEEP_KEYS = ("count", "volume")
@@ -115,6 +117,7 @@ class Scenario:
         beep_volume: The volume each of them must have (None: any).
         distance_mm: The least and the most the robot may drive in all, forward and back (None: any).
         servos: For each servo it names, every angle it was sent to, in order, whole degrees.
+        start: Where the robot starts (None: at its world's start, moved by the world's jitter).
     """
 
     name: str
@@ -129,6 +132,7 @@ class Scenario:
     beep_volume: int | None = None
     distance_mm: tuple[float, float] | None = None
     servos: tuple[tuple[int, tuple[int, ...]], ...] = ()
+    start: Pose | None = None
 
 
 @dataclass
@@ -281,11 +285,35 @@ class _Reader(ExerciseReader):
                              "distance_mm, servos), nodes:, or both")  # fmt: skip
         battery = self.number(doc["battery"], f"{where}.battery", 0, 255, whole=True) if "battery" in doc else None
         script = self.sensors(doc["sensors"], f"{where}.sensors") if "sensors" in doc else None
+        start = self.start(doc["start"], f"{where}.start", world) if "start" in doc and world is not None else None
         if name is None or world is None or limit is None:
             return None
         exercise = Exercise(name, name, "", world, world_ref, float(limit), seeds, None, criteria, self.label)
         battery = None if battery is None else int(battery)
-        return Scenario(name, item.line, exercise, outcomes, within_s, checks, battery, script, **measures)
+        return Scenario(name, item.line, exercise, outcomes, within_s, checks, battery, script, start=start, **measures)
+
+    def start(self, located: Located, where: str, world: World) -> Pose | None:
+        """``{x_mm, y_mm, heading_deg}``: where the robot starts, clear of the world's walls and obstacles."""
+        why = "start: is a mapping of x_mm, y_mm and heading_deg, e.g. {x_mm: 500, y_mm: 500, heading_deg: 90}"
+        if not isinstance(located.value, dict):
+            self.problem(located, where, why)
+            return None
+        doc: dict[str, Located] = located.value
+        self.known_keys(located, where, START_KEYS)
+        missing = [key for key in ("x_mm", "y_mm") if key not in doc]
+        if missing:
+            self.problem(located, where, f"'{missing[0]}' is missing: {why}")
+            return None
+        x = self.number(doc["x_mm"], f"{where}.x_mm", 0.0, world.width_mm)
+        y = self.number(doc["y_mm"], f"{where}.y_mm", 0.0, world.height_mm)
+        heading = self.number(doc["heading_deg"], f"{where}.heading_deg", -360.0, 360.0) if "heading_deg" in doc else 0
+        if x is None or y is None or heading is None:
+            return None
+        if world.clearance(x, y) < ROBOT_RADIUS_MM:
+            self.problem(located, where, f"the robot (radius {ROBOT_RADIUS_MM:g} mm) at ({x:g}, {y:g}) would touch a "
+                         f"wall or an obstacle of the world '{world.name}': start it further away")  # fmt: skip
+            return None
+        return Pose(float(x), float(y), float(heading))
 
     def prefixed(self, prefix: str, read: Callable[[], T]) -> T:
         """What ``read`` reads, each problem it notes said at its place in the scenario (``scenarios[0].seeds``)."""

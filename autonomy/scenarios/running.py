@@ -253,7 +253,15 @@ def _run_seed(tests: ScenarioFile, scenario: Scenario, seed: Seed, coverage: Cov
     watch = NodeWatch()
     try:
         more = {"battery": scenario.battery} if scenario.battery is not None else None
-        facts = run_seed(scenario.exercise, tests.spec, seed, watchers=[watch], emulator=more, script=scenario.script)
+        facts = run_seed(
+            scenario.exercise,
+            tests.spec,
+            seed,
+            watchers=[watch],
+            emulator=more,
+            script=scenario.script,
+            start=scenario.start,
+        )
     except LinkError as err:
         return SeedOutcome(seed.label, "no run", 0.0, [f"no run: the link failed before the mission started ({err})"])
     if facts.outcome == INTERRUPTED:  # Ctrl-C: the run was stopped; so is the rest
