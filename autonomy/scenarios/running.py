@@ -308,7 +308,9 @@ def _measured(scenario: Scenario, facts: RunFacts) -> list[str]:
     if scenario.beeps is not None and len(audible) != scenario.beeps:
         silent = len(facts.beeps) - len(audible)
         also = f" (and {_count(silent, 'silent one')}, at volume 0)" if silent else ""
-        failures.append(f"expected {_count(scenario.beeps, 'beep')}, but it beeped {len(audible)} times{also}")
+        failures.append(
+            f"expected {_count(scenario.beeps, 'beep')}, but it beeped {_count(len(audible), 'time')}{also}"
+        )
     if scenario.beep_volume is not None:
         other = next((beep for beep in audible if beep.volume != scenario.beep_volume), None)
         if other is not None:

@@ -1,0 +1,249 @@
+"""A scenario's refusals, start pose, measures (beeps, distance, servos), reach windows and what a node can return."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import pytest
+
+from autonomy.clock import VirtualClock
+from autonomy.emulator import Emulator
+from autonomy.emulator.script import SensorScript
+from autonomy.record import NodeInfo
+from autonomy.scenarios import Coverage, ScenariosInvalid, load_scenarios, run_scenario
+from autonomy.scenarios.files import NodeCheck
+from autonomy.scenarios.running import NodeWatch
+
+ROOT = Path(__file__).resolve().parents[2]
+MISSIONS = ROOT / "missions"
+
+
+def scenario_file(folder: Path, text: str, mission: str = "move_until_wall") -> Path:
+    """``text`` as ``MISSION.test.yaml`` beside a copy of the shipped mission."""
+    shutil.copy(MISSIONS / f"{mission}.yaml", folder / f"{mission}.yaml")
+    path = folder / f"{mission}.test.yaml"
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+def problems_of(path: Path) -> list[str]:
+    with pytest.raises(ScenariosInvalid) as raised:
+        load_scenarios(path)
+    return [str(p).replace(str(path), "F") for p in raised.value.problems]
+
+
+def exchange(emulator: Emulator, data: bytes) -> bytes:
+    emulator.receive(data)
+    return emulator.read_ready()
+
+
+def test_a_script_s_refusals_are_answered_no_from_their_time_on_and_a_stop_never_is():
+    emulator = Emulator("empty", clock=VirtualClock())
+    robot = emulator.robot
+    robot.script = SensorScript(refuses=(("move", 1.0), ("beep", 0.0), ("servo", 0.5)))
+    assert exchange(emulator, b"F+100\n") == b"OK\n"  # at 0 s: moves are refused from 1 s on
+    assert exchange(emulator, b"S1625\n") == b"NO\n"  # beeps from 0 s on: no beep was made
+    assert robot.beeps == []
+    assert exchange(emulator, b"M0+10\n") == b"OK\n"  # a servo at 0 s, before its 0.5 s
+    robot.time_s = 1.0
+    assert exchange(emulator, b"F+100\n") == b"NO\n"
+    assert exchange(emulator, b"M0+20\n") == b"NO\n" and exchange(emulator, b"D0+05\n") == b"NO\n"  # both kinds
+    assert exchange(emulator, b"T+005\n") == b"OK\n"  # turns are not refused here
+    assert exchange(emulator, b"X0000\n") == b"OK\n"  # nor ever a stop
+    assert [(servo, angle) for _, servo, angle in robot.servo_moves] == [(0, 10.0)]  # the refused ones not carried out
+
+
+def test_refusals_start_pose_and_measures_are_read_with_every_problem_at_its_place(tmp_path):
+    path = scenario_file(
+        tmp_path,
+        """\
+scenarios:
+  - name: one
+    world: box
+    start: {x_mm: 30, y_mm: 1000, heading: 90}
+    sensors:
+      refuses: {stop: 1, mve: 2, beep: -1}
+    expect:
+      beeps: {count: 1, volume: 0}
+      distance_mm: [900, 800]
+      servos:
+        - {id: 0, angles: [10, 1.5]}
+        - {id: 3, angles: []}
+    nodes:
+      - node: beep
+        reaches: SUCCESS
+        after_s: 4
+        before_s: 3
+      - node: beep
+        runs: true
+        after_s: 1
+""",
+    )
+    assert problems_of(path) == [
+        "F:4:12: scenarios[0].start: the robot (radius 60 mm) at (30, 1000) would touch a wall or an obstacle of "
+        "the world 'box': start it further away",
+        "F:4:35: scenarios[0].start.heading: unknown key 'heading' (did you mean 'heading_deg'?)",
+        "F:6:17: scenarios[0].sensors.refuses.stop: a stop is never refused: the run's end stops the robot whatever "
+        "a scenario says (refuses: takes beep, move, turn, servo)",
+        "F:6:26: scenarios[0].sensors.refuses.mve: unknown command 'mve' (did you mean 'move'?): refuses: maps "
+        "commands to the time they are refused from, e.g. {move: 12.5} (of beep, move, turn, servo)",
+        "F:6:40: scenarios[0].sensors.refuses.beep: must be from 0 to 3,600, got -1",
+        "F:8:33: scenarios[0].expect.beeps.volume: must be from 1 to 9, got 0",
+        "F:9:20: scenarios[0].expect.distance_mm: the least, 900 mm, is more than the most, 800 mm",
+        "F:11:32: scenarios[0].expect.servos[0].angles[1]: expected a whole number, got 1.5",
+        "F:12:16: scenarios[0].expect.servos[1].id: must be from 0 to 2, got 3",
+        "F:16:18: scenarios[0].nodes[0].after_s: after_s (4 s) must come before before_s (3 s): the window it is "
+        "reached in",
+        "F:20:18: scenarios[0].nodes[1].after_s: after_s goes with reaches: or never:",
+    ]
+
+
+def test_what_the_run_did_is_said_where_the_scenario_expects_otherwise(tmp_path):
+    path = scenario_file(
+        tmp_path,
+        """\
+scenarios:
+  - name: asks for what the drive to the wall does not do
+    world: box
+    time_limit_s: 20
+    expect:
+      beeps: {count: 2, volume: 5}
+      distance_mm: [100, 200]
+      servos: [{id: 1, angles: [30]}]
+  - name: asks for what it does
+    world: box
+    time_limit_s: 20
+    expect:
+      beeps: {count: 1, volume: 2}
+      distance_mm: [870, 892]
+      servos: [{id: 1, angles: []}]
+""",
+    )
+    tests = load_scenarios(path)
+    wrong, right = (run_scenario(tests, s) for s in tests.scenarios)
+    assert wrong.seeds[0].failures == [
+        "expected 2 beeps, but it beeped 1 time",
+        "expected every beep at volume 5, but it beeped at volume 2 at 2.75 s",
+        "expected it to drive 100 to 200 mm in all, but it drove 881 mm",
+        "expected servo 1 sent to [30], but it was sent to [none]",
+    ]
+    assert right.passed, right.seeds[0].failures
+
+
+def test_a_refused_command_fails_its_node_and_the_robot_is_still_stopped_at_the_end(tmp_path):
+    path = scenario_file(
+        tmp_path,
+        """\
+scenarios:
+  - name: a refused beep
+    world: box
+    time_limit_s: 10
+    sensors:
+      refuses: {beep: 0}
+    expect:
+      outcome: failed
+      beeps: 0
+    nodes:
+      - {node: beep, reaches: FAILURE}
+      - {node: move until < 100 mm, reaches: SUCCESS}
+  - name: a drive refused from the start, on lost replies too
+    world: box
+    seeds:
+      - {seed: 3, faults: "drop=0.01"}
+    time_limit_s: 10
+    sensors:
+      refuses: {move: 0}
+    expect:
+      outcome: failed
+      distance_mm: [0, 0]
+    nodes:
+      - {node: move until < 100 mm, reaches: FAILURE, before_s: 2}
+      - {node: beep, runs: false}
+""",
+    )
+    tests = load_scenarios(path)
+    for scenario in tests.scenarios:
+        outcome = run_scenario(tests, scenario)
+        assert outcome.passed, outcome.seeds[0].failures  # and "still told to drive" is among what a run checks
+
+
+def test_a_scenario_s_start_pose_is_where_the_robot_starts_and_the_path_begins(tmp_path):
+    from autonomy.classroom.job import run_seed
+
+    path = scenario_file(
+        tmp_path,
+        """\
+scenarios:
+  - name: from the west wall, facing north
+    world: box
+    start: {x_mm: 300, y_mm: 500, heading_deg: 90}
+    time_limit_s: 20
+    expect:
+      outcome: succeeded
+      criteria:
+        - end_heading_deg: 90
+          tolerance_deg: 3
+        - rest_distance_ahead_mm: [40, 140]
+""",
+    )
+    tests = load_scenarios(path)
+    scenario = tests.scenarios[0]
+    facts = run_seed(scenario.exercise, tests.spec, scenario.exercise.seeds[0], start=scenario.start)
+    first, last = facts.path[0][1], facts.path[-1][1]
+    assert (first.x_mm, first.y_mm, first.heading_deg) == (300, 500, 90)
+    assert last.x_mm == pytest.approx(300, abs=1) and 1750 < last.y_mm < 1900  # north, up to the wall at 2000
+    assert run_scenario(tests, scenario).passed
+
+
+def test_a_reach_window_holds_for_the_first_time_in_it_and_says_when_it_was_only_before():
+    watch = NodeWatch()
+    watch.changes = {0: [(0.0, "RUNNING"), (1.0, "SUCCESS"), (2.0, "RUNNING"), (5.0, "SUCCESS")]}
+    watch.end_s = 6.0
+
+    def check(from_s: float | None, before_s: float | None) -> tuple[bool, str]:
+        return watch.holds(NodeCheck("n", (0,), "reaches", "SUCCESS", before_s, from_s=from_s))
+
+    assert check(None, 1.5) == (True, "")
+    assert check(0.5, 1.5) == (True, "")
+    assert check(1.5, 4) == (False, "it first returned SUCCESS at 5 s")
+    assert check(4, 5.5) == (True, "")
+    assert check(5.5, None) == (False, "it returned SUCCESS only before 5.5 s (last at 5 s)")
+    assert (
+        NodeCheck("n", (0,), "reaches", "SUCCESS", 4, from_s=1.5).words == "'n' reaches SUCCESS after 1.5 s before 4 s"
+    )
+
+
+def _tree(*nodes: tuple[str, str, int | None, dict]) -> list[NodeInfo]:
+    return [
+        NodeInfo(k, kind, kind, category, params, parent) for k, (kind, category, parent, params) in enumerate(nodes)
+    ]
+
+
+@pytest.mark.parametrize(
+    ("tree", "expected"),
+    [
+        # a sequence of conditions is never RUNNING; of things that never fail, never fails
+        ([("sequence", "composite", None, {}), ("collided", "condition", 0, {}), ("healthy", "condition", 0, {})],
+         ("SUCCESS", "FAILURE")),
+        ([("sequence", "composite", None, {}), ("wait", "action", 0, {}), ("log", "action", 0, {})],
+         ("SUCCESS", "RUNNING")),
+        # a selector whose last child only succeeds never fails
+        ([("selector", "composite", None, {}), ("collided", "condition", 0, {}), ("log", "action", 0, {})],
+         ("SUCCESS",)),
+        ([("repeat", "decorator", None, {"times": None}), ("move", "action", 0, {})], ("FAILURE", "RUNNING")),
+        ([("repeat", "decorator", None, {"times": 3}), ("beep", "action", 0, {})], ("SUCCESS", "FAILURE", "RUNNING")),
+        ([("repeat", "decorator", None, {"times": 1}), ("beep", "action", 0, {})], ("SUCCESS", "FAILURE")),
+        ([("invert", "decorator", None, {}), ("log", "action", 0, {})], ("FAILURE",)),
+        ([("force_success", "decorator", None, {}), ("collided", "condition", 0, {})], ("SUCCESS",)),
+        ([("timeout", "decorator", None, {}), ("wait", "action", 0, {})], ("SUCCESS", "FAILURE", "RUNNING")),
+        ([("parallel", "composite", None, {"policy": "one"}), ("wait", "action", 0, {}), ("log", "action", 0, {})],
+         ("SUCCESS", "RUNNING")),
+    ],
+)  # fmt: skip
+def test_what_a_composite_can_return_follows_from_what_its_children_can(tree, expected):
+    from autonomy.mission import BUILTINS
+
+    nodes = _tree(*tree)
+    statuses = {n.type: BUILTINS.get(n.type).statuses for n in nodes}
+    assert Coverage(nodes, statuses=statuses).possible(nodes[0]) == expected
