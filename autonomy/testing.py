@@ -11,6 +11,20 @@ back the run's records, with a few questions asked of them::
         assert run.outcome == "succeeded" and run.collisions == 0
         assert "RUNNING" in run.statuses("approach")
 
+:func:`check_scenario` runs a scenario written as a scenario file writes one (docs/testing.md), and
+checks what it expects, so that pytest code and ``NAME.test.yaml`` files assert the same things in
+the same words::
+
+    from autonomy.testing import check_scenario
+
+    def test_it_stops_before_the_wall_and_beeps_once():
+        outcome = check_scenario(
+            "approach.yaml", world="box", seeds=[1, 2],
+            expect={"outcome": "succeeded", "beeps": 1, "criteria": [{"max_collisions": 0}]},
+            nodes=[{"node": "beep", "reaches": "SUCCESS", "before_s": 10}],
+        )
+        assert outcome.passed, outcome.report
+
 docs/plugins.md has a whole plugin with its tests.
 """
 
@@ -18,12 +32,18 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 from urllib.parse import urlencode
+
+import yaml
 
 from autonomy.client import Client
 from autonomy.mission import load_mission
 from autonomy.record import Pose, Record, RunEnd, RunHeader, TickRecord
 from autonomy.runner import Runner, RunSummary
+
+if TYPE_CHECKING:
+    from autonomy.scenarios import ScenarioOutcome
 
 
 @dataclass
@@ -107,3 +127,28 @@ def run_mission(
     ticks = [record for record in records if isinstance(record, TickRecord)]
     end = next(record for record in reversed(records) if isinstance(record, RunEnd))
     return MissionRun(summary, header, ticks, end)
+
+
+def check_scenario(mission: str | Path, **scenario: Any) -> ScenarioOutcome:
+    """Runs one scenario on ``mission``, on each of its seeds, and checks what it expects, as ``autonomy test`` does.
+
+    The scenario's keys are a scenario file's (docs/testing.md): ``world`` (required), ``seeds``,
+    ``start``, ``time_limit_s``, ``battery``, ``sensors``, ``expect`` and ``nodes``; ``name`` is
+    the test's if left out. Its world file, if it names one, is looked for beside the mission.
+
+    Returns:
+        The scenario's outcome: ``passed``, and ``report``, a line for each thing that did not hold.
+
+    Raises:
+        autonomy.scenarios.ScenariosInvalid: the scenario, or the mission, has problems (each one, with
+            where it is in the scenario: ``scenarios[0].expect.beeps``).
+    """
+    from autonomy.scenarios import run_scenario
+    from autonomy.scenarios.files import scenarios_from_text
+
+    mission = Path(mission).resolve()
+    text = yaml.safe_dump({"mission": str(mission), "scenarios": [{"name": "check_scenario", **scenario}]})
+    tests = scenarios_from_text(
+        text, mission.with_name(mission.stem + ".test.yaml"), "the scenario given to check_scenario"
+    )
+    return run_scenario(tests, tests.scenarios[0])

@@ -564,6 +564,15 @@ def load_scenarios(path: str | Path) -> ScenarioFile:
         text = read_text(path)
     except UnreadableFile as err:
         raise ScenariosInvalid([Problem(label, err.line, err.column, "", f"cannot read it: {err.reason}")]) from None
+    return scenarios_from_text(text, path, label)
+
+
+def scenarios_from_text(text: str, path: Path, label: str) -> ScenarioFile:
+    """Reads and validates scenarios given as text, as if the file at ``path`` held it (``label`` names it).
+
+    Raises:
+        ScenariosInvalid: the text, or its mission, has problems (all of them).
+    """
     root, errors = parse(text)
     problems = [Problem(label, e.line, e.column, "", e.message) for e in errors]
     if root is None:

@@ -67,9 +67,7 @@ class ScenarioItem(pytest.Item):
 
         outcome = run_scenario(self.tests, self.scenario)
         if not outcome.passed:
-            lines = [f"{s.seed}: {f}" if s.seed else f for s in outcome.seeds for f in s.failures]
-            lines += [f"{s.seed}: {s.running} was running last" for s in outcome.seeds if s.failures and s.running]
-            raise ScenarioFailed("\n".join(lines))
+            raise ScenarioFailed(outcome.report)
 
     def repr_failure(self, excinfo: pytest.ExceptionInfo[BaseException]) -> str:  # type: ignore[override]
         """What did not hold, a line each, not a traceback."""

@@ -149,6 +149,13 @@ class ScenarioOutcome:
         """Whether every seed held."""
         return all(not seed.failures for seed in self.seeds)
 
+    @property
+    def report(self) -> str:
+        """What did not hold, a line each (``seed 1: expected ...``), and the node running last; empty if it held."""
+        lines = [f"{s.seed}: {f}" if s.seed else f for s in self.seeds for f in s.failures]
+        lines += [f"{s.seed}: {s.running} was running last" for s in self.seeds if s.failures and s.running]
+        return "\n".join(lines)
+
 
 @dataclass
 class Coverage:

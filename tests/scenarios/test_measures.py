@@ -247,3 +247,41 @@ def test_what_a_composite_can_return_follows_from_what_its_children_can(tree, ex
     nodes = _tree(*tree)
     statuses = {n.type: BUILTINS.get(n.type).statuses for n in nodes}
     assert Coverage(nodes, statuses=statuses).possible(nodes[0]) == expected
+
+
+def test_check_scenario_asserts_in_pytest_what_a_scenario_file_asserts_in_the_same_words(tmp_path):
+    from autonomy.testing import check_scenario
+
+    scenario = {
+        "world": "box",
+        "seeds": [1, 2],
+        "expect": {"outcome": "succeeded", "beeps": {"count": 2}, "criteria": [{"max_collisions": 0}]},
+        "nodes": [{"node": "beep", "reaches": "SUCCESS", "before_s": 10}],
+    }
+    outcome = check_scenario(MISSIONS / "move_until_wall.yaml", **scenario)
+    assert not outcome.passed
+    assert outcome.report.splitlines()[:2] == [
+        "seed 1: expected 2 beeps, but it beeped 1 time",
+        "seed 2: expected 2 beeps, but it beeped 1 time",
+    ]
+    import yaml
+
+    path = scenario_file(tmp_path, yaml.safe_dump({"scenarios": [{"name": "as a file", **scenario}]}))
+    tests = load_scenarios(path)
+    assert run_scenario(tests, tests.scenarios[0]).report == outcome.report  # the same lines, word for word
+    scenario["expect"]["beeps"] = 1
+    assert check_scenario(MISSIONS / "move_until_wall.yaml", **scenario).passed
+    with pytest.raises(ScenariosInvalid, match=r"scenarios\[0\]\.nodes\[0\]\.node: no node named 'bep'"):
+        check_scenario(MISSIONS / "move_until_wall.yaml", world="box", nodes=[{"node": "bep", "runs": True}])
+
+
+def test_the_check_scenario_example_of_the_docs_passes_as_it_stands(monkeypatch):
+    import re
+
+    block = re.findall(r"```python\n(.*?)```", (ROOT / "docs" / "testing.md").read_text(), re.S)[0]
+    monkeypatch.chdir(ROOT)
+    space: dict = {}
+    exec(compile(block, "docs/testing.md", "exec"), space)  # noqa: S102 - the page's own example
+    tests = [value for name, value in space.items() if name.startswith("test_")]
+    assert len(tests) == 1
+    tests[0]()  # raises with the report if it did not hold
