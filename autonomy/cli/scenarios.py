@@ -66,7 +66,11 @@ def cmd_test(args: argparse.Namespace) -> int:
         return EXIT_INTERRUPTED
     took_s = sum(o.cpu_s for o in outcomes)
     failed = sum(not o.passed for o in outcomes)
-    written = [(args.junit, lambda: junit_xml(outcomes)), (args.html, lambda: coverage_html(list(coverages.values())))]
+    written = [
+        (args.junit, lambda: junit_xml(outcomes)),
+        (args.html, lambda: coverage_html(list(coverages.values()))),
+        (args.cobertura, lambda: cobertura_xml(list(coverages.values()), Path.cwd())),
+    ]
     for path, made in written:
         if path:
             try:
@@ -115,14 +119,14 @@ def _interrupt(*_: object) -> None:
 
 
 def _outputs_refused(args: argparse.Namespace, files: list[Any]) -> str:
-    """Why ``--junit`` or ``--html`` cannot be written (empty: they can), said before anything runs.
+    """Why ``--junit``, ``--html`` or ``--cobertura`` cannot be written (empty: they can), said before anything runs.
 
-    Neither may be a file the run reads (a scenario file or its mission), nor the other one; each must be a
-    file that can be written now, not only after the scenarios have run.
+    None may be a file the run reads (a scenario file or its mission), nor another one of them; each must be
+    a file that can be written now, not only after the scenarios have run.
     """
     read = {path.resolve() for tests in files for path in (tests.path, tests.mission)}
     written: dict[Path, str] = {}
-    for option, given in (("--junit", args.junit), ("--html", args.html)):
+    for option, given in (("--junit", args.junit), ("--html", args.html), ("--cobertura", args.cobertura)):
         if given is None:
             continue
         if not given.strip():
@@ -275,6 +279,82 @@ def junit_xml(outcomes: list[Any]) -> str:
     return ET.tostring(suites, encoding="unicode", xml_declaration=True) + "\n"
 
 
+def cobertura_xml(coverages: list[tuple[Any, Any]], base: Path) -> str:
+    """Each mission's coverage as Cobertura XML, which CI tools (GitLab, Jenkins, Azure) read and show by line.
+
+    A mission file is a class, a line of it that holds nodes a line, and its node statuses its branches: a line
+    is hit when one of its nodes ran, and its ``condition-coverage`` is the share of the statuses its nodes can
+    return that some run saw. Files are named from ``base`` (the working folder) where they are under it.
+    """
+    import xml.etree.ElementTree as ET
+
+    from autonomy import __version__
+
+    def rate(part: int, whole: int) -> str:
+        return f"{part / whole:.4f}" if whole else "1"
+
+    def name_of(file: str) -> str:
+        path = Path(file).resolve()
+        return str(path.relative_to(base.resolve())) if path.is_relative_to(base.resolve()) else str(path)
+
+    by_file: dict[str, dict[int, list[tuple[int, int]]]] = {}
+    for tests, coverage in coverages:
+        for node in coverage.nodes:
+            if not node.line:
+                continue
+            possible = set(coverage.possible(node))
+            seen = len(coverage.seen.get(node.id, set()) & possible)
+            lines = by_file.setdefault(name_of(node.file or str(tests.mission)), {})
+            lines.setdefault(node.line, []).append((seen, len(possible)))
+    totals = {"lines": 0, "hit": 0, "branches": 0, "seen": 0}
+    classes = []
+    for file, lines in sorted(by_file.items()):
+        element = ET.Element("class", name=Path(file).stem, filename=file, complexity="0")
+        ET.SubElement(element, "methods")
+        listed = ET.SubElement(element, "lines")
+        hit = branches = seen_all = 0
+        for number, nodes in sorted(lines.items()):
+            seen, possible = sum(s for s, _ in nodes), sum(p for _, p in nodes)
+            share = f"{100 * seen // possible if possible else 100}% ({seen}/{possible})"
+            ET.SubElement(
+                listed, "line", number=str(number), hits=str(seen), branch="true", **{"condition-coverage": share}
+            )
+            hit += seen > 0
+            branches, seen_all = branches + possible, seen_all + seen
+        element.set("line-rate", rate(hit, len(lines)))
+        element.set("branch-rate", rate(seen_all, branches))
+        classes.append(element)
+        totals["lines"] += len(lines)
+        totals["hit"] += hit
+        totals["branches"] += branches
+        totals["seen"] += seen_all
+    root = ET.Element(
+        "coverage",
+        {
+            "line-rate": rate(totals["hit"], totals["lines"]),
+            "branch-rate": rate(totals["seen"], totals["branches"]),
+            "lines-covered": str(totals["hit"]),
+            "lines-valid": str(totals["lines"]),
+            "branches-covered": str(totals["seen"]),
+            "branches-valid": str(totals["branches"]),
+            "complexity": "0",
+            "version": f"autonomy {__version__}",
+            "timestamp": "0",
+        },
+    )
+    ET.SubElement(ET.SubElement(root, "sources"), "source").text = str(base.resolve())
+    package = ET.SubElement(
+        ET.SubElement(root, "packages"),
+        "package",
+        {"name": "missions", "line-rate": root.get("line-rate", "1"), "branch-rate": root.get("branch-rate", "1"),
+         "complexity": "0"},
+    )  # fmt: skip
+    ET.SubElement(package, "classes").extend(classes)
+    text = ET.tostring(root, encoding="unicode")
+    doctype = "<!DOCTYPE coverage SYSTEM 'http://cobertura.sourceforge.net/xml/coverage-04.dtd'>"
+    return f"<?xml version='1.0' encoding='utf-8'?>\n{doctype}\n{text}\n"
+
+
 def _xml_text(text: str) -> str:
     """``text`` with the characters XML 1.0 cannot hold (control characters but tab and newline) as U+FFFD."""
     return "".join(
@@ -311,6 +391,11 @@ def add_parsers(sub: Any) -> None:
     )
     parser.add_argument(
         "--html", metavar="FILE", help="also write each tree drawn with its nodes filled by coverage, one offline page"
+    )
+    parser.add_argument(
+        "--cobertura",
+        metavar="FILE",
+        help="also write the coverage as Cobertura XML, by mission file and line, for CI tools that show it",
     )
     parser.add_argument(
         "--fail-under",

@@ -285,3 +285,41 @@ def test_the_check_scenario_example_of_the_docs_passes_as_it_stands(monkeypatch)
     tests = [value for name, value in space.items() if name.startswith("test_")]
     assert len(tests) == 1
     tests[0]()  # raises with the report if it did not hold
+
+
+#: The attributes the Cobertura DTD (coverage-04.dtd) requires of each element, and the elements each holds.
+COBERTURA_REQUIRED = {
+    "coverage": {"line-rate", "branch-rate", "lines-covered", "lines-valid", "branches-covered", "branches-valid",
+                 "complexity", "version", "timestamp"},
+    "package": {"name", "line-rate", "branch-rate", "complexity"},
+    "class": {"name", "filename", "line-rate", "branch-rate", "complexity"},
+    "line": {"number", "hits"},
+}  # fmt: skip
+
+
+def test_cobertura_xml_gives_each_mission_line_its_nodes_statuses_seen_as_ci_tools_read_them(tmp_path):
+    import subprocess
+    import sys
+    import xml.etree.ElementTree as ET
+
+    first_two = "".join((MISSIONS / "move_until_wall.test.yaml").read_text().splitlines(True)[:25])
+    scenario_file(tmp_path, first_two)  # no scenario makes anything fail: 5 of the 8 statuses
+    done = subprocess.run(
+        [sys.executable, "-m", "autonomy", "test", "move_until_wall.test.yaml", "--cobertura", "cov.xml"],
+        cwd=tmp_path, capture_output=True, text=True, timeout=120,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    text = (tmp_path / "cov.xml").read_text()
+    assert "<!DOCTYPE coverage SYSTEM 'http://cobertura.sourceforge.net/xml/coverage-04.dtd'>" in text
+    root = ET.fromstring(text)
+    for element in root.iter():
+        assert COBERTURA_REQUIRED.get(element.tag, set()) <= set(element.attrib), element.tag
+    assert [e.tag for e in root] == ["sources", "packages"]
+    assert root.find("sources/source").text == str(tmp_path.resolve())
+    (cls,) = root.iter("class")
+    assert cls.get("filename") == "move_until_wall.yaml"
+    lines = {int(line.get("number")): (line.get("hits"), line.get("condition-coverage")) for line in cls.iter("line")}
+    # the sequence (line 5), the move (6) and the beep (7): each ran, none ever failed
+    assert lines == {5: ("2", "66% (2/3)"), 6: ("2", "66% (2/3)"), 7: ("1", "50% (1/2)")}
+    assert (root.get("lines-covered"), root.get("lines-valid")) == ("3", "3")
+    assert (root.get("branches-covered"), root.get("branches-valid"), root.get("branch-rate")) == ("5", "8", "0.6250")
