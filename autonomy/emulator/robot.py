@@ -184,13 +184,13 @@ class Robot:
         if self.time_s < self.collided_until_s:
             return True
         script = self.script
-        return script is not None and script.bumped_at(self.script_time_s, self.params.collision_hold_s)
+        return script is not None and script.bumped_at(self.script_time_s, self.params.collision_hold_s, self.pose)
 
     @property
     def reported_tilt_deg(self) -> float:
         """The tilt the robot reports: its own, or the script's."""
         script = self.script
-        scripted = script.tilt_at(self.script_time_s) if script is not None else None
+        scripted = script.tilt_at(self.script_time_s, self.pose) if script is not None else None
         return self.tilt_deg if scripted is None else float(scripted)
 
     @property
@@ -225,7 +225,7 @@ class Robot:
     def front_distance_mm(self) -> int:
         """The front sensor's reading, 0..``sensor_max_mm`` (the script's, when it says one)."""
         if self.script is not None:
-            scripted = self.script.front_at(self.script_time_s)
+            scripted = self.script.front_at(self.script_time_s, self.pose)
             if scripted is not None:
                 return scripted
         p = self.params

@@ -1107,6 +1107,12 @@ def world_file(name: str, base_dir: Path) -> Path | None:
     return path if exists(path) else base_dir / path
 
 
+def read_shape(located: Located, path: str, label: str) -> tuple[Shape | None, list[Problem]]:
+    """A shape as a world file writes one (``{box: {from_mm, to_mm}}`` or ``{circle: ...}``), and its problems."""
+    reader = _Reader(label)
+    return reader.shape(located, path), reader.problems
+
+
 def load_world(name_or_path: str | Path) -> World:
     """Loads a shipped world by name (:data:`SHIPPED`) or a world file.
 

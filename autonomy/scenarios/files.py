@@ -34,8 +34,8 @@ from typing import TypeVar
 
 from autonomy.behaviours.tree import describe_tree
 from autonomy.classroom.exercise import MAX_TIME_LIMIT_S, Exercise, ExerciseInvalid, ExerciseReader, Seed
-from autonomy.emulator.script import REFUSABLE, SensorScript
-from autonomy.emulator.world import ROBOT_RADIUS_MM, World
+from autonomy.emulator.script import REFUSABLE, Area, SensorScript
+from autonomy.emulator.world import ROBOT_RADIUS_MM, World, read_shape
 from autonomy.mission import MissionInvalid, MissionSpec, build_tree, load_mission
 from autonomy.record import NodeInfo, Pose
 from autonomy.runner import CRASHED, FAILED, INTERRUPTED, LINK_LOST, SUCCEEDED, TIME_LIMIT
@@ -47,7 +47,8 @@ SUFFIX = ".test.yaml"
 TOP_LEVEL = ("mission", "scenarios")
 SCENARIO_KEYS = ("name", "world", "seeds", "start", "time_limit_s", "battery", "sensors", "expect", "nodes")
 START_KEYS = ("x_mm", "y_mm", "heading_deg")
-SENSOR_KEYS = ("front_mm", "bumps_s", "tilt_deg", "refuses")
+SENSOR_KEYS = ("front_mm", "bumps_s", "tilt_deg", "refuses", "where")
+AREA_KEYS = ("zone", "box", "circle", "heading_deg", "front_mm", "bump", "tilt_deg")
 EXPECT_KEYS = ("outcome", "within_s", "criteria", "beeps", "distance_mm", "servos")
 BEEP_KEYS = ("count", "volume")
 SERVO_KEYS = ("id", "angles")
@@ -284,7 +285,7 @@ class _Reader(ExerciseReader):
                 self.problem(item, where, "a scenario checks something: expect: (outcome, within_s, criteria, beeps, "
                              "distance_mm, servos), nodes:, or both")  # fmt: skip
         battery = self.number(doc["battery"], f"{where}.battery", 0, 255, whole=True) if "battery" in doc else None
-        script = self.sensors(doc["sensors"], f"{where}.sensors") if "sensors" in doc else None
+        script = self.sensors(doc["sensors"], f"{where}.sensors", world) if "sensors" in doc else None
         start = self.start(doc["start"], f"{where}.start", world) if "start" in doc and world is not None else None
         if name is None or world is None or limit is None:
             return None
@@ -322,11 +323,12 @@ class _Reader(ExerciseReader):
         self.problems[before:] = [replace(p, path=prefix + p.path) for p in self.problems[before:]]
         return value
 
-    def sensors(self, located: Located, where: str) -> SensorScript | None:
+    def sensors(self, located: Located, where: str, world: World | None) -> SensorScript | None:
         """What the sensors report, and what the robot refuses, by time.
 
         ``front_mm`` and ``tilt_deg`` are ``[[from_s, value], ...]``, ``bumps_s`` a list of times, and
-        ``refuses`` the commands the robot answers NO from a time on (``{move: 12.5}``).
+        ``refuses`` the commands the robot answers NO from a time on (``{move: 12.5}``), and ``where``
+        what they report by where the robot is (``[{zone: garage, front_mm: 80}]``).
         """
         if not isinstance(located.value, dict) or not located.value:
             self.problem(located, where, "sensors: is a mapping, e.g. {front_mm: [[0, 255], [2.5, 80]], bumps_s: [3]}")
@@ -346,7 +348,70 @@ class _Reader(ExerciseReader):
                     if time_s is not None:
                         bumps.append(float(time_s))
         refuses = self.refusals(doc["refuses"], f"{where}.refuses") if "refuses" in doc else ()
-        return SensorScript(front or (), tuple(sorted(bumps)), tilt or (), refuses)
+        areas = self.areas(doc["where"], f"{where}.where", world) if "where" in doc else ()
+        return SensorScript(front or (), tuple(sorted(bumps)), tilt or (), refuses, areas)
+
+    def areas(self, located: Located, where: str, world: World | None) -> tuple[Area, ...]:
+        """``[{zone: NAME or box: / circle:, front_mm / bump / tilt_deg, heading_deg: [FROM, TO]}, ...]``."""
+        why = ("where: is a list of areas and what the sensors report in each, e.g. "
+               "[{box: {from_mm: [1500, 0], to_mm: [2000, 2000]}, front_mm: 80}]")  # fmt: skip
+        if not isinstance(located.value, list) or not located.value:
+            self.problem(located, where, why)
+            return ()
+        areas = []
+        for k, item in enumerate(located.value):
+            at = f"{where}[{k}]"
+            if not isinstance(item.value, dict):
+                self.problem(item, at, why)
+                continue
+            doc: dict[str, Located] = item.value
+            self.known_keys(item, at, AREA_KEYS)
+            places = [key for key in ("zone", "box", "circle") if key in doc]
+            if len(places) != 1:
+                self.problem(item, at, "an area is one of zone: (a zone of the world), box: or circle: (as a world's)")
+                continue
+            shape = None
+            if places[0] == "zone":
+                name = self.text(doc["zone"], f"{at}.zone")
+                zone = world.zone(name) if world is not None and name is not None else None
+                if name is not None and world is not None and zone is None:
+                    names = [z.name for z in world.zones]
+                    has = f": it has {', '.join(names)}" if names else ": it has none"
+                    why = f"no zone named '{name}' in the world '{world.name}'{suggest(name, names)}{has}"
+                    self.problem(doc["zone"], f"{at}.zone", why)
+                shape = zone.shape if zone is not None else None
+            else:
+                given = item.value[places[0]]
+                shape, problems = read_shape(
+                    Located({places[0]: given}, given.line, given.column, {places[0]: item.keys[places[0]]}),
+                    at,
+                    self.label,
+                )
+                self.problems += problems
+            said = [key for key in ("front_mm", "bump", "tilt_deg") if key in doc]
+            if not said:
+                self.problem(item, at, "an area says what the sensors report there: front_mm:, bump: true or tilt_deg:")
+                continue
+            front = self.number(doc["front_mm"], f"{at}.front_mm", 0, 255, whole=True) if "front_mm" in doc else None
+            tilt = self.number(doc["tilt_deg"], f"{at}.tilt_deg", -127, 127, whole=True) if "tilt_deg" in doc else None
+            bump = False
+            if "bump" in doc:
+                bump = doc["bump"].value is True
+                if not isinstance(doc["bump"].value, bool):
+                    self.problem(doc["bump"], f"{at}.bump", "bump: is true (the collision flag is up there) or false")
+            heading = None
+            if "heading_deg" in doc:
+                given = doc["heading_deg"]
+                if not isinstance(given.value, list) or len(given.value) != 2:
+                    self.problem(given, f"{at}.heading_deg", "heading_deg: is [FROM, TO], the arc counter-clockwise "
+                                 "from FROM to TO it faces in, e.g. [-45, 45] for east")  # fmt: skip
+                else:
+                    ends = [self.number(v, f"{at}.heading_deg[{j}]", -360, 360) for j, v in enumerate(given.value)]
+                    heading = (float(ends[0]), float(ends[1])) if None not in ends else None
+            if shape is not None:
+                areas.append(Area(shape, heading, None if front is None else int(front), bump,
+                                  None if tilt is None else int(tilt)))  # fmt: skip
+        return tuple(areas)
 
     def refusals(self, located: Located, where: str) -> tuple[tuple[str, float], ...]:
         """``{command: from_s, ...}``: from that time on, the robot answers NO to that command."""

@@ -288,7 +288,7 @@ def test_check_takes_a_world_file_and_a_scenario_file_as_it_takes_missions_and_e
     assert done.returncode == 0, done.stderr
     assert done.stdout.splitlines() == [
         f"{world}: ok (world 'hall', 3 x 1 m, 0 obstacles, zones station)",
-        "missions/square.test.yaml: ok (2 scenarios of missions/square.yaml; autonomy test runs them)",
+        "missions/square.test.yaml: ok (4 scenarios of missions/square.yaml; autonomy test runs them)",
     ]
     world.write_text("name: hall\narena_mm: [3000, 1000]\nobstacels: []\n")
     assert_one_line_error(

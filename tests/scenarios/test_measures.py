@@ -323,3 +323,89 @@ def test_cobertura_xml_gives_each_mission_line_its_nodes_statuses_seen_as_ci_too
     assert lines == {5: ("2", "66% (2/3)"), 6: ("2", "66% (2/3)"), 7: ("1", "50% (1/2)")}
     assert (root.get("lines-covered"), root.get("lines-valid")) == ("3", "3")
     assert (root.get("branches-covered"), root.get("branches-valid"), root.get("branch-rate")) == ("5", "8", "0.6250")
+
+
+def test_sensors_scripted_by_where_the_robot_is_and_which_way_it_faces():
+    from autonomy.emulator.script import Area
+    from autonomy.emulator.world import Box, Circle
+    from autonomy.record import Pose
+
+    east_half = Area(Box(1000, 0, 2000, 2000), heading_deg=(-45, 45), front_mm=80)
+    pit = Area(Circle(500, 500, 100), bump=True, tilt_deg=20)
+    script = SensorScript(front_mm=((0.0, 200),), areas=(east_half, pit))
+    assert script.front_at(1.0, Pose(1500, 500, 10)) == 80
+    assert script.front_at(1.0, Pose(1500, 500, 350)) == 80  # the arc from -45 to 45 goes through 0
+    assert script.front_at(1.0, Pose(1500, 500, 90)) == 200  # facing north there: the time's reading
+    assert script.front_at(1.0, Pose(900, 500, 0)) == 200
+    assert script.front_at(1.0) == 200  # no pose: the times alone
+    assert script.bumped_at(1.0, 0.5, Pose(550, 500, 0)) and not script.bumped_at(1.0, 0.5, Pose(700, 500, 0))
+    assert script.tilt_at(1.0, Pose(500, 600, 0)) == 20 and script.tilt_at(1.0, Pose(500, 601, 0)) is None
+    assert Area(Box(0, 0, 1, 1), heading_deg=(300, 60)).holds(Pose(0.5, 0.5, 10))  # wraps through 0
+
+
+def test_a_wall_seen_only_in_one_part_of_the_floor_stops_the_drive_there(tmp_path):
+    path = scenario_file(
+        tmp_path,
+        """\
+scenarios:
+  - name: an empty floor with a wall the sensor sees only past x 10500, facing east
+    world: empty
+    time_limit_s: 20
+    sensors:
+      where:
+        - box: {from_mm: [10500, 0], to_mm: [20000, 20000]}
+          heading_deg: [-45, 45]
+          front_mm: 80
+    expect:
+      outcome: succeeded
+      distance_mm: [500, 600]
+      criteria:
+        - max_collisions: 0
+  - name: facing west, the same area says nothing, and the drive goes on to the time limit
+    world: empty
+    start: {x_mm: 15000, y_mm: 10000, heading_deg: 180}
+    time_limit_s: 5
+    sensors:
+      where:
+        - box: {from_mm: [10500, 0], to_mm: [20000, 20000]}
+          heading_deg: [-45, 45]
+          front_mm: 80
+    expect:
+      outcome: stopped at the time limit
+""",
+    )
+    tests = load_scenarios(path)
+    for scenario in tests.scenarios:
+        outcome = run_scenario(tests, scenario)
+        assert outcome.passed, outcome.report
+
+
+def test_an_area_s_problems_are_each_at_its_place(tmp_path):
+    path = scenario_file(
+        tmp_path,
+        """\
+scenarios:
+  - name: one
+    world: garage
+    sensors:
+      where:
+        - {zone: garag, front_mm: 80}
+        - {box: {from_mm: [0, 0]}, bump: yes}
+        - {circle: {center_mm: [1, 1], radius_mm: 5}}
+        - {zone: garage, box: {from_mm: [0, 0], to_mm: [1, 1]}, tilt_deg: 5}
+        - {zone: garage, front_mm: 80, heading_deg: [0]}
+    expect: {outcome: succeeded}
+""",
+    )
+    said = problems_of(path)
+    assert said[0].startswith("F:6:18: scenarios[0].sensors.where[0].zone: no zone named 'garag' in the world ")
+    assert "(did you mean 'garage'?)" in said[0]
+    assert said[1:] == [
+        "F:7:17: scenarios[0].sensors.where[1].box: 'to_mm' is missing",
+        "F:8:11: scenarios[0].sensors.where[2]: an area says what the sensors report there: front_mm:, bump: true "
+        "or tilt_deg:",
+        "F:9:11: scenarios[0].sensors.where[3]: an area is one of zone: (a zone of the world), box: or circle: (as "
+        "a world's)",
+        "F:10:53: scenarios[0].sensors.where[4].heading_deg: heading_deg: is [FROM, TO], the arc counter-clockwise "
+        "from FROM to TO it faces in, e.g. [-45, 45] for east",
+    ]

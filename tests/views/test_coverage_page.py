@@ -15,7 +15,7 @@ def test_the_coverage_page_fills_each_node_by_what_its_runs_saw_and_says_it_in_w
         shutil.copy(ROOT / "missions" / name, tmp_path / name)
     shipped = (ROOT / "missions" / "beep_on_collision.test.yaml").read_text()  # its wide floor alone: no bump
     (tmp_path / "beep_on_collision.test.yaml").write_text(
-        "scenarios:\n" + shipped[shipped.index("  - name: on a wide") :]
+        "scenarios:\n" + shipped[shipped.index("  - name: on a wide") :].split("\n  - name:")[0] + "\n"
     )
     html = tmp_path / "coverage.html"
     done = subprocess.run(
