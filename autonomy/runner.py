@@ -424,6 +424,7 @@ class Runner:
         self._framing_before = self.client.stats.framing_errors
         self._implausible_before = self.client.stats.implausible
         self._rebased = self.client.stats.rebased
+        self.context.seed = int(getattr(self._emulator, "seed", 0) or 0)  # what random choices are drawn from
         for node in self.root.iterate():
             node.setup(robot=self.context)
         self._start_s = self.clock.now()

@@ -24,6 +24,7 @@ the status packet the runner polled before this tick (the same snapshot for ever
 
 from __future__ import annotations
 
+import random
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from typing import Any, ClassVar, TypeVar
@@ -138,6 +139,7 @@ class RobotContext:
         rebased: True when this tick's packet replaced a believed state that was wrong (see
             :class:`~autonomy.client.StatusGuard`): the step from the last tick's packet is
             not a motion, and the wrong-way checks leave it out.
+        seed: The run's seed (the emulator's; 0 on a robot): what random choices are drawn from.
         watched: Whether anybody reads the nodes' feedback while they run (the live views,
             a trace). A run that records no node states (a grader's) sets it False, and a
             node may then leave out the feedback it would say tick after tick while RUNNING (a
@@ -153,6 +155,17 @@ class RobotContext:
     polled: tuple[Packet, int, bool] | None = None
     rebased: bool = False
     watched: bool = True
+    seed: int = 0
+    _randoms: int = 0
+
+    def random_for(self, name: str) -> random.Random:
+        """A generator of random picks for the run's next random node: its seed, the run's and the node's place.
+
+        Nodes are set up in the tree's order, once a run, so each random node of a run draws from the same
+        generator on every run with the same seed, whatever the others draw.
+        """
+        self._randoms += 1
+        return random.Random(f"random {self.seed} {self._randoms} {name}")
 
 
 _Update = TypeVar("_Update", bound=Callable[..., Status])

@@ -28,7 +28,7 @@ import yaml
 from autonomy.behaviours import Param
 from autonomy.mission.registry import NodeType, Registry
 from autonomy.mission.validate import MissionSpec, NodeSpec
-from autonomy.mission.xml_read import BLACKBOARD, EXPLICIT, KNOWN_TAGS, WHILE_MARK
+from autonomy.mission.xml_read import BLACKBOARD, EXPLICIT, KNOWN_TAGS, OWN_CONTROLS, WHILE_MARK
 
 INDENT = "    "
 #: Our structure types and the BehaviorTree.CPP node each is. Our ``while`` is exactly a
@@ -205,13 +205,14 @@ def _port_line(param: Param) -> str:
 def model_lines(types: list[NodeType]) -> list[str]:
     """``<TreeNodesModel>`` for ``types``: our leaves, their ports and docs (BehaviorTree.CPP knows its own)."""
     lines = ["<TreeNodesModel>"]
-    for node_type in types:
-        if node_type.category not in ("action", "condition"):
+    for node_type in types:  # and our composites it has none like, as control nodes of their own (``random``)
+        if node_type.category not in ("action", "condition") and node_type.name not in OWN_CONTROLS:
             continue  # BehaviorTree.CPP's own nodes are known to every editor
-        tag = "Action" if node_type.category == "action" else "Condition"
+        tag = {"action": "Action", "condition": "Condition"}.get(node_type.category, "Control")
         lines.append(f"{INDENT}<{tag} ID={quoteattr(node_type.name)}>")
         for param in node_type.params:
-            lines.append(INDENT * 2 + _port_line(param))
+            if param.kind not in ("node", "nodes"):  # the children are the element's, not ports
+                lines.append(INDENT * 2 + _port_line(param))
         lines.append(f"{INDENT * 2}<MetadataFields><Metadata description={quoteattr(node_type.doc)}/></MetadataFields>")
         lines.append(f"{INDENT}</{tag}>")
     lines.append("</TreeNodesModel>")

@@ -17,6 +17,7 @@ from py_trees.common import OneShotPolicy, ParallelPolicy
 
 from autonomy.behaviours import BUILTIN_ACTIONS, BUILTIN_CONDITIONS, ClockTimeout, Param, RobotBehaviour
 from autonomy.behaviours.base import MAX_SECONDS
+from autonomy.behaviours.choice import RandomChoice
 from autonomy.behaviours.decorators import Repeat, Retry
 
 Behaviour = py_trees.behaviour.Behaviour
@@ -166,6 +167,22 @@ BUILTIN_STRUCTURE = (
             children=c,
         ),
         "parallel",
+    ),
+    _composite(
+        "random",
+        "Run one child, picked at random each time it starts (each as likely); the same seed picks the same.",
+        (
+            Param(
+                "seed",
+                "int",
+                "the seed of its picks (default: the run's seed, the emulator's, so a scenario's seed replays them)",
+                minimum=0,
+                maximum=2**31 - 1,
+                example=7,
+            ),
+        ),
+        lambda n, a, c: RandomChoice(n, c, a["seed"]),
+        "random",
     ),
     _decorator(
         "repeat",

@@ -51,6 +51,8 @@ COMPOSITES = {
     "Parallel": ("parallel", {}),
     "While": ("while", {}),
 }
+#: Our own composites BehaviorTree.CPP has no node for, written under their own names (``<random>``).
+OWN_CONTROLS = ("random",)
 DECORATORS = {
     "Repeat": "repeat",
     "RetryUntilSuccessful": "retry",
@@ -341,6 +343,13 @@ def _node(element: Element, problems: list[SourceError], main_id: str = "") -> L
             problems.append(SourceError(*where, f"{tag} takes exactly one child, got {len(kids)}"))
             return refuse()
         put("do", kids[0])
+    elif tag in OWN_CONTROLS and not leaf_only:  # ours, as our export writes it: its ports, its children
+        if not kids:
+            problems.append(SourceError(*where, f"<{tag}> needs at least one child"))
+            return refuse()
+        for key in ports:
+            put(key, element.text(key))
+        put("children", Located(kids, *where))
     else:
         if kids:
             hint = suggest(tag, KNOWN_TAGS)

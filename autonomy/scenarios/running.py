@@ -225,7 +225,7 @@ class Coverage:
             can = {"SUCCESS": some["SUCCESS"] or some["FAILURE"], "FAILURE": False, "RUNNING": some["RUNNING"]}
         elif kind == "force_failure":
             can = {"SUCCESS": False, "FAILURE": some["SUCCESS"] or some["FAILURE"], "RUNNING": some["RUNNING"]}
-        elif kind in ("once", "subtree"):
+        elif kind in ("once", "subtree", "random"):
             can = some
         else:  # a plugin's composite or decorator: what its type declares
             can = {s: True for s in STATUSES}
