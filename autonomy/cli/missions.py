@@ -149,6 +149,8 @@ def cmd_check(args: argparse.Namespace) -> int:
         print(_shown(f"{path}: ok (mission '{spec.name}', {plural(count, 'node')}{noted})"))
         for warning in warnings:
             print(_shown(warning))
+        if spec.tests_text:  # its own tests: checked as a scenario file is
+            bad += not _check_scenarios(path)
     return EXIT_USAGE if bad else EXIT_OK
 
 

@@ -37,7 +37,9 @@ def cmd_test(args: argparse.Namespace) -> int:
         return _fail(f"{missing[0]}: no such scenario file (a NAME.test.yaml, or a folder holding some)", EXIT_USAGE)
     if not paths:
         where = " ".join(args.paths or ["."])
-        return _fail(f"no scenario files (NAME.test.yaml beside NAME.yaml) under {where}", EXIT_USAGE)
+        return _fail(
+            f"no scenario files (NAME.test.yaml beside NAME.yaml, or a mission's tests: list) under {where}", EXIT_USAGE
+        )
     files = []
     for path in paths:
         try:

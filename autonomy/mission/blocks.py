@@ -385,6 +385,7 @@ class MissionOutline:
     subtrees: dict[str, Outline] = field(default_factory=dict)
     tree: Outline | None = None
     comments: list[str] = field(default_factory=list)
+    tests: str = ""
 
 
 def _whole(value: Any) -> bool:
@@ -433,6 +434,7 @@ def outline_of(spec: MissionSpec, text: str = "") -> MissionOutline:
         {name: _outline(root, attached) for name, root in spec.subtrees.items()},
         _outline(spec.tree, attached),
         top,
+        spec.tests_text,
     )
 
 
@@ -540,9 +542,15 @@ def _attach(text: str, nodes: list[NodeSpec]) -> tuple[dict[int, list[str]], lis
     return attached, top
 
 
+def _tests_block(text: str) -> bool:
+    """Whether ``text`` is a ``tests:`` block alone: its key, then lines indented under it (or blank, or comments)."""
+    first, *rest = text.split("\n")
+    return first.startswith("tests:") and all(not line.strip() or line[0] in " #" for line in rest)
+
+
 def key_is_top(key: str) -> bool:
     """Whether ``key`` is one of a mission file's top-level keys."""
-    return key in ("mission", "description", "tick_hz", "world", "subtrees", "tree", "plugins")
+    return key in ("mission", "description", "tick_hz", "world", "subtrees", "tree", "plugins", "tests")
 
 
 # --------------------------------------------------------------------------- the canonical text
@@ -658,6 +666,8 @@ def _write(outline: MissionOutline) -> _Writer:
             writer.value(_scalar(name), root, 2)
     if outline.tree is not None:
         writer.value("tree", outline.tree, 0)
+    if outline.tests:  # the mission's scenarios, as they were written
+        lines += outline.tests.rstrip("\n").split("\n")
     return writer
 
 
@@ -777,8 +787,8 @@ def outline_workspace(outline: MissionOutline, placed: dict[str, tuple[int, int]
             "tick_hz": outline.tick_hz,
         },
     }
-    kept = {"description": outline.description, "plugins": outline.plugins}  # shown in the text, kept with the block
-    if outline.description or outline.plugins:
+    kept = {"description": outline.description, "plugins": outline.plugins, "tests": outline.tests}  # kept with it
+    if outline.description or outline.plugins or outline.tests:
         mission["data"] = json.dumps({k: v for k, v in kept.items() if v}, ensure_ascii=False)
     if outline.comments:
         text = "\n".join(outline.comments)
@@ -1004,6 +1014,10 @@ class _Reader:
         if not isinstance(description, str):
             self.problem(state, "mission.data", "the mission's description is text")
             description = ""
+        tests = data.get("tests", "")
+        if not isinstance(tests, str) or tests and not _tests_block(tests):
+            self.problem(state, "mission.data", "the mission's tests are the text of its tests: block, as written")
+            tests = ""
         outline = MissionOutline(
             self.text_field(state, "name", "mission"),
             description,
@@ -1011,6 +1025,7 @@ class _Reader:
             self.text_field(state, "world", "mission") or None,
             plugins,
             comments=self.comments(state),
+            tests=tests,
         )
         roots = self.chain(self.held(state, "tree", "mission"), "mission.tree")
         if not roots:

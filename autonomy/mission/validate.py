@@ -37,7 +37,7 @@ from autonomy.source import (
 )
 from autonomy.source import suggest as _suggest
 
-TOP_LEVEL = ("mission", "description", "tick_hz", "world", "subtrees", "tree", "plugins")
+TOP_LEVEL = ("mission", "description", "tick_hz", "world", "subtrees", "tree", "plugins", "tests")
 DEFAULT_TICK_HZ = 20.0
 MIN_TICK_HZ = 1.0
 MAX_TICK_HZ = 200.0
@@ -80,7 +80,11 @@ class NodeSpec:
 
 @dataclass
 class MissionSpec:
-    """A validated mission file, ready to build."""
+    """A validated mission file, ready to build.
+
+    ``tests_text`` is its ``tests:`` block as written (its scenarios, docs/testing.md), which a run
+    ignores and a rewrite of the file (the blocks' canonical text) keeps.
+    """
 
     name: str
     description: str
@@ -92,6 +96,7 @@ class MissionSpec:
     source: str
     plugins: list[str] = field(default_factory=list)
     sha256: str = ""
+    tests_text: str = ""
 
 
 def _type_name(value: Any) -> str:
@@ -742,7 +747,20 @@ def validate_text(
         # The reader and the validator each say why they give nothing: the fallback is never seen.
         raise MissionInvalid(problems or [Problem(source, 1, 1, "", "not a mission")])  # pragma: no mutate
     spec.sha256 = hashlib.sha256(text.encode("utf-8")).hexdigest()
+    if not xml and isinstance(root.value, dict) and "tests" in root.value:  # a run ignores them; a rewrite keeps them
+        spec.tests_text = top_level_block(text, root, "tests")
     return spec
+
+
+def top_level_block(text: str, root: Located, key: str) -> str:
+    """The lines of ``text`` that hold the top-level ``key`` and its value, as written (up to the next key)."""
+    lines = text.splitlines()
+    first = root.keys[key][0]
+    after = [line for line, _ in root.keys.values() if line > first]
+    block = lines[first - 1 : (min(after) - 1) if after else len(lines)]
+    while block and not block[-1].strip():
+        block.pop()
+    return "\n".join(block) + "\n"
 
 
 def validate_file(path: str | Path, check_world: bool = True) -> MissionSpec:

@@ -27,6 +27,7 @@ seed meets all it expects. It is read as a mission or an exercise is: every prob
 
 from __future__ import annotations
 
+import re
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -60,6 +61,8 @@ STATUSES = ("SUCCESS", "FAILURE", "RUNNING")
 #: A scenario's time limit when it sets none, simulated seconds.
 DEFAULT_TIME_LIMIT_S = 60.0
 MAX_SCENARIOS = 200
+#: The largest mission file looked into for a ``tests:`` list when a folder is searched (a mission is smaller).
+MAX_TESTS_FILE_BYTES = 1_000_000
 
 
 @dataclass(frozen=True)
@@ -218,6 +221,8 @@ def _along(names: list[str], wanted: list[str]) -> bool:
 
 class _Reader(ExerciseReader):
     kind = "scenario file"
+    #: Where the scenarios are: ``scenarios`` in a scenario file, ``tests`` in a mission.
+    key = "scenarios"
 
     def file(self, root: Located, path: Path) -> tuple[Path | None, list[Located]]:
         """The mission's path and the scenarios' items, their problems noted."""
@@ -226,25 +231,29 @@ class _Reader(ExerciseReader):
                          f"{mission_of(path).name}")  # fmt: skip
             return None, []
         doc: dict[str, Located] = root.value
-        if "tree" in doc and "scenarios" not in doc:  # a mission given for its tests
-            self.problem(
-                root, "", f"this is a mission, not its tests: they go in {mission_of_test(path).name} beside it"
-            )
-            return None, []
-        self.known_keys(root, "", TOP_LEVEL)
-        mission = mission_of(path)
-        if "mission" in doc:
-            name = self.text(doc["mission"], "mission")
-            mission = (self.base_dir / name) if name is not None else None
-        items = doc.get("scenarios")
-        if items is None:
-            self.problem(root, "", "'scenarios' is missing: a list of scenarios, each with name: and world:")
-            return mission, []
+        mission: Path | None = path
+        if "tree" in doc and "scenarios" not in doc:  # a mission: its own tests: list, or given for its tests
+            if "tests" not in doc:
+                self.problem(root, "", f"this is a mission, not its tests: they go in {mission_of_test(path).name} "
+                             "beside it, or in a tests: list in it")  # fmt: skip
+                return None, []
+            self.key = "tests"
+            items = doc["tests"]
+        else:
+            self.known_keys(root, "", TOP_LEVEL)
+            mission = mission_of(path)
+            if "mission" in doc:
+                name = self.text(doc["mission"], "mission")
+                mission = (self.base_dir / name) if name is not None else None
+            items = doc.get("scenarios")  # type: ignore[assignment]
+            if items is None:
+                self.problem(root, "", "'scenarios' is missing: a list of scenarios, each with name: and world:")
+                return mission, []
         if not isinstance(items.value, list) or not items.value:
-            self.problem(items, "scenarios", "expected a list of scenarios, each with name: and world:")
+            self.problem(items, self.key, "expected a list of scenarios, each with name: and world:")
             return mission, []
         if len(items.value) > MAX_SCENARIOS:
-            self.problem(items, "scenarios", f"at most {MAX_SCENARIOS} scenarios in a file")
+            self.problem(items, self.key, f"at most {MAX_SCENARIOS} scenarios in a file")
             return mission, []
         return mission, items.value
 
@@ -660,7 +669,7 @@ def scenarios_from_text(text: str, path: Path, label: str) -> ScenarioFile:
     nodes = describe_tree(build_tree(spec))
     reader.problems = []
     names: set[str] = set()
-    scenarios = [reader.scenario(item, f"scenarios[{k}]", nodes, names) for k, item in enumerate(items)]
+    scenarios = [reader.scenario(item, f"{reader.key}[{k}]", nodes, names) for k, item in enumerate(items)]
     problems += reader.problems
     if problems:
         raise ScenariosInvalid(problems)
@@ -672,19 +681,32 @@ def scenarios_from_text(text: str, path: Path, label: str) -> ScenarioFile:
     return ScenarioFile(path, mission, spec, nodes, [s for s in scenarios if s is not None], statuses)
 
 
+def holds_tests(path: Path) -> bool:
+    """Whether ``path`` is a mission with a ``tests:`` list of its own (its text looked at, not parsed)."""
+    try:
+        if path.name.endswith(SUFFIX) or path.suffix != ".yaml" or path.stat().st_size > MAX_TESTS_FILE_BYTES:
+            return False
+        text = path.read_text(encoding="utf-8", errors="replace")
+    except OSError:
+        return False
+    return bool(re.search(r"^tests[ \t]*:", text, re.M) and re.search(r"^tree[ \t]*:", text, re.M))
+
+
 def find_scenario_files(paths: list[str | Path]) -> list[Path]:
     """The scenario files under ``paths``, sorted, once each (the same file by two names, once).
 
-    A folder is searched for ``*.test.yaml``; a file is taken as it is, and a mission's ``NAME.yaml`` stands
-    for the ``NAME.test.yaml`` beside it, when there is one (else it is taken, and its reader says what it is).
+    A folder is searched for ``*.test.yaml`` and for missions with a ``tests:`` list; a file is taken as it is,
+    and a mission's ``NAME.yaml`` stands for the ``NAME.test.yaml`` beside it, when there is one, and for its
+    own ``tests:`` (with neither, it is taken, and its reader says what it is).
     """
     found: list[Path] = []
     for given in paths:
         path = Path(given)
         if path.is_dir():
-            found += sorted(path.rglob("*" + SUFFIX))
-        elif not path.name.endswith(SUFFIX) and mission_of_test(path).is_file():
-            found.append(mission_of_test(path))
+            found += sorted([*path.rglob("*" + SUFFIX), *(p for p in path.rglob("*.yaml") if holds_tests(p))])
+        elif not path.name.endswith(SUFFIX) and (mission_of_test(path).is_file() or holds_tests(path)):
+            found += [mission_of_test(path)] if mission_of_test(path).is_file() else []
+            found += [path] if holds_tests(path) else []
         else:
             found.append(path)
     seen: set[Path] = set()

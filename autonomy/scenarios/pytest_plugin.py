@@ -14,12 +14,12 @@ from typing import Any
 
 import pytest
 
-from autonomy.scenarios.files import SUFFIX
+from autonomy.scenarios.files import SUFFIX, holds_tests
 
 
 def pytest_collect_file(file_path: Path, parent: pytest.Collector) -> pytest.Collector | None:
-    """A scenario file's collector, for a ``NAME.test.yaml``."""
-    if file_path.name.endswith(SUFFIX):
+    """A scenario file's collector, for a ``NAME.test.yaml`` or a mission with a ``tests:`` list."""
+    if file_path.name.endswith(SUFFIX) or holds_tests(file_path):
         return ScenarioFileCollector.from_parent(parent, path=file_path)
     return None
 
