@@ -409,3 +409,26 @@ scenarios:
         "F:10:53: scenarios[0].sensors.where[4].heading_deg: heading_deg: is [FROM, TO], the arc counter-clockwise "
         "from FROM to TO it faces in, e.g. [-45, 45] for east",
     ]
+
+
+def test_the_shipped_scenarios_cover_90_percent_catch_85_percent_and_each_survivor_is_explained():
+    import json
+    import re
+    import subprocess
+    import sys
+
+    done = subprocess.run(
+        [sys.executable, "-m", "autonomy", "test", "missions/", "--mutate", "--json"],
+        cwd=ROOT, capture_output=True, text=True, timeout=300,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    report = json.loads(done.stdout)
+    assert report["failed"] == 0 and len({c["mission"] for c in report["coverage"]}) == 7  # a file for each mission
+    seen, possible = sum(c["seen"] for c in report["coverage"]), sum(c["possible"] for c in report["coverage"])
+    assert seen / possible >= 0.9 and all(c["percent"] >= 90 for c in report["coverage"]), report["coverage"]
+    caught = sum(len(m["caught"]) for m in report["mutation"])
+    survived = [change for m in report["mutation"] for change in m["survived"]]
+    assert caught / (caught + len(survived)) >= 0.85
+    explained = re.sub(r"\s+", " ", (ROOT / "docs" / "testing.md").read_text())
+    for change in survived:
+        assert f"your tests pass even when {change}" in explained, change
