@@ -53,6 +53,19 @@ def _check_world(path: str) -> bool:
     return True
 
 
+def _tests_of(path: str) -> str | None:
+    """``, N scenarios in its tests:`` for a mission's own tests; None when they have problems (each one said)."""
+    from autonomy.scenarios import ScenariosInvalid, load_scenarios
+    from autonomy.words import plural
+
+    try:
+        tests = load_scenarios(path)
+    except ScenariosInvalid as err:
+        _problems(err.problems)
+        return None
+    return f", {plural(len(tests.scenarios), 'scenario')} in its tests: autonomy test runs them"
+
+
 def _check_scenarios(path: str) -> bool:
     """Validates a scenario file and the mission it tests: every problem at its place, or what it holds."""
     from autonomy.scenarios import ScenariosInvalid, load_scenarios
@@ -143,14 +156,18 @@ def cmd_check(args: argparse.Namespace) -> int:
         if spec is None:
             bad += 1
             continue
+        tests = ""
+        if spec.tests_text:  # its own tests: checked as a scenario file is, before the mission is said ok
+            tests = _tests_of(path)
+            if tests is None:
+                bad += 1
+                continue
         count = sum(1 for _ in preorder(build_tree(spec)))
         warnings = lint(spec)
         noted = f", {plural(len(warnings), 'warning')}" if warnings else ""
-        print(_shown(f"{path}: ok (mission '{spec.name}', {plural(count, 'node')}{noted})"))
+        print(_shown(f"{path}: ok (mission '{spec.name}', {plural(count, 'node')}{noted}{tests})"))
         for warning in warnings:
             print(_shown(warning))
-        if spec.tests_text:  # its own tests: checked as a scenario file is
-            bad += not _check_scenarios(path)
     return EXIT_USAGE if bad else EXIT_OK
 
 

@@ -50,7 +50,9 @@ def cmd_test(args: argparse.Namespace) -> int:
     if refused:
         return _fail(refused, EXIT_USAGE)
     outcomes: list[ScenarioOutcome] = []
-    coverages = {id(tests): (tests, Coverage(tests.nodes, statuses=tests.statuses)) for tests in files}
+    coverages: dict[Path, tuple[Any, Any]] = {}  # a mission's coverage, whichever of its files its scenarios are in
+    for tests in files:
+        coverages.setdefault(_mission_key(tests), (tests, Coverage(tests.nodes, statuses=tests.statuses)))
     # a process a core pays for its start when there is much to run: over ten simulated minutes at most
     most_s = sum(s.exercise.time_limit_s * len(s.exercise.seeds) for tests in files for s in tests.scenarios)
     jobs = args.jobs or ((os.cpu_count() or 1) if most_s > PARALLEL_FROM_S else 1)
@@ -59,7 +61,7 @@ def cmd_test(args: argparse.Namespace) -> int:
     try:
         for tests, outcome, seen in run_all(files, jobs):
             for node, statuses in seen.items():
-                coverages[id(tests)][1].seen.setdefault(node, set()).update(statuses)
+                coverages[_mission_key(tests)][1].seen.setdefault(node, set()).update(statuses)
             outcomes.append(outcome)
             if not args.json:
                 _say(outcome)
@@ -116,6 +118,24 @@ def cmd_test(args: argparse.Namespace) -> int:
     return EXIT_FAILED if failed or below else EXIT_OK
 
 
+def _mission_key(tests: Any) -> Path:
+    """The mission a scenario file tests, as one path whatever the name it was given by."""
+    return tests.mission.resolve()
+
+
+def _by_mission(files: list[Any]) -> list[Any]:
+    """The files as one a mission: a mission's scenario file and its own tests: list, their scenarios together."""
+    from dataclasses import replace
+
+    merged: dict[Path, Any] = {}
+    for tests in files:
+        key = _mission_key(tests)
+        merged[key] = (
+            replace(merged[key], scenarios=[*merged[key].scenarios, *tests.scenarios]) if key in merged else tests
+        )
+    return list(merged.values())
+
+
 def _interrupt(*_: object) -> None:
     raise KeyboardInterrupt
 
@@ -156,7 +176,7 @@ def _mutation(args: argparse.Namespace, files: list[Any], outcomes: list[Any]) -
             print("mutants: not tried, as a scenario fails already (a mutant is caught when a scenario fails)")
         return []
     scores = []
-    for tests in files:
+    for tests in _by_mission(files):  # a mutant is caught when any scenario of its mission, in any file, fails
         score = mutation_score(tests)
         scores.append((tests, score))
         if not args.json:

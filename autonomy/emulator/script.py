@@ -30,7 +30,7 @@ class Area:
     Attributes:
         shape: Where on the floor, in the world's coordinates.
         heading_deg: ``(from, to)``: only while the heading is in that arc, counter-clockwise from ``from``
-            to ``to`` (0..360); None: whichever way it faces.
+            to ``to`` (a full turn or more from one to the other: any way); None: whichever way it faces.
         front_mm: What the front sensor reads there (None: what it would otherwise).
         bump: Whether the collision flag is up there.
         tilt_deg: The tilt the status packet reports there (None: what it would otherwise).
@@ -46,7 +46,7 @@ class Area:
         """Whether the robot at ``pose`` is in the area (its edge included), facing as it says."""
         if self.shape.gap(pose.x_mm, pose.y_mm) > EPSILON_MM:
             return False
-        if self.heading_deg is None:
+        if self.heading_deg is None or self.heading_deg[1] - self.heading_deg[0] >= 360.0:  # a full turn: any way
             return True
         start, end = (a % 360.0 for a in self.heading_deg)
         heading = pose.heading_deg % 360.0

@@ -98,8 +98,9 @@ class NodeCheck:
         if self.kind == "runs":
             return f"'{self.node}' {'runs' if self.expected else 'never runs'}"
         if self.kind == "reaches":
-            after = f" after {self.from_s:g} s" if self.from_s else ""
-            return f"'{self.node}' reaches {self.status}{after}" + (f" before {self.time_s:g} s" if self.time_s else "")
+            after = f" after {self.from_s:g} s" if self.from_s is not None else ""
+            before = f" before {self.time_s:g} s" if self.time_s is not None else ""
+            return f"'{self.node}' reaches {self.status}{after}{before}"
         return f"'{self.node}' is never {self.status}" + (f" after {self.time_s:g} s" if self.time_s else "")
 
 
@@ -515,7 +516,7 @@ class _Reader(ExerciseReader):
             )
             return {}
         count = self.number(doc["count"], f"{where}.count", 0, 10_000, whole=True)
-        volume = self.number(doc["volume"], f"{where}.volume", 1, 9, whole=True) if "volume" in doc else None
+        volume = self.number(doc["volume"], f"{where}.volume", 1, 5, whole=True) if "volume" in doc else None
         found = {} if count is None else {"beeps": int(count)}
         return found | ({"beep_volume": int(volume)} if volume is not None else {})
 
@@ -689,7 +690,10 @@ def holds_tests(path: Path) -> bool:
         text = path.read_text(encoding="utf-8", errors="replace")
     except OSError:
         return False
-    return bool(re.search(r"^tests[ \t]*:", text, re.M) and re.search(r"^tree[ \t]*:", text, re.M))
+    if not re.search(r"\btests\b", text):  # most files: not read further
+        return False
+    root, _ = parse(text)  # quoted keys, a flow mapping: the mission's own keys, however written
+    return root is not None and isinstance(root.value, dict) and {"tests", "tree"} <= set(root.value)
 
 
 def find_scenario_files(paths: list[str | Path]) -> list[Path]:

@@ -77,14 +77,18 @@ class NodeWatch:
             every = [t for t, s in changes if s == check.status]
             from_s = check.from_s or 0.0
             times = [t for t in every if t >= from_s - 1e-9]
-            if every and not times:
-                return False, f"it returned {check.status} only before {from_s:g} s (last at {max(every):g} s)"
+            if every and not times:  # after_s asks for a turn to the status from then on, not one kept from before
+                return False, (
+                    f"it turned {check.status} only before {from_s:g} s (last at {max(every):g} s), and not again "
+                    "from then on"
+                )
             if not times:
                 others = sorted({s for _, s in changes if s in STATUSES})
                 return False, f"it never returned {check.status}" + (f" (only {', '.join(others)})" if others else "")
             first = min(times)
             if check.time_s is not None and first > check.time_s:
-                return False, f"it first returned {check.status} at {first:g} s"
+                since = f" (from {from_s:g} s on)" if check.from_s is not None else ""
+                return False, f"it first returned {check.status}{since} at {first:g} s"
             return True, ""
         after_s = check.time_s or 0.0
         for k, (t, status) in enumerate(changes):
@@ -323,7 +327,7 @@ def _measured(scenario: Scenario, facts: RunFacts) -> list[str]:
         if other is not None:
             failures.append(
                 f"expected every beep at volume {scenario.beep_volume}, but it beeped at volume {other.volume} "
-                f"at {other.time_s:g} s"
+                f"at {max(0.0, round(other.time_s, 3)):g} s"
             )
     if scenario.distance_mm is not None:
         low, high = scenario.distance_mm

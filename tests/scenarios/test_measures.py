@@ -89,7 +89,7 @@ scenarios:
         "F:6:26: scenarios[0].sensors.refuses.mve: unknown command 'mve' (did you mean 'move'?): refuses: maps "
         "commands to the time they are refused from, e.g. {move: 12.5} (of beep, move, turn, servo)",
         "F:6:40: scenarios[0].sensors.refuses.beep: must be from 0 to 3,600, got -1",
-        "F:8:33: scenarios[0].expect.beeps.volume: must be from 1 to 9, got 0",
+        "F:8:33: scenarios[0].expect.beeps.volume: must be from 1 to 5, got 0",
         "F:9:20: scenarios[0].expect.distance_mm: the least, 900 mm, is more than the most, 800 mm",
         "F:11:32: scenarios[0].expect.servos[0].angles[1]: expected a whole number, got 1.5",
         "F:12:16: scenarios[0].expect.servos[1].id: must be from 0 to 2, got 3",
@@ -206,11 +206,17 @@ def test_a_reach_window_holds_for_the_first_time_in_it_and_says_when_it_was_only
 
     assert check(None, 1.5) == (True, "")
     assert check(0.5, 1.5) == (True, "")
-    assert check(1.5, 4) == (False, "it first returned SUCCESS at 5 s")
+    assert check(1.5, 4) == (False, "it first returned SUCCESS (from 1.5 s on) at 5 s")
+    assert check(None, 0) == (False, "it first returned SUCCESS at 1 s")
     assert check(4, 5.5) == (True, "")
-    assert check(5.5, None) == (False, "it returned SUCCESS only before 5.5 s (last at 5 s)")
+    # a status kept from before after_s is not reached after it: the node must turn to it from then on
+    said = "it turned SUCCESS only before 5.5 s (last at 5 s), and not again from then on"
+    assert check(5.5, None) == (False, said)
     assert (
         NodeCheck("n", (0,), "reaches", "SUCCESS", 4, from_s=1.5).words == "'n' reaches SUCCESS after 1.5 s before 4 s"
+    )
+    assert (
+        NodeCheck("n", (0,), "reaches", "SUCCESS", 0.0, from_s=0.0).words == "'n' reaches SUCCESS after 0 s before 0 s"
     )
 
 
@@ -341,6 +347,8 @@ def test_sensors_scripted_by_where_the_robot_is_and_which_way_it_faces():
     assert script.bumped_at(1.0, 0.5, Pose(550, 500, 0)) and not script.bumped_at(1.0, 0.5, Pose(700, 500, 0))
     assert script.tilt_at(1.0, Pose(500, 600, 0)) == 20 and script.tilt_at(1.0, Pose(500, 601, 0)) is None
     assert Area(Box(0, 0, 1, 1), heading_deg=(300, 60)).holds(Pose(0.5, 0.5, 10))  # wraps through 0
+    for whole in ((0, 360), (-180, 180), (-10, 360)):  # a full turn from one end to the other: every way
+        assert all(Area(Box(0, 0, 1, 1), heading_deg=whole).holds(Pose(0.5, 0.5, h)) for h in range(0, 360, 15))
 
 
 def test_a_wall_seen_only_in_one_part_of_the_floor_stops_the_drive_there(tmp_path):
@@ -432,3 +440,10 @@ def test_the_shipped_scenarios_cover_90_percent_catch_85_percent_and_each_surviv
     explained = re.sub(r"\s+", " ", (ROOT / "docs" / "testing.md").read_text())
     for change in survived:
         assert f"your tests pass even when {change}" in explained, change
+
+
+def test_check_scenario_refuses_a_value_no_scenario_file_could_hold_with_its_own_error():
+    from autonomy.testing import check_scenario
+
+    with pytest.raises(ScenariosInvalid, match=r"check_scenario:1:1: a scenario's values are numbers, text"):
+        check_scenario(MISSIONS / "move_until_wall.yaml", world="box", expect={"within_s": object()})

@@ -53,6 +53,10 @@ def test_a_mission_s_tests_are_found_run_and_said_at_their_lines(tmp_path):
     (tmp_path / "plain.yaml").write_text("mission: plain\ntree: stop\n")  # no tests: not a scenario file
     assert find_scenario_files([tmp_path]) == [tmp_path / "approach.yaml"]
     assert find_scenario_files([tmp_path / "approach.yaml"]) == [tmp_path / "approach.yaml"]
+    quoted = APPROACH.replace("mission:", '"mission":').replace("\ntree:", "\n'tree':").replace("tests:", '"tests":')
+    (tmp_path / "quoted.yaml").write_text(quoted)  # its keys quoted: a mission with tests all the same
+    assert find_scenario_files([tmp_path]) == [tmp_path / "approach.yaml", tmp_path / "quoted.yaml"]
+    (tmp_path / "quoted.yaml").unlink()
     done = autonomy("test", ".", cwd=tmp_path)
     assert done.returncode == 0, done.stdout + done.stderr
     assert done.stdout.splitlines()[:3] == [
@@ -60,6 +64,11 @@ def test_a_mission_s_tests_are_found_run_and_said_at_their_lines(tmp_path):
         "ok    approach.yaml:16: a refused beep fails it (1 seed, 2.8 simulated s)",
         "2 scenarios: 2 passed, 0 failed (2 runs, 5.5 simulated s in " + done.stdout.splitlines()[2].split(" in ")[1],
     ]
+    checked = autonomy("check", "approach.yaml", cwd=tmp_path)
+    assert (
+        checked.stdout
+        == "approach.yaml: ok (mission 'approach', 3 nodes, 2 scenarios in its tests: autonomy test runs them)\n"
+    )
     ran = autonomy("run", "approach.yaml", "--fast", cwd=tmp_path)  # a run ignores them
     assert ran.returncode == 0 and "Mission 'approach' succeeded" in ran.stdout, ran.stderr
 
@@ -79,7 +88,7 @@ def test_a_mission_s_tests_are_checked_with_the_mission_each_problem_at_its_plac
     ]
     checked = autonomy("check", "approach.yaml", cwd=tmp_path)
     assert checked.returncode == 2
-    assert checked.stdout.startswith("approach.yaml: ok (mission 'approach', 3 nodes)\n")
+    assert "ok" not in checked.stdout  # not while its tests have problems
     assert "approach.yaml:22:14: tests[1].expect.beeps: expected a whole number, got 'zero'" in checked.stderr
     path.write_text("mission: plain\ntree: stop\n")
     said = r"this is a mission, not its tests: they go in approach.test.yaml beside it, or in a tests: list in it"
@@ -114,3 +123,18 @@ def test_the_blocks_keep_a_mission_s_tests_as_written_and_take_no_other_text_for
 
     with pytest.raises(MissionInvalid, match="the mission's tests are the text of its tests: block, as written"):
         from_workspace(workspace_json(workspace), "workspace.json")
+
+
+def test_a_mission_s_file_and_its_own_tests_are_one_coverage_and_one_mutation_score(tmp_path):
+    (tmp_path / "approach.yaml").write_text(APPROACH)
+    (tmp_path / "approach.test.yaml").write_text(
+        "scenarios:\n  - name: a refused move fails it\n    world: box\n    sensors: {refuses: {move: 0}}\n"
+        "    expect: {outcome: failed}\n"
+    )
+    done = autonomy("test", ".", "--json", "--mutate", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    report = json.loads(done.stdout)
+    assert len(report["scenarios"]) == 3
+    # the move's FAILURE is seen in the one file, the beep's in the other: together, all 8
+    assert [(c["seen"], c["possible"]) for c in report["coverage"]] == [(8, 8)]
+    assert [(len(m["caught"]), m["survived"]) for m in report["mutation"]] == [(7, [])]
