@@ -144,7 +144,7 @@ def check_scenario(mission: str | Path, **scenario: Any) -> ScenarioOutcome:
             where it is in the scenario: ``scenarios[0].expect.beeps``).
     """
     from autonomy.scenarios import ScenariosInvalid, run_scenario
-    from autonomy.scenarios.files import scenarios_from_text
+    from autonomy.scenarios.files import mission_of_test, scenarios_from_text
     from autonomy.source import Problem
 
     mission = Path(mission).resolve()
@@ -153,7 +153,5 @@ def check_scenario(mission: str | Path, **scenario: Any) -> ScenarioOutcome:
     except yaml.YAMLError as err:  # a value no scenario file could hold (an object, a numpy number)
         why = f"a scenario's values are numbers, text, true/false, lists and mappings: {str(err).splitlines()[0]}"
         raise ScenariosInvalid([Problem("check_scenario", 1, 1, "", why[:300])]) from None
-    tests = scenarios_from_text(
-        text, mission.with_name(mission.stem + ".test.yaml"), "the scenario given to check_scenario"
-    )
+    tests = scenarios_from_text(text, mission_of_test(mission), "the scenario given to check_scenario")
     return run_scenario(tests, tests.scenarios[0])

@@ -22,9 +22,10 @@ from autonomy.classroom.submissions import mission_file, readable
 from autonomy.classroom.told import named_node
 from autonomy.client import Client
 from autonomy.emulator.script import SensorScript
+from autonomy.emulator.world import Pose
 from autonomy.errors import LinkError
 from autonomy.mission import MissionInvalid, MissionSpec, NodeSpec, Problem, validate_text
-from autonomy.record import Pose, Record
+from autonomy.record import Record
 from autonomy.runner import Runner
 from autonomy.source import UnreadableFile, read_text
 from autonomy.trace import TraceWriter

@@ -16,8 +16,7 @@ from __future__ import annotations
 from bisect import bisect_right
 from dataclasses import dataclass
 
-from autonomy.emulator.world import EPSILON_MM, Shape
-from autonomy.record import Pose
+from autonomy.emulator.world import EPSILON_MM, Pose, Shape
 
 #: The commands a script can make the robot refuse (``NO``), as a scenario names them; a stop is never refused.
 REFUSABLE = ("beep", "move", "turn", "servo")

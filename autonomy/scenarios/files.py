@@ -28,7 +28,7 @@ seed meets all it expects. It is read as a mission or an exercise is: every prob
 from __future__ import annotations
 
 import re
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TypeVar
@@ -36,9 +36,9 @@ from typing import TypeVar
 from autonomy.behaviours.tree import describe_tree
 from autonomy.classroom.exercise import MAX_TIME_LIMIT_S, Exercise, ExerciseInvalid, ExerciseReader, Seed
 from autonomy.emulator.script import REFUSABLE, Area, SensorScript
-from autonomy.emulator.world import ROBOT_RADIUS_MM, World, read_shape
+from autonomy.emulator.world import ROBOT_RADIUS_MM, Pose, World, read_shape
 from autonomy.mission import MissionInvalid, MissionSpec, build_tree, load_mission
-from autonomy.record import NodeInfo, Pose
+from autonomy.record import NodeInfo
 from autonomy.runner import CRASHED, FAILED, INTERRUPTED, LINK_LOST, SUCCEEDED, TIME_LIMIT
 from autonomy.source import Located, Problem, UnreadableFile, parse, read_text, suggest
 
@@ -258,6 +258,23 @@ class _Reader(ExerciseReader):
             return mission, []
         return mission, items.value
 
+    def mappings(
+        self, located: Located, where: str, why: str, allowed: tuple[str, ...]
+    ) -> Iterator[tuple[str, Located, dict[str, Located]]]:
+        """Each mapping of the list ``located``: its place (``where[k]``), itself and its keys, unknown ones noted.
+
+        A list that is not one, or is empty, and an item that is not a mapping, are noted with ``why``.
+        """
+        if not isinstance(located.value, list) or not located.value:
+            self.problem(located, where, why)
+            return
+        for k, item in enumerate(located.value):
+            if not isinstance(item.value, dict):
+                self.problem(item, f"{where}[{k}]", why)
+                continue
+            self.known_keys(item, f"{where}[{k}]", allowed)
+            yield f"{where}[{k}]", item, item.value
+
     def known_keys(self, located: Located, where: str, allowed: tuple[str, ...]) -> None:
         """Notes each key of the mapping ``located`` that is not one of ``allowed``, with a did-you-mean."""
         for key in located.value:
@@ -365,17 +382,8 @@ class _Reader(ExerciseReader):
         """``[{zone: NAME or box: / circle:, front_mm / bump / tilt_deg, heading_deg: [FROM, TO]}, ...]``."""
         why = ("where: is a list of areas and what the sensors report in each, e.g. "
                "[{box: {from_mm: [1500, 0], to_mm: [2000, 2000]}, front_mm: 80}]")  # fmt: skip
-        if not isinstance(located.value, list) or not located.value:
-            self.problem(located, where, why)
-            return ()
         areas = []
-        for k, item in enumerate(located.value):
-            at = f"{where}[{k}]"
-            if not isinstance(item.value, dict):
-                self.problem(item, at, why)
-                continue
-            doc: dict[str, Located] = item.value
-            self.known_keys(item, at, AREA_KEYS)
+        for at, item, doc in self.mappings(located, where, why, AREA_KEYS):
             places = [key for key in ("zone", "box", "circle") if key in doc]
             if len(places) != 1:
                 self.problem(item, at, "an area is one of zone: (a zone of the world), box: or circle: (as a world's)")
@@ -536,17 +544,8 @@ class _Reader(ExerciseReader):
     def servos(self, located: Located, where: str) -> tuple[tuple[int, tuple[int, ...]], ...]:
         """``[{id: 0, angles: [-60, -30]}, ...]``: each angle a servo was sent to, in order."""
         why = "servos: is a list of {id: SERVO, angles: [...]}, e.g. [{id: 0, angles: [-60, 0, 60]}]"
-        if not isinstance(located.value, list) or not located.value:
-            self.problem(located, where, why)
-            return ()
         servos: dict[int, tuple[int, ...]] = {}
-        for k, item in enumerate(located.value):
-            at = f"{where}[{k}]"
-            if not isinstance(item.value, dict):
-                self.problem(item, at, why)
-                continue
-            doc: dict[str, Located] = item.value
-            self.known_keys(item, at, SERVO_KEYS)
+        for at, item, doc in self.mappings(located, where, why, SERVO_KEYS):
             missing = [key for key in SERVO_KEYS if key not in doc]
             if missing:
                 self.problem(item, at, f"'{missing[0]}' is missing: {why}")

@@ -24,6 +24,7 @@ from autonomy.errors import LinkError
 from autonomy.record import NodeInfo, Record, RunEnd, RunHeader, TickRecord
 from autonomy.runner import FAILED, INTERRUPTED, SUCCEEDED, TIME_LIMIT
 from autonomy.scenarios.files import STATUSES, NodeCheck, Scenario, ScenarioFile
+from autonomy.words import plural
 
 
 class NodeWatch:
@@ -308,19 +309,15 @@ def _run_seed(tests: ScenarioFile, scenario: Scenario, seed: Seed, coverage: Cov
     return SeedOutcome(seed.label, facts.outcome, round(facts.time_s, 2), failures, running)
 
 
-def _count(n: int, what: str) -> str:
-    return f"{n} {what}" + ("" if n == 1 else "s")
-
-
 def _measured(scenario: Scenario, facts: RunFacts) -> list[str]:
     """What the run's beeps, distance and servo moves did where the scenario expects otherwise, a line each."""
     failures = []
     audible = facts.sounded
     if scenario.beeps is not None and len(audible) != scenario.beeps:
         silent = len(facts.beeps) - len(audible)
-        also = f" (and {_count(silent, 'silent one')}, at volume 0)" if silent else ""
+        also = f" (and {plural(silent, 'silent one')}, at volume 0)" if silent else ""
         failures.append(
-            f"expected {_count(scenario.beeps, 'beep')}, but it beeped {_count(len(audible), 'time')}{also}"
+            f"expected {plural(scenario.beeps, 'beep')}, but it beeped {plural(len(audible), 'time')}{also}"
         )
     if scenario.beep_volume is not None:
         other = next((beep for beep in audible if beep.volume != scenario.beep_volume), None)

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import shutil
 from pathlib import Path
 
 import pytest
@@ -14,28 +13,14 @@ from autonomy.record import NodeInfo
 from autonomy.scenarios import Coverage, ScenariosInvalid, load_scenarios, run_scenario
 from autonomy.scenarios.files import NodeCheck
 from autonomy.scenarios.running import NodeWatch
-
-ROOT = Path(__file__).resolve().parents[2]
-MISSIONS = ROOT / "missions"
-
-
-def scenario_file(folder: Path, text: str, mission: str = "move_until_wall") -> Path:
-    """``text`` as ``MISSION.test.yaml`` beside a copy of the shipped mission."""
-    shutil.copy(MISSIONS / f"{mission}.yaml", folder / f"{mission}.yaml")
-    path = folder / f"{mission}.test.yaml"
-    path.write_text(text, encoding="utf-8")
-    return path
+from tests.emulator.test_firmware import exchange
+from tests.scenarios.test_scenarios import MISSIONS, ROOT, scenario_file
 
 
 def problems_of(path: Path) -> list[str]:
     with pytest.raises(ScenariosInvalid) as raised:
         load_scenarios(path)
     return [str(p).replace(str(path), "F") for p in raised.value.problems]
-
-
-def exchange(emulator: Emulator, data: bytes) -> bytes:
-    emulator.receive(data)
-    return emulator.read_ready()
 
 
 def test_a_script_s_refusals_are_answered_no_from_their_time_on_and_a_stop_never_is():
