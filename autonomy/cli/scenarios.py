@@ -17,6 +17,7 @@ from autonomy.cli.common import (
     EXIT_USAGE,
     _bounded,
     _fail,
+    _interrupt,
     _problems,
     _shown,
 )
@@ -58,6 +59,7 @@ def cmd_test(args: argparse.Namespace) -> int:
     jobs = args.jobs or ((os.cpu_count() or 1) if most_s > PARALLEL_FROM_S else 1)
     total = sum(len(tests.scenarios) for tests in files)
     signal.signal(signal.SIGTERM, _interrupt)  # as Ctrl-C: the workers ended, the run said interrupted
+    signal.signal(signal.SIGINT, _interrupt)  # Ctrl-C as the command's (Interrupted), never a plugin's problem
     try:
         for tests, outcome, seen in run_all(files, jobs):
             for node, statuses in seen.items():
@@ -99,7 +101,11 @@ def cmd_test(args: argparse.Namespace) -> int:
             )
             if args.coverage:
                 print(coverage_table(coverage))
-    scores = _mutation(args, files, outcomes) if args.mutate else []
+    try:
+        scores = _mutation(args, files, outcomes) if args.mutate else []
+    except KeyboardInterrupt:  # Ctrl-C while the mutants run: the scenarios' results stand, said above
+        print("autonomy: interrupted while trying the mutants: no mutation score", file=sys.stderr)
+        return EXIT_INTERRUPTED
     if args.json and scores:
         report["mutation"] = [
             {"file": str(tests.path), "mission": str(tests.mission), "percent": round(score.percent, 1),
@@ -134,10 +140,6 @@ def _by_mission(files: list[Any]) -> list[Any]:
             replace(merged[key], scenarios=[*merged[key].scenarios, *tests.scenarios]) if key in merged else tests
         )
     return list(merged.values())
-
-
-def _interrupt(*_: object) -> None:
-    raise KeyboardInterrupt
 
 
 def _outputs_refused(args: argparse.Namespace, files: list[Any]) -> str:

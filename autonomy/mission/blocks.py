@@ -424,6 +424,9 @@ def _outline(spec: NodeSpec, comments: dict[int, list[str]]) -> Outline:
 def outline_of(spec: MissionSpec, text: str = "") -> MissionOutline:
     """The mission's outline, the comments of its ``text`` attached to the nodes they stand before or beside."""
     nodes = list(_walk(spec))
+    if spec.tests_text and spec.tests_text in text:  # its comments are the tests', kept with them: blank lines here
+        at = text.index(spec.tests_text)
+        text = text[:at] + "\n" * spec.tests_text.count("\n") + text[at + len(spec.tests_text) :]
     attached, top = _attach(text, nodes)
     return MissionOutline(
         spec.name,
@@ -543,9 +546,13 @@ def _attach(text: str, nodes: list[NodeSpec]) -> tuple[dict[int, list[str]], lis
 
 
 def _tests_block(text: str) -> bool:
-    """Whether ``text`` is a ``tests:`` block alone: its key, then lines indented under it (or blank, or comments)."""
-    first, *rest = text.split("\n")
-    return first.startswith("tests:") and all(not line.strip() or line[0] in " #" for line in rest)
+    """Whether ``text`` is a ``tests:`` block alone: comments, its key, then lines under it (indented or blank)."""
+    lines = text.split("\n")
+    while lines and lines[0].startswith("#"):
+        lines.pop(0)
+    return (
+        bool(lines) and lines[0].startswith("tests:") and all(not line.strip() or line[0] in " #" for line in lines[1:])
+    )
 
 
 def key_is_top(key: str) -> bool:

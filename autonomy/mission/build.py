@@ -11,6 +11,7 @@ from __future__ import annotations
 import py_trees
 
 from autonomy.behaviours.tree import NodeSource
+from autonomy.errors import Interrupted
 from autonomy.mission.validate import MissionInvalid, MissionSpec, NodeSpec, Problem
 
 
@@ -35,6 +36,8 @@ def build_node(spec: NodeSpec, mission: MissionSpec) -> py_trees.behaviour.Behav
     children = [build_node(child, mission) for child in spec.children]
     try:
         node = spec.type.build(spec.display_name, spec.args, children)
+    except Interrupted:  # Ctrl-C or SIGTERM meanwhile, as the command line raises it: the command's, not the plugin's
+        raise
     except BaseException as err:  # noqa: BLE001 - a plugin's class that cannot be built is the file's problem
         why = f"{type(err).__name__}: {err}".rstrip(": ")
         problem = f"cannot build node '{spec.display_name}' ({spec.type.origin}): {why}"

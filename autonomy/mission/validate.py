@@ -19,7 +19,7 @@ from typing import Any
 from autonomy.behaviours import Param
 from autonomy.behaviours.base import MAX_NUMBER
 from autonomy.emulator.world import SHIPPED, WorldError, WorldInvalid, load_world, world_file
-from autonomy.errors import AutonomyError
+from autonomy.errors import AutonomyError, Interrupted
 from autonomy.mission.registry import BUILTINS, NodeType, Registry, leaf_classes_in, leaf_type
 from autonomy.mission.xml_read import AttributeText, parse_xml
 from autonomy.source import (
@@ -283,6 +283,8 @@ class _Validator:
                 continue
             try:
                 module = import_plugin(item.value, base_dir)
+            except Interrupted:  # Ctrl-C or SIGTERM meanwhile, as the command line raises it: the command's
+                raise
             except BaseException as err:  # noqa: BLE001 - sys.exit() or Ctrl-C raised by a plugin is its file's fault
                 why = str(err) if isinstance(err, PluginNotFound) else f"{type(err).__name__}: {err}".rstrip(": ")
                 self.problem(item, path, f"cannot import plugin '{item.value}': {why}")
@@ -753,10 +755,15 @@ def validate_text(
 
 
 def top_level_block(text: str, root: Located, key: str) -> str:
-    """The lines of ``text`` that hold the top-level ``key`` and its value, as written (up to the next key)."""
+    """The lines of ``text`` that hold the top-level ``key`` and its value, as written (up to the next key).
+
+    The comment lines right above the key are its, too.
+    """
     lines = text.splitlines()
     first = root.keys[key][0]
     after = [line for line, _ in root.keys.values() if line > first]
+    while first > 1 and lines[first - 2].startswith("#"):
+        first -= 1
     block = lines[first - 1 : (min(after) - 1) if after else len(lines)]
     while block and not block[-1].strip():
         block.pop()

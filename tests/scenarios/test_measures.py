@@ -432,3 +432,43 @@ def test_check_scenario_refuses_a_value_no_scenario_file_could_hold_with_its_own
 
     with pytest.raises(ScenariosInvalid, match=r"check_scenario:1:1: a scenario's values are numbers, text"):
         check_scenario(MISSIONS / "move_until_wall.yaml", world="box", expect={"within_s": object()})
+
+
+def test_ctrl_c_while_the_mutants_run_says_so_and_exits_130():
+    import os
+    import signal
+    import subprocess
+    import sys
+
+    process = subprocess.Popen(
+        [sys.executable, "-m", "autonomy", "test", "missions/", "--mutate"],
+        cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        env={**os.environ, "PYTHONUNBUFFERED": "1"},  # each line as it is said, not at the end
+    )  # fmt: skip
+    assert process.stdout is not None
+    for line in process.stdout:  # the first mission's mutants are said: the six others' are being tried
+        if line.startswith("mutants of beep_on_collision.yaml"):
+            break
+    process.send_signal(signal.SIGINT)  # Ctrl-C (the command takes it, even where a test runner had it ignored)
+    _, errors = process.communicate(timeout=60)
+    assert process.returncode == 130
+    assert errors == "autonomy: interrupted while trying the mutants: no mutation score\n"
+
+
+def test_the_command_s_own_interrupt_while_a_plugin_loads_or_builds_is_no_problem_of_its_file(tmp_path):
+    from autonomy.errors import Interrupted
+    from autonomy.mission import MissionInvalid, build_tree, validate_text
+
+    (tmp_path / "slow.py").write_text("from autonomy.errors import Interrupted\nraise Interrupted\n")
+    with pytest.raises(Interrupted):  # as if Ctrl-C came while it was imported: the command ends
+        validate_text("mission: m\nplugins: [slow]\ntree: stop\n", "m.yaml", tmp_path)
+    (tmp_path / "sneaky.py").write_text("raise KeyboardInterrupt\n")  # the plugin's own: its file's problem
+    with pytest.raises(MissionInvalid, match="cannot import plugin 'sneaky': KeyboardInterrupt"):
+        validate_text("mission: m\nplugins: [sneaky]\ntree: stop\n", "m.yaml", tmp_path)
+    (tmp_path / "node.py").write_text(
+        "from autonomy.behaviours import RobotAction\nfrom autonomy.errors import Interrupted\n\n\n"
+        "class Halt(RobotAction):\n    node_type = 'halt'\n\n    def __init__(self, name, **args):\n"
+        "        raise Interrupted\n\n    def update(self):\n        return None\n"
+    )
+    with pytest.raises(Interrupted):  # as if Ctrl-C came while its node was built
+        build_tree(validate_text("mission: m\nplugins: [node]\ntree: halt\n", "m.yaml", tmp_path))

@@ -108,7 +108,7 @@ def test_pytest_collects_a_mission_s_tests(tmp_path):
 
 def test_the_blocks_keep_a_mission_s_tests_as_written_and_take_no_other_text_for_them(tmp_path):
     spec = validate_text(APPROACH, "approach.yaml", check_world=False)
-    tests = APPROACH[APPROACH.index("tests:") :]
+    tests = APPROACH[APPROACH.index("# its scenarios") :]  # the comment right above it is its too
     assert spec.tests_text == tests
     canonical = canonical_text(spec, APPROACH)
     assert canonical.endswith(tests) and canonical.count("tests:") == 1

@@ -213,6 +213,37 @@ def test_a_block_is_added_and_the_file_saved_with_the_keyboard_alone(browser, ed
     assert path.read_text() == "mission: m\ntree:\n  sequence:\n    - stop\n    - move: {speed: 2}\n"
 
 
+def test_a_mission_s_own_tests_stay_as_written_when_a_block_is_added_and_saved_with_the_keyboard(browser, editing):
+    tests = "# its scenario\ntests:\n  - name: it stops\n    world: box\n    expect: {outcome: succeeded}  # at once\n"
+    url, path = editing("mission: m\ntree:\n  sequence:\n    - stop\n" + tests)
+    page = open_page(browser, url)
+    try:
+        for _ in range(6):  # the buttons, then the toolbox
+            press(page, "Tab")
+        press(page, "w", "stack of blocks")
+        press(page, "ArrowDown", "mission")
+        press(page, "ArrowDown", "do these one after another")
+        press(page, "ArrowDown", "stop")
+        press(page, "ArrowDown", "End do these one after another")
+        press(page, "t")
+        press(page, "ArrowDown")
+        press(page, "ArrowDown")
+        press(page, "ArrowRight", "move, forward, at speed")
+        press(page, "Enter")
+        press(page, "Enter")
+        until(page, "text.value.includes('- move: {speed: 2}')")
+        page.screenshot(path=str(path.with_suffix(".png")))
+        page.keyboard.press("Shift+Tab")
+        while "save" not in focused(page):
+            page.keyboard.press("Shift+Tab")
+        press(page, "Enter")
+        until(page, "document.getElementById('status').textContent.startsWith('Saved')")
+        assert violations(page) == []
+    finally:
+        page.close()
+    assert path.read_text() == "mission: m\ntree:\n  sequence:\n    - stop\n    - move: {speed: 2}\n" + tests
+
+
 def test_axe_finds_nothing_on_the_editor_with_blocks_a_problem_and_the_toolbox_open(browser, editing):
     url, _ = editing((ROOT / "missions" / "patrol.yaml").read_text())
     page = open_page(browser, url)
