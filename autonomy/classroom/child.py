@@ -26,6 +26,21 @@ class ChildFailed(RuntimeError):
     """The child process ended without a result: its exit code and the last line it said."""
 
 
+def child_command() -> list[str]:
+    """The command that starts a child for this process: it names this process, which it ends with.
+
+    The child is named its parent, rather than asking who that is once it has started: a parent killed
+    while the child still imports would leave it adopted by another process, which it would then outlive
+    as it would its parent.
+    """
+    return [
+        sys.executable,
+        "-c",
+        "import sys; from autonomy.classroom.child import serve; serve(int(sys.argv[1]))",
+        str(os.getpid()),
+    ]
+
+
 def call_in_child(function: Callable[..., T], *args: Any) -> T:
     """``function(*args)``, called in a new Python process (a subprocess, which a daemon may start).
 
@@ -33,7 +48,7 @@ def call_in_child(function: Callable[..., T], *args: Any) -> T:
         ChildFailed: the child ended without a result.
     """
     done = subprocess.run(  # noqa: S603 - this interpreter, this module, the grader's own call
-        [sys.executable, "-m", "autonomy.classroom.child"],
+        child_command(),
         input=pickle.dumps((function, args)),
         capture_output=True,
         check=False,
@@ -73,19 +88,18 @@ def end_with(pid: int, every_s: float = 0.5) -> None:
     threading.Thread(target=watch, name=f"ends with {pid}", daemon=True).start()
 
 
-def _serve() -> None:
+def serve(parent_pid: int) -> None:
     """The child's body: the call from standard input, its result to standard output (nothing else goes there).
 
-    It ends with the process that started it (a Dask worker ended under it: nothing waits for its result).
+    It ends with the process that started it, ``parent_pid`` (a Dask worker ended under it: nothing waits
+    for its result), at once if that one is gone already.
     """
-    end_with(os.getppid())
+    if os.getppid() != parent_pid:  # killed while this process started: adopted by another
+        os._exit(1)
+    end_with(parent_pid)
     out = os.fdopen(os.dup(sys.stdout.fileno()), "wb")
     sys.stdout = sys.stderr  # whatever the call prints is not the result
     function, args = pickle.load(sys.stdin.buffer)  # noqa: S301 - sent by the grader that started this process
     result = function(*args)
     pickle.dump(result, out)
     out.close()
-
-
-if __name__ == "__main__":
-    _serve()

@@ -11,6 +11,7 @@ from pathlib import Path
 import pytest
 
 from autonomy.classroom import find_submissions, grade_class, load_exercise
+from autonomy.classroom.child import alive
 from autonomy.classroom.limits import WALL_PER_CPU, cpu_used_up_why
 from autonomy.classroom.pool import _wall_why
 from autonomy.classroom.results import page_path
@@ -169,15 +170,20 @@ def test_a_worker_ended_by_two_threads_at_once_is_ended_once():
     warm.close()
 
 
-def test_a_grading_child_ends_soon_after_the_process_that_started_it_is_killed(tmp_path):
-    """A Dask daemon's grading child (classroom/child.py) whose worker was killed outright does not live on."""
+@pytest.mark.parametrize("starting", [False, True], ids=["while it grades", "while it still starts"])
+def test_a_grading_child_ends_soon_after_the_process_that_started_it_is_killed(tmp_path, starting):
+    """A Dask daemon's grading child (classroom/child.py) whose worker was killed outright does not live on.
+
+    Killed while the child still imports, the worker leaves it adopted by another process: it must still end.
+    """
     import subprocess
     import sys
 
     script = tmp_path / "parent.py"
     script.write_text(
         "import pickle, subprocess, sys, time\n"
-        "child = subprocess.Popen([sys.executable, '-m', 'autonomy.classroom.child'], stdin=subprocess.PIPE)\n"
+        "from autonomy.classroom.child import child_command\n"
+        "child = subprocess.Popen(child_command(), stdin=subprocess.PIPE)\n"
         "child.stdin.write(pickle.dumps((time.sleep, (3600,))))\n"  # a call that takes an hour, as a long grading
         "child.stdin.close()\n"
         "print(child.pid, flush=True)\n"
@@ -185,8 +191,9 @@ def test_a_grading_child_ends_soon_after_the_process_that_started_it_is_killed(t
     )
     parent = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE, text=True)
     child = int(parent.stdout.readline())
-    time.sleep(0.5)
-    os.kill(child, 0)  # waiting, alive
+    if not starting:
+        time.sleep(1.0)
+        assert alive(child)  # waiting on its hour-long call
     parent.kill()
     parent.wait(10)
     deadline = time.monotonic() + 5
