@@ -230,6 +230,10 @@ class GrootPublisher:
                     reply = self.answer(frames[2:])
                 except Exception as err:  # noqa: BLE001 - a request we cannot answer must not end the publisher
                     reply = [b"error", f"cannot answer: {type(err).__name__}".encode()]
+                # A ROUTER drops an answer, unsaid, to a client whose replies look held past REPLIES_HELD, and
+                # it learns what the client took only when it reads its commands: requests coming back to
+                # back on a busy machine left it counting replies long read, and an honest answer went.
+                self._reply.getsockopt(zmq.EVENTS)  # reads them
                 self._reply.send_multipart(frames[:2] + reply, copy=False)  # large answers: views of one buffer
                 self.requests += 1
         except zmq.ZMQError:  # ETERM: stop() ended the context
