@@ -63,7 +63,7 @@ test-pyyaml: $(STAMP)
 lock:
 	$(PYTHON) -m venv .venv-lock
 	.venv-lock/bin/python -m pip install --quiet uv==$(UV_VERSION)
-	printf 'pip\nsetuptools>=68\n' | .venv-lock/bin/uv pip compile --quiet pyproject.toml - --extra test --extra cluster --universal \
+	printf 'pip\nsetuptools>=68\n' | .venv-lock/bin/uv pip compile --quiet pyproject.toml - --extra test --extra cluster --extra calibrate --universal \
 		--python-version 3.10 --generate-hashes --upgrade --custom-compile-command 'make lock' --output-file $(LOCK)
 
 ## fuzz: the fuzz tests run long: 100,000 mutants, texts and reply byte strings, 10,000 YAML documents
@@ -97,6 +97,7 @@ bench: $(STAMP)
 	$(BIN)/python benchmarks/attacks.py
 	$(BIN)/python benchmarks/overview.py
 	$(BIN)/python benchmarks/blocks.py
+	$(BIN)/python benchmarks/calibration.py
 
 ## vendor: the built browser libraries the package ships (Blockly, CodeMirror), anew from package-lock.json; needs node and npm
 vendor:

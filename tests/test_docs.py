@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from autonomy.classroom import load_exercise
-from autonomy.emulator import load_world
+from autonomy.emulator import load_profile, load_world
 from autonomy.mission import validate_text
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -56,14 +56,21 @@ def test_a_yaml_block_of_the_docs_is_taken_as_it_stands(page, number, block, tmp
         spec = validate_text(block, where, base_dir=base)  # raises with every problem
         assert spec.name
     elif first == "exercise":
+        robot = re.search(r"^robot: ([\w.-]+)", block, re.M)
+        if robot:  # the robot profile it names, beside it as the page says
+            (tmp_path / robot.group(1)).write_text("name: robot\n")
         (tmp_path / "exercise.yaml").write_text(block)
         assert load_exercise(tmp_path / "exercise.yaml").criteria
+    elif first == "name" and not re.search(r"^arena_mm:", block, re.M):  # a robot profile
+        (tmp_path / "robot.yaml").write_text(block)
+        assert load_profile(tmp_path / "robot.yaml").name
     elif first == "name":
         (tmp_path / "world.yaml").write_text(block)
         assert load_world(tmp_path / "world.yaml").width_mm > 0
     else:
         pytest.fail(
-            f"{where} is not a mission, an exercise, a world or a scenario file (# NAME.test.yaml first): say which"
+            f"{where} is not a mission, an exercise, a world, a robot profile or a scenario file "
+            "(# NAME.test.yaml first): say which"
         )
 
 

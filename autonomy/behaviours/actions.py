@@ -6,6 +6,7 @@ Motion actions stop the robot themselves when they end, and when they are halted
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 from py_trees.common import Status
@@ -30,7 +31,11 @@ class WrongWay:
     windows of at least :attr:`WINDOW_S`, so that whole-unit readings at high tick rates do not
     hide the slowing down. It counts as going the wrong way once two windows in a row go
     backward by more than ``step_limit`` each without getting smaller, or once the wrong-way
-    travel adds up to ``total_limit``.
+    travel adds up to ``total_limit``. When the robot was moving as the motion started, a window
+    that ends within :attr:`RESPONSE_S` of the start is not held against it: a robot acts on a
+    command a moment after it was sent (the link, its motors: ``command_delay_s`` in a robot
+    profile), and goes on as it was meanwhile, not slowing. A robot at rest has nothing to go on
+    with: whatever way it goes is the command's.
 
     Args:
         step_limit: Smallest wrong-way travel in a window that counts (mm or degrees); also the
@@ -39,18 +44,21 @@ class WrongWay:
     """
 
     WINDOW_S = 0.05
+    #: How long after a command the robot may go on as it was (a real robot's delay is 20 to 100 ms).
+    RESPONSE_S = 0.15
 
     def __init__(self, step_limit: float, total_limit: float) -> None:
         self.step_limit, self.total_limit = step_limit, total_limit
         self.reset(0.0)  # pragma: no mutate - every motion resets it at its start
 
-    def reset(self, now_s: float) -> None:
-        """Starts anew, for a motion starting at ``now_s``."""
+    def reset(self, now_s: float, rolling: bool = False) -> None:
+        """Starts anew, for a motion starting at ``now_s`` (``rolling``: with the robot still moving)."""
         self._total = 0.0
         self._window = 0.0
         self._window_start_s = now_s
         self._last_window = 0.0
         self._backward = 0
+        self._respond_by_s = now_s + self.RESPONSE_S if rolling else -math.inf
 
     def update(self, step: float, now_s: float) -> float:
         """Takes one tick's progress (positive: the asked way); returns the wrong-way travel once it counts, else 0."""
@@ -59,7 +67,7 @@ class WrongWay:
         self._window += step
         if now_s - self._window_start_s >= self.WINDOW_S - 1e-9:
             window, self._window, self._window_start_s = self._window, 0.0, now_s
-            slowing = window > self._last_window + self.step_limit
+            slowing = window > self._last_window + self.step_limit or now_s < self._respond_by_s
             self._backward = self._backward + 1 if window < -self.step_limit and not slowing else 0
             self._last_window = window
         if self._backward >= 2 or -self._total >= self.total_limit:
@@ -134,7 +142,7 @@ class Move(RobotAction):
 
     def initialise(self) -> None:
         """Notes where it starts and sends ``F``."""
-        self._wrong_way.reset(self.clock.now())
+        self._wrong_way.reset(self.clock.now(), self.robot_status.moving)
         status = self.robot_status
         self._start_odometer_mm = self._last_odometer_mm = status.odometer_mm
         # A collision flag still held from an earlier impact is not this move's collision.
@@ -243,7 +251,7 @@ class Turn(RobotAction):
     def initialise(self) -> None:
         """Sends ``T`` and starts following the heading."""
         self._turned_deg = 0.0
-        self._wrong_way.reset(self.clock.now())
+        self._wrong_way.reset(self.clock.now(), self.robot_status.moving)
         self._last_heading = self.robot_status.heading_deg
         expected_s = abs(self.angle_deg) / self.context.turn_rate_deg_s
         self._deadline_s = self.clock.now() + expected_s * self.TIMEOUT_FACTOR + self.TIMEOUT_MARGIN_S

@@ -27,6 +27,7 @@ from autonomy.classroom.criteria import CriteriaReader, Criterion
 from autonomy.classroom.results import SeedResult
 from autonomy.classroom.secret import hidden_seed
 from autonomy.emulator.faults import FaultSpec, FaultSpecError
+from autonomy.emulator.profile import ProfileInvalid, load_profile
 from autonomy.emulator.world import SHIPPED, World, WorldError, WorldInvalid, load_world, world_file
 from autonomy.errors import AutonomyError
 from autonomy.mission.registry import BUILTINS
@@ -37,6 +38,7 @@ TOP_LEVEL = (
     "title",
     "description",
     "world",
+    "robot",
     "time_limit_s",
     "seeds",
     "hidden_seeds",
@@ -85,6 +87,8 @@ class Exercise:
     source: str
     hidden_seeds: int = 0
     solution: str = ""
+    #: The robot profile every seed runs as (its file's path), or empty: the emulator's defaults.
+    robot_ref: str = ""
 
     @property
     def max_points(self) -> float:
@@ -158,7 +162,8 @@ class ExerciseReader(CriteriaReader):
         allowed = self.allowed(doc["allowed_nodes"]) if "allowed_nodes" in doc else None
         criteria = self.criteria(doc["criteria"], world) if "criteria" in doc else []
         solution = self.solution(doc["solution"]) if "solution" in doc else ""
-        if self.problems or world is None or limit is None or name is None or solution is None:
+        robot = self.robot(doc["robot"]) if "robot" in doc else ""
+        if self.problems or world is None or limit is None or name is None or solution is None or robot is None:
             return None
         return Exercise(
             name,
@@ -173,7 +178,27 @@ class ExerciseReader(CriteriaReader):
             self.label,
             int(hidden or 0),
             solution,
+            robot,
         )
+
+    def robot(self, located: Located) -> str | None:
+        """The robot profile file named there, beside the exercise (its path), or None and a problem noted."""
+        name = self.text(located, "robot")
+        if name is None:
+            return None
+        path = Path(name) if Path(name).is_absolute() else self.base_dir / name
+        if not is_file(path):
+            self.problem(located, "robot", f"the robot profile '{name}' is not there (beside the {self.kind}: {path})")
+            return None
+        try:
+            load_profile(path)
+        except ProfileInvalid as err:
+            self.problem(
+                located, "robot", f"the robot profile {path} is not valid ({len(err.problems)} listed with its name)"
+            )
+            self.problems += err.problems
+            return None
+        return str(path)
 
     def solution(self, located: Located) -> str | None:
         """The teacher's solution: a mission file beside the exercise, which ``autonomy check`` grades.

@@ -101,7 +101,7 @@ def build_autograder(exercise: Exercise, exercise_path: Path, secret: bytes | No
     """The autograder zip for ``exercise`` (read from ``exercise_path``), its hidden seeds drawn from ``secret``.
 
     Raises:
-        AutograderError: the exercise's world is a file that does not lie beside it (or below).
+        AutograderError: the exercise's world, or its robot profile, is a file that does not lie beside it (or below).
     """
     files: list[tuple[str, bytes]] = [
         ("setup.sh", SETUP.encode()),
@@ -123,6 +123,16 @@ def build_autograder(exercise: Exercise, exercise_path: Path, secret: bytes | No
                 "folder (or below it), so that the autograder has it"
             ) from None
         files.append((f"exercise/{inside.as_posix()}", world.read_bytes()))
+    if exercise.robot_ref:
+        robot = Path(exercise.robot_ref).resolve()
+        try:
+            inside = robot.relative_to(exercise_path.resolve().parent)
+        except ValueError:
+            raise AutograderError(
+                f"the exercise's robot profile {exercise.robot_ref} is not beside it: put it in the exercise's "
+                "folder (or below it), so that the autograder has it"
+            ) from None
+        files.append((f"exercise/{inside.as_posix()}", robot.read_bytes()))
     if secret:
         files.append(("secret.txt", secret + b"\n"))
     out = io.BytesIO()

@@ -139,13 +139,14 @@ def check_text(
 
 
 def seed_url(exercise: Exercise, seed: Seed, virtual: bool = True, more: dict[str, object] | None = None) -> str:
-    """The ``emu://`` address a seed of the exercise is run on: its world, the seed, its noise and faults.
+    """The ``emu://`` address a seed of the exercise is run on: its world, its robot, the seed, its noise and faults.
 
     ``more`` are further emulator options (``battery``), as ``emu://`` takes them.
     """
     options: dict[str, object] = {"world": exercise.world_ref, "seed": seed.seed}
     options |= {"time": "virtual"} if virtual else {}
     options |= {"noise": seed.noise_mm} | ({"faults": seed.faults} if seed.faults else {}) | (more or {})
+    options |= {"profile": exercise.robot_ref} if exercise.robot_ref else {}
     # a world file's path may hold bytes that are not UTF-8: they go through the URL as they are
     return "emu://?" + urlencode(options, errors="surrogateescape")
 

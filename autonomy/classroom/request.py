@@ -201,6 +201,7 @@ def _check_outputs(request: GradeRequest, inputs: set[Path]) -> None:
     inputs |= {p.resolve() for _, p in request.submissions}
     world = request.exercise.world_ref
     inputs |= {Path(world).resolve()} if world not in SHIPPED else set()  # a world's file
+    inputs |= {Path(request.exercise.robot_ref).resolve()} if request.exercise.robot_ref else set()  # its robot
     for _, given in request.submissions:  # a folder's files: a mission, a plugin
         try:
             inputs |= {p.resolve() for p in given.iterdir()} if given.is_dir() else set()

@@ -16,7 +16,7 @@ import sys
 from collections.abc import Sequence
 
 from autonomy import __version__
-from autonomy.cli import exercises, grade, liveclass, missions, robot, runs, scenarios, world
+from autonomy.cli import calibrate, exercises, grade, liveclass, missions, robot, runs, scenarios, world
 from autonomy.cli.common import EXIT_INTERRUPTED, EXIT_OK, _Parser, _silence_stdout
 
 
@@ -34,6 +34,7 @@ def build_parser() -> argparse.ArgumentParser:
     liveclass.add_parsers(sub)
     missions.add_parsers(sub)
     scenarios.add_parsers(sub)
+    calibrate.add_parsers(sub)
     return parser
 
 

@@ -21,7 +21,7 @@ def cmd_emulator(args: argparse.Namespace) -> int:
     if args.pty and args.rfc2217:
         return _fail("--rfc2217 is for --tcp: a pseudo-terminal carries the client's baud rate itself", EXIT_USAGE)
     options = {"world": args.world, "seed": str(args.seed), "faults": args.faults, "baud": str(args.baud)}
-    for key in ("battery", "noise", "mode", "boot"):
+    for key in ("battery", "noise", "mode", "boot", "profile"):
         if getattr(args, key) is not None:
             options[key] = str(getattr(args, key))
     try:
@@ -44,7 +44,8 @@ def cmd_emulator(args: argparse.Namespace) -> int:
                 file=sys.stderr,
                 flush=True,
             )
-        said = f"emulated robot in world '{emulator.world.name}', {args.baud} baud, faults: {emulator.faults}"
+        robot = f" as robot profile '{args.profile}'" if args.profile else ""
+        said = f"emulated robot in world '{emulator.world.name}'{robot}, {args.baud} baud, faults: {emulator.faults}"
         print(f"{said}; Ctrl-C to stop", file=sys.stderr, flush=True)
         server.serve_forever()
     except KeyboardInterrupt:
@@ -122,6 +123,9 @@ def add_parsers(sub: Any) -> None:
     )
     emu.add_argument("--battery", type=float, metavar="LEVEL", help="battery level at start, 0..255 (default 230)")
     emu.add_argument("--noise", type=float, metavar="MM", help="front sensor noise, standard deviation (default 0)")
+    emu.add_argument(
+        "--profile", metavar="FILE", help="the robot's own settings: a robot profile, as `autonomy calibrate` writes it"
+    )
     emu.add_argument("--mode", choices=("auto", "manual"), help="auto or manual mode at start (default auto)")
     emu.add_argument("--boot", type=float, metavar="S", help="seconds the robot ignores input after start (default 0)")
     emu.set_defaults(func=cmd_emulator)

@@ -95,6 +95,12 @@ def _choose_port(args: argparse.Namespace, spec: Any) -> tuple[str, str, str]:
     if not port.lower().startswith("emu://"):
         if args.fast:
             return port, "", "--fast runs in virtual time, which needs the built-in emulator (leave out --port)"
+        if getattr(args, "profile", None):
+            return (
+                port,
+                "",
+                f"--profile is the built-in emulator's robot; {port} is a robot of its own (leave out --port)",
+            )
         if args.world:
             return (
                 port,
@@ -127,10 +133,17 @@ def _choose_port(args: argparse.Namespace, spec: Any) -> tuple[str, str, str]:
         world, origin = "box", "the default; the mission names none"
     if not in_port:
         port += ("&" if "?" in port else "?") + f"world={quote(world, safe='/')}"
+    profile = getattr(args, "profile", None)
+    if profile and options.get("profile") and options["profile"] != profile:
+        return port, "", f"--profile {profile} and profile={options['profile']} in --port disagree: give one of them"
+    if profile and not options.get("profile"):
+        port += f"&profile={quote(profile, safe='/')}"
+    profile = profile or options.get("profile")
     if args.fast and "time=" not in port:
         port += "&time=virtual"
     time_text = "virtual time" if "time=virtual" in port else "real time"
-    return port, f"in world '{world}' ({origin}) on the built-in emulator, in {time_text}", ""
+    robot = f" as robot profile '{profile}'" if profile else ""
+    return port, f"in world '{world}' ({origin}) on the built-in emulator{robot}, in {time_text}", ""
 
 
 def _print_crash(end: Any, debug: bool) -> None:
@@ -250,6 +263,15 @@ def cmd_run(args: argparse.Namespace) -> int:
 
         try:
             load_world(args.world)
+        except WorldError as err:
+            return _world_failed(err)
+    if args.profile is not None:
+        if args.exercise:
+            return _fail("--exercise runs on the exercise's own robot, as graded: leave out --profile", EXIT_USAGE)
+        from autonomy.emulator import load_profile
+
+        try:
+            load_profile(args.profile)
         except WorldError as err:
             return _world_failed(err)
     port, where, error = _choose_port(args, spec)
@@ -510,6 +532,11 @@ def add_parsers(sub: Any) -> None:
     run.add_argument("--baud", type=int, choices=SUPPORTED_BAUD_RATES, default=DEFAULT_BAUD)
     run.add_argument("--world", metavar="NAME|PATH", help="the emulator's arena (overrides the mission's world)")
     run.add_argument("--fast", action="store_true", help="virtual time: as fast as the machine allows (emulator only)")
+    run.add_argument(
+        "--profile",
+        metavar="FILE",
+        help="the emulated robot's own settings: a robot profile, as `autonomy calibrate` writes it",
+    )
     run.add_argument("--max-seconds", type=_positive, metavar="S", help="stop the mission after this long")
     run.add_argument(
         "--exercise",

@@ -6,6 +6,7 @@ Reach it in-process with the ``emu://`` URL, over TCP with ``socket://`` (see
 
 from autonomy.emulator.core import OPTIONS, Emulator, Exchange, emulator_from_options
 from autonomy.emulator.faults import FaultSpec, FaultSpecError
+from autonomy.emulator.profile import Profile, ProfileInvalid, load_profile, parse_profile_text, profile_text
 from autonomy.emulator.robot import Robot, RobotParams
 from autonomy.emulator.world import (
     Box,
@@ -31,6 +32,8 @@ __all__ = [
     "FaultSpecError",
     "Jitter",
     "Pose",
+    "Profile",
+    "ProfileInvalid",
     "Robot",
     "RobotParams",
     "World",
@@ -38,7 +41,10 @@ __all__ = [
     "WorldInvalid",
     "Zone",
     "emulator_from_options",
+    "load_profile",
     "load_world",
+    "parse_profile_text",
     "parse_world_text",
+    "profile_text",
     "world_from_dict",
 ]

@@ -19,6 +19,7 @@ from typing import Any, NamedTuple
 from autonomy.clock import Clock, RealClock, VirtualClock
 from autonomy.emulator.faults import FaultSpec
 from autonomy.emulator.firmware import Firmware
+from autonomy.emulator.profile import load_profile
 from autonomy.emulator.robot import Robot, RobotParams
 from autonomy.emulator.world import Pose, World, load_world
 from autonomy.protocol import FRAME_LENGTH, NEWLINE, NO, Command
@@ -298,7 +299,7 @@ class Emulator:
             self.advance()
             self.robot.auto_mode = auto
             if not auto:
-                self.robot.stop()
+                self.robot.halt()
 
 
 #: Options an emu:// URL and ``autonomy emulator`` accept, with what each means.
@@ -310,6 +311,7 @@ OPTIONS = {
     "baud": "the baud rate the emulated robot is set to (default 57600)",
     "battery": "battery level at start, 0..255 (default 230)",
     "noise": "front sensor noise, standard deviation in mm (default 0)",
+    "profile": "a robot profile (YAML): the robot's own settings, as autonomy calibrate fits them (default none)",
     "mode": "auto or manual (default auto)",
     "boot": "seconds the robot ignores input after start, like a board that resets on open (default 0)",
 }
@@ -320,6 +322,7 @@ def emulator_from_options(options: dict[str, str], clock: Clock | None = None) -
 
     Raises:
         ValueError: an unknown option or a value that cannot be used; the message says which.
+        WorldError: the world, or the robot profile, cannot be found or read (:class:`ProfileInvalid`).
     """
     unknown = set(options) - set(OPTIONS)
     if unknown:
@@ -335,6 +338,8 @@ def emulator_from_options(options: dict[str, str], clock: Clock | None = None) -
         return value
 
     params = RobotParams()
+    if options.get("profile"):  # the robot's own settings; battery and noise, when given, say otherwise
+        params = load_profile(options["profile"]).params
     if "battery" in options:
         params = replace(params, battery_start=number("battery", float, 230, 0, 255))
     if "noise" in options:

@@ -11,7 +11,10 @@ from __future__ import annotations
 
 import math
 import random
+from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 from autonomy.emulator.script import SensorScript
 from autonomy.emulator.world import EPSILON_MM, ROBOT_RADIUS_MM, SENSOR_CONE_DEG, Pose, World
@@ -35,12 +38,15 @@ class RobotParams:
 
     #: Wheel diameter; one revolution moves the robot ``pi * wheel_diameter_mm``.
     wheel_diameter_mm: float = 68.0
-    #: Wheel velocity of speed settings 1..4, in the ``V`` units (20 = one revolution per second).
-    speed_setting_v: tuple[int, int, int, int] = (10, 20, 30, 40)
+    #: Wheel velocity of speed settings 1..4, in the ``V`` units (20 = one revolution per second); a
+    #: calibrated robot's are fractions.
+    speed_setting_v: tuple[float, float, float, float] = (10, 20, 30, 40)
     #: How fast the robot speeds up and slows down.
     acceleration_mm_s2: float = 1500.0
     #: Turn-in-place rate.
     turn_rate_deg_s: float = 90.0
+    #: How long after a motion command (move, turn, stop) the motors act on it.
+    command_delay_s: float = 0.0
     #: Radius of the robot's footprint (a circle) used for collisions.
     body_radius_mm: float = ROBOT_RADIUS_MM
     #: Servo slew rate.
@@ -51,6 +57,9 @@ class RobotParams:
     sensor_cone_deg: float = SENSOR_CONE_DEG
     #: Standard deviation of the sensor's noise (0: exact, rounded to whole mm).
     sensor_noise_mm: float = 0.0
+    #: The sensor reads ``sensor_scale`` times the true distance plus ``sensor_offset_mm`` (then its noise).
+    sensor_scale: float = 1.0
+    sensor_offset_mm: float = 0.0
     #: Battery level at power-on, 0..255.
     battery_start: float = 230.0
     #: Battery drain while idle and the extra drain while driving or turning, in levels per second.
@@ -141,6 +150,8 @@ class Robot:
         #: The last time the wheels turned or the robot turned in place, simulated seconds.
         self.moved_s = 0.0
         self._accel_mm_s2 = 0.0
+        #: Motion commands received and not yet acted on (``command_delay_s``): (due_s, action, its arguments).
+        self._pending: deque[tuple[float, Callable[..., None], tuple[Any, ...]]] = deque()
         self._rng = random.Random(self.seed)
         # Where the clearance was last measured, and how far the body could move from there
         # before touching anything: steps that stay inside that bound need no new measurement.
@@ -230,7 +241,9 @@ class Robot:
                 return scripted
         p = self.params
         # beyond its range plus ten standard deviations of noise, nothing can read below the range
-        gap = self.true_front_gap_mm(p.sensor_max_mm + 10 * p.sensor_noise_mm + 1)
+        scale = p.sensor_scale
+        reach = (p.sensor_max_mm - p.sensor_offset_mm + 10 * p.sensor_noise_mm) / scale + 1
+        gap = self.true_front_gap_mm(reach) * scale + p.sensor_offset_mm
         if p.sensor_noise_mm:
             gap += self._rng.gauss(0.0, p.sensor_noise_mm)
         if gap >= p.sensor_max_mm:
@@ -246,23 +259,45 @@ class Robot:
     # ------------------------------------------------------------------ commands
 
     def move(self, setting: int, backward: bool = False) -> None:
-        """Drives at speed setting 1..4; replaces a turn in progress."""
+        """Drives at speed setting 1..4; replaces a turn in progress (``command_delay_s`` from now)."""
+        self._command(self._move, setting, backward)
+
+    def turn(self, angle_deg: float) -> None:
+        """Turns in place by ``angle_deg`` (left positive), replacing a move, ``command_delay_s`` from now."""
+        self._command(self._turn, angle_deg)
+
+    def stop(self) -> None:
+        """Cancels every movement (``command_delay_s`` from now); the wheels slow down at the acceleration limit."""
+        self._command(self._stop)
+
+    def halt(self) -> None:
+        """Cancels every movement at once, and the commands not yet acted on (the remote took over, a fall)."""
+        self._pending.clear()
+        self._stop()
+
+    def _command(self, action: Callable[..., None], *args: Any) -> None:
+        """Acts on a motion command now, or ``command_delay_s`` from now, after those received before it."""
+        delay_s = self.params.command_delay_s
+        if delay_s > 0.0:
+            self._pending.append((self.time_s + delay_s, action, args))
+        else:
+            action(*args)
+
+    def _move(self, setting: int, backward: bool = False) -> None:
         self._leave_rest()
         self._mark()
         self.turn_remaining_deg = 0.0
         speed = self.params.speed_mm_s(setting)
         self.target_speed_mm_s = -speed if backward else speed
 
-    def turn(self, angle_deg: float) -> None:
-        """Turns in place by ``angle_deg`` (left positive); replaces a move in progress."""
+    def _turn(self, angle_deg: float) -> None:
         self._leave_rest()
         self._mark()
         self.target_speed_mm_s = 0.0
         self.speed_mm_s = 0.0
         self.turn_remaining_deg = float(angle_deg)
 
-    def stop(self) -> None:
-        """Cancels every movement; the wheels slow down at the acceleration limit."""
+    def _stop(self) -> None:
         self._mark()
         self.target_speed_mm_s = 0.0
         self.turn_remaining_deg = 0.0
@@ -326,7 +361,7 @@ class Robot:
 
     def knock_over(self) -> None:
         """The robot falls: everything stops, motion is refused until :meth:`stand_up`."""
-        self.stop()  # marks the trail
+        self.halt()  # marks the trail
         self.speed_mm_s = 0.0
         self.fallen = True
         self.tilt_deg = 90.0
@@ -339,7 +374,15 @@ class Robot:
     # ------------------------------------------------------------------ physics
 
     def advance_to(self, time_s: float) -> None:
-        """Steps the model in fixed steps up to ``time_s`` (never backward)."""
+        """Steps the model in fixed steps up to ``time_s`` (never backward), acting on delayed commands when due."""
+        pending = self._pending
+        while pending and pending[0][0] <= time_s:
+            due_s, action, args = pending.popleft()
+            self._advance_steps(due_s)
+            action(*args)
+        self._advance_steps(time_s)
+
+    def _advance_steps(self, time_s: float) -> None:
         step = self.params.step_s
         while self.time_s + step <= time_s + 1e-12:
             if not (self._cruise(step, time_s) if self.speed_mm_s else self._stand(step, time_s)):

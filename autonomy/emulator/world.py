@@ -702,7 +702,7 @@ def _extremes(world: World, vary: list[tuple[Vary, Located]]) -> list[tuple[list
 
 # --------------------------------------------------------------------------- reading
 
-SHIPPED = ("box", "empty", "corridor", "obstacles", "square", "garage", "slalom", "bump", "opening")
+SHIPPED = ("box", "empty", "corridor", "obstacles", "square", "garage", "slalom", "bump", "opening", "calibration")
 TOP_LEVEL = ("name", "description", "arena_mm", "start", "obstacles", "zones", "vary")
 VARY_KEYS = ("move", "x_mm", "y_mm")
 START_KEYS = ("x_mm", "y_mm", "heading_deg", "jitter")

@@ -174,9 +174,21 @@ def test_a_turn_times_out_only_after_its_deadline():
 def test_a_one_degree_turn_going_the_wrong_way_says_it_was_asked_left():
     script = Script(Turn("turn", left=1))
     assert script.tick(0.0, packet(heading_deg=0)) == Status.RUNNING
-    assert script.tick(0.05, packet(heading_deg=355)) == Status.RUNNING
-    assert script.tick(0.10, packet(heading_deg=350)) == Status.FAILURE
+    assert script.tick(0.10, packet(heading_deg=0)) == Status.RUNNING  # past the robot's delay (RESPONSE_S)
+    assert script.tick(0.20, packet(heading_deg=355)) == Status.RUNNING
+    assert script.tick(0.25, packet(heading_deg=350)) == Status.FAILURE
     assert script.action.feedback_message == "turning the wrong way: 10 deg right (asked left)"
+
+
+def test_a_robot_still_turning_as_a_turn_starts_goes_on_as_it_was_for_a_moment():
+    """Its delay (the link, its motors): 0.15 s of the old turn at full rate is not the new turn's wrong way."""
+    script = Script(Turn("turn", left=90))
+    assert script.tick(0.0, packet(heading_deg=0)) == Status.RUNNING  # still turning right from before
+    for step in (1, 2):  # 0.05, 0.10 s: 5 degrees right a tick, not slowing, within the delay
+        assert script.tick(0.05 * step, packet(heading_deg=360 - 5 * step)) == Status.RUNNING
+    assert script.tick(0.15, packet(heading_deg=345)) == Status.RUNNING  # one window past the delay: not yet
+    assert script.tick(0.20, packet(heading_deg=340)) == Status.FAILURE  # two: it is the wrong way
+    assert script.action.feedback_message == "turning the wrong way: 20 deg right (asked left)"
 
 
 def test_a_turn_of_nothing_has_no_wrong_way():

@@ -29,7 +29,7 @@ def test_check_validates_the_world_a_mission_names(tmp_path):
         f"{world}:2:21: start.heading: unknown key 'heading' (did you mean 'heading_deg'?)",
         f"{mission}:2:8: world: the world file {world} is not valid (2 listed with its name)",
         f"{typo}:2:8: world: no world named 'boxx' (did you mean 'box'?): use one of box, empty, corridor, "
-        "obstacles, square, garage, slalom, bump, opening, or a world file beside the mission (boxx.yaml)",
+        "obstacles, square, garage, slalom, bump, opening, calibration, or a world file beside the mission (boxx.yaml)",
     ]
 
 

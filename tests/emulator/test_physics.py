@@ -406,3 +406,54 @@ def test_a_straight_drive_is_kept_as_its_two_ends_and_a_stay_in_one_place_as_two
     assert (points[1].x_mm, points[1].y_mm) == (points[2].x_mm, points[2].y_mm)
     assert times[1] == pytest.approx(2.0 + 0.2, abs=0.2) and times[2] == pytest.approx(times[1] + 7.0, abs=0.3)
     assert points[3].x_mm > points[2].x_mm and points[3].y_mm > points[2].y_mm  # then north-east
+
+
+# ----------------------------------------------------------------------------- a robot's own settings
+
+
+def test_a_delayed_robot_acts_on_a_move_a_turn_and_a_stop_command_delay_s_after_each():
+    params = RobotParams(command_delay_s=0.1, acceleration_mm_s2=1000.0)
+    robot = Robot(World("box", 4000, 2000, Pose(1000, 1000, 0)), params)
+    robot.move(2)
+    robot.advance_to(0.095)
+    assert robot.odometer_mm == 0.0 and robot.speed_mm_s == 0.0  # not yet
+    robot.advance_to(0.3)
+    # 0.2 s of speeding up at 1000 mm/s² from the moment it acted: a t² / 2 = 20 mm
+    assert robot.odometer_mm == pytest.approx(0.5 * 1000.0 * 0.2**2, abs=0.5)
+    speed = params.speed_mm_s(2)
+    robot.advance_to(1.0)
+    robot.stop()
+    robot.advance_to(1.095)
+    assert robot.speed_mm_s == pytest.approx(speed)  # the stop has not acted yet
+    robot.advance_to(3.0)
+    assert robot.speed_mm_s == 0.0
+    # speeding up and slowing down each cost half the ramp's distance: the drive is (1.0 - 0.0) s at speed
+    assert robot.odometer_mm == pytest.approx(speed * 1.0, abs=1.0)
+    robot.turn(90)
+    robot.advance_to(3.095)
+    assert robot.heading_deg == pytest.approx(0.0)
+    robot.advance_to(3.1 + 90 / params.turn_rate_deg_s + 0.05)
+    assert robot.heading_deg == pytest.approx(90.0, abs=1.0)
+
+
+def test_a_halt_acts_at_once_and_drops_the_commands_not_yet_acted_on():
+    robot = Robot(World("box", 4000, 2000, Pose(1000, 1000, 0)), RobotParams(command_delay_s=0.2))
+    robot.move(4)
+    robot.advance_to(0.1)
+    robot.halt()  # the remote took over before the move acted
+    robot.advance_to(2.0)
+    assert robot.odometer_mm == 0.0 and robot.speed_mm_s == 0.0
+    robot.move(4)
+    robot.advance_to(2.5)
+    assert robot.speed_mm_s > 0.0
+    robot.knock_over()
+    assert robot.speed_mm_s == 0.0 and robot.target_speed_mm_s == 0.0
+
+
+@pytest.mark.parametrize(("x", "gap"), [(1700, 240), (1800, 140), (1900, 40)])
+def test_a_scaled_and_offset_sensor_reads_scale_times_the_gap_plus_the_offset(x, gap):
+    world = World("box", 2000, 2000, Pose(x, 1000, 0))
+    exact = Robot(world).front_distance_mm()
+    assert exact == pytest.approx(gap, abs=2)
+    skewed = Robot(world, RobotParams(sensor_scale=0.9, sensor_offset_mm=12.0)).front_distance_mm()
+    assert skewed == pytest.approx(min(0.9 * exact + 12.0, 255), abs=1)

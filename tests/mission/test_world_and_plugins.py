@@ -39,7 +39,7 @@ def test_a_world_given_by_an_absolute_path_is_used_as_it_is(tmp_path):
 def test_an_unknown_world_is_named_with_a_did_you_mean_and_the_choices(tmp_path):
     assert problems("mission: t\nworld: boxx\ntree: stop\n", tmp_path) == [
         "m.yaml:2:8: world: no world named 'boxx' (did you mean 'box'?): use one of box, empty, corridor, "
-        "obstacles, square, garage, slalom, bump, opening, or a world file beside the mission (boxx.yaml)"
+        "obstacles, square, garage, slalom, bump, opening, calibration, or a world file beside the mission (boxx.yaml)"
     ]
 
 

@@ -93,7 +93,7 @@ scenarios:
         "distance_mm, servos), nodes:, or both",
         "F:15:11: scenarios[1].name: another scenario is named 'one': each is told by its name",
         "F:16:12: scenarios[1].world: no world named 'nowhere': use one of box, empty, corridor, obstacles, square, "
-        "garage, slalom, bump, opening, or a world file beside the scenario file (nowhere.yaml)",
+        "garage, slalom, bump, opening, calibration, or a world file beside the scenario file (nowhere.yaml)",
     ]
 
 
