@@ -8,6 +8,7 @@ import signal
 import socket
 import subprocess
 import sys
+import time
 
 import pytest
 
@@ -26,6 +27,26 @@ HIDE = (
 
 def fill(page, node_id: int) -> str:
     return page.eval_on_selector(f"#node-{node_id} rect", "el => getComputedStyle(el).fill")
+
+
+#: What the page shows at one moment while a node runs, or null while it does not: its tree's fills,
+#: the dead-reckoned path's points and the node's feedback, read in one evaluation.
+SEEN_WHILE_RUNNING = """() => {
+  const node = document.querySelector('#node-%d');
+  if (node?.dataset.status !== 'RUNNING') return null;
+  const fills = [0, 1, 2, 3].map(n => getComputedStyle(document.querySelector(`#node-${n} rect`)).fill);
+  return {fills, points: document.querySelector('#path-dr').points.numberOfItems,
+          feedback: node.querySelector('.feedback')?.textContent ?? ''};
+}"""
+
+
+def seen_while_running(page, node_id: int, timeout_s: float = 10.0) -> dict:
+    """What the page shows at the first look that finds node ``node_id`` running."""
+    deadline = time.monotonic() + timeout_s
+    while (seen := page.evaluate(SEEN_WHILE_RUNNING % node_id)) is None:
+        assert time.monotonic() < deadline, f"node {node_id} never seen running"
+        page.wait_for_timeout(25)
+    return seen
 
 
 def path_points(page, which: str = "dr") -> int:
@@ -54,13 +75,13 @@ def test_a_live_run_colours_the_tree_and_draws_the_path(tmp_path, page, serve):
     served = serve("run", str(mission), "--quiet", "--view")
     page.goto(served.url)
     # the page may open before the run's header: until then it has no tree
-    until(page, "document.querySelector('#node-1')?.dataset.status === 'RUNNING'", timeout=10_000)
-    assert fill(page, 1) == YELLOW and fill(page, 2) == GREY  # driving; the turn has not started
-    early = path_points(page)
-    until(page, "document.querySelector('#node-2')?.dataset.status === 'RUNNING'", timeout=10_000)
-    assert fill(page, 1) == GREEN and fill(page, 2) == YELLOW
-    assert path_points(page) > early > 0  # the path grew
-    assert page.text_content("#node-2 .feedback").endswith("deg to go")
+    # each look is one evaluation in the page: what it shows at one moment, however late a busy machine asks
+    first = seen_while_running(page, 1)
+    assert first["fills"][1:3] == [YELLOW, GREY]  # driving; the turn has not started
+    turning = seen_while_running(page, 2)
+    assert turning["fills"][1:3] == [GREEN, YELLOW]
+    assert turning["points"] > first["points"] > 0  # the path grew
+    assert turning["feedback"].endswith("deg to go")
     until(page, "document.querySelector('#state').textContent === 'succeeded'", timeout=10_000)
     assert [fill(page, n) for n in range(4)] == [GREEN] * 4
     assert path_points(page, "truth") == path_points(page)  # on the emulator, the truth is drawn too
