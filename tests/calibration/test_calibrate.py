@@ -58,10 +58,8 @@ def assert_recovered(found: RobotParams, truth: RobotParams) -> None:
     assert abs(found.sensor_noise_mm - truth.sensor_noise_mm) < 0.5
 
 
-@pytest.fixture
-def linked_robot(request):
-    """``autonomy emulator`` with a profile the fit is not told of, on a link: yields its URL."""
-    how, robot = request.param
+def linked_robot(how: list[str], robot: Path) -> tuple[subprocess.Popen, str]:
+    """``autonomy emulator`` with a profile the fit is not told of, on a link: the process and its URL."""
     process = subprocess.Popen(
         [sys.executable, "-m", "autonomy", "emulator", *how, "--world", "calibration", "--profile", str(robot)],
         stdout=subprocess.PIPE,
@@ -69,34 +67,44 @@ def linked_robot(request):
         text=True,
         cwd=ROOT,
     )
+    return process, process.stdout.readline().strip()
+
+
+def test_a_probe_over_a_link_recovers_each_speed_the_acceleration_and_the_turn_rate_within_3_percent(tmp_path):
+    """Two robots, one over TCP and one over a pseudo-terminal, each probed in real time, side by side."""
+    robots = {"tcp robot-a": (["--tcp", "127.0.0.1:0"], "robot-a"), "pty robot-b": (["--pty"], "robot-b")}
+    started, probes = [], {}
     try:
-        yield process.stdout.readline().strip()
+        for label, (how, robot) in robots.items():
+            process, url = linked_robot(how, ROBOTS / f"{robot}.yaml")
+            started.append(process)
+            assert url.startswith("socket://" if "tcp" in label else "/dev/"), url
+            command = [sys.executable, "-m", "autonomy", "calibrate", "--port", url, "--yes"]
+            probe = subprocess.Popen(
+                [*command, "-o", str(tmp_path / f"{robot}-fit.yaml")],
+                stdout=subprocess.PIPE,
+                stderr=subprocess.PIPE,
+                text=True,
+                cwd=ROOT,
+            )
+            started.append(probe)
+            probes[label] = (robot, probe)
+        for label, (robot, probe) in probes.items():
+            stdout, stderr = probe.communicate(timeout=150)
+            assert probe.returncode == 0, (label, stderr)
+            assert "Traceback" not in stderr
+            found = load_profile(tmp_path / f"{robot}-fit.yaml")
+            assert found.name == f"{robot}-fit"
+            assert_recovered(found.params, load_profile(ROBOTS / f"{robot}.yaml").params)
+            # each setting is said with its uncertainty, and the fit's residual in mm and degrees
+            assert re.search(r"residual [\d.]+ mm and [\d.]+ degrees RMS", stdout), stdout
+            for name in (*WITHIN_3_PERCENT, "command_delay_s", "sensor_scale", "sensor_offset_mm", "sensor_noise_mm"):
+                assert re.search(rf"^  {name} +[\d.-]+ .* ± [\d.e-]+", stdout, re.M), (label, name, stdout)
     finally:
-        process.terminate()
-        process.communicate(timeout=30)
-
-
-@pytest.mark.parametrize(
-    "linked_robot",
-    [(["--tcp", "127.0.0.1:0"], ROBOTS / "robot-a.yaml"), (["--pty"], ROBOTS / "robot-b.yaml")],
-    ids=["tcp robot-a", "pty robot-b"],
-    indirect=True,
-)
-def test_a_probe_over_a_link_recovers_each_speed_the_acceleration_and_the_turn_rate_within_3_percent(
-    linked_robot, tmp_path
-):
-    truth_file = ROBOTS / ("robot-a.yaml" if linked_robot.startswith("socket://") else "robot-b.yaml")
-    out = tmp_path / "robot-3.yaml"
-    result = autonomy("calibrate", "--port", linked_robot, "--yes", "-o", str(out), timeout=150)
-    assert result.returncode == 0, result.stderr
-    assert "Traceback" not in result.stderr
-    found = load_profile(out)
-    assert found.name == "robot-3"
-    assert_recovered(found.params, load_profile(truth_file).params)
-    # each setting is said with its uncertainty, and the fit's residual in mm and degrees
-    assert re.search(r"residual [\d.]+ mm and [\d.]+ degrees RMS", result.stdout), result.stdout
-    for name in (*WITHIN_3_PERCENT, "command_delay_s", "sensor_scale", "sensor_offset_mm", "sensor_noise_mm"):
-        assert re.search(rf"^  {name} +[\d.-]+ .* ± [\d.e-]+", result.stdout, re.M), (name, result.stdout)
+        for process in started:
+            if process.poll() is None:
+                process.terminate()
+            process.communicate(timeout=30)
 
 
 def probed(robot: Path, world: str = "calibration", more: str = "") -> tuple[Client, Probe]:
