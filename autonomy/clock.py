@@ -112,6 +112,15 @@ def wait_readable(fd: int, timeout_s: float) -> bool:
     return bool(poller.poll(max(0.0, timeout_s) * 1000.0))
 
 
+def wait_event(event: threading.Event, timeout_s: float) -> bool:
+    """Waits, in real time, at most ``timeout_s`` for ``event`` to be set (by another thread).
+
+    Returns:
+        Whether it is set.
+    """
+    return event.wait(max(0.0, timeout_s))
+
+
 def make_clock(virtual: bool) -> Clock:
     """Returns a new virtual clock when ``virtual`` is true, else a real one."""
     return VirtualClock() if virtual else RealClock()

@@ -67,6 +67,8 @@ SENSOR_SAMPLES = 10
 SENSOR_SPAN_MM = 50.0
 #: Readings this close to the sensor's largest are left out of its fit (noise there is cut off).
 SENSOR_EDGE_MM = 5.0
+#: Most samples one fit takes (its time and memory grow with them and with the commands).
+MAX_SAMPLES = 20_000
 #: A stand-still this long before a move or turn starts a piece of a recording, seconds.
 REST_S = 0.3
 #: How late (or early) a command may act beyond the common delay, seconds.
@@ -247,7 +249,7 @@ def pieces(recording: Recording) -> list[Recording]:
         begin = samples[a].time_s if a else -math.inf
         end = samples[b].time_s if b < len(samples) else math.inf
         sent = [c for c in recording.sent if begin <= c.time_s < end]
-        out.append(Recording(recording.label, sent, samples[a:b], recording.sensor_max_mm))
+        out.append(Recording(recording.label, sent, samples[a:b], recording.sensor_max_mm, recording.commands_timed))
     return out
 
 
@@ -337,6 +339,13 @@ def fit(recordings: Recording | list[Recording], params: RobotParams | None = No
     for one in recording:
         if len(one.samples) < 3:
             raise FitError(f"{one.label}: {len(one.samples)} samples: a fit needs a run with motion in it")
+    count = sum(len(one.samples) for one in recording)
+    if count > MAX_SAMPLES:
+        raise FitError(
+            f"{recording[0].label}{' and the rest' if len(recording) > 1 else ''}: {count:,} samples; a fit takes at "
+            f"most {MAX_SAMPLES:,} (a probe's are about 3,000; a quarter of an hour of runs at 20 Hz is 18,000): "
+            "give fewer or shorter traces"
+        )
     if not any(c.kind in ("move", "turn") for one in recording for c in one.sent):
         raise FitError(f"{recording[0].label}: the robot was never told to move or turn: nothing to fit")
     x0 = start_values(params)
@@ -347,8 +356,15 @@ def fit(recordings: Recording | list[Recording], params: RobotParams | None = No
         if name not in free:
             why[name] = _not_excited_why(name)
     solution, sigma = dict(x0), dict.fromkeys(MOTION, 0.0)
-    commands = sum(len(piece.sent) for piece in cut)
-    lateness = [0.0] * commands
+    timed = [piece.commands_timed for piece in cut for _ in piece.sent]  # each command: is its lateness fitted?
+    commands = sum(timed)
+    lateness = [0.0] * len(timed)
+
+    def each(late: Sequence[float]) -> list[float]:
+        """Every command's lateness: those fitted, in order; none for the rest."""
+        given = iter(late)
+        return [float(next(given)) if fitted else 0.0 for fitted in timed]
+
     while free:
         low = [BOUNDS[n][0] for n in free] + [-LATENESS_S] * commands
         high = [BOUNDS[n][1] for n in free] + [LATENESS_S] * commands
@@ -357,11 +373,12 @@ def fit(recordings: Recording | list[Recording], params: RobotParams | None = No
         def misses(values: Sequence[float], names: list[str] = free) -> list[float]:
             settings, late = values[: len(names)], values[len(names) :]
             x = x0 | dict(zip(names, (float(v) for v in settings), strict=True))
-            return residuals(x, cut, late) + [LATENESS_MM_PER_S * v for v in late]
+            return residuals(x, cut, each(late)) + [LATENESS_MM_PER_S * v for v in late]
 
-        result = least_squares(misses, start, bounds=(low, high), x_scale="jac", jac_sparsity=_sparsity(cut, len(free)))
+        sparsity = _sparsity(cut, len(free))
+        result = least_squares(misses, start, bounds=(low, high), x_scale="jac", jac_sparsity=sparsity)
         found = dict(zip(free, (float(v) for v in result.x[: len(free)]), strict=True))
-        lateness = [float(v) for v in result.x[len(free) :]]
+        lateness = each(result.x[len(free) :])
         spread = _spread(result, len(free))
         loose = [
             n
@@ -398,16 +415,19 @@ def _not_excited_why(name: str) -> str:
 
 
 def _sparsity(cut: list[Recording], settings: int) -> object:
-    """Which misses each fitted value moves: a setting, all of them; a command's lateness, its piece's and its own."""
+    """Which misses each fitted value moves: a setting, all of them; a command's lateness, its piece's and its own.
+
+    Only the commands of pieces whose commands are timed (a probe's) have a lateness of their own.
+    """
     from scipy.sparse import lil_matrix
 
     samples = sum(len(piece.samples) for piece in cut)
-    commands = sum(len(piece.sent) for piece in cut)
+    commands = sum(len(piece.sent) for piece in cut if piece.commands_timed)
     shape = lil_matrix((2 * samples + commands, settings + commands), dtype=int)
     shape[: 2 * samples, :settings] = 1
     row = column = 0
     for piece in cut:
-        for _ in piece.sent:
+        for _ in piece.sent if piece.commands_timed else ():
             shape[row : row + len(piece.samples), settings + column] = 1
             shape[samples + row : samples + row + len(piece.samples), settings + column] = 1
             shape[2 * samples + column, settings + column] = 1
@@ -419,13 +439,21 @@ def _sparsity(cut: list[Recording], settings: int) -> object:
 def _spread(result: object, count: int) -> list[float]:
     """One standard deviation of each fitted value, from the fit's Jacobian and what it left."""
     import numpy as np
+    from scipy.sparse import csc_matrix
+    from scipy.sparse.linalg import splu
 
-    jac = result.jac  # type: ignore[attr-defined]
-    jac = np.asarray(jac.toarray() if hasattr(jac, "toarray") else jac)
+    jac = csc_matrix(result.jac)  # type: ignore[attr-defined]
     left = np.asarray(result.fun)  # type: ignore[attr-defined]
     dof = max(len(left) - count, 1)
     variance = float(left @ left) / dof
-    covariance = np.linalg.pinv(jac.T @ jac) * variance
+    # The settings' block of the inverse of J'J, by its Schur complement: the commands' lateness (thousands of
+    # them, each held by its own weight, so their block is invertible and sparse) is never made dense.
+    settings, late = jac[:, :count].toarray(), jac[:, count:]
+    normal = settings.T @ settings
+    if late.shape[1]:
+        cross = np.asarray(late.T @ settings)
+        normal = normal - cross.T @ splu(csc_matrix(late.T @ late)).solve(cross)
+    covariance = np.linalg.pinv(normal) * variance
     return [float(math.sqrt(max(covariance[i, i], 0.0))) for i in range(count)]
 
 

@@ -11,7 +11,10 @@ from pathlib import Path
 
 from autonomy.errors import ProtocolError
 from autonomy.protocol import Move, Stop, Turn, odometer_delta_mm, parse_command
-from autonomy.trace import read_trace
+from autonomy.trace import TraceError, read_trace
+
+#: Longest run a trace may hold, seconds from its first tick: a day (a lesson's runs are minutes).
+MAX_TRACE_S = 86_400.0
 
 
 @dataclass(frozen=True)
@@ -60,6 +63,9 @@ class Recording:
     samples: list[Sample] = field(default_factory=list)
     #: The front sensor's largest reading (a reading of it sees nothing).
     sensor_max_mm: int = 255
+    #: Whether each command's time is the moment it was sent (a probe's), so that how late each one acted is
+    #: fitted; a trace's commands are timed by their ticks, and a fit of them knows the delay to within a tick.
+    commands_timed: bool = True
 
 
 def sent_of(command: object, time_s: float) -> Sent | None:
@@ -98,9 +104,16 @@ def from_trace(path: str | Path) -> Recording:
         TraceError: the file is not a trace this version reads.
     """
     trace = read_trace(path)
-    recording = Recording(str(path))
+    recording = Recording(str(path), commands_timed=False)
     unwrap = Unwrapper()
-    for tick in trace.ticks:
+    before_s = 0.0
+    for number, tick in enumerate(trace.ticks, start=1):
+        if not before_s <= tick.time_s <= MAX_TRACE_S:  # NaN too
+            where = "before the tick before it" if tick.time_s < before_s else f"past {MAX_TRACE_S / 3600:g} hours"
+            raise TraceError(
+                f"{path}: tick {number}: its time_s {tick.time_s!r} is {where}: this is not a trace as a run writes it"
+            )
+        before_s = tick.time_s
         status = tick.status
         recording.samples.append(
             Sample(tick.time_s, status.heading_deg, unwrap(status.odometer_mm), status.front_distance_mm, status.moving)

@@ -39,6 +39,7 @@ TOP_LEVEL = (
     "description",
     "world",
     "robot",
+    "robot_start",
     "time_limit_s",
     "seeds",
     "hidden_seeds",
@@ -47,6 +48,8 @@ TOP_LEVEL = (
     "solution",
 )
 SEED_KEYS = ("seed", "noise_mm", "faults")
+#: Who may start a student's run on one of the class's robots (``class serve --robot``).
+ROBOT_STARTS = ("teacher", "when_asked")
 #: Longest time limit an exercise may set, simulated seconds.
 MAX_TIME_LIMIT_S = 3600.0
 MAX_SEEDS = 100
@@ -89,6 +92,9 @@ class Exercise:
     solution: str = ""
     #: The robot profile every seed runs as (its file's path), or empty: the emulator's defaults.
     robot_ref: str = ""
+    #: Who starts a student's run on one of the class's robots: ``teacher`` (at the desk), or ``when_asked``
+    #: (the queue's next run starts as soon as a robot is free).
+    robot_start: str = "teacher"
 
     @property
     def max_points(self) -> float:
@@ -163,6 +169,7 @@ class ExerciseReader(CriteriaReader):
         criteria = self.criteria(doc["criteria"], world) if "criteria" in doc else []
         solution = self.solution(doc["solution"]) if "solution" in doc else ""
         robot = self.robot(doc["robot"]) if "robot" in doc else ""
+        robot_start = self.robot_start(doc["robot_start"]) if "robot_start" in doc else "teacher"
         if self.problems or world is None or limit is None or name is None or solution is None or robot is None:
             return None
         return Exercise(
@@ -179,7 +186,23 @@ class ExerciseReader(CriteriaReader):
             int(hidden or 0),
             solution,
             robot,
+            robot_start or "teacher",
         )
+
+    def robot_start(self, located: Located) -> str | None:
+        """Who starts a run on the class's robots (``teacher`` or ``when_asked``), or None and a problem noted."""
+        value = self.text(located, "robot_start")
+        if value is None:
+            return None
+        if value not in ROBOT_STARTS:
+            self.problem(
+                located,
+                "robot_start",
+                f"robot_start is 'teacher' (the teacher presses Start) or 'when_asked' (a run starts as soon as a "
+                f"robot is free), not '{value}'{suggest(value, list(ROBOT_STARTS))}",
+            )
+            return None
+        return value
 
     def robot(self, located: Located) -> str | None:
         """The robot profile file named there, beside the exercise (its path), or None and a problem noted."""

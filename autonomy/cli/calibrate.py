@@ -119,6 +119,23 @@ def _check_line(profile_path: str, profile: Any, found: Any) -> tuple[bool, str]
     )
 
 
+def _output_refused(output: Path, traces: list[Path]) -> str:
+    """Why ``-o`` cannot be written, said before the probe drives (a profile fitted is never lost); empty if it can."""
+    import os
+
+    if output.is_dir():
+        return f"-o {output} is a folder: give the profile's file name (robot-NAME.yaml)"
+    for trace in traces:
+        if output.exists() and trace.exists() and os.path.samefile(output, trace):
+            return f"-o {output} is one of the traces fitted: give the profile a file of its own (robot-NAME.yaml)"
+    folder = output.parent
+    if not folder.is_dir():
+        return f"-o {output}: the folder {folder} is not there: make it first, or write the profile elsewhere"
+    if not os.access(folder, os.W_OK | os.X_OK) or (output.exists() and not os.access(output, os.W_OK)):
+        return f"-o {output}: this user cannot write there: write the profile elsewhere"
+    return ""
+
+
 def cmd_calibrate(args: argparse.Namespace) -> int:
     """Probes a robot (or reads traces), fits the emulator's settings, and writes or checks a profile."""
     if args.check and args.port is None:
@@ -141,8 +158,10 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
             profile = load_profile(args.check)
         except WorldError as err:
             return _world_failed(err)
-    if args.output and Path(args.output).is_dir():
-        return _fail(f"-o {args.output} is a folder: give the profile's file name (robot-NAME.yaml)", EXIT_USAGE)
+    if args.output:
+        refused = _output_refused(Path(args.output), [Path(trace) for trace in args.traces])
+        if refused:
+            return _fail(refused, EXIT_USAGE)
     recording = _probe(args) if args.port is not None else _traces(args.traces)
     if isinstance(recording, int):
         return recording
@@ -165,11 +184,13 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
         print("\nThe profile (write it to a file with -o robot-NAME.yaml):\n")
         print(text, end="")
         return EXIT_OK
+    replaced = Path(args.output).exists()
     try:
         Path(args.output).write_text(text, encoding="utf-8")
     except OSError as err:
         return _fail(f"cannot write {args.output}: {err.strerror or err}", EXIT_USAGE)
-    print(_shown(f"Wrote {args.output}: use it with --profile {args.output}, or an exercise's robot: {args.output}"))
+    wrote = "Wrote (over the profile that was there)" if replaced else "Wrote"
+    print(_shown(f"{wrote} {args.output}: use it with --profile {args.output}, or an exercise's robot: {args.output}"))
     return EXIT_OK
 
 

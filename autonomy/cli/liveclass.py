@@ -19,17 +19,24 @@ from autonomy.cli.common import (
     _interrupt,
     _Parser,
     _port_busy,
+    _shown,
     _tcp_port,
     _warn_if_public,
 )
 from autonomy.cli.grade import _exercise
+from autonomy.client import DEFAULT_BAUD, SUPPORTED_BAUD_RATES
 
 
 def cmd_class_serve(args: argparse.Namespace) -> int:
     """Serves the class until Ctrl-C; writes the students' codes to DIR/codes.csv."""
     from autonomy.classroom.gradebook import GradebookError, read_roster
+    from autonomy.liveclass.robots import parse_robots
     from autonomy.liveclass.store import ClassStore, StoreError
 
+    try:
+        args.robots = parse_robots(args.robot)
+    except ValueError as err:
+        return _fail(str(err), EXIT_USAGE)
     found = _exercise(args.exercise)
     if isinstance(found, int):
         return found
@@ -115,6 +122,8 @@ def _serve(
         key=hashlib.sha256(b"feedback pages " + secret).digest(),
         grader=grader,
         autograder=lambda: build_autograder(plain, exercise_path, secret),
+        robots=args.robots,
+        robot_baud=args.robot_baud,
     )
     try:
         server.start()
@@ -139,6 +148,14 @@ def _serve(
     if links is not None:
         print(f"each student's sign-in link (no code to type) is in {links}", file=sys.stderr)
     print(disk_said(students), file=sys.stderr)
+    if args.robots:
+        starts = (
+            "the teacher starts each run at the desk"
+            if exercise.robot_start == "teacher"
+            else ("a run starts as soon as a robot is free (the exercise's robot_start: when_asked)")
+        )
+        named = ", ".join(f"{name} ({port})" for name, port in args.robots.items())
+        print(_shown(f"robots: {named}; {starts}; each run at most {exercise.time_limit_s:g} s"), file=sys.stderr)
     signal.signal(signal.SIGTERM, _interrupt)
     try:  # from the moment its address is said, a Ctrl-C ends the class as it should (it was a race)
         print(f"http://{shown}:{server.port}/", flush=True)
@@ -259,6 +276,20 @@ def add_parsers(sub: Any) -> None:
         "--dask",
         metavar="ADDRESS",
         help="grade runs and hand-ins on the Dask cluster with its scheduler at ADDRESS (needs autonomy[cluster])",
+    )
+    serve.add_argument(
+        "--robot",
+        action="append",
+        default=[],
+        metavar="NAME=PORT",
+        help="a robot of the class's, e.g. a=/dev/ttyUSB0 (repeat for each): students ask for runs on it, from a queue",
+    )
+    serve.add_argument(
+        "--robot-baud",
+        type=int,
+        choices=SUPPORTED_BAUD_RATES,
+        default=DEFAULT_BAUD,
+        help=f"the robots' links' rate (default {DEFAULT_BAUD})",
     )
     serve.set_defaults(func=cmd_class_serve)
     codes = commands.add_parser("codes", help="give students new sign-in codes (the old ones sign in no more)")

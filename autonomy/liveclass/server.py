@@ -60,6 +60,7 @@ from autonomy.classroom.report import to_csv
 from autonomy.classroom.results import Report, file_names
 from autonomy.clock import Clock, pause, thread_cpu_time_s, wall_time_s
 from autonomy.errors import AutonomyError
+from autonomy.liveclass.robots import RobotDesk, run_files
 from autonomy.liveclass.store import ClassStore, StoreError, Student, Work, code_digest, token_digest
 from autonomy.liveclass.work import (
     GRADING_NICENESS,
@@ -74,7 +75,7 @@ from autonomy.liveclass.work import (
     work_file,
 )
 from autonomy.source import finite_number
-from autonomy.views.editor import vendor_response
+from autonomy.views.editor import origins, vendor_response
 from autonomy.views.lines import printable
 from autonomy.views.page import static_text
 from autonomy.views.web import BoundedServer, address_group, nonced_page, query_line, query_selected
@@ -391,7 +392,49 @@ class ClassServer(BoundedServer):
             :class:`autonomy.liveclass.work.DaskGrader`).
         autograder: The exercise packed for Gradescope (``autonomy gradescope``), for its export;
             None: not offered.
+        robots: The class's robots, by name, each with its port: students' runs on them, from a queue
+            (:mod:`autonomy.liveclass.robots`); none by default.
+        robot_baud: The robots' links' rate (default: the client's).
     """
+
+    def start(self) -> None:
+        """Serves the class; then its robots' live views, and a thread for each robot.
+
+        Raises:
+            OSError: a port cannot be bound (nothing is left serving).
+        """
+        super().start()
+        if not self._robots_given:
+            return
+        desk = RobotDesk(
+            self._robots_given,
+            self.exercise,
+            self.store,
+            self.folder,
+            self._robots_changed,
+            self.host,
+            " ".join(origins(self.host, self.port)),
+            self._robot_baud,
+        )
+        try:
+            desk.start()
+        except OSError:
+            super().stop()
+            raise
+        self.robots = desk
+
+    def stop(self) -> None:
+        """Ends the robots' runs (each robot stopped) and lets go of their links, then stops serving."""
+        if self.robots is not None:
+            self.robots.stop()
+        super().stop()
+
+    def _robots_changed(self) -> None:
+        """A robot or the queue changed (from a robot's thread): the teachers' and students' pages are told."""
+        try:
+            self._loop.call_soon_threadsafe(self._change)
+        except RuntimeError:  # the loop is closed: the class has stopped
+            pass
 
     def __init__(
         self,
@@ -403,8 +446,13 @@ class ClassServer(BoundedServer):
         key: bytes | None = None,
         grader: Callable[..., tuple[Report, Path]] | None = None,
         autograder: Callable[[], bytes] | None = None,
+        robots: dict[str, str] | None = None,
+        robot_baud: int | None = None,
     ):
         super().__init__(host, port, "class")
+        #: The class's robots (``--robot NAME=PORT``) and their queue, once the server listens; None: none.
+        self._robots_given, self._robot_baud = dict(robots or {}), robot_baud
+        self.robots: RobotDesk | None = None
         self._key = key if key is not None else secrets.token_bytes(32)
         self._exercise_shown = exercise_shown(exercise)  # the same for every student: made once
         self._palette = json.dumps(palette(exercise)).encode()  # the blocks of the page's Blocks, made once
@@ -484,6 +532,12 @@ class ClassServer(BoundedServer):
         app.router.add_get("/api/overview", self._overview_of)
         app.router.add_post("/api/deadline", self._deadline)
         app.router.add_get("/api/export/{name}", self._export)
+        app.router.add_get("/api/robot", self._robot_state)
+        app.router.add_post("/api/robot", self._robot_ask)
+        app.router.add_post("/api/robot/cancel", self._robot_cancel)
+        app.router.add_get("/api/robots", self._robots_desk)
+        app.router.add_post("/api/robots/{action}", self._robots_act)
+        app.router.add_get("/robot-runs/{name}", self._robot_page)
 
     @web.middleware
     async def _keeping(self, request: web.Request, handler: Callable[..., Any]) -> web.StreamResponse:
@@ -921,9 +975,16 @@ class ClassServer(BoundedServer):
 
     # ------------------------------------------------------------------ pages
 
+    def _page_policy(self) -> str:
+        """The pages' policy: :data:`PAGE_POLICY`, with the robots' live views framed beside the server's own pages."""
+        if self.robots is None:
+            return PAGE_POLICY
+        views = " ".join(origin for port in self.robots.view_ports() for origin in origins(self.host, port))
+        return PAGE_POLICY.replace("frame-src 'self'", f"frame-src 'self' {views}")
+
     async def _file(self, name: str, request: web.Request) -> web.Response:
         if name.endswith(".html"):
-            return nonced_page(page_text(name), PAGE_POLICY)
+            return nonced_page(page_text(name), self._page_policy())
         return web.Response(
             text=page_text(name), content_type=PAGE_FILES[name], headers={"Content-Security-Policy": PAGE_POLICY}
         )
@@ -975,7 +1036,9 @@ class ClassServer(BoundedServer):
         self._reading_history.add(student.id)
         try:
             # their hand-ins alone (runs are not listed: an hour of them is hundreds), and their last text, off the loop
-            works, mission = await asyncio.get_running_loop().run_in_executor(self._chores, self._history, student.id)
+            works, mission, robot_runs = await asyncio.get_running_loop().run_in_executor(
+                self._chores, self._history, student.id
+            )
         finally:
             self._reading_history.discard(student.id)
         me = {
@@ -985,12 +1048,132 @@ class ClassServer(BoundedServer):
             "student": {"id": printable(student.id), "name": printable(student.name)},
             "mission": mission,
             "works": works,
+            "robots": len(self.robots.robots) if self.robots is not None else 0,
+            "robot_runs": robot_runs,
         }
         return await self._send_in_pieces(request, json.dumps(me).encode(), "application/json", NO_STORE)
 
-    def _history(self, student: str) -> tuple[list[dict[str, Any]], str]:
-        """A student's hand-ins (see :meth:`_hand_ins_of`) and their last mission's text."""
-        return self._hand_ins_of(student), self.store.last_source(student)
+    def _history(self, student: str) -> tuple[list[dict[str, Any]], str, list[dict[str, Any]]]:
+        """A student's hand-ins (see :meth:`_hand_ins_of`), their last mission's text, their runs on robots."""
+        return self._hand_ins_of(student), self.store.last_source(student), self._robot_runs_of(student)
+
+    # ------------------------------------------------------------------ the class's robots
+
+    def _robot_runs_of(self, student: str) -> list[dict[str, Any]]:
+        """A student's runs on the class's robots, each with its replay's address (None: none was kept)."""
+        runs = self.store.robot_runs(student)
+        for run in runs:
+            run["label"] = f"on robot {run['robot']}"
+            run["page"] = self._robot_page_url(run["number"])
+        return runs
+
+    def _robot_page_url(self, number: int) -> str | None:
+        """Where a run on a robot is replayed: an address only its student and the teacher are given."""
+        if not run_files(self.folder, number)[1].is_file():
+            return None
+        key = hmac.new(self._key, f"robot run {number}".encode(), hashlib.sha256).hexdigest()[:32]
+        return f"/robot-runs/{number}-{key}.html"
+
+    async def _robot_page(self, request: web.Request) -> web.StreamResponse:
+        """A run on a robot, replayed (a page on its own), to the one who has its address."""
+        named = _PAGE_NAME.fullmatch(request.match_info["name"])
+        if not named or self._robot_page_url(int(named[1])) != f"/robot-runs/{named[0]}":
+            raise web.HTTPNotFound()
+        headers = {"Content-Security-Policy": FEEDBACK_POLICY, **NO_STORE}
+        path = run_files(self.folder, int(named[1]))[1]
+        return await self._send_in_pieces(request, path, "text/html; charset=utf-8", headers, page=True)
+
+    def _robot_said(self, student: Student) -> dict[str, Any]:
+        """What a student's page shows of the robots: their ticket, and their last run's replay once it is kept."""
+        assert self.robots is not None  # noqa: S101 - asked only of a class with robots
+        said = self.robots.of(student.id)
+        ticket = said["ticket"]
+        if ticket is not None and ticket["run"] is not None:
+            ticket["page"] = self._robot_page_url(ticket["run"])
+        return said
+
+    async def _robot_state(self, request: web.Request) -> web.Response:
+        """A student's place in the robots' queue, or their run on a robot (``GET /api/robot``)."""
+        student = await self._student(request)
+        if isinstance(student, web.Response):
+            return student
+        if self.robots is None:
+            return _refusal(404, "this class has no robots")
+        return _json(self._robot_said(student))
+
+    async def _robot_ask(self, request: web.Request) -> web.Response:
+        """A student asks for a run on a robot of ``{"mission": TEXT}``: their last run's text, without problems."""
+        student = await self._one_at_a_time(request)
+        if isinstance(student, web.Response):
+            return student
+        try:
+            if self.robots is None:
+                return _refusal(404, "this class has no robots")
+            mission = await self._mission(request)
+            if isinstance(mission, web.Response):
+                return mission
+            why = await asyncio.get_running_loop().run_in_executor(self._chores, self._robot_refusal, student, mission)
+            if why:
+                return _refusal(409, why)
+            why = self.robots.ask(student.id, student.name, mission)
+            if why:
+                return _refusal(409, why)
+            return _json(self._robot_said(student))
+        finally:
+            self._done(student)
+
+    def _robot_refusal(self, student: Student, mission: str) -> str:
+        """Why a student may not run ``mission`` on a robot (empty: they may): it must have run without problems."""
+        last = self.store.latest(student.id, "run", 1)
+        work = self.store.work(last[0]) if last else None
+        if work is None or work.source != mission:
+            return "run this mission first: a robot runs a mission that ran without problems on the public seeds"
+        if work.problem or work.total is None or "error" in work.result:
+            return "your last run had problems: a robot runs a mission that ran without problems on the public seeds"
+        return ""
+
+    async def _robot_cancel(self, request: web.Request) -> web.Response:
+        """A student leaves the robots' queue."""
+        student = await self._student(request)
+        if isinstance(student, web.Response):
+            return student
+        if self.robots is None:
+            return _refusal(404, "this class has no robots")
+        if not self.robots.cancel(student.id):
+            return _refusal(409, "you are not waiting for a robot")
+        return _json(self._robot_said(student))
+
+    async def _robots_desk(self, request: web.Request) -> web.Response:
+        """The teacher's: each robot's state and run, and the queue."""
+        if not self._teacher(request):
+            return _refusal(401, "the robots are the teacher's: use the teacher's token")
+        if self.robots is None:
+            return _refusal(404, "this class has no robots: class serve --robot NAME=PORT")
+        return _json(self.robots.desk())
+
+    async def _robots_act(self, request: web.Request) -> web.Response:
+        """The teacher's Start and Stop: ``POST /api/robots/start`` or ``/stop`` with ``{"robot": NAME}``."""
+        if not self._teacher(request):
+            return _refusal(401, "the robots are the teacher's: use the teacher's token")
+        action = request.match_info["action"]
+        if action not in ("start", "stop"):
+            raise web.HTTPNotFound()
+        if self.robots is None:
+            return _refusal(404, "this class has no robots: class serve --robot NAME=PORT")
+        read = await self._body(request)
+        if isinstance(read, web.Response):
+            return read
+        try:
+            body = json.loads(read.decode("utf-8"))
+        except (ValueError, RecursionError):
+            body = None
+        name = body.get("robot") if isinstance(body, dict) else None
+        if not isinstance(name, str):
+            return _refusal(400, 'the body is JSON: {"robot": "the robot\'s name"}')
+        why = self.robots.start_on(name) if action == "start" else self.robots.stop_on(name)
+        if why:
+            return _refusal(409, why)
+        return _json(self.robots.desk())
 
     # ------------------------------------------------------------------ the teacher's
 
@@ -1031,6 +1214,7 @@ class ClassServer(BoundedServer):
             "max_points": self.exercise.max_points,
             "deadline_s": self._deadline_s(),
             "now_s": wall_time_s(),
+            "robots": self.robots.desk() if self.robots is not None else None,
         }
         body = json.dumps(head).encode()[:-1] + b', "students": ' + rows + b"}"
         return web.Response(body=body, content_type="application/json", headers=NO_STORE)

@@ -57,6 +57,16 @@ CREATE TABLE IF NOT EXISTS works (
 );
 CREATE INDEX IF NOT EXISTS works_by_student ON works (student, kind, id);
 CREATE TABLE IF NOT EXISTS settings (key TEXT PRIMARY KEY, value TEXT NOT NULL);
+CREATE TABLE IF NOT EXISTS robot_runs (
+    id INTEGER PRIMARY KEY AUTOINCREMENT,
+    student TEXT NOT NULL REFERENCES students(id),
+    robot TEXT NOT NULL,
+    at TEXT NOT NULL,
+    source TEXT NOT NULL,
+    outcome TEXT NOT NULL,
+    summary TEXT NOT NULL DEFAULT ''
+);
+CREATE INDEX IF NOT EXISTS robot_runs_by_student ON robot_runs (student, id);
 """
 
 
@@ -432,6 +442,33 @@ class ClassStore:
             "last_graded", "last_handin", "last_graded_as", "last_handin_as",
         )  # fmt: skip
         return [dict(zip(keys, row, strict=True)) for row in rows]
+
+    # ------------------------------------------------------------------ runs on the class's robots
+
+    def add_robot_run(self, student: str, robot: str, source: str, outcome: str, summary: str) -> int:
+        """Keeps a run on one of the class's robots (it has no marks), committed to disk before it returns; its number.
+
+        Its trace and its replay are files named by the number (see :func:`autonomy.liveclass.robots.run_files`).
+        """
+        row = (student, robot, wall_date(), source, outcome, summary)
+        return self._write(
+            [("INSERT INTO robot_runs (student, robot, at, source, outcome, summary) VALUES (?, ?, ?, ?, ?, ?)", row)]
+        )
+
+    def robot_runs(self, student: str) -> list[dict[str, Any]]:
+        """A student's runs on the class's robots, oldest first: each ``number``, ``robot``, ``at``, ``outcome``."""
+        rows = self._read(
+            "SELECT id, robot, at, outcome, summary FROM robot_runs WHERE student = ? ORDER BY id", (student,)
+        )
+        return [dict(zip(("number", "robot", "at", "outcome", "summary"), row, strict=True)) for row in rows]
+
+    def robot_run(self, number: int) -> dict[str, Any] | None:
+        """The run on a robot numbered ``number`` (``student`` and ``source`` too), or None."""
+        rows = self._read(
+            "SELECT id, student, robot, at, source, outcome, summary FROM robot_runs WHERE id = ?", (number,)
+        )
+        keys = ("number", "student", "robot", "at", "source", "outcome", "summary")
+        return dict(zip(keys, rows[0], strict=True)) if rows else None
 
     # ------------------------------------------------------------------ settings
 

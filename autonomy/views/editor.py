@@ -112,7 +112,7 @@ def vendor_response(library: str, name: str) -> web.Response:
     return web.Response(body=vendor_bytes(library, name), content_type=kind, headers={"Cache-Control": "max-age=3600"})
 
 
-def _origins(host: str, port: int) -> list[str]:
+def origins(host: str, port: int) -> list[str]:
     """The origins the editor's page is opened at: on a loopback address, as every browser names this machine.
 
     A policy names no IPv6 address (its grammar has none: a browser drops ``http://[::1]:8766`` as invalid), so
@@ -160,7 +160,7 @@ class EditorServer(BoundedServer):
             OSError: a port cannot be bound.
         """
         super().start()
-        self.view = ViewServer(self.host, 0, framed_by=" ".join(_origins(self.host, self.port)))
+        self.view = ViewServer(self.host, 0, framed_by=" ".join(origins(self.host, self.port)))
         try:
             self.view.start()
         except OSError:
@@ -203,7 +203,7 @@ class EditorServer(BoundedServer):
 
     async def _index(self, request: web.Request) -> web.Response:
         view_port = self.view.port if self.view is not None else 0
-        frames = " ".join(_origins(self.host, view_port))  # the run's live view, and nothing else
+        frames = " ".join(origins(self.host, view_port))  # the run's live view, and nothing else
         return nonced_page(static_text("editor.html"), f"{EDITOR_POLICY}; frame-src {frames}")
 
     async def _static(self, request: web.Request) -> web.Response:

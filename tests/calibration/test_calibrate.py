@@ -4,6 +4,7 @@ pseudo-terminal, in real time), the settings it recovers, held-out missions, and
 from __future__ import annotations
 
 import dataclasses
+import importlib
 import math
 import random
 import re
@@ -342,3 +343,50 @@ def test_the_acceleration_is_read_from_each_start_and_stop_whenever_each_command
     for k in range(1, 5):
         assert found[f"speed_{k}_mm_s"] == pytest.approx(truth[f"speed_{k}_mm_s"], rel=0.005)
     assert found["command_delay_s"] == pytest.approx(0.073, abs=0.003)
+
+
+def a_trace(folder: Path, name: str = "square") -> Path:
+    trace = folder / f"{name}.jsonl"
+    ran = autonomy("run", f"missions/{name}.yaml", "--fast", "--quiet", "--trace", str(trace), "--max-seconds", "20")
+    assert ran.returncode in (0, 1), ran.stderr
+    return trace
+
+
+def test_a_trace_whose_times_run_backward_or_past_a_day_is_one_line_with_its_tick(tmp_path):
+    import json
+
+    lines = a_trace(tmp_path).read_text().splitlines()
+    for when, said in (("1e300", "past 24 hours"), ("-5", "before the tick before it")):
+        bent = []
+        ticks = 0
+        for line in lines:
+            record = json.loads(line)
+            if record.get("type") == "tick":
+                ticks += 1
+                if ticks == 10:
+                    record["time_s"] = float(when)
+            bent.append(json.dumps(record))
+        wrong = tmp_path / "wrong.jsonl"
+        wrong.write_text("\n".join(bent) + "\n")
+        assert_one_line_error(autonomy("calibrate", str(wrong)), 2, "wrong.jsonl: tick 10:", said)
+
+
+def test_a_fit_past_its_samples_is_refused_in_one_line_before_it_takes_the_machine(tmp_path, monkeypatch):
+    fit_module = importlib.import_module("autonomy.calibration.fit")
+    monkeypatch.setattr(fit_module, "MAX_SAMPLES", 100)
+    with pytest.raises(fit_module.FitError, match="a fit takes at most 100"):
+        fit(from_trace(a_trace(tmp_path)))
+
+
+def test_a_profile_that_cannot_be_written_is_said_before_the_robot_drives(tmp_path):
+    trace = a_trace(tmp_path)
+    before = trace.read_bytes()
+    assert_one_line_error(autonomy("calibrate", str(trace), "-o", str(trace)), 2, "is one of the traces fitted")
+    assert trace.read_bytes() == before  # the trace is not written over
+    missing = tmp_path / "nowhere" / "robot.yaml"
+    result = autonomy("calibrate", "--port", "socket://127.0.0.1:9", "--yes", "-o", str(missing))
+    assert_one_line_error(result, 2, f"the folder {missing.parent} is not there")  # before the port is opened
+    kept = tmp_path / "robot-3.yaml"
+    assert autonomy("calibrate", str(trace), "-o", str(kept)).returncode == 0
+    again = autonomy("calibrate", str(trace), "-o", str(kept))
+    assert again.returncode == 0 and "over the profile that was there" in again.stdout

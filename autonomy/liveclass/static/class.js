@@ -102,6 +102,10 @@ function show(me) {
   for (const work of me.works) if (work.kind === "handin" && work.page) addHandIn(work);
   if (me.mission) check();
   if (localStorage.getItem(MODE_KEY) === "blocks") toBlocks();
+  $("robot").hidden = !me.robots;
+  $("robot-runs").replaceChildren();
+  for (const run of me.robot_runs || []) addRobotRun(run);
+  if (me.robots) followRobot();
 }
 
 /** The hand-ins' deadline, as the server's last answer says it (the teacher may change it at any time). */
@@ -420,7 +424,98 @@ function addHandIn(work) {
   $("handins").append(item);
 }
 
+// ------------------------------------------------------------------ on a robot
+
+const ROBOT_EVERY_MS = 2000; // how often the page asks after its place in the queue, or its run
+let robotTimer = 0;
+let robotShown = null; // the last ticket shown: {state, run}
+
+function ordinal(n) {
+  const tens = n % 100;
+  const suffix = tens >= 11 && tens <= 13 ? "th" : { 1: "st", 2: "nd", 3: "rd" }[n % 10] || "th";
+  return `${n}${suffix}`;
+}
+
+/** Asks after the student's ticket now, then every ROBOT_EVERY_MS while it waits or runs. */
+async function followRobot() {
+  clearTimeout(robotTimer);
+  const { status, data } = await api("GET", "/api/robot");
+  if (status === 200) showRobot(data);
+  const ticket = status === 200 ? data.ticket : null;
+  if (ticket && ticket.state !== "done") robotTimer = setTimeout(followRobot, ROBOT_EVERY_MS);
+}
+
+function showRobot(said) {
+  const ticket = said.ticket;
+  const waiting = Boolean(ticket && ticket.state === "waiting");
+  const running = Boolean(ticket && ticket.state === "running");
+  $("robot-ask").disabled = waiting || running;
+  $("robot-cancel").hidden = !waiting;
+  let text = "";
+  if (!ticket) {
+    const free = said.free === 1 ? "1 is free" : `${said.free} are free`;
+    text = `The class has ${said.robots} robot${said.robots === 1 ? "" : "s"}; ${free}.`;
+  } else if (waiting) {
+    const starts = said.start_by === "teacher" ? "your teacher starts it" : "it starts as soon as a robot is free";
+    text = `You are ${ordinal(ticket.place)} in the queue: ${starts}.${ticket.note ? ` (${ticket.note})` : ""}`;
+  } else if (running) {
+    text = `Your mission is running on robot ${ticket.robot}.`;
+  } else {
+    text = `Your run on robot ${ticket.robot}: ${ticket.outcome}. ${ticket.summary}`;
+  }
+  $("robot-state").textContent = text;
+  const view = $("robot-view");
+  if (running && ticket.view_port) {
+    const address = `${location.protocol}//${location.hostname}:${ticket.view_port}/`;
+    if (view.src !== address) view.src = address;
+    view.hidden = false;
+  }
+  const ended = ticket && ticket.state === "done" && robotShown && robotShown.state !== "done";
+  if (ended && ticket.run !== null) addRobotRun({ number: ticket.run, robot: ticket.robot, outcome: ticket.outcome,
+    at: new Date().toISOString(), page: ticket.page });
+  robotShown = ticket;
+}
+
+function addRobotRun(run) {
+  $("no-robot-runs").hidden = true;
+  const at = run.at ? `, ${new Date(run.at).toLocaleString()}` : "";
+  const item = element("li", `On robot ${run.robot}${at}: ${run.outcome}`);
+  if (run.page) {
+    const open = element("button", "replay");
+    open.type = "button";
+    open.addEventListener("click", () => {
+      $("robot-view").hidden = false;
+      $("robot-view").src = run.page;
+    });
+    item.append(open);
+  }
+  $("robot-runs").append(item);
+}
+
+async function askRobot() {
+  if (mode === "blocks" && !(await toText())) {
+    $("robot-state").textContent = "Mend the blocks first: each problem is marked on its block.";
+    return;
+  }
+  $("robot-ask").disabled = true;
+  const { status, data } = await inTurn(() => api("POST", "/api/robot", { mission: missionText.value }));
+  if (status !== 200) {
+    $("robot-ask").disabled = false;
+    $("robot-state").textContent = data.error || `the server answered ${status}`;
+    return;
+  }
+  showRobot(data);
+  followRobot();
+}
+
 // ------------------------------------------------------------------ wiring
+
+$("robot-ask").addEventListener("click", askRobot);
+$("robot-cancel").addEventListener("click", async () => {
+  const { status, data } = await api("POST", "/api/robot/cancel", {});
+  if (status === 200) showRobot(data);
+  else $("robot-state").textContent = data.error || `the server answered ${status}`;
+});
 
 $("sign-in-form").addEventListener("submit", (event) => {
   event.preventDefault();

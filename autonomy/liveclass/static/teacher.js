@@ -66,6 +66,7 @@ async function follow() {
       version = data.version;
       table = data;
       draw(before);
+      drawRobots(data.robots);
       glance();
     }
   }
@@ -185,11 +186,72 @@ function projector(on, run) {
   $("projector").textContent = on ? "Back to the desk" : "Projector view";
   $("board-cards").hidden = Boolean(run);
   $("board-run").hidden = !run;
+  // a run on a robot is its live view's page (the server's own, not a student's): framed as it is
+  const live = Boolean(run && run.live);
+  $("board-frame").hidden = live;
+  $("board-live").hidden = !live;
   if (run) {
     $("board-run-title").textContent = `${run.name}: ${run.what}`;
-    $("board-frame").src = run.page;
+    $(live ? "board-live" : "board-frame").src = run.page;
+  }
+  if (!run || live) $("board-frame").removeAttribute("src");
+  if (!live) $("board-live").removeAttribute("src");
+}
+
+// ------------------------------------------------------------------ the robots
+
+function drawRobots(robots) {
+  $("robots").hidden = !robots;
+  if (!robots) return;
+  $("robots-how").textContent =
+    robots.start_by === "teacher"
+      ? "Set a robot at the start, then press its Start: the first in the queue runs on it."
+      : "A run starts as soon as a robot is free (the exercise says so): Stop ends one.";
+  $("robots-table").tBodies[0].replaceChildren(
+    ...robots.robots.map((r) => {
+      const row = element("tr");
+      const state = r.state === "lost" ? `lost: ${r.why}` : r.state;
+      const run = r.student ? `${r.student}, ${Math.round(r.running_s)} s` : "";
+      const actions = element("td");
+      const start = element("button", `Start on ${r.name}`);
+      start.type = "button";
+      start.disabled = r.state !== "free" || !robots.queue.length;
+      start.addEventListener("click", () => robotAction("start", r.name));
+      const stop = element("button", `Stop ${r.name}`);
+      stop.type = "button";
+      stop.disabled = r.state !== "running";
+      stop.addEventListener("click", () => robotAction("stop", r.name));
+      actions.append(start, " ", stop);
+      if (r.state === "running" && r.view_port) {
+        const show = element("button", "Show on the projector");
+        show.type = "button";
+        const page = `${location.protocol}//${location.hostname}:${r.view_port}/`;
+        show.addEventListener("click", () => projector(true, { name: r.student, what: `on robot ${r.name}`, page, live: true }));
+        actions.append(" ", show);
+      }
+      row.append(element("td", r.name), element("td", state), element("td", run), actions);
+      return row;
+    }),
+  );
+  $("queue-empty").hidden = robots.queue.length > 0;
+  $("queue").replaceChildren(
+    ...robots.queue.map((t) => element("li", `${t.name} (${t.student}), waiting ${Math.round(t.waiting_s)} s`)),
+  );
+}
+
+async function robotAction(action, name) {
+  const answer = await api("POST", `/api/robots/${action}`, { robot: name });
+  if (answer.status === 200) {
+    $("robots-message").textContent = "";
+    drawRobots(Object.assign({}, table.robots, await answer.json()));
   } else {
-    $("board-frame").removeAttribute("src");
+    let why = `the server answered ${answer.status}`;
+    try {
+      why = (await answer.json()).error || why;
+    } catch (_) {
+      // not JSON: said by its status
+    }
+    $("robots-message").textContent = why;
   }
 }
 

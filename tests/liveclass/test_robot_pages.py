@@ -1,0 +1,76 @@
+"""A run on one of the class's robots, as a student and the teacher see it in a real headless Chromium, with the
+keyboard alone: the student asks for it and sees their place, the teacher starts it at the desk and shows it on the
+projector, the student watches it live and finds it kept, "on robot a"; axe finds nothing on either page."""
+
+from __future__ import annotations
+
+import csv
+import signal
+
+from tests.axe import violations
+from tests.liveclass.test_class_cli import serve
+from tests.liveclass.test_pages import FIXED, new_page, press, sign_in, until, watching
+from tests.liveclass.test_robots import ended, robot_process
+
+
+def test_a_student_asks_for_a_robot_the_teacher_starts_it_both_watch_it_live_and_it_is_kept(browser, tmp_path):
+    robot, url = robot_process()
+    (tmp_path / "roster.csv").write_text("id,name\n1001,Ada Lovelace\n1002,Bob Jones\n")
+    process, port, token = serve(tmp_path, "--robot", f"a={url}")
+    try:
+        with (tmp_path / "class" / "codes.csv").open() as stream:
+            codes = {row["id"]: row["code"] for row in csv.DictReader(stream)}
+        errors: list[str] = []
+        teacher = watching(browser, f"http://127.0.0.1:{port}/teacher#{token}", errors)
+        until(teacher, "!document.getElementById('robots').hidden")
+        until(teacher, "document.querySelector('#robots-table tbody tr').cells[1].textContent === 'free'")
+        assert teacher.text_content("#queue-empty") == "Nobody is waiting for a robot."
+
+        student = new_page(browser, errors)
+        student.goto(f"http://127.0.0.1:{port}/")
+        sign_in(student, codes["1001"])
+        until(student, "!document.getElementById('desk').hidden && !document.getElementById('robot').hidden")
+        student.fill("#mission .cm-content", FIXED)
+        press(student, "#robot-ask")  # before it ran: told to run it first
+        until(student, "document.getElementById('robot-state').textContent.includes('run this mission first')")
+        press(student, "#run")
+        until(student, "!document.getElementById('result').hidden")
+        press(student, "#robot-ask")
+        until(student, "document.getElementById('robot-state').textContent.includes('1st in the queue')")
+        assert "your teacher starts it" in student.text_content("#robot-state")
+        assert student.locator("#robot-cancel").is_visible()
+        assert violations(student) == []
+
+        until(teacher, "document.querySelectorAll('#queue li').length === 1")
+        assert teacher.text_content("#queue li").startswith("Ada Lovelace (1001), waiting")
+        assert violations(teacher) == []
+        press(teacher, "#robots-table button:has-text('Start on a')")
+        until(teacher, "document.querySelector('#robots-table tbody tr').cells[1].textContent === 'running'")
+        assert teacher.text_content("#robots-table tbody tr td:nth-child(3)").startswith("Ada Lovelace")
+
+        # live on the student's page: the robot's own view, framed, its tree drawn as it runs
+        until(student, "document.getElementById('robot-state').textContent.includes('running on robot a')")
+        live = student.frame_locator("#robot-view")
+        live.locator("#tree svg").first.wait_for(timeout=30_000)
+        assert live.locator("#mission").text_content().strip().startswith("park")
+        # and on the projector, from the desk
+        press(teacher, "#robots-table button:has-text('Show on the projector')")
+        assert teacher.locator("#board").is_visible() and teacher.locator("#board-live").is_visible()
+        assert teacher.text_content("#board-run-title") == "Ada Lovelace: on robot a"
+        teacher.frame_locator("#board-live").locator("#tree svg").first.wait_for(timeout=30_000)
+        teacher.keyboard.press("Escape")
+
+        # it ends (the garage's time limit, or the mission's end), the robot stopped, and it is kept
+        until(student, "document.getElementById('robot-state').textContent.includes('Your run on robot a:')", 90_000)
+        assert "It was stopped at the end." in student.text_content("#robot-state")
+        until(student, "document.querySelectorAll('#robot-runs li').length === 1")
+        assert student.text_content("#robot-runs li").startswith("On robot a")
+        press(student, "#robot-runs li button")  # its replay, a page of its own
+        student.frame_locator("#robot-view").locator("#tree svg").first.wait_for(timeout=30_000)
+        until(teacher, "document.querySelector('#robots-table tbody tr').cells[1].textContent === 'free'")
+        assert [e for e in errors if "status of 409" not in e] == []  # the refusal before it ran, said on the page
+    finally:
+        process.send_signal(signal.SIGINT)
+        _, err = process.communicate(timeout=30)
+        ended(robot)
+    assert process.returncode == 0 and "Traceback" not in err, err
