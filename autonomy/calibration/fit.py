@@ -150,7 +150,7 @@ class Fit:
 
 
 def _shown(value: float) -> str:
-    if value == 0:
+    if abs(value) < 1e-6:  # none, to the fit's rounding (a delay of 3e-11 s is none)
         return "0"
     if abs(value) >= 100:
         return f"{value:.1f}"
@@ -468,11 +468,16 @@ def _fit_sensor(recordings: list[Recording], params: RobotParams) -> tuple[list[
     names = (("sensor_scale", ""), ("sensor_offset_mm", "mm"), ("sensor_noise_mm", "mm"))
     span = max(p[0] for p in points) - min(p[0] for p in points) if points else 0.0
     if len(points) < SENSOR_SAMPLES or span < SENSOR_SPAN_MM:
-        why = (
-            "the runs hold no reading at a known distance from a wall (a probe's do)"
-            if not points
-            else f"{len(points)} readings over {span:.0f} mm: too few to fit"
-        )
+        known = [s.gap_mm for one in recordings for s in one.samples if s.gap_mm is not None]
+        if points:
+            why = f"{len(points)} readings over {span:.0f} mm: too few to fit"
+        elif known:  # a probe's: it drove to the wall, and its sensor never read it
+            why = (
+                f"the sensor never read the wall, though the robot drove to {min(known):.0f} mm from where it was "
+                "told the wall is: is the wall as far as --wall-mm says, and does the sensor face it?"
+            )
+        else:
+            why = "the runs hold no reading at a known distance from a wall (a probe's do)"
         return [Fitted(n, getattr(params, n), 0.0, u, False, why) for n, u in names], params
     count = len(points)
     mean_gap = sum(g for g, _ in points) / count

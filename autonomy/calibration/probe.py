@@ -185,8 +185,10 @@ class Probe:
             raise ProbeRefused("the robot is in manual mode (its remote has it): switch it to auto mode")
         if status.moving:
             raise ProbeRefused("the robot is moving: let it stand still first")
-        # nothing within the sensor's reach: it reads "nothing closer", twice
-        seen = min(status.front_distance_mm, self.client.status().front_distance_mm)
+        # nothing within the sensor's reach: it reads "nothing closer", twice of three times (a reading spoilt on a
+        # noisy link is not something ahead; something there is read each time)
+        readings = sorted([status.front_distance_mm, *(self.client.status().front_distance_mm for _ in range(2))])
+        seen = readings[1]
         if seen < NOTHING_MM:
             raise ProbeRefused(
                 f"the front sensor sees something {seen} mm ahead: the probe needs the {self.wall_mm:.0f} mm "

@@ -32,6 +32,8 @@ CHECK_SHARE = {
 }
 CHECK_SHARE_DEFAULT = 0.03
 CHECK_AMOUNT = {"command_delay_s": 0.03, "sensor_offset_mm": 10.0}
+#: A fitted sensor offset past this, mm, is said with what else it may be: the wall not where --wall-mm says.
+OFFSET_TOLD_MM = 30.0
 
 FLOOR = (
     "The probe drives the robot for about half a minute (2 minutes at most). Put it on a flat floor facing a "
@@ -178,6 +180,16 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     )
     for value in found.values:
         print(_shown(f"  {value.line}"))
+    offset = next((v for v in found.values if v.name == "sensor_offset_mm" and v.fitted), None)
+    if offset is not None and args.port is not None and abs(offset.value) > OFFSET_TOLD_MM:
+        print(
+            _shown(
+                f"note: the sensor reads {abs(offset.value):.0f} mm {'more' if offset.value > 0 else 'less'} than the "
+                f"distance to the wall: if the wall was not {args.wall_mm:g} mm from the robot's front, measure it and "
+                "probe again with --wall-mm"
+            ),
+            file=sys.stderr,
+        )
     name = args.name or (Path(args.output).stem if args.output else "robot")
     text = profile_text(found.params, name, found.notes())
     if not args.output:

@@ -390,3 +390,35 @@ def test_a_profile_that_cannot_be_written_is_said_before_the_robot_drives(tmp_pa
     assert autonomy("calibrate", str(trace), "-o", str(kept)).returncode == 0
     again = autonomy("calibrate", str(trace), "-o", str(kept))
     assert again.returncode == 0 and "over the profile that was there" in again.stdout
+
+
+@pytest.mark.parametrize(
+    ("wall_mm", "said"),
+    [
+        ("1100", "the sensor reads 100 mm less than the distance to the wall: if the wall was not 1100 mm"),
+        ("600", "left at 1: the sensor never read the wall, though the robot drove to"),
+    ],
+)
+def test_a_wall_not_where_the_probe_was_told_is_said_not_fitted_as_the_sensor_s_fault(wall_mm, said):
+    result = autonomy("calibrate", "--port", "emu://?time=virtual&world=calibration", "--yes", "--wall-mm", wall_mm)
+    assert result.returncode == 0, result.stderr
+    assert said in result.stdout + result.stderr
+
+
+def test_one_reading_spoilt_on_the_link_is_not_something_ahead():
+    """(Something there, read each time, is refused: see the test of a robot with something in front of it.)"""
+    client = Client.open("emu://?time=virtual&world=calibration&seed=3")
+    try:
+        real = client.status
+        readings = iter([False, True, False])  # the second status read is spoilt: it "sees" 44 mm
+
+        def spoilt():
+            status = real()
+            return dataclasses.replace(status, front_distance_mm=44) if next(readings, False) else status
+
+        client.status = spoilt
+        said = []
+        Probe(client, 1000.0, said.append)._check()  # ready: it does not raise
+        assert said[0].startswith("the robot is ready")
+    finally:
+        client.close()
