@@ -155,7 +155,8 @@ def _serve(
             else ("a run starts as soon as a robot is free (the exercise's robot_start: when_asked)")
         )
         named = ", ".join(f"{name} ({port})" for name, port in args.robots.items())
-        print(_shown(f"robots: {named}; {starts}; each run at most {exercise.time_limit_s:g} s"), file=sys.stderr)
+        said = f"robots: {named} at {args.robot_baud} baud; {starts}; each run at most {exercise.time_limit_s:g} s"
+        print(_shown(said), file=sys.stderr)
     signal.signal(signal.SIGTERM, _interrupt)
     try:  # from the moment its address is said, a Ctrl-C ends the class as it should (it was a race)
         print(f"http://{shown}:{server.port}/", flush=True)

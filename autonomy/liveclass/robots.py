@@ -56,6 +56,11 @@ ROBOT_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_-]{0,31}")
 RUNS_FOLDER = "robot-runs"
 
 
+def _short(name: str) -> str:
+    """A name as a refusal says it back: printable, and at most 40 characters."""
+    return printable(name[:40]) + ("..." if len(name) > 40 else "")
+
+
 def run_files(folder: Path, number: int) -> tuple[Path, Path]:
     """A run on a robot's trace (JSON lines) and replay (a page on its own), in the class's ``folder``."""
     return folder / RUNS_FOLDER / f"{number}.jsonl", folder / RUNS_FOLDER / f"{number}.html"
@@ -113,8 +118,8 @@ class Robot:
     why: str = ""
     ticket: Ticket | None = None
     started_s: float = 0.0
-    #: The teacher pressed Start: the queue's next run starts on it.
-    go: bool = False
+    #: The run the teacher's Start gave it, for its thread to take (None: none).
+    pending: Ticket | None = None
     wake: threading.Event = dataclasses.field(default_factory=threading.Event)
     runner: Runner | None = None
     client: Client | None = None
@@ -288,29 +293,48 @@ class RobotDesk:
             }
 
     def start_on(self, name: str) -> str | None:
-        """The teacher's Start: the queue's next run on robot ``name``; None, or why not."""
+        """The teacher's Start: the queue's next run, now on robot ``name`` (and no other); None, or why not.
+
+        The run is the robot's from this moment: a second Start finds it running. Should the robot be lost
+        before its thread takes the run, the run goes back to the head of the queue, not run, and waits for
+        the next Start.
+        """
         with self._lock:
             robot = self._robot(name)
             if robot is None:
-                return f"no robot is named '{name}'"
+                return f"no robot is named '{_short(name)}'"
             if robot.state != "free":
                 return f"robot {name} is {robot.state}: " + (
                     "wait for its run to end" if robot.state == "running" else "it must answer first"
                 )
             if not self._queue:
                 return "nobody is waiting for a robot"
-            robot.go = True
+            self._take(robot, self._queue.pop(0))
+            robot.pending = robot.ticket
+        self._changed()
         robot.wake.set()
         return None
+
+    def _take(self, robot: Robot, ticket: Ticket) -> None:
+        """``ticket``, out of the queue, is now ``robot``'s run (with the lock held)."""
+        ticket.state, ticket.robot, ticket.note = "running", robot.name, ""
+        robot.ticket, robot.started_s, robot.state = ticket, self._clock.now(), "running"
+
+    def _give_back(self, robot: Robot, ticket: Ticket) -> None:
+        """A run its robot could not start (it was lost first): first in the queue again, never run (lock held)."""
+        ticket.state, ticket.robot = "waiting", ""
+        ticket.note = f"robot {robot.name} did not answer as your run was to start: you are first in the queue again"
+        self._queue.insert(0, ticket)
+        robot.ticket = robot.pending = None
 
     def stop_on(self, name: str) -> str | None:
         """The teacher's Stop: the run on robot ``name`` ends after its tick, the robot stopped; None, or why not."""
         with self._lock:
             robot = self._robot(name)
             if robot is None:
-                return f"no robot is named '{name}'"
+                return f"no robot is named '{_short(name)}'"
             if robot.runner is None:
-                return f"robot {name} has no run under way"
+                return f"robot {_short(name)} has no run under way"
             robot.runner.request_stop("stopped by the teacher")
         return None
 
@@ -340,6 +364,13 @@ class RobotDesk:
                     continue
                 ticket = self._next_for(robot)
                 if ticket is not None:
+                    try:  # still there? A robot gone is not a run lost: it never started
+                        robot.client.status()
+                    except AutonomyError as err:
+                        with self._lock:
+                            robot.pending = ticket
+                        self._lose(robot, f"it stopped answering ({err})")
+                        continue
                     self._run(robot, ticket)
                     continue
                 if wait_event(robot.wake, ROBOT_POLL_S):
@@ -372,17 +403,22 @@ class RobotDesk:
         client, robot.client = robot.client, None
         if client is not None:
             client.close()
+        with self._lock:
+            if robot.pending is not None:  # a Start pressed as the robot went: its run waits for the next Start
+                self._give_back(robot, robot.pending)
+            robot.state = "lost"  # (not "free" for a moment, whatever it was)
         self._set(robot, "lost", why)
 
     def _next_for(self, robot: Robot) -> Ticket | None:
-        """The queue's next ticket, now running on ``robot``: once the teacher pressed Start, or by itself."""
+        """The run ``robot`` starts now: the one the teacher's Start gave it, or (``when_asked``) the queue's next."""
         with self._lock:
-            if self._closing or not self._queue or not (robot.go or self.start_by == START_WHEN_ASKED):
+            if robot.pending is not None:
+                ticket, robot.pending = robot.pending, None
+                return ticket
+            if self._closing or not self._queue or self.start_by != START_WHEN_ASKED or robot.state != "free":
                 return None
-            robot.go = False
-            ticket = self._queue.pop(0)
-            ticket.state, ticket.robot, ticket.note = "running", robot.name, ""
-            robot.ticket, robot.started_s, robot.state = ticket, self._clock.now(), "running"
+            self._take(robot, self._queue.pop(0))
+            ticket = robot.ticket
         self._changed()
         return ticket
 
@@ -412,9 +448,10 @@ class RobotDesk:
             with self._lock:
                 robot.runner = None
         lost = summary.outcome == LINK_LOST
-        self._end(robot, ticket, ROBOT_LOST if lost else summary.outcome, summary.paragraph, records)
         if lost:
             robot.lost_during = f"its link dropped during {ticket.name}'s run ({summary.reason})"
+        self._end(robot, ticket, ROBOT_LOST if lost else summary.outcome, summary.paragraph, records)
+        if lost:
             self._lose(robot, robot.lost_during)
 
     def _end(self, robot: Robot, ticket: Ticket, outcome: str, summary: str, records: list[Record]) -> None:
@@ -434,8 +471,8 @@ class RobotDesk:
         with self._lock:
             ticket.state, ticket.outcome, ticket.summary, ticket.run = "done", outcome, summary, number
             robot.ticket = None
-            if robot.state == "running":
-                robot.state = "free"
+            if robot.state == "running":  # a robot lost is lost from now (never free for a moment)
+                robot.state, robot.why = ("lost", robot.lost_during) if outcome == ROBOT_LOST else ("free", "")
             if outcome == ROBOT_LOST and not self._closing:  # not the student's doing: first in the queue again
                 again = Ticket(ticket.student, ticket.name, ticket.text, ticket.asked_s)
                 again.note = f"robot {robot.name} was lost during your run: you are first in the queue again"

@@ -320,3 +320,31 @@ def test_an_exercise_s_robot_start_is_teacher_or_when_asked_and_said_at_its_line
     (problem,) = refused.value.problems
     assert (problem.line, problem.column) == (len(text.splitlines()) + 1, 14)
     assert "when_asked" in problem.message
+
+
+def test_a_start_is_that_robot_s_run_at_once_and_a_robot_lost_before_it_starts_gives_it_back_unrun(tmp_path):
+    from autonomy.liveclass.robots import RobotDesk
+
+    store = ClassStore(tmp_path)
+    store.enrol([("s1", "Ada"), ("s2", "Bob")])
+    robots = {"a": "emu://?world=garage", "b": "emu://?world=garage"}
+    desk = RobotDesk(robots, SHORT, store, tmp_path, lambda: None)  # their threads not started: each step by hand
+    a, b = desk.robots
+    try:
+        assert desk._connect(a) and desk._connect(b)
+        assert desk.ask("s1", "Ada", SOLUTION) is None
+        assert desk.start_on("a") is None  # Ada's run is robot a's from now...
+        assert desk.start_on("a") == "robot a is running: wait for its run to end"  # ...a second Start says so
+        assert desk.start_on("b") == "nobody is waiting for a robot"  # and robot b never takes it
+        assert not desk.cancel("s1")  # nor can she leave a queue she is out of
+        desk._lose(a, "it stopped answering")  # lost as its Start was pressed, before its thread took the run
+        ticket = desk.of("s1")["ticket"]
+        assert (ticket["state"], ticket["place"]) == ("waiting", 1) and "did not answer" in ticket["note"]
+        assert store.robot_runs("s1") == []  # never run, so never kept as a run
+        assert desk._connect(a) and desk._next_for(a) is None  # back: it waits for the next Start
+        assert desk.of("s1")["ticket"]["state"] == "waiting"
+        assert desk.start_on("x" * 10_000) == f"no robot is named '{'x' * 40}...'"
+    finally:
+        for robot in (a, b):
+            robot.client.close()
+        store.close()
