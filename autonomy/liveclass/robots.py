@@ -120,6 +120,8 @@ class Robot:
     started_s: float = 0.0
     #: The run the teacher's Start gave it, for its thread to take (None: none).
     pending: Ticket | None = None
+    #: Why its run is to stop (the teacher's Stop), should the Stop come before the run's runner is made.
+    stop_reason: str = ""
     wake: threading.Event = dataclasses.field(default_factory=threading.Event)
     runner: Runner | None = None
     client: Client | None = None
@@ -326,6 +328,7 @@ class RobotDesk:
         ticket.note = f"robot {robot.name} did not answer as your run was to start: you are first in the queue again"
         self._queue.insert(0, ticket)
         robot.ticket = robot.pending = None
+        robot.stop_reason = ""
 
     def stop_on(self, name: str) -> str | None:
         """The teacher's Stop: the run on robot ``name`` ends after its tick, the robot stopped; None, or why not."""
@@ -333,9 +336,11 @@ class RobotDesk:
             robot = self._robot(name)
             if robot is None:
                 return f"no robot is named '{_short(name)}'"
-            if robot.runner is None:
+            if robot.ticket is None:
                 return f"robot {_short(name)} has no run under way"
-            robot.runner.request_stop("stopped by the teacher")
+            robot.stop_reason = "stopped by the teacher"  # a run just started, its runner not made yet, too
+            if robot.runner is not None:
+                robot.runner.request_stop(robot.stop_reason)
         return None
 
     def _robot(self, name: str) -> Robot | None:
@@ -439,9 +444,9 @@ class RobotDesk:
             return
         with self._lock:
             robot.runner = runner
-            closing = self._closing
-        if closing:  # the class stopped as it started: not run
-            runner.request_stop("the class's server stopped")
+            stop = "the class's server stopped" if self._closing else robot.stop_reason
+        if stop:  # the class stopped, or the teacher pressed Stop, as the run started
+            runner.request_stop(stop)
         try:
             summary = runner.run()  # the robot stopped on every way out
         finally:
@@ -470,7 +475,7 @@ class RobotDesk:
             summary += f" (the class's server could not keep this run: {err})"
         with self._lock:
             ticket.state, ticket.outcome, ticket.summary, ticket.run = "done", outcome, summary, number
-            robot.ticket = None
+            robot.ticket, robot.stop_reason = None, ""
             if robot.state == "running":  # a robot lost is lost from now (never free for a moment)
                 robot.state, robot.why = ("lost", robot.lost_during) if outcome == ROBOT_LOST else ("free", "")
             if outcome == ROBOT_LOST and not self._closing:  # not the student's doing: first in the queue again

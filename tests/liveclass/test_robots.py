@@ -344,6 +344,18 @@ def test_a_start_is_that_robot_s_run_at_once_and_a_robot_lost_before_it_starts_g
         assert desk._connect(a) and desk._next_for(a) is None  # back: it waits for the next Start
         assert desk.of("s1")["ticket"]["state"] == "waiting"
         assert desk.start_on("x" * 10_000) == f"no robot is named '{'x' * 40}...'"
+        # a Stop pressed right after Start, before the run's runner is made, ends that run all the same
+        from autonomy.views.web import ViewServer
+
+        a.view = ViewServer("127.0.0.1", 0)  # its hub alone (not served)
+        assert desk.start_on("a") is None and desk.stop_on("a") is None
+        ticket = desk._next_for(a)
+        desk._run(a, ticket)
+        done = desk.of("s1")["ticket"]
+        assert (
+            done["state"] == "done" and done["outcome"] == "interrupted" and "stopped by the teacher" in done["summary"]
+        )
+        assert a.stop_reason == "" and a.state == "free"  # the next run is not stopped by it
     finally:
         for robot in (a, b):
             robot.client.close()
