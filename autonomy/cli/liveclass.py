@@ -22,6 +22,7 @@ from autonomy.cli.common import (
     _shown,
     _tcp_port,
     _warn_if_public,
+    _world_failed,
 )
 from autonomy.cli.grade import _exercise
 from autonomy.client import DEFAULT_BAUD, SUPPORTED_BAUD_RATES
@@ -30,13 +31,17 @@ from autonomy.client import DEFAULT_BAUD, SUPPORTED_BAUD_RATES
 def cmd_class_serve(args: argparse.Namespace) -> int:
     """Serves the class until Ctrl-C; writes the students' codes to DIR/codes.csv."""
     from autonomy.classroom.gradebook import GradebookError, read_roster
-    from autonomy.liveclass.robots import parse_robots
+    from autonomy.emulator import WorldError
+    from autonomy.liveclass.robots import parse_profiles, parse_robots
     from autonomy.liveclass.store import ClassStore, StoreError
 
     try:
         args.robots = parse_robots(args.robot)
+        args.profiles = parse_profiles(args.robot_profile, args.robots)
     except ValueError as err:
         return _fail(str(err), EXIT_USAGE)
+    except WorldError as err:  # a profile with problems: each at its place
+        return _world_failed(err)
     found = _exercise(args.exercise)
     if isinstance(found, int):
         return found
@@ -124,6 +129,7 @@ def _serve(
         autograder=lambda: build_autograder(plain, exercise_path, secret),
         robots=args.robots,
         robot_baud=args.robot_baud,
+        robot_profiles=args.profiles,
     )
     try:
         server.start()
@@ -284,6 +290,13 @@ def add_parsers(sub: Any) -> None:
         default=[],
         metavar="NAME=PORT",
         help="a robot of the class's, e.g. a=/dev/ttyUSB0 (repeat for each): students ask for runs on it, from a queue",
+    )
+    serve.add_argument(
+        "--robot-profile",
+        action="append",
+        default=[],
+        metavar="NAME=PROFILE",
+        help="a robot's calibration profile (autonomy calibrate): its runs are shown beside the same mission on it",
     )
     serve.add_argument(
         "--robot-baud",

@@ -22,19 +22,24 @@ Stop included. Should the class's server be killed outright, the link's guardian
 from __future__ import annotations
 
 import dataclasses
+import multiprocessing
+import os
 import re
+import signal
 import threading
 from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
 
 from autonomy.classroom.exercise import Exercise
-from autonomy.classroom.job import check_text
+from autonomy.classroom.job import check_text, run_seed
 from autonomy.client import Client
 from autonomy.clock import Clock, RealClock, wait_event
+from autonomy.emulator.profile import load_profile
 from autonomy.errors import AutonomyError
 from autonomy.liveclass.store import ClassStore, StoreError
-from autonomy.liveclass.work import MISSION_LABEL, NO_PLUGINS
+from autonomy.liveclass.work import GRADING_NICENESS, MISSION_LABEL, NO_PLUGINS
 from autonomy.record import Record
 from autonomy.runner import LINK_LOST, Runner
 from autonomy.views.lines import printable
@@ -61,9 +66,38 @@ def _short(name: str) -> str:
     return printable(name[:40]) + ("..." if len(name) > 40 else "")
 
 
-def run_files(folder: Path, number: int) -> tuple[Path, Path]:
-    """A run on a robot's trace (JSON lines) and replay (a page on its own), in the class's ``folder``."""
-    return folder / RUNS_FOLDER / f"{number}.jsonl", folder / RUNS_FOLDER / f"{number}.html"
+#: Longest an emulated run beside a robot's may take to be made, wall seconds (its work is one seed's grading).
+EMULATED_WAIT_S = 120.0
+
+
+def run_files(folder: Path, number: int) -> tuple[Path, Path, Path]:
+    """A run on a robot's trace (JSON lines), its replay, and the emulated run beside it (pages of their own)."""
+    runs = folder / RUNS_FOLDER
+    return runs / f"{number}.jsonl", runs / f"{number}.html", runs / f"{number}-emulated.html"
+
+
+def emulated_page(exercise: Exercise, text: str, profile: str) -> str:
+    """``text`` run on the emulator of a robot's ``profile``, as the exercise's first public seed runs: its replay.
+
+    In virtual time, in the exercise's world: what the student's mission does on the emulator fitted to the
+    robot it just ran on, to be shown beside that run.
+
+    Raises:
+        ValueError: the mission has problems (it had none when its run was asked for).
+    """
+    spec, problems = check_text(exercise, text, MISSION_LABEL, NO_PLUGINS)
+    if spec is None:
+        raise ValueError(str(problems[0]) if problems else "the mission has problems")
+    records: list[Record] = []
+    seed = next(seed for seed in exercise.seeds if not seed.hidden)
+    run_seed(dataclasses.replace(exercise, robot_ref=profile), spec, seed, watchers=[records.append])
+    return standalone_html(records, at_end=True)
+
+
+def _behind() -> None:
+    """The emulated runs' process: behind the class's server, as gradings are; a Ctrl-C is the server's."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    os.nice(GRADING_NICENESS)
 
 
 def parse_robots(given: list[str]) -> dict[str, str]:
@@ -86,6 +120,30 @@ def parse_robots(given: list[str]) -> dict[str, str]:
             raise ValueError(f"--robot {name}: two robots are named '{name}'; give each a name of its own")
         robots[name] = port.strip()
     return robots
+
+
+def parse_profiles(given: list[str], robots: dict[str, str]) -> dict[str, str]:
+    """``--robot-profile NAME=PROFILE`` options, as robots' names and their profiles' paths (each one read).
+
+    Raises:
+        ValueError: one is not ``NAME=PROFILE``, or names no robot, or is given twice; the message says which.
+        WorldError: a profile is not there, or has problems (:class:`ProfileInvalid`: each at its place).
+    """
+    profiles: dict[str, str] = {}
+    for option in given:
+        name, equals, path = option.partition("=")
+        if not equals or not path.strip():
+            raise ValueError(
+                f"--robot-profile {option!r}: give a robot's name and its profile, e.g. --robot-profile a=robot-a.yaml"
+            )
+        if name not in robots:
+            named = ", ".join(robots) or "none: give them with --robot NAME=PORT"
+            raise ValueError(f"--robot-profile {name}: no robot is named '{_short(name)}' (the robots: {named})")
+        if name in profiles:
+            raise ValueError(f"--robot-profile {name}: robot {name} is given two profiles")
+        load_profile(path.strip())
+        profiles[name] = str(Path(path.strip()).resolve())
+    return profiles
 
 
 @dataclasses.dataclass
@@ -113,6 +171,8 @@ class Robot:
 
     name: str
     port: str
+    #: Its calibration profile's file (empty: none): each run is shown beside the same mission on its emulator.
+    profile: str = ""
     #: ``connecting``, ``free``, ``running``, or ``lost``.
     state: str = "connecting"
     why: str = ""
@@ -145,6 +205,8 @@ class RobotDesk:
         baud: The robots' links' rate.
         open_link: Opens a robot's link (:meth:`Client.open`'s arguments).
         clock: Real time (how long a student has waited, a run has gone).
+        profiles: The calibration profiles of robots that have one, by name (each a file's path): their runs are
+            shown beside the same mission on the emulator of that profile, made in a process of its own.
     """
 
     def __init__(
@@ -159,8 +221,12 @@ class RobotDesk:
         baud: int | None = None,
         open_link: Callable[..., Client] = Client.open,
         clock: Clock | None = None,
+        profiles: dict[str, str] | None = None,
     ) -> None:
-        self.robots = [Robot(name, port) for name, port in robots.items()]
+        profiles = profiles or {}
+        self.robots = [Robot(name, port, profiles.get(name, "")) for name, port in robots.items()]
+        #: Where the emulated runs are made (a process of their own, started at the first); None: not yet.
+        self._emulator: ProcessPoolExecutor | None = None
         self.exercise = exercise
         self.store = store
         self.folder = Path(folder)
@@ -210,6 +276,10 @@ class RobotDesk:
                 robot.thread.join(timeout=30)
             if robot.view is not None:
                 robot.view.stop()
+        with self._lock:
+            emulator, self._emulator = self._emulator, None
+        if emulator is not None:
+            emulator.shutdown(wait=False, cancel_futures=True)
 
     def view_ports(self) -> list[int]:
         """The ports of the robots' live views (the class's pages frame them)."""
@@ -359,6 +429,20 @@ class RobotDesk:
         if changed:
             self._changed()
 
+    def _emulated(self, text: str, profile: str) -> str:
+        """The emulated run of ``text`` on ``profile``'s emulator (:func:`emulated_page`), or why it could not be."""
+        with self._lock:
+            if self._closing:
+                return "the class is closing"
+            if self._emulator is None:
+                context = multiprocessing.get_context("forkserver")
+                self._emulator = ProcessPoolExecutor(1, mp_context=context, initializer=_behind)
+            emulator = self._emulator
+        try:
+            return emulator.submit(emulated_page, self.exercise, text, profile).result(timeout=EMULATED_WAIT_S)
+        except Exception as err:  # noqa: BLE001 - said beside the run, which is kept whatever happens here
+            return f"{type(err).__name__}: {err}" if str(err) else type(err).__name__
+
     def _serve(self, robot: Robot) -> None:
         """A robot's thread: its link kept open and asked after, the runs started on it run, until the class stops."""
         try:
@@ -464,13 +548,19 @@ class RobotDesk:
         number = None
         try:
             number = self.store.add_robot_run(ticket.student, robot.name, ticket.text, outcome, summary)
-            trace, replay = run_files(self.folder, number)
+            trace, replay, emulated = run_files(self.folder, number)
             trace.parent.mkdir(mode=0o700, exist_ok=True)
             if records:
                 from autonomy.record import to_line
 
                 trace.write_text("".join(to_line(record) + "\n" for record in records), encoding="utf-8")
                 replay.write_text(standalone_html(records, at_end=True), encoding="utf-8")
+                if robot.profile:
+                    beside = self._emulated(ticket.text, robot.profile)
+                    if isinstance(beside, str) and beside.startswith("<"):
+                        emulated.write_text(beside, encoding="utf-8")
+                    else:
+                        summary += f" (the emulated run beside it could not be made: {beside})"
         except (StoreError, OSError) as err:
             summary += f" (the class's server could not keep this run: {err})"
         with self._lock:

@@ -205,6 +205,7 @@ PAGE_POLICY = (
 #: A feedback page's policy, on top of its own: a sandbox of its own origin, framed by the class's pages alone.
 FEEDBACK_POLICY = "sandbox allow-scripts; frame-ancestors 'self'"
 _PAGE_NAME = re.compile(r"(\d{1,12})-([0-9a-f]{32})\.html")
+_ROBOT_PAGE_NAME = re.compile(r"(\d{1,12})-([0-9a-f]{32})(-emulated)?\.html")
 
 
 def _as_seen(page: str | None, written_as: str | None) -> str | None:
@@ -395,6 +396,8 @@ class ClassServer(BoundedServer):
         robots: The class's robots, by name, each with its port: students' runs on them, from a queue
             (:mod:`autonomy.liveclass.robots`); none by default.
         robot_baud: The robots' links' rate (default: the client's).
+        robot_profiles: The calibration profiles of robots that have one, by name: each of their runs is shown
+            beside the same mission on that profile's emulator.
     """
 
     def start(self) -> None:
@@ -415,6 +418,7 @@ class ClassServer(BoundedServer):
             self.host,
             " ".join(origins(self.host, self.port)),
             self._robot_baud,
+            profiles=self._robot_profiles,
         )
         try:
             desk.start()
@@ -448,10 +452,12 @@ class ClassServer(BoundedServer):
         autograder: Callable[[], bytes] | None = None,
         robots: dict[str, str] | None = None,
         robot_baud: int | None = None,
+        robot_profiles: dict[str, str] | None = None,
     ):
         super().__init__(host, port, "class")
         #: The class's robots (``--robot NAME=PORT``) and their queue, once the server listens; None: none.
         self._robots_given, self._robot_baud = dict(robots or {}), robot_baud
+        self._robot_profiles = dict(robot_profiles or {})
         self.robots: RobotDesk | None = None
         self._key = key if key is not None else secrets.token_bytes(32)
         self._exercise_shown = exercise_shown(exercise)  # the same for every student: made once
@@ -1065,22 +1071,24 @@ class ClassServer(BoundedServer):
         for run in runs:
             run["label"] = f"on robot {run['robot']}"
             run["page"] = self._robot_page_url(run["number"])
+            run["emulated_page"] = self._robot_page_url(run["number"], emulated=True)
         return runs
 
-    def _robot_page_url(self, number: int) -> str | None:
-        """Where a run on a robot is replayed: an address only its student and the teacher are given."""
-        if not run_files(self.folder, number)[1].is_file():
+    def _robot_page_url(self, number: int, emulated: bool = False) -> str | None:
+        """Where a run on a robot is replayed (or the emulated run beside it): its student's and the teacher's alone."""
+        if not run_files(self.folder, number)[2 if emulated else 1].is_file():
             return None
         key = hmac.new(self._key, f"robot run {number}".encode(), hashlib.sha256).hexdigest()[:32]
-        return f"/robot-runs/{number}-{key}.html"
+        return f"/robot-runs/{number}-{key}{'-emulated' if emulated else ''}.html"
 
     async def _robot_page(self, request: web.Request) -> web.StreamResponse:
-        """A run on a robot, replayed (a page on its own), to the one who has its address."""
-        named = _PAGE_NAME.fullmatch(request.match_info["name"])
-        if not named or self._robot_page_url(int(named[1])) != f"/robot-runs/{named[0]}":
+        """A run on a robot replayed, or the emulated run beside it (pages of their own), to whoever has its address."""
+        named = _ROBOT_PAGE_NAME.fullmatch(request.match_info["name"])
+        emulated = bool(named and named[3])
+        if not named or self._robot_page_url(int(named[1]), emulated) != f"/robot-runs/{named[0]}":
             raise web.HTTPNotFound()
         headers = {"Content-Security-Policy": FEEDBACK_POLICY, **NO_STORE}
-        path = run_files(self.folder, int(named[1]))[1]
+        path = run_files(self.folder, int(named[1]))[2 if emulated else 1]
         return await self._send_in_pieces(request, path, "text/html; charset=utf-8", headers, page=True)
 
     def _robot_said(self, student: Student) -> dict[str, Any]:
@@ -1090,6 +1098,7 @@ class ClassServer(BoundedServer):
         ticket = said["ticket"]
         if ticket is not None and ticket["run"] is not None:
             ticket["page"] = self._robot_page_url(ticket["run"])
+            ticket["emulated_page"] = self._robot_page_url(ticket["run"], emulated=True)
         return said
 
     async def _robot_state(self, request: web.Request) -> web.Response:

@@ -1,6 +1,7 @@
 """A run on one of the class's robots, as a student and the teacher see it in a real headless Chromium, with the
 keyboard alone: the student asks for it and sees their place, the teacher starts it at the desk and shows it on the
-projector, the student watches it live and finds it kept, "on robot a"; axe finds nothing on either page."""
+projector, the student watches it live and finds it kept, "on robot a", beside the same mission on the emulator
+calibrated to that robot; axe finds nothing on either page."""
 
 from __future__ import annotations
 
@@ -10,13 +11,13 @@ import signal
 from tests.axe import violations
 from tests.liveclass.test_class_cli import serve
 from tests.liveclass.test_pages import FIXED, new_page, press, sign_in, until, watching
-from tests.liveclass.test_robots import ended, robot_process
+from tests.liveclass.test_robots import PROFILE, ended, robot_process
 
 
 def test_a_student_asks_for_a_robot_the_teacher_starts_it_both_watch_it_live_and_it_is_kept(browser, tmp_path):
-    robot, url = robot_process()
+    robot, url = robot_process(profile=PROFILE)  # a robot, calibrated
     (tmp_path / "roster.csv").write_text("id,name\n1001,Ada Lovelace\n1002,Bob Jones\n")
-    process, port, token = serve(tmp_path, "--robot", f"a={url}")
+    process, port, token = serve(tmp_path, "--robot", f"a={url}", "--robot-profile", f"a={PROFILE}")
     try:
         with (tmp_path / "class" / "codes.csv").open() as stream:
             codes = {row["id"]: row["code"] for row in csv.DictReader(stream)}
@@ -65,6 +66,13 @@ def test_a_student_asks_for_a_robot_the_teacher_starts_it_both_watch_it_live_and
         assert "It was stopped at the end." in student.text_content("#robot-state")
         until(student, "document.querySelectorAll('#robot-runs li').length === 1")
         assert student.text_content("#robot-runs li").startswith("On robot a")
+        # beside it, the same mission on the emulator calibrated to robot a: side by side, each drawn
+        until(student, "!document.getElementById('robot-emulated').hidden")
+        assert student.locator("#robot-emulated-note").is_visible()
+        student.frame_locator("#robot-emulated").locator("#tree svg").first.wait_for(timeout=30_000)
+        left, right = student.locator("#robot-view").bounding_box(), student.locator("#robot-emulated").bounding_box()
+        assert left["x"] + left["width"] <= right["x"] and abs(left["y"] - right["y"]) < 1
+        assert violations(student) == []
         press(student, "#robot-runs li button")  # its replay, a page of its own
         student.frame_locator("#robot-view").locator("#tree svg").first.wait_for(timeout=30_000)
         until(teacher, "document.querySelector('#robots-table tbody tr').cells[1].textContent === 'free'")

@@ -31,10 +31,11 @@ SHORT = dataclasses.replace(GARAGE, time_limit_s=RUN_S)
 TEACHER = "teacher-token"
 
 
-def robot_process(port: int = 0) -> tuple[subprocess.Popen, str]:
-    """``autonomy emulator`` over TCP: the process, and its URL."""
+def robot_process(port: int = 0, profile: str = "") -> tuple[subprocess.Popen, str]:
+    """``autonomy emulator`` over TCP (with a robot profile, if given): the process, and its URL."""
     process = subprocess.Popen(
-        [sys.executable, "-m", "autonomy", "emulator", "--tcp", f"127.0.0.1:{port}", "--world", "garage"],
+        [sys.executable, "-m", "autonomy", "emulator", "--tcp", f"127.0.0.1:{port}", "--world", "garage"]
+        + (["--profile", profile] if profile else []),
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
@@ -56,11 +57,13 @@ def robot():
     ended(process)
 
 
-def class_with(tmp_path, robots: dict[str, str], exercise=SHORT) -> tuple[ClassServer, dict[str, str]]:
+def class_with(
+    tmp_path, robots: dict[str, str], exercise=SHORT, profiles: dict[str, str] | None = None
+) -> tuple[ClassServer, dict[str, str]]:
     store = ClassStore(tmp_path)
     codes = store.enrol([("s1", "Ada"), ("s2", "Bob")])
     store.set_setting(TEACHER_TOKEN, token_digest(TEACHER))
-    server = ClassServer(exercise, store, tmp_path, port=0, robots=robots)
+    server = ClassServer(exercise, store, tmp_path, port=0, robots=robots, robot_profiles=profiles)
     server.start()
     return server, codes
 
@@ -130,7 +133,8 @@ def test_students_queue_the_teacher_starts_each_run_and_it_is_kept_on_robot_a_wi
         status, me = call(server, "/api/me", code=codes["s1"], method="GET")
         (kept,) = me["robot_runs"]
         assert kept["label"] == "on robot a" and kept["outcome"] == "stopped at the time limit"
-        trace, replay = run_files(tmp_path, kept["number"])
+        trace, replay, emulated = run_files(tmp_path, kept["number"])
+        assert kept["emulated_page"] is None and not emulated.exists()  # a robot without a profile: none beside
         recorded = read_trace(trace)
         assert recorded.header.mission == "garage" and recorded.ticks and recorded.end is not None
         assert recorded.end.stopped and any(e.sent.startswith("X") and e.reply == "OK" for e in recorded.end.wire)
@@ -360,3 +364,43 @@ def test_a_start_is_that_robot_s_run_at_once_and_a_robot_lost_before_it_starts_g
         for robot in (a, b):
             robot.client.close()
         store.close()
+
+
+PROFILE = str(ROOT / "tests" / "calibration" / "robots" / "robot-a.yaml")
+
+
+def test_a_robot_with_a_profile_has_each_run_shown_beside_the_same_mission_on_its_emulator(tmp_path):
+    process, url = robot_process(profile=PROFILE)  # the robot, and its calibration
+    server, codes = class_with(tmp_path, {"a": url}, profiles={"a": PROFILE})
+    try:
+        until(lambda: robot_state(server) == "free")
+        assert call(server, "/api/run", {"mission": SOLUTION}, codes["s1"])[0] == 200
+        assert call(server, "/api/robot", {"mission": SOLUTION}, codes["s1"])[0] == 200
+        assert call(server, "/api/robots/start", {"robot": "a"}, TEACHER)[0] == 200
+        done = until(lambda: (t := ticket(server, codes["s1"]))["state"] == "done" and t, timeout_s=RUN_S + 60)
+        assert done["page"] and done["emulated_page"] == done["page"].replace(".html", "-emulated.html")
+        with urllib.request.urlopen(server.url + done["emulated_page"].lstrip("/"), timeout=10) as answer:
+            beside = answer.read().decode()
+        assert 'id="run-data"' in beside and '"garage"' in beside  # the same mission, replayed on its own page
+        (kept,) = call(server, "/api/me", code=codes["s1"], method="GET")[1]["robot_runs"]
+        assert kept["emulated_page"] == done["emulated_page"]
+        forged = done["emulated_page"].replace(done["emulated_page"].split("-")[1][:4], "0000")
+        with pytest.raises(urllib.error.HTTPError):  # its key is its own
+            urllib.request.urlopen(server.url + forged.lstrip("/"), timeout=10)
+    finally:
+        server.stop()
+        server.store.close()
+        ended(process)
+
+
+def test_a_robot_profile_for_no_robot_or_with_problems_is_refused_before_the_class_starts(tmp_path):
+    roster = tmp_path / "roster.csv"
+    roster.write_text("id,name\ns1,Ada\n")
+    serve = ["class", "serve", "garage", "--roster", str(roster), "--dir", str(tmp_path / "c"), "--robot", "a=x"]
+    result = autonomy(*serve, "--robot-profile", f"b={PROFILE}")
+    assert_one_line_error(result, 2, "no robot is named 'b' (the robots: a)")
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("name: bad\nacceleration_mm_s2: -5\n")
+    result = autonomy(*serve, "--robot-profile", f"a={bad}")
+    assert result.returncode == 2 and "Traceback" not in result.stderr
+    assert f"{bad}:2:" in result.stderr and "acceleration_mm_s2" in result.stderr

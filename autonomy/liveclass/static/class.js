@@ -471,9 +471,27 @@ function showRobot(said) {
     view.hidden = false;
   }
   const ended = ticket && ticket.state === "done" && robotShown && robotShown.state !== "done";
-  if (ended && ticket.run !== null) addRobotRun({ number: ticket.run, robot: ticket.robot, outcome: ticket.outcome,
-    at: new Date().toISOString(), page: ticket.page });
+  if (ended && ticket.run !== null) {
+    const run = { number: ticket.run, robot: ticket.robot, outcome: ticket.outcome, at: new Date().toISOString(),
+      page: ticket.page, emulated_page: ticket.emulated_page };
+    addRobotRun(run);
+    if (run.emulated_page) showRobotRun(run); // the run and the emulator's beside it
+  }
+  if (!ended) showBeside(null);
   robotShown = ticket;
+}
+
+/** The emulated run beside the robot's (null: none). */
+function showBeside(page) {
+  $("robot-emulated").hidden = $("robot-emulated-note").hidden = !page;
+  if (page) $("robot-emulated").src = page;
+  else $("robot-emulated").removeAttribute("src");
+}
+
+function showRobotRun(run) {
+  $("robot-view").hidden = false;
+  $("robot-view").src = run.page;
+  showBeside(run.emulated_page || null);
 }
 
 function addRobotRun(run) {
@@ -483,10 +501,7 @@ function addRobotRun(run) {
   if (run.page) {
     const open = element("button", "replay");
     open.type = "button";
-    open.addEventListener("click", () => {
-      $("robot-view").hidden = false;
-      $("robot-view").src = run.page;
-    });
+    open.addEventListener("click", () => showRobotRun(run));
     item.append(open);
   }
   $("robot-runs").append(item);
