@@ -602,6 +602,8 @@ class ClassServer(BoundedServer):
         code = "".join(_bearer(request).split())
         if not code:
             return _refusal(401, "sign in with the code on your sheet")
+        if self._teacher(request):  # not a guess: the teacher trying a student's page costs their address nothing
+            return _refusal(403, "the teacher's token signs in as no student: this asks for a student's code")
         address = address_group(request.remote or "")
         digest = code_digest(code)
         now_s = self._clock.now()

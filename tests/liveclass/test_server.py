@@ -96,6 +96,15 @@ def test_a_student_checks_runs_and_hands_in_and_the_teacher_sees_it(served):
     assert [w.kind for w in server.store.works("s1")] == ["run", "handin"]
 
 
+def test_the_teacher_s_token_on_a_student_s_route_is_told_so_and_costs_the_address_nothing(served):
+    server, codes = served
+    for _ in range(3):  # the teacher trying a student's page from the desk, behind the class's router
+        status, refused = call(server, "/api/check", {"mission": TYPO}, "teacher-token")
+        assert status == 403 and "signs in as no student" in refused["error"]
+    assert call(server, "/api/check", {"mission": TYPO}, codes["s1"])[0] == 200  # no wait: it was no guess
+    assert call(server, "/api/me", code="teacher-token", method="GET")[0] == 200  # the exercise, to the teacher
+
+
 def test_a_wrong_code_is_refused_and_the_next_try_from_there_waits_longer_each_time(served):
     server, codes = served
     server._clock = clock = VirtualClock(1000.0)  # the server's time, moved by the test
