@@ -144,11 +144,11 @@ class LiveView:
         """One line: the mission's name (cut to what the line leaves it), the outcome, time, world, what Ctrl-C does."""
         header, last = self.header, self.last
         rest = Text()
+        if self.end is None or self.title != "live":  # a replay stays one once it has ended
+            rest.append(f" {self.title} ", style="bold yellow")
         if self.end is not None:
             colour = "green" if self.end.outcome == "succeeded" else "red"
             rest.append(f" {self.end.outcome} ", style=f"bold {colour}")
-        else:
-            rest.append(f" {self.title} ", style="bold yellow")
         if last is not None:
             rest.append(f" {last.time_s:6.1f} s  tick {last.tick}")
         if header is not None and header.world:

@@ -103,8 +103,9 @@ def test_replay_plays_a_trace_in_the_terminal_view(tmp_path, tmux):
     assert any("repeat x4" in line for line in screen)
     session.wait_for("✔ ◈ repeat x4", seconds=20)
     # the header says how it ended once the end record is drawn: a frame after the last tick's, at most
-    screen = session.wait_for(" square  succeeded ", seconds=5)
-    assert " square  succeeded " in screen[0] and any("✔ ◈ repeat x4" in line for line in screen)
+    # (a replay stays named one: a screen read late, the replay over, still says what it is)
+    screen = session.wait_for(" square  replay x4  succeeded ", seconds=5)
+    assert " square  replay x4  succeeded " in screen[0] and any("✔ ◈ repeat x4" in line for line in screen)
     screen = session.wait_for("Mission 'square' succeeded after 10.2 s")  # the screen is given back
 
 
