@@ -40,7 +40,7 @@ from autonomy.emulator.profile import load_profile
 from autonomy.errors import AutonomyError
 from autonomy.liveclass.store import ClassStore, StoreError
 from autonomy.liveclass.work import GRADING_NICENESS, MISSION_LABEL, NO_PLUGINS
-from autonomy.record import Record
+from autonomy.record import Record, to_line
 from autonomy.runner import LINK_LOST, Runner
 from autonomy.views.lines import printable
 from autonomy.views.page import standalone_html
@@ -429,19 +429,19 @@ class RobotDesk:
         if changed:
             self._changed()
 
-    def _emulated(self, text: str, profile: str) -> str:
-        """The emulated run of ``text`` on ``profile``'s emulator (:func:`emulated_page`), or why it could not be."""
+    def _emulated(self, text: str, profile: str) -> tuple[str, str]:
+        """The emulated run of ``text`` on ``profile``'s emulator (:func:`emulated_page`), and why not ("", why)."""
         with self._lock:
             if self._closing:
-                return "the class is closing"
+                return "", "the class is closing"
             if self._emulator is None:
                 context = multiprocessing.get_context("forkserver")
                 self._emulator = ProcessPoolExecutor(1, mp_context=context, initializer=_behind)
             emulator = self._emulator
         try:
-            return emulator.submit(emulated_page, self.exercise, text, profile).result(timeout=EMULATED_WAIT_S)
+            return emulator.submit(emulated_page, self.exercise, text, profile).result(timeout=EMULATED_WAIT_S), ""
         except Exception as err:  # noqa: BLE001 - said beside the run, which is kept whatever happens here
-            return f"{type(err).__name__}: {err}" if str(err) else type(err).__name__
+            return "", f"{type(err).__name__}: {err}" if str(err) else type(err).__name__
 
     def _serve(self, robot: Robot) -> None:
         """A robot's thread: its link kept open and asked after, the runs started on it run, until the class stops."""
@@ -551,16 +551,14 @@ class RobotDesk:
             trace, replay, emulated = run_files(self.folder, number)
             trace.parent.mkdir(mode=0o700, exist_ok=True)
             if records:
-                from autonomy.record import to_line
-
                 trace.write_text("".join(to_line(record) + "\n" for record in records), encoding="utf-8")
                 replay.write_text(standalone_html(records, at_end=True), encoding="utf-8")
                 if robot.profile:
-                    beside = self._emulated(ticket.text, robot.profile)
-                    if isinstance(beside, str) and beside.startswith("<"):
+                    beside, why = self._emulated(ticket.text, robot.profile)
+                    if beside:
                         emulated.write_text(beside, encoding="utf-8")
                     else:
-                        summary += f" (the emulated run beside it could not be made: {beside})"
+                        summary += f" (the emulated run beside it could not be made: {why})"
         except (StoreError, OSError) as err:
             summary += f" (the class's server could not keep this run: {err})"
         with self._lock:

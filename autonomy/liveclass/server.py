@@ -1154,37 +1154,37 @@ class ClassServer(BoundedServer):
             return _refusal(409, "you are not waiting for a robot")
         return _json(self._robot_said(student))
 
-    async def _robots_desk(self, request: web.Request) -> web.Response:
-        """The teacher's: each robot's state and run, and the queue."""
+    def _teachers_robots(self, request: web.Request) -> RobotDesk | web.Response:
+        """The class's robots, to the teacher; or the refusal (not the teacher, or a class without robots)."""
         if not self._teacher(request):
             return _refusal(401, "the robots are the teacher's: use the teacher's token")
         if self.robots is None:
             return _refusal(404, "this class has no robots: class serve --robot NAME=PORT")
-        return _json(self.robots.desk())
+        return self.robots
+
+    async def _robots_desk(self, request: web.Request) -> web.Response:
+        """The teacher's: each robot's state and run, and the queue."""
+        robots = self._teachers_robots(request)
+        return robots if isinstance(robots, web.Response) else _json(robots.desk())
 
     async def _robots_act(self, request: web.Request) -> web.Response:
         """The teacher's Start and Stop: ``POST /api/robots/start`` or ``/stop`` with ``{"robot": NAME}``."""
-        if not self._teacher(request):
-            return _refusal(401, "the robots are the teacher's: use the teacher's token")
+        robots = self._teachers_robots(request)
+        if isinstance(robots, web.Response):
+            return robots
         action = request.match_info["action"]
         if action not in ("start", "stop"):
             raise web.HTTPNotFound()
-        if self.robots is None:
-            return _refusal(404, "this class has no robots: class serve --robot NAME=PORT")
-        read = await self._body(request)
-        if isinstance(read, web.Response):
-            return read
-        try:
-            body = json.loads(read.decode("utf-8"))
-        except (ValueError, RecursionError):
-            body = None
-        name = body.get("robot") if isinstance(body, dict) else None
+        body = await self._object(request)
+        if isinstance(body, web.Response):
+            return body
+        name = body.get("robot")
         if not isinstance(name, str):
             return _refusal(400, 'the body is JSON: {"robot": "the robot\'s name"}')
-        why = self.robots.start_on(name) if action == "start" else self.robots.stop_on(name)
+        why = robots.start_on(name) if action == "start" else robots.stop_on(name)
         if why:
             return _refusal(409, why)
-        return _json(self.robots.desk())
+        return _json(robots.desk())
 
     # ------------------------------------------------------------------ the teacher's
 
@@ -1290,10 +1290,8 @@ class ClassServer(BoundedServer):
         data = class_overview(self.exercise, reports, links, "each student's latest graded run or hand-in")
         return json.dumps({"version": version, **data}, separators=(",", ":")).encode()
 
-    async def _deadline(self, request: web.Request) -> web.Response:
-        """Sets (``{"deadline_s": EPOCH_S}``) or lifts (``null``) the hand-ins' deadline."""
-        if not self._teacher(request):
-            return _refusal(401, "the deadline is the teacher's: use the teacher's token")
+    async def _object(self, request: web.Request) -> dict[str, Any] | web.Response:
+        """A request's body as a JSON object (``{}`` when it is not one), or the refusal of its reading."""
         read = await self._body(request)
         if isinstance(read, web.Response):
             return read
@@ -1301,7 +1299,16 @@ class ClassServer(BoundedServer):
             body = json.loads(read.decode("utf-8"))
         except (ValueError, RecursionError):
             body = None
-        deadline = body.get("deadline_s", "missing") if isinstance(body, dict) else "missing"
+        return body if isinstance(body, dict) else {}
+
+    async def _deadline(self, request: web.Request) -> web.Response:
+        """Sets (``{"deadline_s": EPOCH_S}``) or lifts (``null``) the hand-ins' deadline."""
+        if not self._teacher(request):
+            return _refusal(401, "the deadline is the teacher's: use the teacher's token")
+        body = await self._object(request)
+        if isinstance(body, web.Response):
+            return body
+        deadline = body.get("deadline_s", "missing")
         if deadline == "now":  # the server's clock: the teacher's page may be on a machine whose clock is off
             deadline = wall_time_s()
         if deadline is not None and not finite_number(deadline):
