@@ -40,6 +40,7 @@ TOP_LEVEL = (
     "world",
     "robot",
     "robot_start",
+    "robot_points",
     "time_limit_s",
     "seeds",
     "hidden_seeds",
@@ -52,6 +53,8 @@ SEED_KEYS = ("seed", "noise_mm", "faults")
 ROBOT_STARTS = ("teacher", "when_asked")
 #: Longest time limit an exercise may set, simulated seconds.
 MAX_TIME_LIMIT_S = 3600.0
+#: Most points an exercise may give a run on one of the class's robots (the teacher's mark of it).
+MAX_ROBOT_POINTS = 1000.0
 MAX_SEEDS = 100
 
 
@@ -95,6 +98,9 @@ class Exercise:
     #: Who starts a student's run on one of the class's robots: ``teacher`` (at the desk), or ``when_asked``
     #: (the queue's next run starts as soon as a robot is free).
     robot_start: str = "teacher"
+    #: The most points the teacher may give a student's run on one of the class's robots, having watched it
+    #: (their best-marked run counts, beside their hand-in); 0: runs on robots count for no marks.
+    robot_points: float = 0.0
 
     @property
     def max_points(self) -> float:
@@ -170,6 +176,9 @@ class ExerciseReader(CriteriaReader):
         solution = self.solution(doc["solution"]) if "solution" in doc else ""
         robot = self.robot(doc["robot"]) if "robot" in doc else ""
         robot_start = self.robot_start(doc["robot_start"]) if "robot_start" in doc else "teacher"
+        robot_points = (
+            self.number(doc["robot_points"], "robot_points", 0, MAX_ROBOT_POINTS) if "robot_points" in doc else 0
+        )
         if self.problems or world is None or limit is None or name is None or solution is None or robot is None:
             return None
         return Exercise(
@@ -187,6 +196,7 @@ class ExerciseReader(CriteriaReader):
             solution,
             robot,
             robot_start or "teacher",
+            float(robot_points or 0),
         )
 
     def robot_start(self, located: Located) -> str | None:

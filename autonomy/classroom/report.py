@@ -37,25 +37,38 @@ def cell_text(text: str) -> str:
     return "'" + text if text[:1] in ("=", "+", "-", "@") else text
 
 
-def to_csv(exercise: Exercise, reports: list[Report], roster: RosterMatch | None = None) -> str:
+def to_csv(
+    exercise: Exercise,
+    reports: list[Report],
+    roster: RosterMatch | None = None,
+    on_robot: dict[str, float] | None = None,
+) -> str:
     """The gradebook: student, total, out of, one column per criterion, corrections, then why a submission did not run.
 
     With a roster, the student's id and name come first (as Moodle's grade import maps them: ``id``
     to the "ID number" field, ``total`` to the assignment), every roster line has its row (``no
     submission`` for a student who handed in nothing), and a submission on no roster line keeps
     its row, with no id and ``not on the roster``.
+
+    ``on_robot`` (a live class whose exercise gives runs on robots ``robot_points``): each student's best
+    mark of a run on a robot, by student, the teacher's. It has a column of its own after the criteria,
+    and counts in the total, out of the hand-in's points and the robot's.
     """
     out = io.StringIO()
     writer = csv.writer(out, lineterminator="\n")
-    criteria = [c.label for c in exercise.criteria]
+    robot = on_robot is not None and exercise.robot_points > 0
+    criteria = [c.label for c in exercise.criteria] + ["on_robot"] * robot
     tail = ["adjustment", "adjustment_reasons", "problems"]
-    zero = ["0", _number(exercise.max_points), *["0"] * len(criteria), "0", ""]
 
-    def cells(report: Report) -> list[str]:
+    def cells(report: Report | None, student: str) -> list[str]:
+        """A row's marks; a student with no submission has none but their run on a robot's."""
+        robot_mark = [(on_robot or {}).get(student, 0.0)] * robot
+        if report is None:
+            report = Report(student, "", 0.0, exercise.max_points, [0.0] * len(exercise.criteria))
         return [
-            _number(report.total),
-            _number(report.max_points),
-            *[_number(m) for m in report.marks],
+            _number(report.total + sum(robot_mark)),
+            _number(report.max_points + exercise.robot_points * robot),
+            *[_number(m) for m in [*report.marks, *robot_mark]],
             _number(sum(points for points, _ in report.adjustments)),
             cell_text(" | ".join(reason for _, reason in report.adjustments)),
             cell_text(" | ".join(report.problems)),
@@ -64,16 +77,16 @@ def to_csv(exercise: Exercise, reports: list[Report], roster: RosterMatch | None
     if roster is None:
         writer.writerow(["student", "total", "out_of", *criteria, *tail])
         for report in reports:
-            writer.writerow([cell_text(report.student), *cells(report)])
+            writer.writerow([cell_text(report.student), *cells(report, report.student)])
         return out.getvalue()
     writer.writerow(["id", "name", "student", "total", "out_of", *criteria, *tail])
     for entry, report in roster.listed:
+        row = cells(report, entry.id)
         if report is None:
-            writer.writerow([cell_text(entry.id), cell_text(entry.name), "", *zero, "no submission"])
-        else:
-            writer.writerow([cell_text(entry.id), cell_text(entry.name), cell_text(report.student), *cells(report)])
+            row[-1] = "no submission"
+        writer.writerow([cell_text(entry.id), cell_text(entry.name), cell_text(report.student) if report else "", *row])
     for report in roster.unlisted:
-        row = cells(report)
+        row = cells(report, report.student)
         row[-1] = cell_text(" | ".join(["not on the roster", *report.problems]))
         writer.writerow(["", "", cell_text(report.student), *row])
     return out.getvalue()

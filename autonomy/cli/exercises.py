@@ -62,6 +62,9 @@ def exercise_text(exercise: Any) -> list[str]:
     lines.append(f"Your mission is run on {plural(public, 'seed')}{each}{hidden}.")
     lines += ["", f"Marks ({exercise.max_points:g} points):"]
     lines += [f"  - {criterion.shown}: {criterion.points:g}" for criterion in exercise.criteria if criterion.points]
+    if exercise.robot_points:
+        most = exercise.robot_points
+        lines.append(f"  - a run on one of the class's robots, marked by your teacher: up to {most:g} more")
     if exercise.allowed_nodes is not None:
         lines += ["", f"Nodes you may use: {', '.join(exercise.allowed_nodes)}."]
     return lines

@@ -162,6 +162,9 @@ def _serve(
         )
         named = ", ".join(f"{name} ({port})" for name, port in args.robots.items())
         said = f"robots: {named} at {args.robot_baud} baud; {starts}; each run at most {exercise.time_limit_s:g} s"
+        said += (
+            f", marked by the teacher out of {exercise.robot_points:g}" if exercise.robot_points else ", for no marks"
+        )
         print(_shown(said), file=sys.stderr)
     signal.signal(signal.SIGTERM, _interrupt)
     try:  # from the moment its address is said, a Ctrl-C ends the class as it should (it was a race)

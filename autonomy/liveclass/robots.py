@@ -6,7 +6,9 @@ each. The teacher sets a robot at its start and presses Start on the desk; an ex
 ``robot_start: when_asked`` lets the next run start as soon as a robot is free. A run is the
 mission on the robot, in real time, for at most the exercise's time limit. It is shown live by a
 view server of the robot's own (framed in the student's page and shown on the projector), and its
-trace and replay are kept with the student's works, "on robot NAME". It earns no marks.
+trace and replay are kept with the student's works, "on robot NAME". It earns no marks unless the
+exercise gives runs on robots ``robot_points``: then the teacher, having watched it, marks it at the
+desk (:meth:`RobotDesk.mark`), and a student's best-marked run counts beside their hand-in.
 
 Each robot has a thread of its own. The thread holds the robot's link, opened once with its
 guardian, so a board that resets when its port opens is not reset between runs. It asks the robot
@@ -59,6 +61,8 @@ START_WHEN_ASKED = "when_asked"
 ROBOT_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_-]{0,31}")
 #: Where a class's runs on robots are kept, in its folder.
 RUNS_FOLDER = "robot-runs"
+#: How many of the class's last runs on robots the teacher's desk lists (to mark them, replay them).
+DESK_RUNS = 30
 
 
 def _short(name: str) -> str:
@@ -241,6 +245,8 @@ class RobotDesk:
         #: Each student's last ticket (waiting, running or done), what their page shows.
         self._tickets: dict[str, Ticket] = {}
         self._closing = False
+        #: The class's last runs on robots, newest first, as the desk lists them (read once, then kept up).
+        self._finished: list[dict[str, Any]] = store.last_robot_runs(DESK_RUNS)
 
     # ------------------------------------------------------------------ starting and stopping
 
@@ -330,11 +336,13 @@ class RobotDesk:
                     "run": ticket.run,
                     "note": ticket.note,
                     "view_port": self._view_port(ticket.robot) if ticket.state == "running" else None,
+                    "points": next((r["points"] for r in self._finished if r["number"] == ticket.run), None),
                 }
             return {
                 "robots": len(self.robots),
                 "free": sum(robot.state == "free" for robot in self.robots),
                 "start_by": self.start_by,
+                "robot_points": self.exercise.robot_points,
                 "ticket": shown,
             }
 
@@ -346,6 +354,11 @@ class RobotDesk:
         with self._lock:
             return {
                 "start_by": self.start_by,
+                "robot_points": self.exercise.robot_points,
+                "runs": [
+                    {**run, "student": printable(run["student"]), "name": printable(run["name"])}
+                    for run in self._finished
+                ],
                 "robots": [
                     {
                         "name": robot.name,
@@ -411,6 +424,32 @@ class RobotDesk:
             robot.stop_reason = "stopped by the teacher"  # a run just started, its runner not made yet, too
             if robot.runner is not None:
                 robot.runner.request_stop(robot.stop_reason)
+        return None
+
+    def mark(self, number: int, points: object) -> str | None:
+        """The teacher's mark of the kept run ``number``; None, or why not.
+
+        ``points`` is from 0 to the exercise's ``robot_points``, or None: the mark taken back. A run that
+        lost its robot has no mark: it was not the student's doing, and they had it again.
+        """
+        most = self.exercise.robot_points
+        if not most:
+            return "this exercise gives runs on robots no marks: give it robot_points: N (docs/exercises.md)"
+        if points is not None and (
+            isinstance(points, bool) or not isinstance(points, (int, float)) or not 0 <= points <= most
+        ):
+            return f"a run's mark is a number from 0 to {most:g} (the exercise's robot_points), or null to take it back"
+        run = self.store.robot_run(number)
+        if run is None:
+            return f"no run on a robot is numbered {number}"
+        if run["outcome"] == ROBOT_LOST:
+            return f"run {number} lost its robot: it was not the student's doing, and it has no mark"
+        self.store.mark_robot_run(number, None if points is None else float(points))
+        with self._lock:
+            for kept in self._finished:
+                if kept["number"] == number:
+                    kept["points"] = None if points is None else float(points)
+        self._changed()
         return None
 
     def _robot(self, name: str) -> Robot | None:
@@ -545,9 +584,13 @@ class RobotDesk:
 
     def _end(self, robot: Robot, ticket: Ticket, outcome: str, summary: str, records: list[Record]) -> None:
         """A run's end: kept (its trace and replay beside it), said to its student; a run lost, asked again."""
-        number = None
+        number = kept = None
         try:
             number = self.store.add_robot_run(ticket.student, robot.name, ticket.text, outcome, summary)
+            row = self.store.robot_run(number)
+            if row is not None:  # as the desk lists it
+                kept = {key: row[key] for key in ("number", "student", "robot", "at", "outcome", "points")}
+                kept["name"] = ticket.name
             trace, replay, emulated = run_files(self.folder, number)
             trace.parent.mkdir(mode=0o700, exist_ok=True)
             if records:
@@ -563,6 +606,8 @@ class RobotDesk:
             summary += f" (the class's server could not keep this run: {err})"
         with self._lock:
             ticket.state, ticket.outcome, ticket.summary, ticket.run = "done", outcome, summary, number
+            if kept is not None:
+                self._finished = [kept, *self._finished][:DESK_RUNS]
             robot.ticket, robot.stop_reason = None, ""
             if robot.state == "running":  # a robot lost is lost from now (never free for a moment)
                 robot.state, robot.why = ("lost", robot.lost_during) if outcome == ROBOT_LOST else ("free", "")

@@ -1154,6 +1154,13 @@ class ClassServer(BoundedServer):
             return _refusal(409, "you are not waiting for a robot")
         return _json(self._robot_said(student))
 
+    def _desk(self, robots: RobotDesk) -> dict[str, Any]:
+        """What the teacher's desk shows of the robots (:meth:`RobotDesk.desk`), each kept run with its replay."""
+        desk = robots.desk()
+        for run in desk["runs"]:
+            run["page"] = self._robot_page_url(run["number"])
+        return desk
+
     def _teachers_robots(self, request: web.Request) -> RobotDesk | web.Response:
         """The class's robots, to the teacher; or the refusal (not the teacher, or a class without robots)."""
         if not self._teacher(request):
@@ -1165,26 +1172,43 @@ class ClassServer(BoundedServer):
     async def _robots_desk(self, request: web.Request) -> web.Response:
         """The teacher's: each robot's state and run, and the queue."""
         robots = self._teachers_robots(request)
-        return robots if isinstance(robots, web.Response) else _json(robots.desk())
+        return robots if isinstance(robots, web.Response) else _json(self._desk(robots))
 
     async def _robots_act(self, request: web.Request) -> web.Response:
-        """The teacher's Start and Stop: ``POST /api/robots/start`` or ``/stop`` with ``{"robot": NAME}``."""
+        """The teacher's Start, Stop and marks of the robots' runs.
+
+        ``POST /api/robots/start`` or ``/stop`` with ``{"robot": NAME}``; ``/mark`` with ``{"run": NUMBER,
+        "points": POINTS or null}``.
+        """
         robots = self._teachers_robots(request)
         if isinstance(robots, web.Response):
             return robots
         action = request.match_info["action"]
-        if action not in ("start", "stop"):
+        if action not in ("start", "stop", "mark"):
             raise web.HTTPNotFound()
         body = await self._object(request)
         if isinstance(body, web.Response):
             return body
+        if action == "mark":
+            number = body.get("run")
+            if isinstance(number, bool) or not isinstance(number, int) or "points" not in body:
+                return _refusal(400, 'the body is JSON: {"run": the run\'s number, "points": its mark, or null}')
+            try:
+                why = await asyncio.get_running_loop().run_in_executor(
+                    self._chores, robots.mark, number, body["points"]
+                )
+            except StoreError as err:
+                return _refusal(500, str(err))
+            if why:
+                return _refusal(409, why)
+            return _json(self._desk(robots))
         name = body.get("robot")
         if not isinstance(name, str):
             return _refusal(400, 'the body is JSON: {"robot": "the robot\'s name"}')
         why = robots.start_on(name) if action == "start" else robots.stop_on(name)
         if why:
             return _refusal(409, why)
-        return _json(robots.desk())
+        return _json(self._desk(robots))
 
     # ------------------------------------------------------------------ the teacher's
 
@@ -1225,7 +1249,8 @@ class ClassServer(BoundedServer):
             "max_points": self.exercise.max_points,
             "deadline_s": self._deadline_s(),
             "now_s": wall_time_s(),
-            "robots": self.robots.desk() if self.robots is not None else None,
+            "robot_points": self.exercise.robot_points,
+            "robots": self._desk(self.robots) if self.robots is not None else None,
         }
         body = json.dumps(head).encode()[:-1] + b', "students": ' + rows + b"}"
         return web.Response(body=body, content_type="application/json", headers=NO_STORE)
@@ -1351,7 +1376,8 @@ class ClassServer(BoundedServer):
         for line, (student, work) in enumerate(self._handed_in(), start=2):
             report = _report_of(work.result) if work is not None and "seeds" in work.result else None
             listed.append((RosterEntry(student.id, student.name, "", line), report))
-        return to_csv(self.exercise, [r for _, r in listed if r is not None], RosterMatch(listed, []))
+        on_robot = self.store.robot_marks() if self.exercise.robot_points else None
+        return to_csv(self.exercise, [r for _, r in listed if r is not None], RosterMatch(listed, []), on_robot)
 
     def _feedback_zip(self) -> bytes:
         """Each student's last hand-in's feedback page, as ``ID.html``."""

@@ -64,7 +64,8 @@ CREATE TABLE IF NOT EXISTS robot_runs (
     at TEXT NOT NULL,
     source TEXT NOT NULL,
     outcome TEXT NOT NULL,
-    summary TEXT NOT NULL DEFAULT ''
+    summary TEXT NOT NULL DEFAULT '',
+    points REAL
 );
 CREATE INDEX IF NOT EXISTS robot_runs_by_student ON robot_runs (student, id);
 """
@@ -156,6 +157,9 @@ class ClassStore:
             columns = {row[1] for row in self._db.execute("PRAGMA table_info(students)")}
             if "on_roster" not in columns:  # a class kept before students could leave the roster
                 self._db.execute("ALTER TABLE students ADD COLUMN on_roster INTEGER NOT NULL DEFAULT 1")
+            columns = {row[1] for row in self._db.execute("PRAGMA table_info(robot_runs)")}
+            if "points" not in columns:  # a class kept before the teacher could mark a run on a robot
+                self._db.execute("ALTER TABLE robot_runs ADD COLUMN points REAL")
         except (OSError, sqlite3.Error) as err:
             raise StoreError(f"{self.folder}: cannot keep the class there: {err}") from err
         self._lock = threading.Lock()
@@ -433,20 +437,21 @@ class ClassStore:
             "(SELECT MAX(w.id) FROM works w WHERE w.student = s.id AND w.kind = 'handin' AND w.total IS NOT NULL), "
             f"(SELECT {_WRITTEN_AS} FROM works w WHERE w.student = s.id AND w.total IS NOT NULL "
             "ORDER BY w.id DESC LIMIT 1), "
-            f"(SELECT {_WRITTEN_AS} {last_graded_handin}) "
+            f"(SELECT {_WRITTEN_AS} {last_graded_handin}), "
+            "(SELECT MAX(r.points) FROM robot_runs r WHERE r.student = s.id) "
             f"FROM students s WHERE s.on_roster = 1{chosen} ORDER BY s.rowid",  # noqa: S608 - our own text
             tuple(students or ()),
         )
         keys = (
             "id", "name", "signed_in", "runs", "handins", "total", "max_points", "last_problem", "last_work",
-            "last_graded", "last_handin", "last_graded_as", "last_handin_as",
+            "last_graded", "last_handin", "last_graded_as", "last_handin_as", "robot_points",
         )  # fmt: skip
         return [dict(zip(keys, row, strict=True)) for row in rows]
 
     # ------------------------------------------------------------------ runs on the class's robots
 
     def add_robot_run(self, student: str, robot: str, source: str, outcome: str, summary: str) -> int:
-        """Keeps a run on one of the class's robots (it has no marks), committed to disk before it returns; its number.
+        """Keeps a run on one of the class's robots (unmarked), committed to disk before it returns; its number.
 
         Its trace and its replay are files named by the number (see :func:`autonomy.liveclass.robots.run_files`).
         """
@@ -456,19 +461,41 @@ class ClassStore:
         )
 
     def robot_runs(self, student: str) -> list[dict[str, Any]]:
-        """A student's runs on the class's robots, oldest first: each ``number``, ``robot``, ``at``, ``outcome``."""
+        """A student's runs on the class's robots, oldest first: ``number``, ``robot``, ``at``, ``outcome``, ``points``.
+
+        ``points`` is the teacher's mark of the run (None: not marked).
+        """
         rows = self._read(
-            "SELECT id, robot, at, outcome, summary FROM robot_runs WHERE student = ? ORDER BY id", (student,)
+            "SELECT id, robot, at, outcome, summary, points FROM robot_runs WHERE student = ? ORDER BY id", (student,)
         )
-        return [dict(zip(("number", "robot", "at", "outcome", "summary"), row, strict=True)) for row in rows]
+        return [dict(zip(("number", "robot", "at", "outcome", "summary", "points"), row, strict=True)) for row in rows]
 
     def robot_run(self, number: int) -> dict[str, Any] | None:
-        """The run on a robot numbered ``number`` (``student`` and ``source`` too), or None."""
+        """The run on a robot numbered ``number`` (``student``, ``source`` and ``points`` too), or None."""
         rows = self._read(
-            "SELECT id, student, robot, at, source, outcome, summary FROM robot_runs WHERE id = ?", (number,)
+            "SELECT id, student, robot, at, source, outcome, summary, points FROM robot_runs WHERE id = ?", (number,)
         )
-        keys = ("number", "student", "robot", "at", "source", "outcome", "summary")
+        keys = ("number", "student", "robot", "at", "source", "outcome", "summary", "points")
         return dict(zip(keys, rows[0], strict=True)) if rows else None
+
+    def last_robot_runs(self, count: int) -> list[dict[str, Any]]:
+        """The class's last ``count`` runs on its robots, newest first: each with its student's name, and marks."""
+        rows = self._read(
+            "SELECT r.id, r.student, s.name, r.robot, r.at, r.outcome, r.points FROM robot_runs r "
+            "JOIN students s ON s.id = r.student ORDER BY r.id DESC LIMIT ?",
+            (count,),
+        )
+        keys = ("number", "student", "name", "robot", "at", "outcome", "points")
+        return [dict(zip(keys, row, strict=True)) for row in rows]
+
+    def mark_robot_run(self, number: int, points: float | None) -> None:
+        """Sets the teacher's mark of a run on a robot (None: takes it back), committed before it returns."""
+        self._write([("UPDATE robot_runs SET points = ? WHERE id = ?", (points, number))])
+
+    def robot_marks(self) -> dict[str, float]:
+        """Each student's best-marked run on a robot, by student (those with none marked are left out)."""
+        rows = self._read("SELECT student, MAX(points) FROM robot_runs WHERE points IS NOT NULL GROUP BY student")
+        return {student: float(points) for student, points in rows}
 
     # ------------------------------------------------------------------ settings
 

@@ -162,6 +162,7 @@ def exercise_shown(exercise: Exercise) -> dict[str, Any]:
         "time_limit_s": exercise.time_limit_s,
         "criteria": [{"label": printable(c.shown), "points": c.points} for c in exercise.criteria],
         "max_points": exercise.max_points,
+        "robot_points": exercise.robot_points,
         "public_seeds": len(exercise.seeds) - hidden,
         "hidden_seeds": hidden,
         "allowed_nodes": list(exercise.allowed_nodes) if exercise.allowed_nodes is not None else None,

@@ -9,6 +9,7 @@ import csv
 import signal
 
 from tests.axe import violations
+from tests.cli.test_cli import ROOT
 from tests.liveclass.test_class_cli import serve
 from tests.liveclass.test_pages import FIXED, new_page, press, sign_in, until, watching
 from tests.liveclass.test_robots import PROFILE, ended, robot_process
@@ -17,7 +18,11 @@ from tests.liveclass.test_robots import PROFILE, ended, robot_process
 def test_a_student_asks_for_a_robot_the_teacher_starts_it_both_watch_it_live_and_it_is_kept(browser, tmp_path):
     robot, url = robot_process(profile=PROFILE)  # a robot, calibrated
     (tmp_path / "roster.csv").write_text("id,name\n1001,Ada Lovelace\n1002,Bob Jones\n")
-    process, port, token = serve(tmp_path, "--robot", f"a={url}", "--robot-profile", f"a={PROFILE}")
+    exercise = tmp_path / "garage.yaml"  # whose runs on robots the teacher marks
+    exercise.write_text((ROOT / "exercises" / "garage.yaml").read_text() + "robot_points: 5\n")
+    process, port, token = serve(
+        tmp_path, "--robot", f"a={url}", "--robot-profile", f"a={PROFILE}", exercise=str(exercise)
+    )
     try:
         with (tmp_path / "class" / "codes.csv").open() as stream:
             codes = {row["id"]: row["code"] for row in csv.DictReader(stream)}
@@ -76,6 +81,29 @@ def test_a_student_asks_for_a_robot_the_teacher_starts_it_both_watch_it_live_and
         press(student, "#robot-runs li button")  # its replay, a page of its own
         student.frame_locator("#robot-view").locator("#tree svg").first.wait_for(timeout=30_000)
         until(teacher, "document.querySelector('#robots-table tbody tr').cells[1].textContent === 'free'")
+        assert "Your teacher marks it, up to 5 points" in student.text_content("#robot-marks")
+        assert student.text_content("#robot-runs li").endswith("(not marked yet)replay")
+
+        # the teacher marks it, having watched it: typed, and Enter, at the desk
+        until(teacher, "document.querySelectorAll('#robot-runs-table tbody tr').length === 1")
+        assert teacher.text_content("#robot-runs-table tbody tr td:nth-child(5)") == "not marked"
+        assert "worth up to 5 points" in teacher.text_content("#robot-marks-how")
+        mark = teacher.locator("#robot-runs-table input")
+        assert mark.get_attribute("aria-label").startswith("Mark of run")
+        mark.focus()
+        teacher.keyboard.type("9")
+        teacher.keyboard.press("Enter")  # more than the exercise gives: refused, said
+        until(teacher, "document.getElementById('robots-message').textContent.includes('from 0 to 5')")
+        teacher.keyboard.press("Backspace")
+        teacher.keyboard.type("4")
+        press(teacher, "#robot-runs-table button:has-text('Save mark')")
+        until(teacher, "document.querySelector('#robot-runs-table tbody tr td:nth-child(5)').textContent === '4 / 5'")
+        row = "document.querySelector('#class-table tbody tr')"
+        until(teacher, f"{row}.cells[5].textContent.includes('4 / 5 on a robot')")
+        assert violations(teacher) == []
+        student.reload()
+        until(student, "document.querySelectorAll('#robot-runs li').length === 1")
+        assert "(your teacher's mark: 4 of 5)" in student.text_content("#robot-runs li")
         assert [e for e in errors if "status of 409" not in e] == []  # the refusal before it ran, said on the page
     finally:
         process.send_signal(signal.SIGINT)

@@ -103,6 +103,11 @@ function show(me) {
   if (me.mission) check();
   if (localStorage.getItem(MODE_KEY) === "blocks") toBlocks();
   $("robot").hidden = !me.robots;
+  robotPoints = me.exercise.robot_points || 0;
+  $("robot-marks").textContent = robotPoints
+    ? `Your teacher marks it, up to ${number(robotPoints)} points, having watched it: your best-marked run counts ` +
+      "beside your hand-in (reload the page to see a new mark)."
+    : "It earns no marks.";
   $("robot-runs").replaceChildren();
   for (const run of me.robot_runs || []) addRobotRun(run);
   if (me.robots) followRobot();
@@ -429,6 +434,7 @@ function addHandIn(work) {
 const ROBOT_EVERY_MS = 2000; // how often the page asks after its place in the queue, or its run
 let robotTimer = 0;
 let robotShown = null; // the last ticket shown: {state, run}
+let robotPoints = 0; // the most the teacher may give a run on a robot (0: such runs earn no marks)
 
 function ordinal(n) {
   const tens = n % 100;
@@ -473,7 +479,7 @@ function showRobot(said) {
   const ended = ticket && ticket.state === "done" && robotShown && robotShown.state !== "done";
   if (ended && ticket.run !== null) {
     const run = { number: ticket.run, robot: ticket.robot, outcome: ticket.outcome, at: new Date().toISOString(),
-      page: ticket.page, emulated_page: ticket.emulated_page };
+      page: ticket.page, emulated_page: ticket.emulated_page, points: ticket.points };
     addRobotRun(run);
     if (run.emulated_page) showRobotRun(run); // the run and the emulator's beside it
   }
@@ -497,7 +503,13 @@ function showRobotRun(run) {
 function addRobotRun(run) {
   $("no-robot-runs").hidden = true;
   const at = run.at ? `, ${new Date(run.at).toLocaleString()}` : "";
-  const item = element("li", `On robot ${run.robot}${at}: ${run.outcome}`);
+  let marked = "";
+  if (robotPoints && run.outcome !== "robot lost") {
+    marked = run.points === null || run.points === undefined
+      ? " (not marked yet)"
+      : ` (your teacher's mark: ${number(run.points)} of ${number(robotPoints)})`;
+  }
+  const item = element("li", `On robot ${run.robot}${at}: ${run.outcome}${marked}`);
   if (run.page) {
     const open = element("button", "replay");
     open.type = "button";

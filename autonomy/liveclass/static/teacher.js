@@ -122,7 +122,10 @@ function draw(before) {
 function row(student, before) {
   const tr = element("tr");
   tr.dataset.student = student.id;
-  const mark = student.handins ? `${number(student.total)} / ${number(student.max_points)}` : "";
+  let mark = student.handins ? `${number(student.total)} / ${number(student.max_points)}` : "";
+  if (table.robot_points && student.robot_points !== null) {
+    mark += `${mark ? " + " : ""}${number(student.robot_points)} / ${number(table.robot_points)} on a robot`;
+  }
   tr.append(
     element("td", student.name),
     element("td", student.id),
@@ -237,12 +240,71 @@ function drawRobots(robots) {
   $("queue").replaceChildren(
     ...robots.queue.map((t) => element("li", `${t.name} (${t.student}), waiting ${Math.round(t.waiting_s)} s`)),
   );
+  drawRobotRuns(robots);
 }
 
-async function robotAction(action, name) {
-  const answer = await api("POST", `/api/robots/${action}`, { robot: name });
+let runsDrawn = ""; // the runs as last drawn: drawn again only once they change
+
+/** The class's last runs on robots, each replayed from here, and marked here when the exercise gives them points. */
+function drawRobotRuns(robots) {
+  const most = robots.robot_points;
+  const drawn = JSON.stringify([most, robots.runs]);
+  if (drawn === runsDrawn) return;
+  runsDrawn = drawn;
+  $("robot-marks-how").textContent = most
+    ? `A run on a robot is worth up to ${number(most)} points: mark each once you have watched it. ` +
+      "A student's best-marked run counts beside their hand-in, in the gradebook's on_robot column."
+    : "Runs on robots count for no marks: the exercise gives them none (robot_points: N gives them some).";
+  $("robot-runs-empty").hidden = robots.runs.length > 0;
+  $("robot-runs-table").hidden = !robots.runs.length;
+  // what the teacher was typing, and where, kept through the drawing (a robot's state changes as they type)
+  const typed = new Map([...document.querySelectorAll("#robot-runs-table input")].map((i) => [i.dataset.run, i.value]));
+  const focused = document.activeElement && document.activeElement.closest("#robot-runs-table") ? document.activeElement.id : "";
+  $("robot-runs-table").tBodies[0].replaceChildren(
+    ...robots.runs.map((r) => {
+      const row = element("tr");
+      const mark = element("td", r.points === null ? "not marked" : `${number(r.points)} / ${number(most)}`, "number");
+      const actions = element("td");
+      if (r.page) actions.append(button(`Replay run ${r.number}`, () => view(r.name, r.page, `run ${r.number} on robot ${r.robot}`)));
+      if (most && r.outcome !== "robot lost") {
+        const input = element("input");
+        input.type = "number";
+        input.min = "0";
+        input.max = String(most);
+        input.step = "any";
+        input.id = `robot-mark-${r.number}`;
+        input.dataset.run = String(r.number);
+        input.value = typed.has(input.dataset.run) ? typed.get(input.dataset.run) : r.points === null ? "" : String(r.points);
+        input.setAttribute("aria-label", `Mark of run ${r.number}, 0 to ${number(most)}`);
+        input.className = "points";
+        const save = button(`Save mark of run ${r.number}`, () => markRun(r.number, input.value));
+        save.id = `robot-mark-save-${r.number}`;
+        input.addEventListener("keydown", (event) => {
+          if (event.key === "Enter") markRun(r.number, input.value);
+        });
+        actions.append(" ", input, " ", save);
+      }
+      row.append(element("td", String(r.number), "number"), element("td", `${r.name} (${r.student})`),
+        element("td", r.robot), element("td", r.outcome), mark, actions);
+      return row;
+    }),
+  );
+  if (focused && $(focused)) $(focused).focus();
+}
+
+async function markRun(number, value) {
+  const points = value.trim() === "" ? null : Number(value);
+  if (points !== null && !Number.isFinite(points)) {
+    $("robots-message").textContent = `run ${number}: a mark is a number (leave it empty to take the mark back)`;
+    return;
+  }
+  await robotAction("mark", null, { run: number, points });
+}
+
+async function robotAction(action, name, body) {
+  const answer = await api("POST", `/api/robots/${action}`, body || { robot: name });
   if (answer.status === 200) {
-    $("robots-message").textContent = "";
+    $("robots-message").textContent = action === "mark" ? `Run ${body.run}: ${body.points === null ? "mark taken back" : "mark saved"}.` : "";
     drawRobots(Object.assign({}, table.robots, await answer.json()));
   } else {
     let why = `the server answered ${answer.status}`;
