@@ -30,6 +30,12 @@ CRUISE_MARGIN_MM = 0.001
 #: at the slowest speed, far more than the rounding of a position (which differs in the last digits
 #: between a drive taken a step at a time and one taken at once).
 SAME_PLACE_MM = 1e-6
+#: How far past the time stepped to a step may end and still be taken, a share of the step. The robot's
+#: time is a sum of steps, and that sum drifts from the clock's time by its rounding: 5 ms steps are
+#: 2e-12 s short of the clock after 13 s, and would leave the robot a whole step behind it from there on
+#: (its status 5 ms old, its commands acted on 5 ms early). A thousandth of a step is far more than an
+#: hour of that drift, and far less than anything a clock tells apart.
+STEP_SLACK = 1e-3
 
 
 @dataclass(frozen=True)
@@ -384,7 +390,7 @@ class Robot:
 
     def _advance_steps(self, time_s: float) -> None:
         step = self.params.step_s
-        while self.time_s + step <= time_s + 1e-12:
+        while self.time_s + step <= time_s + step * STEP_SLACK:
             if not (self._cruise(step, time_s) if self.speed_mm_s else self._stand(step, time_s)):
                 self._step(step)
 
@@ -425,7 +431,7 @@ class Robot:
             self.time_s, self.x_mm, self.y_mm, self.odometer_mm, self.tilt_deg, self.battery
         )  # fmt: skip
         # Worked out once, the same numbers each step: the step along each axis, the charge, the end.
-        step_x, step_y, used, end_s = dx * distance_mm, dy * distance_mm, drain * dt, until_s + 1e-12
+        step_x, step_y, used, end_s = dx * distance_mm, dy * distance_mm, drain * dt, until_s + dt * STEP_SLACK
         # A step cannot take the robot further from where the clearance was measured than the
         # distance driven: the first steps that stay well inside it need not be checked one by one.
         # (A NaN anywhere makes this NaN, and every step is checked.)
@@ -487,7 +493,7 @@ class Robot:
         time_s, heading, turning, tilt, battery = (
             self.time_s, self.heading_deg, self.turn_remaining_deg, self.tilt_deg, self.battery
         )  # fmt: skip
-        end_s = until_s + 1e-12
+        end_s = until_s + dt * STEP_SLACK
         steps = 0
         moved_s = self.moved_s
         while time_s + dt <= end_s:

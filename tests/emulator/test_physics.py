@@ -457,3 +457,22 @@ def test_a_scaled_and_offset_sensor_reads_scale_times_the_gap_plus_the_offset(x,
     assert exact == pytest.approx(gap, abs=2)
     skewed = Robot(world, RobotParams(sensor_scale=0.9, sensor_offset_mm=12.0)).front_distance_mm()
     assert skewed == pytest.approx(min(0.9 * exact + 12.0, 255), abs=1)
+
+
+@pytest.mark.parametrize("moving", [False, True])
+def test_the_robot_keeps_up_with_the_clock_over_an_hour_of_ticks(moving):
+    """The robot's time is a sum of 5 ms steps, which rounding takes a little short of the clock's: it must still
+    stand on the clock's tick, not a step behind it (its status 5 ms old, its commands acted on 5 ms early), as it
+    did from 13 s on."""
+    robot = Robot(load_world("empty" if moving else "box"), RobotParams())
+    if moving:  # a slow drive in an empty world, stopped and driven again now and then
+        robot.move(1)
+    behind = []
+    for tick in range(1, 72_001):  # an hour of 20 Hz ticks
+        now_s = tick * 0.05
+        if moving and tick % 200 == 0:
+            robot.stop() if tick % 400 else robot.move(1, backward=bool(tick % 800))
+        robot.advance_to(now_s)
+        if now_s - robot.time_s > robot.params.step_s / 2:
+            behind.append(now_s)
+    assert behind == []
