@@ -73,7 +73,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=2, help="probes of each robot (default 2)")
     args = parser.parse_args()
-    for name in ("robot-a", "robot-b"):
+    for name in ("robot-a", "robot-b", "robot-c"):
         robot = ROBOTS / f"{name}.yaml"
         truth = load_profile(robot).params
         want = start_values(truth)

@@ -5,10 +5,15 @@ settings: a motion command acts ``command_delay_s`` after it was sent; the wheel
 slow down at ``acceleration_mm_s2`` towards the speed of the setting (a move) or to a standstill
 (a stop, and a turn, which also stops the wheels at once); a turn turns in place at
 ``turn_rate_deg_s`` until its angle is done. The fit finds the settings for which that model
-says, at each sample's time, the odometer and the heading the robot reported.
+says, at each sample's time, the odometer and the heading the robot reported. The emulator
+drives each of its steps at the speed it reaches at the step's end, so that a change of speed
+runs half a step ahead of the same change made smoothly: the model has moves and stops act that
+much earlier (``speed_lead_s``, half the emulator's step), so that the delay it finds is the one
+that, given to the emulator, starts its wheels when the robot's started.
 
 Each recording is cut into pieces where the robot stood still (at least ``REST_S``) before it was
-told to move or turn: the model starts each piece from the odometer and heading reported there, so
+told to move or turn: the model starts each piece from the odometer and heading reported there
+(``LEAD_IN_S`` before the command, so that the command may act early within the piece), so
 that a miss in one piece is not carried into the next. Each command may also have acted a little
 late or early, by up to ``LATENESS_S``, beyond the common delay: a link and a robot's own control
 loop act on a command a few milliseconds apart, each time a little differently. Those are fitted
@@ -73,6 +78,9 @@ MAX_SAMPLES = 20_000
 REST_S = 0.3
 #: How late (or early) a command may act beyond the common delay, seconds.
 LATENESS_S = 0.03
+#: How long before its first command a piece starts (on a sample of the robot standing still), seconds:
+#: more than the earliest that command may act (:data:`LATENESS_S` early), so that it acts within the piece.
+LEAD_IN_S = 0.1
 #: A command's lateness weighs in the fit as a miss of this many mm per second of it.
 LATENESS_MM_PER_S = 200.0
 #: The variance of rounding to whole millimetres, mm²: a reading and the odometer are each rounded.
@@ -154,6 +162,8 @@ def _shown(value: float) -> str:
         return "0"
     if abs(value) >= 100:
         return f"{value:.1f}"
+    if abs(value) < 1e-4:  # three digits, never as 1.5e-05 (a delay of a robot that acts at once)
+        return f"{value:.{2 - math.floor(math.log10(abs(value)))}f}"
     return f"{value:.3g}"
 
 
@@ -191,8 +201,10 @@ def predict(x: dict[str, float], sent: list[Sent], samples: list[Sample]) -> tup
     speeds = (x["speed_1_mm_s"], x["speed_2_mm_s"], x["speed_3_mm_s"], x["speed_4_mm_s"])
     accel, rate, delay = x["acceleration_mm_s2"], x["turn_rate_deg_s"], x["command_delay_s"]
     acts: list[tuple[float, Sent]] = []
+    lead = x.get("speed_lead_s", 0.0)  # a move or a stop changes the speed this much before a turn would act
     for command in sent:  # in the order sent: one acting early does not overtake the one before it
-        acts.append((max(command.time_s + delay, acts[-1][0] if acts else -math.inf), command))
+        early = 0.0 if command.kind == "turn" else lead
+        acts.append((max(command.time_s + delay - early, acts[-1][0] if acts else -math.inf), command))
     first = samples[0]
     s, v, target, h, r, now = first.odometer_mm, 0.0, 0.0, float(first.heading_deg), 0.0, first.time_s
     odometer: list[float] = []
@@ -223,8 +235,8 @@ def predict(x: dict[str, float], sent: list[Sent], samples: list[Sample]) -> tup
 def pieces(recording: Recording) -> list[Recording]:
     """``recording`` cut where the robot stood still for ``REST_S`` before a move or turn was sent.
 
-    A piece begins at the last sample before that command; it holds the samples up to the next
-    piece's first, and the commands sent in that time.
+    A piece begins on a sample of that stand-still :data:`LEAD_IN_S` before the command (or its first);
+    it holds the samples up to the next piece's first, and the commands sent in that time.
     """
     samples = recording.samples
     starts = [0]
@@ -243,7 +255,12 @@ def pieces(recording: Recording) -> list[Recording]:
         ):
             k -= 1
         if not here.moving and here.time_s - samples[k].time_s >= REST_S:
-            starts.append(j)
+            # from a sample still well before the command: the model may have it act early (its lateness, a
+            # robot quicker than its link), and a piece cannot start after the command acted
+            first = j
+            while first > k and samples[first].time_s > command.time_s - LEAD_IN_S:
+                first -= 1
+            starts.append(first)
     out = []
     for a, b in zip(starts, [*starts[1:], len(samples)], strict=True):
         begin = samples[a].time_s if a else -math.inf
@@ -348,7 +365,7 @@ def fit(recordings: Recording | list[Recording], params: RobotParams | None = No
         )
     if not any(c.kind in ("move", "turn") for one in recording for c in one.sent):
         raise FitError(f"{recording[0].label}: the robot was never told to move or turn: nothing to fit")
-    x0 = start_values(params)
+    x0 = start_values(params) | {"speed_lead_s": params.step_s / 2.0}  # the emulator's, whose settings these are
     why: dict[str, str] = {}
     cut = [piece for one in recording for piece in pieces(one)]
     free = [name for name, yes in excited(x0, cut).items() if yes]

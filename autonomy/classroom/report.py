@@ -48,11 +48,8 @@ def to_csv(
     With a roster, the student's id and name come first (as Moodle's grade import maps them: ``id``
     to the "ID number" field, ``total`` to the assignment), every roster line has its row (``no
     submission`` for a student who handed in nothing), and a submission on no roster line keeps
-    its row, with no id and ``not on the roster``.
-
-    ``on_robot`` (a live class whose exercise gives runs on robots ``robot_points``): each student's best
-    mark of a run on a robot, by student, the teacher's. It has a column of its own after the criteria,
-    and counts in the total, out of the hand-in's points and the robot's.
+    its row, with no id and ``not on the roster``. ``on_robot``: each student's best mark of a run on a
+    robot, the teacher's (a live class with ``robot_points``): a column of its own, counted in the total.
     """
     out = io.StringIO()
     writer = csv.writer(out, lineterminator="\n")
@@ -60,11 +57,9 @@ def to_csv(
     criteria = [c.label for c in exercise.criteria] + ["on_robot"] * robot
     tail = ["adjustment", "adjustment_reasons", "problems"]
 
-    def cells(report: Report | None, student: str) -> list[str]:
-        """A row's marks; a student with no submission has none but their run on a robot's."""
+    def cells(report: Report | None, student: str) -> list[str]:  # no submission: no marks but the robot's
         robot_mark = [(on_robot or {}).get(student, 0.0)] * robot
-        if report is None:
-            report = Report(student, "", 0.0, exercise.max_points, [0.0] * len(exercise.criteria))
+        report = report or Report(student, "", 0.0, exercise.max_points, [0.0] * len(exercise.criteria))
         return [
             _number(report.total + sum(robot_mark)),
             _number(report.max_points + exercise.robot_points * robot),
