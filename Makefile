@@ -63,7 +63,7 @@ test-pyyaml: $(STAMP)
 lock:
 	$(PYTHON) -m venv .venv-lock
 	.venv-lock/bin/python -m pip install --quiet uv==$(UV_VERSION)
-	printf 'pip\nsetuptools>=68\n' | .venv-lock/bin/uv pip compile --quiet pyproject.toml - --extra test --extra cluster --extra calibrate --universal \
+	printf 'pip\nsetuptools>=68\n' | .venv-lock/bin/uv pip compile --quiet pyproject.toml - --extra test --extra cluster --extra calibrate --extra lms --universal \
 		--python-version 3.10 --generate-hashes --upgrade --custom-compile-command 'make lock' --output-file $(LOCK)
 
 ## fuzz: the fuzz tests run long: 100,000 mutants, texts and reply byte strings, 10,000 YAML documents

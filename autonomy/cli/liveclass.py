@@ -118,6 +118,9 @@ def _serve(
     store.set_setting(TEACHER_TOKEN, token_digest(token))
     if codes:
         _write_codes(folder / "codes.csv", roster, codes)
+    lti = _lti_of(folder)
+    if isinstance(lti, int):
+        return lti
     server = ClassServer(
         exercise,
         store,
@@ -130,6 +133,8 @@ def _serve(
         robots=args.robots,
         robot_baud=args.robot_baud,
         robot_profiles=args.profiles,
+        lti=lti,
+        public_url=args.public_url or "",
     )
     try:
         server.start()
@@ -154,6 +159,10 @@ def _serve(
     if links is not None:
         print(f"each student's sign-in link (no code to type) is in {links}", file=sys.stderr)
     print(disk_said(students), file=sys.stderr)
+    if lti is not None:
+        said = f"LMS: {lti.platform.issuer} launches the class (LTI 1.3, client id {lti.platform.client_id}); "
+        said += f"codes sign in too; the tool's addresses: autonomy class lti-config --dir {folder}"
+        print(_shown(said), file=sys.stderr)
     if args.robots:
         starts = (
             "the teacher starts each run at the desk"
@@ -172,6 +181,82 @@ def _serve(
         server.wait()
     except KeyboardInterrupt:
         pass
+    return EXIT_OK
+
+
+def _lti_of(folder: Path) -> Any:
+    """The class's LMS sign-in (LTI 1.3), as ``class lti-config`` set it; None: none; an exit status: it cannot be."""
+    from autonomy.liveclass.lti import LtiError, LtiTool, ToolKey, read_platform
+
+    try:
+        platform = read_platform(folder)
+        if platform is None:
+            return None
+        try:
+            import jwt  # noqa: F401 - the extra's, needed from the first launch
+        except ImportError:
+            return _fail("the class's LMS (LTI 1.3) needs PyJWT: pip install 'autonomy[lms]'", EXIT_USAGE)
+        return LtiTool(platform, ToolKey(folder))
+    except LtiError as err:
+        return _fail(str(err), EXIT_USAGE)
+
+
+def cmd_class_lti_config(args: argparse.Namespace) -> int:
+    """Prints what an LMS's admin pastes in to add the class as an LTI 1.3 tool; keeps the LMS's details if given."""
+    import json
+    import urllib.parse
+
+    from autonomy.liveclass.lti import (
+        LtiError,
+        Platform,
+        ToolKey,
+        canvas_config,
+        read_platform,
+        tool_urls,
+        write_platform,
+    )
+
+    folder = Path(args.dir)
+    base = args.public_url or f"http://{args.host}:{args.port}"
+    for name, url in (("--public-url", base), ("--issuer", args.issuer), ("--auth-url", args.auth_url),
+                      ("--token-url", args.token_url), ("--jwks-url", args.jwks_url)):  # fmt: skip
+        if url and urllib.parse.urlsplit(url).scheme not in ("http", "https"):
+            return _fail(f"{name} {url!r}: an address starting https:// (or http:// on this machine)", EXIT_USAGE)
+    given = [args.issuer, args.client_id, args.auth_url, args.jwks_url, args.deployment_id]
+    if any(given) and not all(given):
+        return _fail(
+            "an LMS is given with --issuer, --client-id, --auth-url, --jwks-url and --deployment-id (each from its "
+            "admin's page of this tool); --token-url too, for its roster and gradebook",
+            EXIT_USAGE,
+        )
+    try:
+        key = ToolKey(folder)
+    except ImportError:
+        return _fail("the class's LMS (LTI 1.3) needs PyJWT: pip install 'autonomy[lms]'", EXIT_USAGE)
+    except LtiError as err:
+        return _fail(str(err), EXIT_USAGE)
+    try:
+        if all(given):
+            platform = Platform(args.issuer, args.client_id, args.auth_url, args.token_url or "", args.jwks_url,
+                                tuple(args.deployment_id))  # fmt: skip
+            print(f"kept the LMS's settings in {write_platform(folder, platform)}", file=sys.stderr)
+        platform = read_platform(folder)
+    except LtiError as err:
+        return _fail(str(err), EXIT_USAGE)
+    urls = tool_urls(base)
+    print("The tool (paste these into the LMS):")
+    for label, name in (("Tool URL", "tool_url"), ("Login URL (OIDC initiation)", "login_url"),
+                        ("Redirect URI", "redirect_uri"), ("Public keyset URL (JWKS)", "jwks_url")):  # fmt: skip
+        print(f"  {label + ':':30} {urls[name]}")
+    print(f"  {'Key id:':30} {key.kid} (the key is {key.path}, readable by you alone)")
+    if platform is None:
+        print("The LMS: not given yet (autonomy class lti-config --dir ... --issuer ... --client-id ... --auth-url ...")
+        print("  --token-url ... --jwks-url ... --deployment-id ...)")
+    else:
+        print(f"The LMS: {platform.issuer}, client id {platform.client_id}, deployments "
+              f"{', '.join(platform.deployment_ids)}")  # fmt: skip
+    print("Canvas (Developer Keys, LTI key, Method: Paste JSON):")
+    print(json.dumps(canvas_config(base, args.title), indent=2))
     return EXIT_OK
 
 
@@ -308,7 +393,27 @@ def add_parsers(sub: Any) -> None:
         default=DEFAULT_BAUD,
         help=f"the robots' links' rate (default {DEFAULT_BAUD})",
     )
+    serve.add_argument(
+        "--public-url",
+        metavar="URL",
+        help="the address the school's LMS knows the class by, e.g. https://class.school.example (LTI 1.3)",
+    )
     serve.set_defaults(func=cmd_class_serve)
+    lti = commands.add_parser("lti-config", help="what the school's LMS needs to launch the class (LTI 1.3)")
+    lti.add_argument("--dir", required=True, metavar="CLASSDIR", help="the class's folder (its key is kept there)")
+    lti.add_argument("--host", default="127.0.0.1", help="the class's host, as class serve --host")
+    lti.add_argument("--port", type=_tcp_port, default=8770, help="the class's port, as class serve --port")
+    lti.add_argument("--public-url", metavar="URL", help="the address the LMS knows the class by (else host and port)")
+    lti.add_argument("--title", default="autonomy class", help="the tool's name in the LMS")
+    lti.add_argument("--issuer", metavar="URL", help="the LMS's issuer (platform id)")
+    lti.add_argument("--client-id", metavar="ID", help="the client id the LMS gave this tool")
+    lti.add_argument("--auth-url", metavar="URL", help="the LMS's OIDC authorisation address")
+    lti.add_argument("--token-url", metavar="URL", help="the LMS's access token address")
+    lti.add_argument("--jwks-url", metavar="URL", help="the LMS's public keyset address")
+    lti.add_argument(
+        "--deployment-id", action="append", metavar="ID", help="a deployment id the LMS gave (repeat for each)"
+    )
+    lti.set_defaults(func=cmd_class_lti_config)
     codes = commands.add_parser("codes", help="give students new sign-in codes (the old ones sign in no more)")
     codes.add_argument("students", nargs="*", metavar="ID", help="the students' ids, as in codes.csv")
     codes.add_argument("--all", action="store_true", help="every student of the class")

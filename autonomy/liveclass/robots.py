@@ -439,16 +439,17 @@ class RobotDesk:
             isinstance(points, bool) or not isinstance(points, (int, float)) or not 0 <= points <= most
         ):
             return f"a run's mark is a number from 0 to {most:g} (the exercise's robot_points), or null to take it back"
+        mark = None if points is None else round(float(points), 2) + 0.0  # hundredths, as the pages show (no -0)
         run = self.store.robot_run(number)
         if run is None:
             return f"no run on a robot is numbered {number}"
         if run["outcome"] == ROBOT_LOST:
             return f"run {number} lost its robot: it was not the student's doing, and it has no mark"
-        self.store.mark_robot_run(number, None if points is None else float(points))
+        self.store.mark_robot_run(number, mark)
         with self._lock:
             for kept in self._finished:
                 if kept["number"] == number:
-                    kept["points"] = None if points is None else float(points)
+                    kept["points"] = mark
         self._changed()
         return None
 
@@ -584,13 +585,15 @@ class RobotDesk:
 
     def _end(self, robot: Robot, ticket: Ticket, outcome: str, summary: str, records: list[Record]) -> None:
         """A run's end: kept (its trace and replay beside it), said to its student; a run lost, asked again."""
-        number = kept = None
+        number = None
         try:
             number = self.store.add_robot_run(ticket.student, robot.name, ticket.text, outcome, summary)
             row = self.store.robot_run(number)
-            if row is not None:  # as the desk lists it
+            if row is not None:  # on the desk from now, as it lists it (a mark given from now on is shown there)
                 kept = {key: row[key] for key in ("number", "student", "robot", "at", "outcome", "points")}
                 kept["name"] = ticket.name
+                with self._lock:
+                    self._finished = [kept, *self._finished][:DESK_RUNS]
             trace, replay, emulated = run_files(self.folder, number)
             trace.parent.mkdir(mode=0o700, exist_ok=True)
             if records:
@@ -606,8 +609,6 @@ class RobotDesk:
             summary += f" (the class's server could not keep this run: {err})"
         with self._lock:
             ticket.state, ticket.outcome, ticket.summary, ticket.run = "done", outcome, summary, number
-            if kept is not None:
-                self._finished = [kept, *self._finished][:DESK_RUNS]
             robot.ticket, robot.stop_reason = None, ""
             if robot.state == "running":  # a robot lost is lost from now (never free for a moment)
                 robot.state, robot.why = ("lost", robot.lost_during) if outcome == ROBOT_LOST else ("free", "")

@@ -41,6 +41,7 @@ import os
 import re
 import secrets
 import signal
+import urllib.parse
 import zipfile
 from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
@@ -60,6 +61,7 @@ from autonomy.classroom.report import to_csv
 from autonomy.classroom.results import Report, file_names
 from autonomy.clock import Clock, pause, thread_cpu_time_s, wall_time_s
 from autonomy.errors import AutonomyError
+from autonomy.liveclass.lti import STATE_COOKIE, STATE_S, Launch, LaunchRefused, LtiTool, tool_urls
 from autonomy.liveclass.robots import RobotDesk, run_files
 from autonomy.liveclass.store import ClassStore, StoreError, Student, Work, code_digest, token_digest
 from autonomy.liveclass.work import (
@@ -204,6 +206,11 @@ PAGE_POLICY = (
 )
 #: A feedback page's policy, on top of its own: a sandbox of its own origin, framed by the class's pages alone.
 FEEDBACK_POLICY = "sandbox allow-scripts; frame-ancestors 'self'"
+#: An LTI login's or launch's form, at most (an id_token is a few kilobytes); how long a session it opens lasts (a
+#: school day); the longest id an LMS may give a student.
+LTI_MOST_BYTES = 64 * 1024
+LTI_SESSION_S = 12 * 3600.0
+MAX_LTI_ID = 200
 _PAGE_NAME = re.compile(r"(\d{1,12})-([0-9a-f]{32})\.html")
 _ROBOT_PAGE_NAME = re.compile(r"(\d{1,12})-([0-9a-f]{32})(-emulated)?\.html")
 
@@ -453,8 +460,12 @@ class ClassServer(BoundedServer):
         robots: dict[str, str] | None = None,
         robot_baud: int | None = None,
         robot_profiles: dict[str, str] | None = None,
+        lti: LtiTool | None = None,
+        public_url: str = "",
     ):
         super().__init__(host, port, "class")
+        #: The class's LMS's sign-in (LTI 1.3), if it has one; the address the LMS knows the class by.
+        self.lti, self.public_url = lti, public_url.rstrip("/")
         #: The class's robots (``--robot NAME=PORT``) and their queue, once the server listens; None: none.
         self._robots_given, self._robot_baud = dict(robots or {}), robot_baud
         self._robot_profiles = dict(robot_profiles or {})
@@ -544,6 +555,9 @@ class ClassServer(BoundedServer):
         app.router.add_get("/api/robots", self._robots_desk)
         app.router.add_post("/api/robots/{action}", self._robots_act)
         app.router.add_get("/robot-runs/{name}", self._robot_page)
+        app.router.add_get("/lti/jwks", self._lti_jwks)
+        app.router.add_route("*", "/lti/login", self._lti_login)
+        app.router.add_post("/lti/launch", self._lti_launch)
 
     @web.middleware
     async def _keeping(self, request: web.Request, handler: Callable[..., Any]) -> web.StreamResponse:
@@ -637,7 +651,11 @@ class ClassServer(BoundedServer):
 
     def _teacher(self, request: web.Request) -> bool:
         token = _bearer(request).strip()
-        return bool(token) and hmac.compare_digest(token_digest(token), self.store.setting(TEACHER_TOKEN))
+        if not token:
+            return False
+        if hmac.compare_digest(token_digest(token), self.store.setting(TEACHER_TOKEN)):
+            return True
+        return self.lti is not None and self.store.teacher_session(token)  # an instructor's launch from the LMS
 
     async def _body(self, request: web.Request) -> bytes | web.Response:
         """A request's body, read against :attr:`body_deadline_s` within :attr:`bodies_read_bytes`; or the refusal.
@@ -984,11 +1002,107 @@ class ClassServer(BoundedServer):
     # ------------------------------------------------------------------ pages
 
     def _page_policy(self) -> str:
-        """The pages' policy: :data:`PAGE_POLICY`, with the robots' live views framed beside the server's own pages."""
+        """The pages' policy: :data:`PAGE_POLICY`, with the robots' live views framed, and the LMS framing the pages.
+
+        An LMS launches the tool in a frame of its own: its origin (its issuer's) may frame the pages.
+        """
+        policy = PAGE_POLICY
+        if self.lti is not None:
+            parts = urllib.parse.urlsplit(self.lti.platform.issuer)
+            lms = f"{parts.scheme}://{parts.netloc}" if parts.scheme in ("http", "https") and parts.netloc else ""
+            if lms:
+                policy = policy.replace("frame-ancestors 'none'", f"frame-ancestors {lms}")
         if self.robots is None:
-            return PAGE_POLICY
+            return policy
         views = " ".join(origin for port in self.robots.view_ports() for origin in origins(self.host, port))
-        return PAGE_POLICY.replace("frame-src 'self'", f"frame-src 'self' {views}")
+        return policy.replace("frame-src 'self'", f"frame-src 'self' {views}")
+
+    # ------------------------------------------------------------------ LTI 1.3: the class inside an LMS
+
+    async def _lti_jwks(self, request: web.Request) -> web.Response:
+        """The tool's public key (``GET /lti/jwks``), which the LMS checks the tool's signatures with."""
+        if self.lti is None:
+            raise web.HTTPNotFound()
+        return _json(self.lti.key.jwks())
+
+    async def _lti_form(self, request: web.Request) -> dict[str, str] | web.Response:
+        """A login's or launch's fields: the query's, and a form's body read against the deadline; or the refusal."""
+        given = {key: value for key, value in request.query.items()}
+        if request.method == "POST":
+            if request.content_length is not None and request.content_length > LTI_MOST_BYTES:
+                return _refusal(413, f"an LTI form is at most {LTI_MOST_BYTES:,} bytes")
+            try:
+                body = await asyncio.wait_for(request.content.read(LTI_MOST_BYTES + 1), self.body_deadline_s)
+            except TimeoutError:
+                return _refusal(408, f"the form was not sent within {self.body_deadline_s:g} s")
+            if len(body) > LTI_MOST_BYTES:
+                return _refusal(413, f"an LTI form is at most {LTI_MOST_BYTES:,} bytes")
+            try:
+                given |= dict(urllib.parse.parse_qsl(body.decode("ascii"), max_num_fields=32))
+            except (UnicodeDecodeError, ValueError):
+                return _refusal(400, "an LTI form is application/x-www-form-urlencoded ASCII")
+        return given
+
+    async def _lti_login(self, request: web.Request) -> web.StreamResponse:
+        """The LMS's login initiation (``/lti/login``): the browser sent back to the LMS with a state and a nonce."""
+        if self.lti is None:
+            raise web.HTTPNotFound()
+        given = await self._lti_form(request)
+        if isinstance(given, web.Response):
+            return given
+        redirect_uri = tool_urls(self._public_url(request))["redirect_uri"]
+        try:
+            address, state = self.lti.login(given, redirect_uri)
+        except LaunchRefused as err:
+            return _refusal(401, f"LTI login refused: {err}")
+        answer = web.Response(status=302, headers={"Location": address, **NO_STORE})
+        answer.set_cookie(
+            STATE_COOKIE, state, max_age=int(STATE_S), path="/lti", httponly=True, secure=True, samesite="None"
+        )  # fmt: skip - the launch is a post from the LMS's site
+        return answer
+
+    async def _lti_launch(self, request: web.Request) -> web.StreamResponse:
+        """The LMS's launch (``POST /lti/launch``): its id_token checked whole, then the person signed in.
+
+        A learner is signed in to the student's page, an instructor to the teacher's desk.
+        """
+        if self.lti is None:
+            raise web.HTTPNotFound()
+        given = await self._lti_form(request)
+        if isinstance(given, web.Response):
+            return given
+        lti = self.lti
+        try:
+            if lti.needs_fetch():  # the LMS's keys, off the loop
+                jwks = await asyncio.get_running_loop().run_in_executor(self._chores, lti.keys)
+            else:
+                jwks = lti.keys()
+            launch = lti.launch(
+                given.get("id_token", ""), given.get("state", ""), request.cookies.get(STATE_COOKIE, ""), jwks
+            )
+        except LaunchRefused as err:
+            return _refusal(401, f"LTI launch refused: {err}")
+        if launch.instructor:
+            code = await asyncio.get_running_loop().run_in_executor(
+                self._chores, self.store.new_session, "", LTI_SESSION_S
+            )
+            answer = web.Response(status=303, headers={"Location": f"/teacher#{code}", **NO_STORE})
+        else:
+            student = printable(launch.roster_id or launch.subject)[:MAX_LTI_ID]
+            code = await asyncio.get_running_loop().run_in_executor(self._chores, self._lti_student, student, launch)
+            answer = web.Response(status=303, headers={"Location": f"/#code={code}", **NO_STORE})
+        answer.del_cookie(STATE_COOKIE, path="/lti")
+        return answer
+
+    def _lti_student(self, student: str, launch: Launch) -> str:
+        """A learner's session: on the roster from now on (the LMS vouches for them), then a code of the session's."""
+        self.store.admit(student, printable(launch.name)[:MAX_LTI_ID])
+        self._loop.call_soon_threadsafe(self._change, student)
+        return self.store.new_session(student, LTI_SESSION_S)
+
+    def _public_url(self, request: web.Request) -> str:
+        """The address the LMS knows the tool by: ``--public-url``, else the request's own scheme and host."""
+        return self.public_url or f"{request.scheme}://{request.host}"
 
     async def _file(self, name: str, request: web.Request) -> web.Response:
         if name.endswith(".html"):
@@ -1191,7 +1305,12 @@ class ClassServer(BoundedServer):
             return body
         if action == "mark":
             number = body.get("run")
-            if isinstance(number, bool) or not isinstance(number, int) or "points" not in body:
+            if (
+                isinstance(number, bool)
+                or not isinstance(number, int)
+                or not 0 < number < 2**63
+                or "points" not in body
+            ):
                 return _refusal(400, 'the body is JSON: {"run": the run\'s number, "points": its mark, or null}')
             try:
                 why = await asyncio.get_running_loop().run_in_executor(

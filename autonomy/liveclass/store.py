@@ -20,7 +20,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from autonomy.clock import wall_date
+from autonomy.clock import wall_date, wall_time_s
 from autonomy.errors import AutonomyError
 
 #: The file in the class's folder.
@@ -68,6 +68,11 @@ CREATE TABLE IF NOT EXISTS robot_runs (
     points REAL
 );
 CREATE INDEX IF NOT EXISTS robot_runs_by_student ON robot_runs (student, id);
+CREATE TABLE IF NOT EXISTS sessions (
+    digest TEXT PRIMARY KEY,
+    student TEXT NOT NULL,
+    until_s REAL NOT NULL
+);
 """
 
 
@@ -245,12 +250,51 @@ class ClassStore:
         return codes
 
     def student_by_code(self, code: str) -> Student | None:
-        """The student on the roster whose code this is, or None."""
+        """The student on the roster whose code this is (a code on their sheet, or a session's), or None."""
+        digest = code_digest(code)
         rows = self._read(
             f"SELECT {_STUDENT} FROM students WHERE code_sha256 = ? AND on_roster = 1",  # noqa: S608
-            (code_digest(code),),
+            (digest,),
         )
+        if not rows:
+            rows = self._read(
+                f"SELECT {_STUDENT} FROM students WHERE on_roster = 1 AND id = "  # noqa: S608 - our own text
+                "(SELECT student FROM sessions WHERE digest = ? AND until_s > ? AND student != '')",
+                (digest, wall_time_s()),
+            )
         return Student(*rows[0]) if rows else None
+
+    def admit(self, student: str, name: str) -> None:
+        """Puts a student on the roster (an LMS vouched for them): new ones with a code of their own, unknown to all."""
+        code = code_digest(new_code())
+        self._write(
+            [
+                ("INSERT INTO students (id, name, code_sha256) VALUES (?, ?, ?) ON CONFLICT(id) DO UPDATE SET "
+                 "on_roster = 1, name = CASE WHEN ? != '' THEN ? ELSE name END", (student, name or student, code, name,
+                                                                                  name)),
+            ]
+        )  # fmt: skip
+
+    def new_session(self, student: str, lasting_s: float) -> str:
+        """A new session's code, ``student``'s (empty: the teacher's), for ``lasting_s`` (:meth:`student_by_code`)."""
+        code = secrets.token_urlsafe(24)
+        now_s = wall_time_s()
+        self._write(
+            [
+                ("DELETE FROM sessions WHERE until_s <= ?", (now_s,)),
+                ("INSERT INTO sessions (digest, student, until_s) VALUES (?, ?, ?)",
+                 (code_digest(code), student, now_s + lasting_s)),
+            ]
+        )  # fmt: skip
+        return code
+
+    def teacher_session(self, code: str) -> bool:
+        """Whether ``code`` is a teacher's session (an instructor's launch from the LMS) not yet lapsed."""
+        rows = self._read(
+            "SELECT 1 FROM sessions WHERE digest = ? AND student = '' AND until_s > ?",
+            (code_digest(code), wall_time_s()),
+        )
+        return bool(rows)
 
     def sign_in(self, student: str) -> None:
         """Notes that ``student`` signed in (now)."""

@@ -7,6 +7,7 @@ from __future__ import annotations
 import csv
 import dataclasses
 import io
+import json
 import sqlite3
 
 import pytest
@@ -63,6 +64,13 @@ def test_the_teacher_marks_a_watched_run_and_the_best_marked_counts_beside_the_h
         assert status == 409 and "not the student's doing" in refused["error"]
         assert call(server, "/api/robots/mark", {"run": 999, "points": 3}, TEACHER)[0] == 409
         assert call(server, "/api/robots/mark", {"run": done["run"]}, TEACHER)[0] == 400
+        for number in (2**63, -(2**63) - 1, 1.0, True, "1"):  # no run, and no number the store could take
+            assert call(server, "/api/robots/mark", {"run": number, "points": 1}, TEACHER)[0] == 400, number
+        # a mark is kept in hundredths, as the pages and the gradebook show it: never 1e-320, nor -0
+        for points in (1e-320, -0.0):
+            status, marked = call(server, "/api/robots/mark", {"run": done["run"], "points": points}, TEACHER)
+            assert status == 200 and json.dumps(marked["runs"][0]["points"]) == "0.0"
+        assert gradebook(server)["s1"]["on_robot"] == "0"
         # marked: on the desk, the student's page, the class table and the gradebook
         status, marked = call(server, "/api/robots/mark", {"run": done["run"], "points": 3.5}, TEACHER)
         assert status == 200 and marked["runs"][0]["points"] == 3.5

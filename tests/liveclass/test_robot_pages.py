@@ -10,7 +10,7 @@ import signal
 
 from tests.axe import violations
 from tests.cli.test_cli import ROOT
-from tests.liveclass.test_class_cli import serve
+from tests.liveclass.test_class_cli import post, serve
 from tests.liveclass.test_pages import FIXED, new_page, press, sign_in, until, watching
 from tests.liveclass.test_robots import PROFILE, ended, robot_process
 
@@ -97,7 +97,30 @@ def test_a_student_asks_for_a_robot_the_teacher_starts_it_both_watch_it_live_and
         teacher.keyboard.press("Backspace")
         teacher.keyboard.type("4")
         press(teacher, "#robot-runs-table button:has-text('Save mark')")
-        until(teacher, "document.querySelector('#robot-runs-table tbody tr td:nth-child(5)').textContent === '4 / 5'")
+        cell = "document.querySelector('#robot-runs-table tbody tr td:nth-child(5)').textContent"
+        until(teacher, f"{cell} === '4 / 5'")
+        # what is not a number (a box of numbers reads it as empty) is said, and takes no mark back
+        mark = teacher.locator("#robot-runs-table input")
+        mark.focus()
+        teacher.keyboard.press("Control+A")
+        teacher.keyboard.type("-")
+        teacher.keyboard.press("Enter")
+        until(teacher, "document.getElementById('robots-message').textContent.includes('a mark is a number')")
+        assert teacher.evaluate(cell) == "4 / 5"
+        # a mark given elsewhere (another desk) shows in a box nobody typed in, and is not saved over
+        teacher.keyboard.press("Control+A")
+        teacher.keyboard.type("4")
+        press(teacher, "#robot-runs-table button:has-text('Save mark')")
+        until(teacher, "document.getElementById('robots-message').textContent.includes('mark saved')")
+        run = int(teacher.evaluate("document.querySelector('#robot-runs-table input').dataset.run"))
+        marked = post(port, "/api/robots/mark", {"run": run, "points": 3}, token)
+        assert marked["runs"][0]["points"] == 3
+        until(teacher, f"{cell} === '3 / 5' && document.querySelector('#robot-runs-table input').value === '3'")
+        press(teacher, "#robot-runs-table button:has-text('Save mark')")
+        until(teacher, "document.getElementById('robots-message').textContent.includes('mark saved')")
+        assert teacher.evaluate(cell) == "3 / 5"
+        post(port, "/api/robots/mark", {"run": run, "points": 4}, token)
+        until(teacher, f"{cell} === '4 / 5'")
         row = "document.querySelector('#class-table tbody tr')"
         until(teacher, f"{row}.cells[5].textContent.includes('4 / 5 on a robot')")
         assert violations(teacher) == []

@@ -258,7 +258,11 @@ function drawRobotRuns(robots) {
   $("robot-runs-empty").hidden = robots.runs.length > 0;
   $("robot-runs-table").hidden = !robots.runs.length;
   // what the teacher was typing, and where, kept through the drawing (a robot's state changes as they type)
-  const typed = new Map([...document.querySelectorAll("#robot-runs-table input")].map((i) => [i.dataset.run, i.value]));
+  const typed = new Map(
+    [...document.querySelectorAll("#robot-runs-table input")]
+      .filter((i) => i.dataset.typed) // typed in and not saved: a box nobody touched shows the mark as it is now
+      .map((i) => [i.dataset.run, i.value]),
+  );
   const focused = document.activeElement && document.activeElement.closest("#robot-runs-table") ? document.activeElement.id : "";
   $("robot-runs-table").tBodies[0].replaceChildren(
     ...robots.runs.map((r) => {
@@ -275,12 +279,16 @@ function drawRobotRuns(robots) {
         input.id = `robot-mark-${r.number}`;
         input.dataset.run = String(r.number);
         input.value = typed.has(input.dataset.run) ? typed.get(input.dataset.run) : r.points === null ? "" : String(r.points);
+        if (typed.has(input.dataset.run)) input.dataset.typed = "yes";
+        input.addEventListener("input", () => {
+          input.dataset.typed = "yes";
+        });
         input.setAttribute("aria-label", `Mark of run ${r.number}, 0 to ${number(most)}`);
         input.className = "points";
-        const save = button(`Save mark of run ${r.number}`, () => markRun(r.number, input.value));
+        const save = button(`Save mark of run ${r.number}`, () => markRun(r.number, input));
         save.id = `robot-mark-save-${r.number}`;
         input.addEventListener("keydown", (event) => {
-          if (event.key === "Enter") markRun(r.number, input.value);
+          if (event.key === "Enter") markRun(r.number, input);
         });
         actions.append(" ", input, " ", save);
       }
@@ -292,10 +300,12 @@ function drawRobotRuns(robots) {
   if (focused && $(focused)) $(focused).focus();
 }
 
-async function markRun(number, value) {
-  const points = value.trim() === "" ? null : Number(value);
-  if (points !== null && !Number.isFinite(points)) {
-    $("robots-message").textContent = `run ${number}: a mark is a number (leave it empty to take the mark back)`;
+async function markRun(number, input) {
+  // a box of numbers holding what is not one reads as empty: that is no mark taken back, but a mistake said
+  const value = input.value.trim();
+  const points = value === "" ? null : Number(value);
+  if (input.validity.badInput || (points !== null && !Number.isFinite(points))) {
+    $("robots-message").textContent = `run ${number}: a mark is a number, such as 3.5 (empty takes the mark back)`;
     return;
   }
   await robotAction("mark", null, { run: number, points });
@@ -303,8 +313,11 @@ async function markRun(number, value) {
 
 async function robotAction(action, name, body) {
   const answer = await api("POST", `/api/robots/${action}`, body || { robot: name });
-  if (answer.status === 200) {
+  const done = answer.status === 200;
+  if (done) {
     $("robots-message").textContent = action === "mark" ? `Run ${body.run}: ${body.points === null ? "mark taken back" : "mark saved"}.` : "";
+    const box = action === "mark" ? $(`robot-mark-${body.run}`) : null;
+    if (box) delete box.dataset.typed; // saved: the box shows the mark as kept from now on
     drawRobots(Object.assign({}, table.robots, await answer.json()));
   } else {
     let why = `the server answered ${answer.status}`;
@@ -315,6 +328,7 @@ async function robotAction(action, name, body) {
     }
     $("robots-message").textContent = why;
   }
+  return done;
 }
 
 // ------------------------------------------------------------------ the deadline and the exports
