@@ -59,7 +59,7 @@ class FakeLms:
                 pass
 
         self.http = http.server.ThreadingHTTPServer(("127.0.0.1", 0), Keys)
-        threading.Thread(target=self.http.serve_forever, daemon=True).start()
+        threading.Thread(target=self.http.serve_forever, args=(0.02,), daemon=True).start()
         self.jwks_url = f"http://127.0.0.1:{self.http.server_address[1]}/keys"
 
     def platform(self) -> Platform:
@@ -131,12 +131,19 @@ def lms():
     made.http.shutdown()
 
 
+def never_graded(*_: object, **__: object):
+    """The grader of a class whose tests sign in and grade nothing (no grading process is started for them)."""
+    raise AssertionError("nothing is graded here")
+
+
 @pytest.fixture
 def served(tmp_path, lms):
     store = ClassStore(tmp_path)
     codes = store.enrol([("s1", "Bob Jones")])
     store.set_setting(TEACHER_TOKEN, token_digest("teacher-token"))
-    server = ClassServer(GARAGE, store, tmp_path, port=0, lti=LtiTool(lms.platform(), ToolKey(tmp_path)))
+    server = ClassServer(
+        GARAGE, store, tmp_path, port=0, grader=never_graded, lti=LtiTool(lms.platform(), ToolKey(tmp_path))
+    )
     server.start()
     yield server, codes
     server.stop()
