@@ -422,6 +422,8 @@ class LtiTool:
         roles = claims.get(_LTI + "roles")
         if not isinstance(roles, list):
             raise LaunchRefused("the launch gives no roles")
+        if not isinstance(claims["sub"], str) or not claims["sub"].strip():
+            raise LaunchRefused("the id_token names nobody (its sub is empty)")
         person = claims.get(_LTI + "lis")
         sourced = person.get("person_sourcedid", "") if isinstance(person, dict) else ""
         name = claims.get("name") or " ".join(str(claims.get(k, "")) for k in ("given_name", "family_name")).strip()
@@ -452,7 +454,12 @@ def _key_for(jwks: dict[str, Any], kid: object) -> Any:
     """The LMS's public key the token names (by ``kid``; the only one, if it names none)."""
     import jwt
 
-    keys = [k for k in jwks.get("keys", []) if isinstance(k, dict) and k.get("kty") == "RSA"]
+    listed = jwks.get("keys") if isinstance(jwks, dict) else None
+    keys = (
+        [k for k in listed if isinstance(k, dict) and k.get("kty") == "RSA" and "d" not in k]
+        if isinstance(listed, list)
+        else []
+    )
     chosen = [k for k in keys if k.get("kid") == kid] if kid is not None else keys[:1] if len(keys) == 1 else []
     if not chosen:
         raise LaunchRefused(f"the id_token is signed with key {_said(kid)}, which the LMS does not publish")

@@ -1088,7 +1088,8 @@ class ClassServer(BoundedServer):
             )
             answer = web.Response(status=303, headers={"Location": f"/teacher#{code}", **NO_STORE})
         else:
-            student = printable(launch.roster_id or launch.subject)[:MAX_LTI_ID]
+            # the school's id, as a roster holds it; else the LMS's own, apart from every roster's ids
+            student = printable(launch.roster_id.strip() or f"lms:{launch.subject}")[:MAX_LTI_ID]
             code = await asyncio.get_running_loop().run_in_executor(self._chores, self._lti_student, student, launch)
             answer = web.Response(status=303, headers={"Location": f"/#code={code}", **NO_STORE})
         answer.del_cookie(STATE_COOKIE, path="/lti")
@@ -1096,6 +1097,8 @@ class ClassServer(BoundedServer):
 
     def _lti_student(self, student: str, launch: Launch) -> str:
         """A learner's session: on the roster from now on (the LMS vouches for them), then a code of the session's."""
+        if not student.strip():  # an empty id is the teacher's session's: never a learner's
+            raise ValueError("a learner with no id")
         self.store.admit(student, printable(launch.name)[:MAX_LTI_ID])
         self._loop.call_soon_threadsafe(self._change, student)
         return self.store.new_session(student, LTI_SESSION_S)

@@ -168,7 +168,10 @@ def test_a_learner_s_launch_signs_them_in_to_the_student_s_page_never_the_desk(s
     assert [row["name"] for row in table["students"]] == ["Bob Jones", "Ada Lovelace"]
     assert table["students"][1]["signed_in"]
     # the LMS's keys were fetched once, and kept
-    assert launch(server, lms, sub="u-2", **{LTI + "lis": None, "name": "Cy"})[0] == 303 and lms.asked == 1
+    status, headers, _ = launch(server, lms, sub="s1", **{LTI + "lis": None, "name": "Cy"})
+    assert status == 303 and lms.asked == 1
+    # an LMS's own id is apart from the roster's: LMS user "s1" is not the roster's s1
+    assert call(server, "/api/me", code=code_of(headers, "/#"), method="GET")[1]["student"]["id"] == "lms:s1"
     # codes keep working beside it
     assert call(server, "/api/me", code=codes["s1"], method="GET")[1]["student"]["id"] == "s1"
 
@@ -206,6 +209,7 @@ def forged():
         ({"kid": "unknown-key"}, "does not publish"),
         ({LTI + "roles": None}, "no roles"),
         ({"exp": None}, "exp"),
+        ({"sub": "", LTI + "lis": None}, "names nobody"),  # an empty id would be the desk's session
     ],
 )
 def test_a_launch_that_fails_a_check_is_refused_401_in_one_line(served, lms, claims, said):
