@@ -36,6 +36,7 @@ from typing import Any
 
 from autonomy.clock import wall_time_s
 from autonomy.errors import AutonomyError
+from autonomy.views.lines import printable
 
 #: The folder of a class's folder that holds its LTI settings and its key.
 LTI_FOLDER = "lti"
@@ -445,8 +446,7 @@ class LtiTool:
 
 def _said(value: object) -> str:
     """A value a refusal says back: printable, short."""
-    text = repr(value) if not isinstance(value, str) else f"'{value}'"
-    text = "".join(c if c.isprintable() else "?" for c in text)
+    text = printable(repr(value) if not isinstance(value, str) else f"'{value}'")
     return text[:60] + ("..." if len(text) > 60 else "")
 
 
