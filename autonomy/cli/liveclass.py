@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import csv
+import json
 import secrets
 import signal
 import sys
@@ -161,6 +162,8 @@ def _serve(
     print(disk_said(students), file=sys.stderr)
     if lti is not None:
         said = f"LMS: {lti.platform.issuer} launches the class (LTI 1.3, client id {lti.platform.client_id}); "
+        course = lti.platform.course_id or json.loads(store.setting("lms.course", "{}")).get("id", "")
+        said += f"course {course}; " if course else "its teacher opens its link in the course first; "
         said += f"codes sign in too; the tool's addresses: autonomy class lti-config --dir {folder}"
         print(_shown(said), file=sys.stderr)
     if args.robots:
@@ -203,7 +206,7 @@ def _lti_of(folder: Path) -> Any:
 
 def cmd_class_lti_config(args: argparse.Namespace) -> int:
     """Prints what an LMS's admin pastes in to add the class as an LTI 1.3 tool; keeps the LMS's details if given."""
-    import json
+    import dataclasses
     import urllib.parse
 
     from autonomy.liveclass.lti import (
@@ -236,11 +239,25 @@ def cmd_class_lti_config(args: argparse.Namespace) -> int:
     except LtiError as err:
         return _fail(str(err), EXIT_USAGE)
     try:
-        if all(given):
+        if all(given):  # the LMS given anew: its file made again (a broken one too), what it tied kept
+            kept = None
+            with contextlib.suppress(LtiError):
+                kept = read_platform(folder)
             platform = Platform(args.issuer, args.client_id, args.auth_url, args.token_url or "", args.jwks_url,
-                                tuple(args.deployment_id))  # fmt: skip
+                                tuple(args.deployment_id), public_url=kept.public_url if kept else "",
+                                course_id=kept.course_id if kept else "")  # fmt: skip
             print(f"kept the LMS's settings in {write_platform(folder, platform)}", file=sys.stderr)
         platform = read_platform(folder)
+        if (args.public_url or args.course_id is not None) and platform is not None:
+            platform = dataclasses.replace(
+                platform,
+                public_url=args.public_url or platform.public_url,
+                course_id=platform.course_id if args.course_id is None else args.course_id,
+            )
+            write_platform(folder, platform)
+        elif args.course_id is not None:
+            why = "--course-id ties the class to a course of its LMS: give the LMS first (--issuer ...)"
+            return _fail(why, EXIT_USAGE)
     except LtiError as err:
         return _fail(str(err), EXIT_USAGE)
     urls = tool_urls(base)
@@ -255,6 +272,9 @@ def cmd_class_lti_config(args: argparse.Namespace) -> int:
     else:
         print(f"The LMS: {platform.issuer}, client id {platform.client_id}, deployments "
               f"{', '.join(platform.deployment_ids)}")  # fmt: skip
+        course = f"course {platform.course_id}" if platform.course_id else "the course its teacher first opens it from"
+        print(f"  the class is {course}; roster and marks {'by ' + platform.token_url if platform.token_url else 'not'}"
+              f"{'' if platform.token_url else ' read or sent (no --token-url)'}")  # fmt: skip
     print("Canvas (Developer Keys, LTI key, Method: Paste JSON):")
     print(json.dumps(canvas_config(base, args.title), indent=2))
     return EXIT_OK
@@ -410,6 +430,10 @@ def add_parsers(sub: Any) -> None:
     lti.add_argument("--auth-url", metavar="URL", help="the LMS's OIDC authorisation address")
     lti.add_argument("--token-url", metavar="URL", help="the LMS's access token address")
     lti.add_argument("--jwks-url", metavar="URL", help="the LMS's public keyset address")
+    lti.add_argument(
+        "--course-id", metavar="ID", help="the LMS's id of the class's course (default: the first its teacher opens it "
+        "from; '' unties it)"
+    )  # fmt: skip
     lti.add_argument(
         "--deployment-id", action="append", metavar="ID", help="a deployment id the LMS gave (repeat for each)"
     )

@@ -17,6 +17,13 @@ What the tool is told of its LMS (:class:`Platform`) is kept in the class's fold
 
 PyJWT checks the signature and the claims; the times are checked here against this machine's wall
 clock (the clock module's), with :data:`LEEWAY_S` for an LMS whose clock is a little off.
+
+A login keeps nothing: its state is signed by the tool (a random part, when it lapses, and a MAC),
+so that no flood of logins can push out a real one's; its nonce is the MAC of the state's random
+part, and is remembered as used once a launch with it was checked whole. A launch's state is
+checked before the LMS's keys are asked for, so that a junk launch costs no fetch. A class is one
+course's: an instructor's first launch ties it to that course (or ``lti-config --course-id``
+does), and from then on a launch from any other course is refused.
 """
 
 from __future__ import annotations
@@ -25,7 +32,10 @@ import base64
 import collections
 import dataclasses
 import hashlib
+import hmac
+import http.client
 import json
+import math
 import os
 import secrets
 import urllib.parse
@@ -44,9 +54,8 @@ PLATFORM_FILE = "platform.json"
 KEY_FILE = "tool-key.pem"
 #: How far an LMS's clock may be off this machine's, seconds (an id_token's exp, iat, nbf).
 LEEWAY_S = 60.0
-#: How long a login's state waits for its launch, seconds; and how many states wait at once (the oldest let go).
+#: How long a login's state waits for its launch, seconds.
 STATE_S = 600.0
-STATES_KEPT = 4096
 #: How long a nonce is remembered as used, seconds (longer than any id_token a launch takes lives).
 NONCE_S = 3600.0
 #: How long the LMS's published keys are kept before they are asked for again, seconds.
@@ -54,15 +63,25 @@ JWKS_KEPT_S = 600.0
 #: Longest an LMS's keys take to be fetched, seconds; most bytes they may be.
 JWKS_TIMEOUT_S = 5.0
 JWKS_MOST_BYTES = 256 * 1024
-#: The name of the cookie that ties a login's state to the browser it was given to.
-STATE_COOKIE = "autonomy-lti-state"
+#: How long after the LMS's keys could not be had they are not asked for again, seconds (launches refused at once).
+JWKS_RETRY_S = 10.0
+#: The name of the cookie that ties a login's state to the browser it was given to (``__Host-``: this host's alone,
+#: sent over HTTPS alone, for the whole site).
+STATE_COOKIE = "__Host-autonomy-lti-state"
 
 _LTI = "https://purl.imsglobal.org/spec/lti/claim/"
+_NRPS = "https://purl.imsglobal.org/spec/lti-nrps/claim/namesroleservice"
+_AGS = "https://purl.imsglobal.org/spec/lti-ags/claim/endpoint"
+#: The roles that open the teacher's desk: the course's instructors and content developers (full names, and the
+#: short ones LTI 1.3 still allows for a course's roles), and the LMS's administrators. An institution's role
+#: (``institution/person#Instructor``: a teacher somewhere in the school) is not this course's: a learner here.
 INSTRUCTOR_ROLES = (
     "http://purl.imsglobal.org/vocab/lis/v2/membership#Instructor",
     "http://purl.imsglobal.org/vocab/lis/v2/membership#ContentDeveloper",
     "http://purl.imsglobal.org/vocab/lis/v2/institution/person#Administrator",
     "http://purl.imsglobal.org/vocab/lis/v2/system/person#Administrator",
+    "Instructor",
+    "ContentDeveloper",
 )
 
 
@@ -86,6 +105,8 @@ class Platform:
         jwks_url: Where the LMS publishes its public keys.
         deployment_ids: The deployments of this tool that may launch it.
         jwks: The LMS's keys, given here rather than fetched (a JWKS document), or None.
+        public_url: The address the LMS knows the tool by (``https://class.school.example``); empty: the requests'.
+        course_id: The LMS's id of the class's course (its ``context``); empty: the first instructor's launch says.
     """
 
     issuer: str
@@ -95,6 +116,8 @@ class Platform:
     jwks_url: str
     deployment_ids: tuple[str, ...]
     jwks: dict[str, Any] | None = None
+    public_url: str = ""
+    course_id: str = ""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -107,6 +130,11 @@ class Launch:
         roster_id: Their institution's id (``lis.person_sourcedid``), empty if none.
         instructor: Whether they teach the course (an instructor's role), else a learner.
         resource_link: The LMS's id of the link that was followed.
+        course_id: The LMS's id of the course it was followed in (its ``context``).
+        course_title: The course's title, as the LMS gives it (empty if none).
+        memberships_url: Where the LMS lists the course's people (its Names and Roles service); empty: none.
+        lineitems_url: Where the LMS keeps the course's line items (its Assignment and Grade service); empty: none.
+        lineitem_url: The link's own line item, if the LMS made one for it; empty: none.
     """
 
     subject: str
@@ -114,6 +142,11 @@ class Launch:
     roster_id: str
     instructor: bool
     resource_link: str
+    course_id: str = ""
+    course_title: str = ""
+    memberships_url: str = ""
+    lineitems_url: str = ""
+    lineitem_url: str = ""
 
 
 def lti_folder(class_folder: Path) -> Path:
@@ -143,14 +176,23 @@ def read_platform(class_folder: Path) -> Platform | None:
     ids = data["deployment_ids"]
     if not isinstance(ids, list) or not all(isinstance(i, str) and i for i in ids):
         raise LtiError(f"{path}: deployment_ids is a list of the LMS's deployment ids")
+    texts = ("issuer", "client_id", "auth_url", "token_url", "jwks_url", "public_url", "course_id")
+    odd = [key for key in texts if not isinstance(data.get(key, ""), str)]
+    jwks = data.get("jwks")
+    if jwks is not None and not (isinstance(jwks, dict) and isinstance(jwks.get("keys"), list)):
+        odd.append("jwks")
+    if odd:
+        raise LtiError(f"{path}: the LMS's {', '.join(odd)} not as lti-config writes them; make them anew with it")
     return Platform(
-        str(data["issuer"]),
-        str(data["client_id"]),
-        str(data["auth_url"]),
-        str(data.get("token_url", "")),
-        str(data.get("jwks_url", "")),
+        data["issuer"],
+        data["client_id"],
+        data["auth_url"],
+        data.get("token_url", ""),
+        data.get("jwks_url", ""),
         tuple(ids),
-        data.get("jwks") if isinstance(data.get("jwks"), dict) else None,
+        jwks,
+        data.get("public_url", ""),
+        data.get("course_id", ""),
     )
 
 
@@ -263,8 +305,11 @@ def canvas_config(base_url: str, title: str) -> dict[str, Any]:
 def _fetch_jwks(url: str) -> dict[str, Any]:
     """The LMS's published keys (blocking: called off the server's loop)."""
     request = urllib.request.Request(url, headers={"Accept": "application/json"})
-    with urllib.request.urlopen(request, timeout=JWKS_TIMEOUT_S) as answer:  # noqa: S310 - the LMS's, as configured
-        body = answer.read(JWKS_MOST_BYTES + 1)
+    try:
+        with urllib.request.urlopen(request, timeout=JWKS_TIMEOUT_S) as answer:  # noqa: S310 - the LMS's, as set
+            body = answer.read(JWKS_MOST_BYTES + 1)
+    except http.client.HTTPException as err:  # an answer cut short, or not HTTP
+        raise ValueError(f"a broken answer ({type(err).__name__})") from err
     if len(body) > JWKS_MOST_BYTES:
         raise ValueError(f"more than {JWKS_MOST_BYTES:,} bytes")
     data = json.loads(body)
@@ -288,11 +333,16 @@ class LtiTool:
         self.platform = platform
         self.key = key
         self._fetch = fetch_jwks
-        #: Each login's state: its nonce and when it lapses, oldest first.
-        self._states: collections.OrderedDict[str, tuple[str, float]] = collections.OrderedDict()
+        #: What the states are signed with (this run's alone: a state of a run before is not taken).
+        self._secret = secrets.token_bytes(32)
         #: Each nonce a launch used, and when it may be forgotten.
         self._used: collections.OrderedDict[str, float] = collections.OrderedDict()
         self._jwks: tuple[dict[str, Any], float] | None = None
+        #: When the LMS's keys last could not be had, and why.
+        self._unfetched: tuple[float, str] | None = None
+
+    def _mac(self, text: str) -> str:
+        return hmac.new(self._secret, text.encode(), hashlib.sha256).hexdigest()[:32]
 
     def login(self, given: dict[str, str], redirect_uri: str) -> tuple[str, str]:
         """The answer to an LMS's login initiation: where to send the browser back to, and the state to keep.
@@ -306,12 +356,8 @@ class LtiTool:
             raise LaunchRefused("a login for another tool's client id")
         if not given.get("login_hint"):
             raise LaunchRefused("a login without its login_hint: it did not come from an LMS's launch")
-        now_s = wall_time_s()
-        self._forget(now_s)
-        state, nonce = secrets.token_urlsafe(24), secrets.token_urlsafe(24)
-        self._states[state] = (nonce, now_s + STATE_S)
-        while len(self._states) > STATES_KEPT:
-            self._states.popitem(last=False)
+        raw = f"{secrets.token_urlsafe(18)}.{int(wall_time_s() + STATE_S)}"
+        state = f"{raw}.{self._mac('state ' + raw)}"
         query = {
             "scope": "openid",
             "response_type": "id_token",
@@ -321,56 +367,87 @@ class LtiTool:
             "redirect_uri": redirect_uri,
             "login_hint": given["login_hint"],
             "state": state,
-            "nonce": nonce,
+            "nonce": self._mac("nonce " + raw),
         }
         if given.get("lti_message_hint"):
             query["lti_message_hint"] = given["lti_message_hint"]
         return f"{self.platform.auth_url}?{urllib.parse.urlencode(query)}", state
 
-    def keys(self) -> dict[str, Any]:
-        """The LMS's keys: given, kept from a fetch less than :data:`JWKS_KEPT_S` old, or fetched now (blocking).
+    def claim(self, state: str, cookie_state: str) -> str:
+        """A launch's state checked (this tool's, not lapsed, this browser's): the nonce its token must hold.
+
+        Cheap, and asks nobody: a launch is checked this far before the LMS's keys are asked for.
 
         Raises:
-            LaunchRefused: they cannot be fetched.
+            LaunchRefused: the state is not one this tool gave, has lapsed, or is not the browser's.
+        """
+        raw, _, mac = state.rpartition(".")
+        _, _, until = raw.partition(".")
+        if not raw or not secrets.compare_digest(mac.encode(), self._mac("state " + raw).encode()):
+            raise LaunchRefused("a launch whose state this tool did not give: start it again from the LMS")
+        if not until.isdigit() or int(until) <= wall_time_s():
+            raise LaunchRefused("a launch whose login lapsed (10 minutes): start it again from the LMS")
+        if not cookie_state or not secrets.compare_digest(cookie_state.encode(), state.encode()):
+            raise LaunchRefused("a launch whose state is not this browser's: start it again from the LMS")
+        nonce = self._mac("nonce " + raw)
+        if nonce in self._used:
+            raise LaunchRefused("a launch whose state was used already: start it again from the LMS")
+        return nonce
+
+    def keys(self, again: bool = False) -> dict[str, Any]:
+        """The LMS's keys: given, kept from a fetch less than :data:`JWKS_KEPT_S` old, or fetched now (blocking).
+
+        Args:
+            again: Fetch them anew, kept or not (a token named a key the kept ones lack: the LMS's new key).
+
+        Raises:
+            LaunchRefused: they cannot be fetched (nor are they asked for again within :data:`JWKS_RETRY_S`).
         """
         if self.platform.jwks is not None:
             return self.platform.jwks
         now_s = wall_time_s()
-        if self._jwks is not None and self._jwks[1] > now_s:
+        if self._jwks is not None and self._jwks[1] > now_s and not again:
             return self._jwks[0]
+        if self._unfetched is not None and self._unfetched[0] + JWKS_RETRY_S > now_s:
+            raise LaunchRefused(self._unfetched[1])
         try:
             jwks = self._fetch(self.platform.jwks_url)
         except (OSError, ValueError) as err:
-            raise LaunchRefused(f"the LMS's keys could not be had from {self.platform.jwks_url}: {err}") from err
-        self._jwks = (jwks, now_s + JWKS_KEPT_S)
+            self._unfetched = (now_s, f"the LMS's keys could not be had from {self.platform.jwks_url}: {err}")
+            raise LaunchRefused(self._unfetched[1]) from err
+        self._jwks, self._unfetched = (jwks, now_s + JWKS_KEPT_S), None
         return jwks
 
-    def needs_fetch(self) -> bool:
+    def needs_fetch(self, again: bool = False) -> bool:
         """Whether :meth:`keys` would fetch (the caller then runs it off its loop)."""
-        return self.platform.jwks is None and (self._jwks is None or self._jwks[1] <= wall_time_s())
+        if self.platform.jwks is not None:
+            return False
+        now_s = wall_time_s()
+        if self._unfetched is not None and self._unfetched[0] + JWKS_RETRY_S > now_s:
+            return False  # refused at once
+        return again or self._jwks is None or self._jwks[1] <= now_s
 
-    def launch(self, id_token: str, state: str, cookie_state: str, jwks: dict[str, Any]) -> Launch:
-        """Checks a launch whole; who it signs in.
+    def fetched_at_s(self) -> float:
+        """When the kept keys were fetched (0: none kept), so that a key the LMS added is fetched once a while."""
+        return 0.0 if self._jwks is None else self._jwks[1] - JWKS_KEPT_S
+
+    def check(self, id_token: str, nonce: str, jwks: dict[str, Any], course: str = "") -> Launch:
+        """Checks a launch's token whole; who it signs in.
 
         Args:
             id_token: The form's ``id_token``.
-            state: The form's ``state``.
-            cookie_state: The state the browser's cookie holds (empty: none).
+            nonce: What its state says its nonce is (:meth:`claim`).
             jwks: The LMS's keys (:meth:`keys`).
+            course: The LMS's id of the class's course; empty: not yet tied to one (an instructor's launch ties it).
 
         Raises:
             LaunchRefused: any check fails; its message says which, in one line.
+            UnknownKey: the token is signed with a key the LMS does not publish (in ``jwks``).
         """
         import jwt
 
         now_s = wall_time_s()
         self._forget(now_s)
-        kept = self._states.pop(state, None) if state else None
-        if kept is None:
-            raise LaunchRefused("a launch whose state this tool did not give, or gave and saw used: start it again")
-        if not cookie_state or not secrets.compare_digest(cookie_state, state):
-            raise LaunchRefused("a launch whose state is not this browser's: start it again from the LMS")
-        nonce, _ = kept
         try:
             header = jwt.get_unverified_header(id_token)
         except jwt.PyJWTError as err:
@@ -402,13 +479,13 @@ class LtiTool:
             raise LaunchRefused(f"the id_token does not hold: {err}") from err
         _check_times(claims, now_s)
         audience = claims["aud"]
-        if isinstance(audience, list) and len(audience) > 1 and claims.get("azp") != self.platform.client_id:
-            raise LaunchRefused("the id_token names several audiences and its azp is not this tool's client id")
+        several = isinstance(audience, list) and len(audience) > 1
+        if (several or "azp" in claims) and claims.get("azp") != self.platform.client_id:
+            raise LaunchRefused("the id_token's azp (the party it was given to) is not this tool's client id")
         if not isinstance(claims["nonce"], str) or not secrets.compare_digest(claims["nonce"], nonce):
             raise LaunchRefused("the id_token's nonce is not the one its login was given")
         if claims["nonce"] in self._used:
             raise LaunchRefused("the id_token was used already: start it again from the LMS")
-        self._used[claims["nonce"]] = now_s + NONCE_S
         deployment = claims.get(_LTI + "deployment_id")
         if deployment not in self.platform.deployment_ids:
             raise LaunchRefused(f"the launch is from deployment {_said(deployment)}, not one of this class's")
@@ -418,30 +495,57 @@ class LtiTool:
         if claims.get(_LTI + "version") != "1.3.0":
             raise LaunchRefused(f"LTI version {_said(claims.get(_LTI + 'version'))}; this tool speaks 1.3.0")
         link = claims.get(_LTI + "resource_link")
-        if not isinstance(link, dict) or not link.get("id"):
+        if not isinstance(link, dict) or not isinstance(link.get("id"), str) or not link["id"]:
             raise LaunchRefused("the launch names no resource link")
         roles = claims.get(_LTI + "roles")
         if not isinstance(roles, list):
             raise LaunchRefused("the launch gives no roles")
         if not isinstance(claims["sub"], str) or not claims["sub"].strip():
             raise LaunchRefused("the id_token names nobody (its sub is empty)")
+        instructor = any(role in INSTRUCTOR_ROLES for role in roles)
+        context = claims.get(_LTI + "context")
+        course_id = context.get("id") if isinstance(context, dict) else None
+        if not isinstance(course_id, str) or not course_id:
+            raise LaunchRefused("the launch names no course (its context): launch it from a course's link")
+        bound = self.platform.course_id or course
+        if bound and course_id != bound:
+            raise LaunchRefused(f"a launch from course {_said(course_id)}, not this class's ({_said(bound)})")
+        if not bound and not instructor:
+            raise LaunchRefused("the class is not yet tied to a course: its teacher opens the link first")
+        self._used[claims["nonce"]] = now_s + NONCE_S  # checked whole: used
         person = claims.get(_LTI + "lis")
         sourced = person.get("person_sourcedid", "") if isinstance(person, dict) else ""
         name = claims.get("name") or " ".join(str(claims.get(k, "")) for k in ("given_name", "family_name")).strip()
+        names = claims.get(_NRPS)
+        grades = claims.get(_AGS)
+        names = names if isinstance(names, dict) else {}
+        grades = grades if isinstance(grades, dict) else {}
         return Launch(
-            str(claims["sub"]),
-            str(name or ""),
-            str(sourced or ""),
-            any(role in INSTRUCTOR_ROLES for role in roles),
-            str(link["id"]),
+            claims["sub"],
+            _text(name),
+            _text(sourced),
+            instructor,
+            link["id"],
+            course_id,
+            _text(context.get("title") or context.get("label")),
+            _text(names.get("context_memberships_url")),
+            _text(grades.get("lineitems")),
+            _text(grades.get("lineitem")),
         )
 
     def _forget(self, now_s: float) -> None:
-        """Lets go of states and nonces past their time."""
-        while self._states and next(iter(self._states.values()))[1] <= now_s:
-            self._states.popitem(last=False)
+        """Lets go of nonces past their time."""
         while self._used and next(iter(self._used.values())) <= now_s:
             self._used.popitem(last=False)
+
+
+class UnknownKey(LaunchRefused):
+    """A token signed with a key the LMS's keys (as kept) do not hold: perhaps a new one, fetched once again."""
+
+
+def _text(value: object) -> str:
+    """A claim's text, or empty (a claim that is not text is none)."""
+    return value if isinstance(value, str) else ""
 
 
 def _said(value: object) -> str:
@@ -455,14 +559,15 @@ def _key_for(jwks: dict[str, Any], kid: object) -> Any:
     import jwt
 
     listed = jwks.get("keys") if isinstance(jwks, dict) else None
-    keys = (
-        [k for k in listed if isinstance(k, dict) and k.get("kty") == "RSA" and "d" not in k]
-        if isinstance(listed, list)
-        else []
-    )
+    # an RSA public key for signatures by RS256 (a key for encryption, or for another algorithm, is not one)
+    keys = [
+        k for k in (listed if isinstance(listed, list) else [])
+        if isinstance(k, dict) and k.get("kty") == "RSA" and "d" not in k and k.get("use", "sig") == "sig"
+        and k.get("alg", "RS256") == "RS256"
+    ]  # fmt: skip
     chosen = [k for k in keys if k.get("kid") == kid] if kid is not None else keys[:1] if len(keys) == 1 else []
     if not chosen:
-        raise LaunchRefused(f"the id_token is signed with key {_said(kid)}, which the LMS does not publish")
+        raise UnknownKey(f"the id_token is signed with key {_said(kid)}, which the LMS does not publish")
     try:
         return jwt.PyJWK(chosen[0], algorithm="RS256").key
     except jwt.PyJWTError as err:
@@ -475,7 +580,7 @@ def _check_times(claims: dict[str, Any], now_s: float) -> None:
         value = claims.get(name)
         if name == "nbf" and value is None:
             continue
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
             raise LaunchRefused(f"the id_token's {name} is not a time")
     if claims["exp"] + LEEWAY_S <= now_s:
         raise LaunchRefused("the id_token has expired: start it again from the LMS")
@@ -490,6 +595,7 @@ __all__ = [
     "LtiTool",
     "Platform",
     "ToolKey",
+    "UnknownKey",
     "canvas_config",
     "read_platform",
     "tool_urls",

@@ -61,7 +61,17 @@ from autonomy.classroom.report import to_csv
 from autonomy.classroom.results import Report, file_names
 from autonomy.clock import Clock, pause, thread_cpu_time_s, wall_time_s
 from autonomy.errors import AutonomyError
-from autonomy.liveclass.lti import STATE_COOKIE, STATE_S, Launch, LaunchRefused, LtiTool, tool_urls
+from autonomy.liveclass import lms
+from autonomy.liveclass.lti import (
+    JWKS_RETRY_S,
+    STATE_COOKIE,
+    STATE_S,
+    Launch,
+    LaunchRefused,
+    LtiTool,
+    UnknownKey,
+    tool_urls,
+)
 from autonomy.liveclass.robots import RobotDesk, run_files
 from autonomy.liveclass.store import ClassStore, StoreError, Student, Work, code_digest, token_digest
 from autonomy.liveclass.work import (
@@ -337,6 +347,11 @@ def page_text(name: str) -> str:
 NO_STORE = {"Cache-Control": "no-store"}
 
 
+def _points(value: float | None) -> str:
+    """Points as a comment to the LMS says them: hundredths at most, a dash for none."""
+    return "-" if value is None else f"{round(value, 2):g}"
+
+
 def _json(data: Any, status: int = 200, headers: dict[str, str] | None = None) -> web.Response:
     return web.Response(
         text=json.dumps(data), status=status, content_type="application/json", headers={**NO_STORE, **(headers or {})}
@@ -414,6 +429,13 @@ class ClassServer(BoundedServer):
             OSError: a port cannot be bound (nothing is left serving).
         """
         super().start()
+        if self.lti is not None and self.lti.platform.token_url:
+            self.lms_link = lms.LmsLink(
+                self.store, lms.LmsServices(self.lti), f"autonomy:{self.exercise.name}", self.exercise.title,
+                self.exercise.max_points + self.exercise.robot_points, self._clock, self._robots_changed,
+            )  # fmt: skip
+            self.lms_link.start()
+            self.lms_link.nudge(roster=bool(self.store.setting(lms.MEMBERSHIPS_URL)))  # scores waiting since
         if not self._robots_given:
             return
         desk = RobotDesk(
@@ -438,6 +460,8 @@ class ClassServer(BoundedServer):
         """Ends the robots' runs (each robot stopped) and lets go of their links, then stops serving."""
         if self.robots is not None:
             self.robots.stop()
+        if self.lms_link is not None:
+            self.lms_link.stop()
         super().stop()
 
     def _robots_changed(self) -> None:
@@ -465,7 +489,12 @@ class ClassServer(BoundedServer):
     ):
         super().__init__(host, port, "class")
         #: The class's LMS's sign-in (LTI 1.3), if it has one; the address the LMS knows the class by.
-        self.lti, self.public_url = lti, public_url.rstrip("/")
+        self.lti = lti
+        self.public_url = (public_url or (lti.platform.public_url if lti is not None else "")).rstrip("/")
+        #: The LMS's roster and gradebook, read and written in a thread of their own (an LMS with a token URL).
+        self.lms_link: lms.LmsLink | None = None
+        #: The LMS's keys are fetched here, off the loop (a launch waits on it; nothing else does).
+        self._lti_keys = ThreadPoolExecutor(1, thread_name_prefix="autonomy-lti-keys")
         #: The class's robots (``--robot NAME=PORT``) and their queue, once the server listens; None: none.
         self._robots_given, self._robot_baud = dict(robots or {}), robot_baud
         self._robot_profiles = dict(robot_profiles or {})
@@ -558,6 +587,8 @@ class ClassServer(BoundedServer):
         app.router.add_get("/lti/jwks", self._lti_jwks)
         app.router.add_route("*", "/lti/login", self._lti_login)
         app.router.add_post("/lti/launch", self._lti_launch)
+        app.router.add_get("/api/lms", self._lms_desk)
+        app.router.add_post("/api/lms/roster", self._lms_roster)
 
     @web.middleware
     async def _keeping(self, request: web.Request, handler: Callable[..., Any]) -> web.StreamResponse:
@@ -600,6 +631,7 @@ class ClassServer(BoundedServer):
         self._costly_checkers.shutdown(wait=False, cancel_futures=True)
         self._chores.shutdown(wait=False, cancel_futures=True)
         self._views.shutdown(wait=False, cancel_futures=True)
+        self._lti_keys.shutdown(wait=False, cancel_futures=True)
         if self._local is not None:
             self._local.close()
 
@@ -878,6 +910,8 @@ class ClassServer(BoundedServer):
         kept_result = {**report.to_json(), **({"written_as": "blocks"} if from_blocks else {})}
         self._keep(student.id, kind, mission, kept_result, report.total, report.max_points, problem, number)
         kept = await loop.run_in_executor(self._chores, self._bound_disk, student.id, number, kind, count, page)
+        if kind == "handin" and self.lms_link is not None:  # its mark to the LMS's gradebook (queued: kept first)
+            await loop.run_in_executor(self._chores, self._lms_mark, student.id)
         return _json(
             {
                 "ok": True,
@@ -1057,7 +1091,7 @@ class ClassServer(BoundedServer):
             return _refusal(401, f"LTI login refused: {err}")
         answer = web.Response(status=302, headers={"Location": address, **NO_STORE})
         answer.set_cookie(
-            STATE_COOKIE, state, max_age=int(STATE_S), path="/lti", httponly=True, secure=True, samesite="None"
+            STATE_COOKIE, state, max_age=int(STATE_S), path="/", httponly=True, secure=True, samesite="None"
         )  # fmt: skip - the launch is a post from the LMS's site
         return answer
 
@@ -1071,40 +1105,111 @@ class ClassServer(BoundedServer):
         given = await self._lti_form(request)
         if isinstance(given, web.Response):
             return given
-        lti = self.lti
-        try:
-            if lti.needs_fetch():  # the LMS's keys, off the loop
-                jwks = await asyncio.get_running_loop().run_in_executor(self._chores, lti.keys)
+        lti, loop = self.lti, asyncio.get_running_loop()
+        try:  # the state first: a launch this tool gave no login costs no fetch of the LMS's keys
+            nonce = lti.claim(given.get("state", ""), request.cookies.get(STATE_COOKIE, ""))
+            course = json.loads(self.store.setting(lms.COURSE, "{}")).get("id", "")
+            jwks = await loop.run_in_executor(self._lti_keys, lti.keys) if lti.needs_fetch() else lti.keys()
+            try:
+                launch = lti.check(given.get("id_token", ""), nonce, jwks, course)
+            except UnknownKey:  # a key the LMS added since its keys were fetched: fetched again, once a while
+                if not lti.needs_fetch(again=True) or wall_time_s() - lti.fetched_at_s() < JWKS_RETRY_S:
+                    raise
+                jwks = await loop.run_in_executor(self._lti_keys, functools.partial(lti.keys, again=True))
+                launch = lti.check(given.get("id_token", ""), nonce, jwks, course)
+            if launch.instructor:
+                ties = not (lti.platform.course_id or course)
+                code = await loop.run_in_executor(self._chores, self._lti_teacher, launch, ties)
+                answer = web.Response(status=303, headers={"Location": f"/teacher#{code}", **NO_STORE})
             else:
-                jwks = lti.keys()
-            launch = lti.launch(
-                given.get("id_token", ""), given.get("state", ""), request.cookies.get(STATE_COOKIE, ""), jwks
-            )
+                code = await loop.run_in_executor(self._chores, self._lti_student, launch)
+                answer = web.Response(status=303, headers={"Location": f"/#code={code}", **NO_STORE})
         except LaunchRefused as err:
             return _refusal(401, f"LTI launch refused: {err}")
-        if launch.instructor:
-            code = await asyncio.get_running_loop().run_in_executor(
-                self._chores, self.store.new_session, "", LTI_SESSION_S
-            )
-            answer = web.Response(status=303, headers={"Location": f"/teacher#{code}", **NO_STORE})
-        else:
-            # the school's id, as a roster holds it; else the LMS's own, apart from every roster's ids
-            student = printable(launch.roster_id.strip() or f"lms:{launch.subject}")[:MAX_LTI_ID]
-            code = await asyncio.get_running_loop().run_in_executor(self._chores, self._lti_student, student, launch)
-            answer = web.Response(status=303, headers={"Location": f"/#code={code}", **NO_STORE})
-        answer.del_cookie(STATE_COOKIE, path="/lti")
+        answer.del_cookie(STATE_COOKIE, path="/")
         return answer
 
-    def _lti_student(self, student: str, launch: Launch) -> str:
-        """A learner's session: on the roster from now on (the LMS vouches for them), then a code of the session's."""
-        if not student.strip():  # an empty id is the teacher's session's: never a learner's
-            raise ValueError("a learner with no id")
-        self.store.admit(student, printable(launch.name)[:MAX_LTI_ID])
+    def _lti_keep(self, launch: Launch) -> None:
+        """Keeps what a launch says of the course's services (where its roster and its line items are)."""
+        for key, value in ((lms.MEMBERSHIPS_URL, launch.memberships_url), (lms.LINEITEMS_URL, launch.lineitems_url),
+                           (lms.LINK_LINEITEM_URL, launch.lineitem_url)):  # fmt: skip
+            if value and self.store.setting(key) != value:
+                self.store.set_setting(key, value)
+
+    def _lti_teacher(self, launch: Launch, ties: bool) -> str:
+        """An instructor's session (the class tied to their course, if it was to none); the roster read anew."""
+        if ties:
+            self.store.set_setting(lms.COURSE, json.dumps({"id": launch.course_id, "title": launch.course_title}))
+            said = f"{launch.course_title} ({launch.course_id})" if launch.course_title else launch.course_id
+            self._refused("lms course", f"LMS: the class is course {printable(said)[:120]}'s from now on")
+        self._lti_keep(launch)
+        lms.take_roster(self.store, [lms.Member(launch.subject, launch.name, "", True, True)])
+        if self.lms_link is not None:
+            self.lms_link.nudge(roster=True)
+        return self.store.new_session("", LTI_SESSION_S)
+
+    def _lti_student(self, launch: Launch) -> str:
+        """A learner's session: on the roster from now on (the LMS vouches for them), then a code of the session's.
+
+        Raises:
+            LaunchRefused: their id is another LMS person's.
+        """
+        self._lti_keep(launch)
+        student = lms.admit(self.store, launch.subject, lms.student_id(launch.subject, launch.roster_id), launch.name)
         self._loop.call_soon_threadsafe(self._change, student)
+        self._lms_mark(student)  # a mark of theirs from before the LMS knew them
         return self.store.new_session(student, LTI_SESSION_S)
 
+    def _lms_mark(self, student: str) -> None:
+        """Queues a student's mark for the LMS (their last hand-in's, and their best run's on a robot); off the loop."""
+        if self.lms_link is None:
+            return
+        (row,) = self.store.summary([student]) or [None]
+        if row is None or (row["max_points"] is None and row["robot_points"] is None):
+            return
+        given = (row["total"] or 0.0) + (row["robot_points"] or 0.0)
+        maximum = self.exercise.max_points + self.exercise.robot_points
+        said = [f"Hand-in: {_points(row['total'])} / {_points(self.exercise.max_points)}."]
+        if self.exercise.robot_points:
+            said.append(f"On a robot: {_points(row['robot_points'])} / {_points(self.exercise.robot_points)}.")
+        page = self._page_url(row["last_handin"]) if row["last_handin"] else None
+        if page and self.public_url:
+            said.append(f"Feedback: {self.public_url}{page}")
+        if lms.queue_score(self.store, student, round(given, 4), maximum, " ".join(said)):
+            self.lms_link.nudge()
+
+    async def _lms_desk(self, request: web.Request) -> web.Response:
+        """What the desk shows of the LMS (``GET /api/lms``): its course, roster and scores; the teacher's alone."""
+        if not self._teacher(request):
+            return _refusal(401, "the teacher's token is needed")
+        if self.lti is None:
+            return _json({"lms": None})
+        said = await asyncio.get_running_loop().run_in_executor(self._chores, self._lms_said)
+        return _json(said)
+
+    def _lms_said(self) -> dict[str, Any]:
+        link = self.lms_link
+        return {
+            "lms": self.lti.platform.issuer if self.lti is not None else None,
+            "course": json.loads(self.store.setting(lms.COURSE, "{}")) or None,
+            "instructors": lms.instructors(self.store),
+            "roster": json.loads(self.store.setting(lms.ROSTER_READ, "{}")) or None,
+            "services": link is not None,
+            "problem": link.problem if link is not None else "",
+            "scores": lms.scores_said(self.store),
+        }
+
+    async def _lms_roster(self, request: web.Request) -> web.Response:
+        """Reads the LMS's roster anew (``POST /api/lms/roster``); the teacher's alone. Answered at once (202)."""
+        if not self._teacher(request):
+            return _refusal(401, "the teacher's token is needed")
+        if self.lms_link is None:
+            return _refusal(409, "the class has no LMS with a roster: give lti-config its --token-url (docs/lms.md)")
+        self.lms_link.nudge(roster=True)
+        return _json({"ok": True}, 202)
+
     def _public_url(self, request: web.Request) -> str:
-        """The address the LMS knows the tool by: ``--public-url``, else the request's own scheme and host."""
+        """The address the LMS knows the tool by: ``--public-url`` or lti-config's, else the request's own."""
         return self.public_url or f"{request.scheme}://{request.host}"
 
     async def _file(self, name: str, request: web.Request) -> web.Response:
@@ -1323,6 +1428,9 @@ class ClassServer(BoundedServer):
                 return _refusal(500, str(err))
             if why:
                 return _refusal(409, why)
+            run = await asyncio.get_running_loop().run_in_executor(self._chores, self.store.robot_run, number)
+            if run is not None and self.lms_link is not None:
+                await asyncio.get_running_loop().run_in_executor(self._chores, self._lms_mark, run["student"])
             return _json(self._desk(robots))
         name = body.get("robot")
         if not isinstance(name, str):

@@ -15,13 +15,15 @@ import json
 import secrets
 import sqlite3
 import threading
-from collections.abc import Collection
+from collections.abc import Callable, Collection
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 from autonomy.clock import wall_date, wall_time_s
 from autonomy.errors import AutonomyError
+
+T = TypeVar("T")
 
 #: The file in the class's folder.
 DATABASE = "class.sqlite"
@@ -73,6 +75,25 @@ CREATE TABLE IF NOT EXISTS sessions (
     student TEXT NOT NULL,
     until_s REAL NOT NULL
 );
+CREATE TABLE IF NOT EXISTS lms_people (
+    sub TEXT PRIMARY KEY,
+    student TEXT UNIQUE REFERENCES students(id),
+    name TEXT NOT NULL,
+    instructor INTEGER NOT NULL DEFAULT 0,
+    active INTEGER NOT NULL DEFAULT 1
+);
+CREATE TABLE IF NOT EXISTS lms_scores (
+    id INTEGER PRIMARY KEY AUTOINCREMENT,
+    student TEXT NOT NULL REFERENCES students(id),
+    sub TEXT NOT NULL,
+    given REAL NOT NULL,
+    maximum REAL NOT NULL,
+    comment TEXT NOT NULL,
+    at TEXT NOT NULL,
+    sent TEXT NOT NULL DEFAULT '',
+    refused TEXT NOT NULL DEFAULT ''
+);
+CREATE INDEX IF NOT EXISTS lms_scores_waiting ON lms_scores (sent, refused, id);
 """
 
 
@@ -193,9 +214,32 @@ class ClassStore:
                 raise
             return last
 
+    def transact(self, work: Callable[[sqlite3.Connection], T]) -> T:
+        """Runs ``work`` on the database in one transaction (its reads and writes, none other's between them)."""
+        with self._lock:
+            try:
+                self._db.execute("BEGIN IMMEDIATE")
+                done = work(self._db)
+                self._db.execute("COMMIT")
+            except BaseException as err:
+                if self._db.in_transaction:
+                    self._db.execute("ROLLBACK")
+                if isinstance(err, sqlite3.Error):
+                    raise StoreError(f"{self.folder / DATABASE}: cannot write: {err}") from err
+                raise
+            return done
+
     def _read(self, sql: str, values: tuple[Any, ...] = ()) -> list[tuple[Any, ...]]:
         with self._lock:
             return self._db.execute(sql, values).fetchall()
+
+    def read(self, sql: str, values: tuple[Any, ...] = ()) -> list[tuple[Any, ...]]:
+        """The rows of one query of the class's own (the LMS's tables are read so)."""
+        return self._read(sql, values)
+
+    def write(self, statements: list[tuple[str, tuple[Any, ...]]]) -> int:
+        """Runs statements of the class's own in one transaction (see :meth:`_write`)."""
+        return self._write(statements)
 
     # ------------------------------------------------------------------ students
 
@@ -204,6 +248,7 @@ class ClassStore:
 
         A student no longer on the roster can no longer sign in, and leaves the class table; their
         work is kept, and they are back, with the code they had, when the roster names them again.
+        A student the class's LMS has in the course stays (the LMS's roster is the class's too).
 
         Args:
             roster: (id, name) pairs.
@@ -223,7 +268,8 @@ class ClassStore:
             + [("UPDATE students SET name = ?, on_roster = 1 WHERE id = ?", (name, sid)) for sid, name in roster]
             + [
                 (
-                    f"UPDATE students SET on_roster = 0 WHERE id NOT IN ({', '.join('?' * len(listed))})",  # noqa: S608
+                    f"UPDATE students SET on_roster = 0 WHERE id NOT IN ({', '.join('?' * len(listed))}) AND id NOT "  # noqa: S608
+                    "IN (SELECT student FROM lms_people WHERE active = 1 AND student IS NOT NULL)",
                     tuple(listed),
                 )
             ]
@@ -263,17 +309,6 @@ class ClassStore:
                 (digest, wall_time_s()),
             )
         return Student(*rows[0]) if rows else None
-
-    def admit(self, student: str, name: str) -> None:
-        """Puts a student on the roster (an LMS vouched for them): new ones with a code of their own, unknown to all."""
-        code = code_digest(new_code())
-        self._write(
-            [
-                ("INSERT INTO students (id, name, code_sha256) VALUES (?, ?, ?) ON CONFLICT(id) DO UPDATE SET "
-                 "on_roster = 1, name = CASE WHEN ? != '' THEN ? ELSE name END", (student, name or student, code, name,
-                                                                                  name)),
-            ]
-        )  # fmt: skip
 
     def new_session(self, student: str, lasting_s: float) -> str:
         """A new session's code, ``student``'s (empty: the teacher's), for ``lasting_s`` (:meth:`student_by_code`)."""

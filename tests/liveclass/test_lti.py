@@ -11,7 +11,6 @@ import json
 import os
 import re
 import stat
-import threading
 import time
 import urllib.parse
 import uuid
@@ -20,71 +19,13 @@ import jwt
 import pytest
 from cryptography.hazmat.primitives.asymmetric import rsa
 
-from autonomy.liveclass.lti import LtiTool, Platform, ToolKey
+from autonomy.liveclass import lms as lms_module
+from autonomy.liveclass.lti import LtiTool, ToolKey
 from autonomy.liveclass.server import TEACHER_TOKEN, ClassServer
 from autonomy.liveclass.store import ClassStore, token_digest
 from tests.cli.test_cli import autonomy
+from tests.liveclass.lms_platform import CLIENT, COURSE, DEPLOYMENT, INSTRUCTOR, ISSUER, LEARNER, LTI, FakeLms
 from tests.liveclass.test_server import GARAGE, call
-
-ISSUER = "https://lms.school.example"
-CLIENT = "client-42"
-DEPLOYMENT = "deployment-1"
-LTI = "https://purl.imsglobal.org/spec/lti/claim/"
-LEARNER = "http://purl.imsglobal.org/vocab/lis/v2/membership#Learner"
-INSTRUCTOR = "http://purl.imsglobal.org/vocab/lis/v2/membership#Instructor"
-
-
-class FakeLms:
-    """An LMS as the tool sees it: a key pair whose public half it publishes (over HTTP), and id_tokens it signs."""
-
-    def __init__(self) -> None:
-        self.key = rsa.generate_private_key(public_exponent=65537, key_size=2048)
-        self.kid = "lms-key-1"
-        public = json.loads(jwt.algorithms.RSAAlgorithm.to_jwk(self.key.public_key()))
-        self.jwks = {"keys": [{**public, "kid": self.kid, "alg": "RS256", "use": "sig"}]}
-        self.asked = 0
-        lms = self
-
-        class Keys(http.server.BaseHTTPRequestHandler):
-            def do_GET(self) -> None:  # noqa: N802 - http.server's name
-                lms.asked += 1
-                body = json.dumps(lms.jwks).encode()
-                self.send_response(200)
-                self.send_header("Content-Type", "application/json")
-                self.send_header("Content-Length", str(len(body)))
-                self.end_headers()
-                self.wfile.write(body)
-
-            def log_message(self, *_: object) -> None:
-                pass
-
-        self.http = http.server.ThreadingHTTPServer(("127.0.0.1", 0), Keys)
-        threading.Thread(target=self.http.serve_forever, args=(0.02,), daemon=True).start()
-        self.jwks_url = f"http://127.0.0.1:{self.http.server_address[1]}/keys"
-
-    def platform(self) -> Platform:
-        return Platform(ISSUER, CLIENT, f"{ISSUER}/auth", f"{ISSUER}/token", self.jwks_url, (DEPLOYMENT,))
-
-    def id_token(self, nonce: str, key=None, kid: str | None = None, algorithm: str = "RS256", **claims) -> str:
-        now = int(time.time())
-        body = {
-            "iss": ISSUER,
-            "aud": CLIENT,
-            "sub": "u-1001",
-            "iat": now,
-            "exp": now + 300,
-            "nonce": nonce,
-            "name": "Ada Lovelace",
-            LTI + "deployment_id": DEPLOYMENT,
-            LTI + "message_type": "LtiResourceLinkRequest",
-            LTI + "version": "1.3.0",
-            LTI + "resource_link": {"id": "link-garage"},
-            LTI + "roles": [LEARNER],
-            LTI + "lis": {"person_sourcedid": "1001"},
-        }
-        body.update(claims)
-        body = {k: v for k, v in body.items() if v is not None}
-        return jwt.encode(body, key or self.key, algorithm=algorithm, headers={"kid": kid or self.kid})
 
 
 def request(server, method: str, path: str, body: dict | None = None, cookie: str = "") -> tuple[int, dict, bytes]:
@@ -115,7 +56,8 @@ def login(server, **given: str) -> tuple[str, str, str]:
     )  # fmt: skip
     assert asked["redirect_uri"].endswith("/lti/launch")
     cookie = headers["set-cookie"].split(";")[0]
-    assert cookie == f"autonomy-lti-state={asked['state']}" and "HttpOnly" in headers["set-cookie"]
+    assert cookie == f"__Host-autonomy-lti-state={asked['state']}" and "HttpOnly" in headers["set-cookie"]
+    assert "Path=/;" in headers["set-cookie"] + ";" and "Secure" in headers["set-cookie"]  # a __Host- cookie's
     return asked["state"], asked["nonce"], cookie
 
 
@@ -128,7 +70,7 @@ def launch(server, lms: FakeLms, **claims) -> tuple[int, dict, bytes]:
 def lms():
     made = FakeLms()
     yield made
-    made.http.shutdown()
+    made.close()
 
 
 def never_graded(*_: object, **__: object):
@@ -141,6 +83,7 @@ def served(tmp_path, lms):
     store = ClassStore(tmp_path)
     codes = store.enrol([("s1", "Bob Jones")])
     store.set_setting(TEACHER_TOKEN, token_digest("teacher-token"))
+    store.set_setting(lms_module.COURSE, json.dumps({"id": COURSE, "title": "Robotics 7"}))  # its teacher launched it
     server = ClassServer(
         GARAGE, store, tmp_path, port=0, grader=never_graded, lti=LtiTool(lms.platform(), ToolKey(tmp_path))
     )
@@ -230,7 +173,7 @@ def test_a_replayed_launch_a_stolen_state_and_an_unsigned_token_are_refused(serv
     form = {"id_token": lms.id_token(nonce), "state": state}
     assert request(server, "POST", "/lti/launch", form, cookie)[0] == 303
     status, _, body = request(server, "POST", "/lti/launch", form, cookie)  # the same launch again
-    assert status == 401 and "state this tool did not give, or gave and saw used" in json.loads(body)["error"]
+    assert status == 401 and "state was used already" in json.loads(body)["error"]
     state, nonce, cookie = login(server)  # a state taken to another browser (which has no cookie of it)
     status, _, body = request(server, "POST", "/lti/launch", {"id_token": lms.id_token(nonce), "state": state})
     assert status == 401 and "not this browser's" in json.loads(body)["error"]
@@ -322,3 +265,138 @@ def test_a_unique_subject_per_launch_keeps_each_learner_apart(served, lms):
         status, me = call(server, "/api/me", code=code_of(headers, "/#"), method="GET")
         seen.add(me["student"]["id"])
     assert len(seen) == 3
+
+
+def refusal(answer: tuple[int, dict, bytes]) -> str:
+    status, _, body = answer
+    assert status == 401, (status, body)
+    return json.loads(body)["error"]
+
+
+def test_a_class_is_one_course_s_its_teacher_s_first_launch_ties_it_and_no_other_course_gets_in(tmp_path, lms):
+    store = ClassStore(tmp_path)
+    server = ClassServer(
+        GARAGE, store, tmp_path, port=0, grader=never_graded, lti=LtiTool(lms.platform(), ToolKey(tmp_path))
+    )
+    server.start()
+    try:
+        # before its teacher opened it, no learner gets in: a learner of another course could tie it to theirs
+        assert "its teacher opens the link first" in refusal(launch(server, lms))
+        other = {LTI + "context": {"id": "course-9", "title": "Cooking"}}
+        status, headers, _ = launch(server, lms, sub="t-1", **{LTI + "roles": [INSTRUCTOR], LTI + "lis": None})
+        assert status == 303  # the class is course-7's from now on
+        assert launch(server, lms)[0] == 303
+        assert "course 'course-9', not this class's ('course-7')" in refusal(launch(server, lms, **other))
+        teacher = {LTI + "roles": [INSTRUCTOR], LTI + "lis": None, "sub": "t-2"}
+        assert "not this class's" in refusal(launch(server, lms, **teacher, **other))  # nor its teacher
+        assert "names no course" in refusal(launch(server, lms, **{LTI + "context": None}))
+        status, said = call(server, "/api/lms", code=code_of(headers, "/teacher#"), method="GET")
+        assert status == 200 and said["course"] == {"id": COURSE, "title": "Robotics 7"}
+        assert said["instructors"] == ["Ada Lovelace"]
+    finally:
+        server.stop()
+        store.close()
+
+
+def test_who_a_learner_is_stays_what_the_lms_first_said_and_nobody_takes_another_s_place(served, lms):
+    server, codes = served
+    status, headers, _ = launch(server, lms)  # u-1001, the school's 1001
+    assert call(server, "/api/me", code=code_of(headers, "/#"), method="GET")[1]["student"]["id"] == "1001"
+    # another LMS person whose school id the LMS gives as 1001 (a typo, or an attack) does not become them
+    said = refusal(launch(server, lms, sub="u-666", name="Mallory"))
+    assert "student '1001' is another LMS person's" in said
+    # nor can an LMS person become the roster's s1 once an LMS person is tied to it
+    assert launch(server, lms, sub="u-2", **{LTI + "lis": {"person_sourcedid": "s1"}, "name": "Bob"})[0] == 303
+    assert "another LMS person's" in refusal(
+        launch(server, lms, sub="u-3", **{LTI + "lis": {"person_sourcedid": "s1"}})
+    )
+    # u-1001 stays 1001, whatever school id the LMS later gives
+    status, headers, _ = launch(server, lms, **{LTI + "lis": {"person_sourcedid": "9999"}})
+    assert call(server, "/api/me", code=code_of(headers, "/#"), method="GET")[1]["student"]["id"] == "1001"
+    assert call(server, "/api/me", code=codes["s1"], method="GET")[1]["student"]["id"] == "s1"  # codes still
+
+
+def test_a_junk_launch_costs_no_fetch_and_a_flood_of_logins_pushes_out_no_real_one(served, lms):
+    server, _ = served
+    state, nonce, cookie = login(server)  # a real login, before the flood
+    for _ in range(300):  # what 4,096 kept states once let push out; a state is kept by nobody now
+        login(server)
+    made_up = "x" * 20 + "." + str(int(time.time()) + 60) + "." + "0" * 32
+    said = refusal(request(server, "POST", "/lti/launch", {"id_token": "junk", "state": made_up},
+                           f"__Host-autonomy-lti-state={made_up}"))  # fmt: skip
+    assert "state this tool did not give" in said and lms.asked == 0  # refused before any key was asked for
+    form = {"id_token": lms.id_token(nonce), "state": state}
+    assert request(server, "POST", "/lti/launch", form, cookie)[0] == 303 and lms.asked == 1
+
+
+def test_an_lms_whose_keys_cannot_be_had_is_asked_again_only_a_while_later(tmp_path):
+    store = ClassStore(tmp_path)
+    store.set_setting(lms_module.COURSE, json.dumps({"id": COURSE}))
+    down = FakeLms()
+    down.close()  # its port closed
+    server = ClassServer(
+        GARAGE, store, tmp_path, port=0, grader=never_graded, lti=LtiTool(down.platform(), ToolKey(tmp_path))
+    )
+    server.start()
+    try:
+        assert "keys could not be had" in refusal(launch(server, down))
+        assert "keys could not be had" in refusal(launch(server, down))  # at once: not fetched again
+        assert server.lti._unfetched is not None
+    finally:
+        server.stop()
+        store.close()
+
+
+def test_a_key_the_lms_adds_is_fetched_once_and_a_token_of_another_party_or_an_endless_time_is_refused(served, lms):
+    server, _ = served
+    assert launch(server, lms)[0] == 303 and lms.asked == 1
+    new = forged()  # the LMS's new key, published beside the old one
+    public = json.loads(jwt.algorithms.RSAAlgorithm.to_jwk(new.public_key()))
+    lms.jwks["keys"].append({**public, "kid": "lms-key-2", "alg": "RS256", "use": "sig"})
+    kept, until = server.lti._jwks
+    server.lti._jwks = (kept, until - 30)  # fetched 30 s ago
+    assert launch(server, lms, key=new, kid="lms-key-2", sub="u-5", **{LTI + "lis": None})[0] == 303
+    assert lms.asked == 2
+    assert "does not publish" in refusal(launch(server, lms, kid="lms-key-3"))  # fetched again only a while later
+    assert lms.asked == 2
+    assert "azp" in refusal(launch(server, lms, azp="another-client"))
+    assert "exp is not a time" in refusal(launch(server, lms, exp=float("inf")))
+    lms.jwks["keys"][0]["use"] = "enc"  # a key for encryption signs nothing
+    server.lti._jwks = (lms.jwks, until)
+    assert "does not publish" in refusal(launch(server, lms))
+
+
+def test_a_course_s_short_instructor_role_opens_the_desk_and_a_teacher_elsewhere_in_the_school_does_not(served, lms):
+    server, _ = served
+    status, headers, _ = launch(server, lms, sub="t-9", **{LTI + "roles": ["Instructor"], LTI + "lis": None})
+    assert status == 303 and headers["location"].startswith("/teacher#")
+    school = ["http://purl.imsglobal.org/vocab/lis/v2/institution/person#Instructor", LEARNER]
+    status, headers, _ = launch(server, lms, sub="u-8", **{LTI + "roles": school, LTI + "lis": None})
+    assert status == 303 and headers["location"].startswith("/#code=")
+
+
+def test_an_lms_file_with_odd_keys_is_one_line(tmp_path):
+    folder = tmp_path / "class"
+    (folder / "lti").mkdir(parents=True)
+    settings = {"issuer": ISSUER, "client_id": CLIENT, "auth_url": f"{ISSUER}/a", "deployment_ids": [DEPLOYMENT],
+                "jwks": ["not", "a", "jwks"]}  # fmt: skip
+    (folder / "lti" / "platform.json").write_text(json.dumps(settings))
+    (tmp_path / "roster.csv").write_text("id,name\n1001,Ada Lovelace\n")
+    broken = autonomy("class", "serve", "garage", "--roster", str(tmp_path / "roster.csv"), "--dir", str(folder))
+    assert broken.returncode == 2 and "jwks not as lti-config writes them" in broken.stderr, broken.stderr
+    assert len(broken.stderr.strip().splitlines()) == 1
+
+
+def test_lti_config_ties_the_class_to_a_course_and_keeps_its_address(tmp_path):
+    folder = tmp_path / "class"
+    alone = autonomy("class", "lti-config", "--dir", str(folder), "--course-id", "course-7")
+    assert alone.returncode == 2 and "give the LMS first" in alone.stderr
+    given = ["--issuer", ISSUER, "--client-id", CLIENT, "--auth-url", f"{ISSUER}/auth", "--jwks-url", f"{ISSUER}/k",
+             "--deployment-id", DEPLOYMENT, "--token-url", f"{ISSUER}/token"]  # fmt: skip
+    made = autonomy("class", "lti-config", "--dir", str(folder), *given, "--course-id", COURSE,
+                    "--public-url", "https://class.school.example")  # fmt: skip
+    assert made.returncode == 0 and f"the class is course {COURSE}; roster and marks by {ISSUER}/token" in made.stdout
+    kept = json.loads((folder / "lti" / "platform.json").read_text())
+    assert kept["course_id"] == COURSE and kept["public_url"] == "https://class.school.example"
+    again = autonomy("class", "lti-config", "--dir", str(folder), *given)  # the LMS given again: what it tied kept
+    assert again.returncode == 0 and json.loads((folder / "lti" / "platform.json").read_text())["course_id"] == COURSE

@@ -1,0 +1,194 @@
+"""The class's LMS beyond the sign-in (LTI Advantage), against an LMS run in the test process: its roster read
+(Names and Roles) and shown before anyone signs in, and marks sent back to its gradebook (Assignment and Grades):
+one line item, found again after a restart, and every score sent exactly once, though the LMS was down."""
+
+from __future__ import annotations
+
+import collections
+import json
+
+import pytest
+
+from autonomy.clock import VirtualClock
+from autonomy.liveclass import lms
+from autonomy.liveclass.lti import LtiTool, ToolKey
+from autonomy.liveclass.server import TEACHER_TOKEN, ClassServer
+from autonomy.liveclass.store import ClassStore, token_digest
+from tests.liveclass.lms_platform import COURSE, INSTRUCTOR, LTI, FakeLms
+from tests.liveclass.test_lti import code_of, launch, never_graded
+from tests.liveclass.test_robots import until
+from tests.liveclass.test_server import GARAGE, SOLUTION, call
+
+PUBLIC = "https://class.school.example"
+
+
+@pytest.fixture
+def platform():
+    made = FakeLms()
+    yield made
+    made.close()
+
+
+def open_class(folder, platform: FakeLms, grader=never_graded) -> tuple[ClassServer, ClassStore]:
+    store = ClassStore(folder)
+    store.set_setting(TEACHER_TOKEN, token_digest("teacher-token"))
+    tool = LtiTool(platform.platform(), ToolKey(folder))
+    server = ClassServer(GARAGE, store, folder, port=0, grader=grader, lti=tool, public_url=PUBLIC)
+    server.start()
+    platform.tool_jwks_url = f"{server.url}lti/jwks"  # where the LMS checks the tool's assertions
+    return server, store
+
+
+def teacher_opens(server, platform: FakeLms) -> str:
+    """The teacher's launch from the course (the class tied to it; its roster asked for); their desk's token."""
+    status, headers, _ = launch(server, platform, sub="t-1", name="Grace Hopper",
+                                **{LTI + "roles": [INSTRUCTOR], LTI + "lis": None})  # fmt: skip
+    assert status == 303
+    return code_of(headers, "/teacher#")
+
+
+def desk(server) -> dict:
+    status, said = call(server, "/api/lms", code="teacher-token", method="GET")
+    assert status == 200, said
+    return said
+
+
+def test_a_300_student_roster_is_imported_and_the_class_table_shows_them_before_they_sign_in(tmp_path, platform):
+    platform.enrol(300)
+    server, store = open_class(tmp_path, platform)
+    try:
+        teacher_opens(server, platform)
+        roster = until(lambda: desk(server)["roster"])
+        assert roster["learners"] == 300 and roster["instructors"] == 1 and roster["clashes"] == []
+        status, table = call(server, "/api/class", code="teacher-token", method="GET")
+        rows = table["students"]
+        assert len(rows) == 300 and rows[0]["id"] == "00000" and rows[299]["name"] == "Student 299"
+        assert not any(row["signed_in"] for row in rows)  # shown before anyone signed in
+        assert platform.asked_for.count("GET /courses/7/members") == 4  # 301 members, in pages of 100
+        # a learner signs in as the student the roster made (no second row for them)
+        status, headers, _ = launch(server, platform, sub="u-7", **{LTI + "lis": {"person_sourcedid": "00007"}})
+        me = call(server, "/api/me", code=code_of(headers, "/#"), method="GET")[1]
+        assert me["student"]["id"] == "00007"
+        assert len(call(server, "/api/class", code="teacher-token", method="GET")[1]["students"]) == 300
+        # a learner the LMS says left the course leaves the class table (their work is kept); a new one is in
+        platform.members[3]["status"] = "Inactive"
+        platform.members.append({"user_id": "u-900", "name": "Newcomer", "roles": [], "status": "Active"})
+        assert call(server, "/api/lms/roster", code="teacher-token")[0] == 202
+        until(lambda: desk(server)["roster"]["left"] == 1)
+        ids = [row["id"] for row in call(server, "/api/class", code="teacher-token", method="GET")[1]["students"]]
+        assert "00003" not in ids and "lms:u-900" in ids and len(ids) == 300
+        assert desk(server)["instructors"] == ["Grace Hopper"]
+        assert call(server, "/api/lms/roster", code="not-the-teacher")[0] == 401
+    finally:
+        server.stop()
+        store.close()
+
+
+def test_a_hand_in_s_mark_goes_to_one_line_item_with_its_feedback_and_a_restart_makes_no_second(tmp_path, platform):
+    platform.enrol(3)
+    server, store = open_class(tmp_path, platform, grader=None)  # the class's own grader: a real hand-in
+    try:
+        teacher_opens(server, platform)
+        until(lambda: desk(server)["roster"])
+        status, headers, _ = launch(server, platform, sub="u-1", **{LTI + "lis": {"person_sourcedid": "00001"}})
+        code = code_of(headers, "/#")
+        status, graded = call(server, "/api/handin", {"mission": SOLUTION}, code)
+        assert status == 200 and graded["ok"], graded
+        (score,) = until(platform.sent)
+        assert score["userId"] == "u-1" and score["scoreGiven"] == graded["total"]
+        assert score["scoreMaximum"] == GARAGE.max_points and score["gradingProgress"] == "FullyGraded"
+        assert f"Feedback: {PUBLIC}{graded['page']}" in score["comment"]
+        (item,) = platform.items.values()
+        assert item["resourceId"] == "autonomy:garage" and item["scoreMaximum"] == GARAGE.max_points
+        said = until(lambda: desk(server)["scores"]["sent"] == 1 and desk(server))
+        assert said["scores"]["waiting"] == 0 and said["scores"]["last"][0]["id"] == "00001"
+    finally:
+        server.stop()
+        store.close()
+    # the class served again; its kept line item is used (and had it been lost, it is found again, not made)
+    for lost in (False, True):
+        if lost:
+            kept = ClassStore(tmp_path)
+            kept.set_setting(lms.LINEITEM_URL, "")
+            kept.close()
+        server, store = open_class(tmp_path, platform)
+        try:
+            store.add_work("00002", "handin", "mission", {}, 4.0, GARAGE.max_points)
+            server._lms_mark("00002")
+            until(lambda lost=lost: len(platform.sent()) == 2 + lost)
+        finally:
+            server.stop()
+            store.close()
+    assert len(platform.items) == 1 and platform.asked_for.count("POST /courses/7/lineitems") == 1
+
+
+def test_300_scores_are_sent_each_once_and_an_lms_down_for_a_minute_gets_each_once_when_it_returns(tmp_path, platform):
+    platform.enrol(300)
+    server, store = open_class(tmp_path, platform)
+    server.lms_link.stop()  # this test drives the link itself, in virtual time
+    try:
+        teacher_opens(server, platform)
+        link = lms.LmsLink(store, lms.LmsServices(server.lti), "autonomy:garage", "Park", 10.0, VirtualClock())
+        link.nudge(roster=True)
+        link.round(0.0)
+        assert len(store.students()) == 300
+        for k in range(300):
+            lms.queue_score(store, f"{k:05d}", k % 11, 10.0, f"hand-in of {k}")
+        assert link.round(0.0) > 0 and len(platform.sent()) == 300  # all sent, then nothing more to do
+        assert collections.Counter(s["userId"] for s in platform.sent()) == {f"u-{k}": 1 for k in range(300)}
+        # the LMS goes down for a minute; the class marks everyone again meanwhile
+        platform.down()
+        for k in range(300):
+            lms.queue_score(store, f"{k:05d}", (k + 1) % 11, 10.0, f"again {k}")
+        tries, now_s = 0, 0.0
+        while now_s < 60.0:
+            wait_s = link.round(now_s)
+            tries += 1
+            assert "cannot be reached" in link.problem and len(lms.waiting(store)) == 300
+            now_s += wait_s
+        assert 5 <= tries <= 8  # tried again after 1, 2, 4, 8, 16, 30 s: not a flood
+        platform.up()
+        assert link.round(now_s) > 0 and link.problem == ""
+        again = platform.sent()[300:]
+        assert collections.Counter(s["userId"] for s in again) == {f"u-{k}": 1 for k in range(300)}
+        assert all(s["scoreGiven"] == (int(s["userId"][2:]) + 1) % 11 for s in again)
+        assert link.round(now_s + 1000) > 0 and len(platform.sent()) == 600  # and nothing sent twice
+        assert lms.scores_said(store)["sent"] == 600 and lms.scores_said(store)["waiting"] == 0
+    finally:
+        server.stop()
+        store.close()
+
+
+def test_a_score_the_lms_refuses_is_kept_refused_with_its_reason_and_not_sent_again(tmp_path, platform):
+    platform.enrol(2)
+    server, store = open_class(tmp_path, platform)
+    server.lms_link.stop()
+    try:
+        teacher_opens(server, platform)
+        link = lms.LmsLink(store, lms.LmsServices(server.lti), "autonomy:garage", "Park", 10.0, VirtualClock())
+        link.nudge(roster=True)
+        link.round(0.0)
+        store.set_setting(lms.LINK_LINEITEM_URL, f"{platform.base}/courses/7/lineitems/99")  # none such
+        assert lms.queue_score(store, "00000", 5, 10, "x") and not lms.queue_score(store, "nobody", 5, 10, "x")
+        link.round(0.0)
+        said = lms.scores_said(store)
+        assert said["refused"] == 1 and "404" in said["last"][0]["refused"] and said["waiting"] == 0
+        asked = len(platform.asked_for)
+        link.round(1000.0)
+        assert len(platform.asked_for) == asked  # not sent again
+    finally:
+        server.stop()
+        store.close()
+
+
+def test_the_tool_s_assertion_is_checked_and_a_course_without_services_says_so(tmp_path, platform):
+    server, store = open_class(tmp_path, platform)
+    try:
+        platform.tool_jwks_url = platform.jwks_url  # the LMS checks against other keys: the tool is not trusted
+        teacher_opens(server, platform)
+        said = until(lambda: desk(server)["problem"])
+        assert "refused an access token (401" in said
+        assert json.loads(store.setting(lms.COURSE))["id"] == COURSE
+    finally:
+        server.stop()
+        store.close()
