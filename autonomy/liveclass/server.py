@@ -491,6 +491,10 @@ class ClassServer(BoundedServer):
         #: The class's LMS's sign-in (LTI 1.3), if it has one; the address the LMS knows the class by.
         self.lti = lti
         self.public_url = (public_url or (lti.platform.public_url if lti is not None else "")).rstrip("/")
+        if lti is not None:  # the LMS's page posts the launch (and may post the login); served as the public name
+            self.cross_origin_paths = frozenset({"/lti/launch", "/lti/login"})
+            public = urllib.parse.urlsplit(self.public_url)
+            self.served_as = (public.hostname,) if public.hostname else ()
         #: The LMS's roster and gradebook, read and written in a thread of their own (an LMS with a token URL).
         self.lms_link: lms.LmsLink | None = None
         #: The LMS's keys are fetched here, off the loop (a launch waits on it; nothing else does).

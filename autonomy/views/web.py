@@ -365,7 +365,7 @@ CONTENT_SECURITY_POLICY = (
 
 
 def _own_host(host_header: str, served_as: str = "") -> bool:
-    """Whether a request's ``Host`` names this machine by address, as ``localhost``, or as ``served_as``.
+    """Whether a request's ``Host`` names this machine by address, as ``localhost``, or as a name of ``served_as``.
 
     A page of another site that got its name resolved to this machine (DNS rebinding) asks with
     that name: it is refused. A name is never needed here: the page's address is printed as one,
@@ -382,7 +382,7 @@ def _own_host(host_header: str, served_as: str = "") -> bool:
         host, port = host.split(":")
     if port and not (port.isascii() and port.isdigit()):
         return False
-    if host.lower() == "localhost" or (served_as and host.lower() == served_as.lower()):
+    if host.lower() == "localhost" or host.lower() in served_as.lower().split():
         return True
     try:
         ipaddress.ip_address(host)
@@ -399,7 +399,8 @@ async def _checked_origin(request: web.Request, handler: Callable[[web.Request],
         return web.Response(status=403, text="this page is served by address (127.0.0.1, or this machine's)\n")
     origins = request.headers.getall("Origin", [])
     origin = origins[0] if len(origins) == 1 else None if not origins else "several"
-    if origin is not None and origin not in (f"http://{host}", f"https://{host}"):
+    crossing = request.path in request.app[CROSS_ORIGIN_PATHS] and origin != "several"
+    if origin is not None and origin not in (f"http://{host}", f"https://{host}") and not crossing:
         return web.Response(status=403, text="a page of another origin may not read this run\n")
     response = await handler(request)
     if not response.prepared:  # a WebSocket's answer has gone already
@@ -410,6 +411,8 @@ async def _checked_origin(request: web.Request, handler: Callable[[web.Request],
 
 #: The name the server was told to serve on, taken in ``Host`` besides addresses and ``localhost``.
 SERVED_AS = web.AppKey("served_as", str)
+#: The paths another site's page may post to (an LMS's launch of the class: its own checks are its state and token).
+CROSS_ORIGIN_PATHS = web.AppKey("cross_origin_paths", frozenset)
 
 
 class BoundedServer:
@@ -433,6 +436,9 @@ class BoundedServer:
     def __init__(self, host: str = "127.0.0.1", port: int = 8765, name: str = "view") -> None:
         self.host, self.port = host, port
         self.name = name
+        #: Other names it is served as (a proxy's public name), and the paths another site's page may post to.
+        self.served_as: tuple[str, ...] = ()
+        self.cross_origin_paths: frozenset[str] = frozenset()
         self._loop = asyncio.new_event_loop()
         self._thread: threading.Thread | None = None
         self._runner: web.AppRunner | None = None
@@ -471,7 +477,9 @@ class BoundedServer:
     def _make_app(self) -> web.Application:
         """The application: the checks of every request, and the routes."""
         app = web.Application(middlewares=[_checked_origin], client_max_size=self.max_request_bytes)
-        app[SERVED_AS] = self.host if self.host not in ("", "0.0.0.0", "::") else ""
+        names = [self.host if self.host not in ("", "0.0.0.0", "::") else "", *self.served_as]
+        app[SERVED_AS] = " ".join(name for name in names if name)
+        app[CROSS_ORIGIN_PATHS] = self.cross_origin_paths
         self._routes(app)
         return app
 

@@ -6,6 +6,7 @@ closed: connections refused) and come back on the same port."""
 
 from __future__ import annotations
 
+import html
 import http.server
 import json
 import secrets
@@ -51,6 +52,7 @@ class FakeLms:
         self.items: dict[int, dict] = {}
         self.scores: dict[int, list[dict]] = {}
         self.tokens: dict[str, str] = {}  # token: its scope
+        self.names: dict[str, str] = {"t-1": "Grace Hopper"}  # the names of those who follow the course's link
         self.asked_for: list[str] = []  # each request's method and path
         self.lock = threading.Lock()
         self.http = self._serve(0)
@@ -95,7 +97,7 @@ class FakeLms:
     # ------------------------------------------------------------------ what the tool is told
 
     def platform(self) -> Platform:
-        return Platform(ISSUER, CLIENT, f"{ISSUER}/auth", f"{self.base}/token", self.jwks_url, (DEPLOYMENT,))
+        return Platform(ISSUER, CLIENT, f"{self.base}/auth", f"{self.base}/token", self.jwks_url, (DEPLOYMENT,))
 
     def id_token(self, nonce: str, key=None, kid: str | None = None, algorithm: str = "RS256", **claims) -> str:
         now = int(time.time())
@@ -145,6 +147,36 @@ class FakeLms:
         if parts.path == "/keys":
             self.asked += 1
             return _send(handler, 200, self.jwks)
+        query = dict(urllib.parse.parse_qsl(parts.query))
+        if parts.path == "/course":  # a person follows the course's link: the tool's login, as LTI starts it
+            login = {"iss": ISSUER, "login_hint": query["who"], "target_link_uri": f"{query['tool']}lti/launch",
+                     "client_id": CLIENT, "lti_message_hint": "link-garage"}  # fmt: skip
+            return _send(handler, 302, None, {"Location": f"{query['tool']}lti/login?{urllib.parse.urlencode(login)}"})
+        if parts.path == "/auth":  # the LMS's answer to the login: the browser posts the id_token to the tool
+            who = query["login_hint"]
+            claims = {"sub": who, "name": self.names.get(who, who)}
+            if who.startswith("t-"):
+                claims |= {LTI + "roles": [INSTRUCTOR], LTI + "lis": None}
+            else:
+                school = [m.get("lis_person_sourcedid") for m in self.members if m["user_id"] == who]
+                claims[LTI + "lis"] = {"person_sourcedid": school[0] if school else who}
+                claims["name"] = self.names.get(who) or next(
+                    (m["name"] for m in self.members if m["user_id"] == who), who
+                )
+            token = self.id_token(query["nonce"], **claims)
+            page = (
+                '<!doctype html><html lang="en"><title>LMS</title><body><form method="post" action="'
+                + html.escape(query["redirect_uri"]) + '"><input type="hidden" name="id_token" value="' + token
+                + '"><input type="hidden" name="state" value="' + html.escape(query["state"])
+                + '"></form><script>document.forms[0].submit()</script></body></html>'
+            )  # fmt: skip
+            body = page.encode()
+            handler.send_response(200)
+            handler.send_header("Content-Type", "text/html; charset=utf-8")
+            handler.send_header("Content-Length", str(len(body)))
+            handler.end_headers()
+            handler.wfile.write(body)
+            return None
         if parts.path == "/token" and method == "POST":
             return self._token(handler, dict(urllib.parse.parse_qsl(body.decode())))
         scope = self.tokens.get(handler.headers.get("Authorization", "").removeprefix("Bearer "))

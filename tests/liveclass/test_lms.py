@@ -29,11 +29,11 @@ def platform():
     made.close()
 
 
-def open_class(folder, platform: FakeLms, grader=never_graded) -> tuple[ClassServer, ClassStore]:
+def open_class(folder, platform: FakeLms, grader=never_graded, public_url=PUBLIC) -> tuple[ClassServer, ClassStore]:
     store = ClassStore(folder)
     store.set_setting(TEACHER_TOKEN, token_digest("teacher-token"))
     tool = LtiTool(platform.platform(), ToolKey(folder))
-    server = ClassServer(GARAGE, store, folder, port=0, grader=grader, lti=tool, public_url=PUBLIC)
+    server = ClassServer(GARAGE, store, folder, port=0, grader=grader, lti=tool, public_url=public_url)
     server.start()
     platform.tool_jwks_url = f"{server.url}lti/jwks"  # where the LMS checks the tool's assertions
     return server, store

@@ -50,7 +50,7 @@ def login(server, **given: str) -> tuple[str, str, str]:
     assert status == 302, body
     sent = urllib.parse.urlsplit(headers["location"])
     asked = dict(urllib.parse.parse_qsl(sent.query))
-    assert f"{sent.scheme}://{sent.netloc}{sent.path}" == f"{ISSUER}/auth"
+    assert f"{sent.scheme}://{sent.netloc}{sent.path}" == server.lti.platform.auth_url
     assert (asked["client_id"], asked["login_hint"], asked["response_mode"], asked["scope"]) == (
         CLIENT, "u-1001", "form_post", "openid"
     )  # fmt: skip
@@ -400,3 +400,29 @@ def test_lti_config_ties_the_class_to_a_course_and_keeps_its_address(tmp_path):
     assert kept["course_id"] == COURSE and kept["public_url"] == "https://class.school.example"
     again = autonomy("class", "lti-config", "--dir", str(folder), *given)  # the LMS given again: what it tied kept
     assert again.returncode == 0 and json.loads((folder / "lti" / "platform.json").read_text())["course_id"] == COURSE
+
+
+def test_the_lms_s_page_may_post_the_launch_and_nothing_else_and_the_public_name_is_served(tmp_path, lms):
+    store = ClassStore(tmp_path)
+    store.set_setting(lms_module.COURSE, json.dumps({"id": COURSE}))
+    tool = LtiTool(lms.platform(), ToolKey(tmp_path))
+    server = ClassServer(GARAGE, store, tmp_path, port=0, grader=never_graded, lti=tool,
+                         public_url="https://class.school.example")  # fmt: skip
+    server.start()
+    try:
+
+        def asked(path: str, method: str = "POST", **headers: str) -> int:
+            connection = http.client.HTTPConnection("127.0.0.1", server.port, timeout=30)
+            connection.request(method, path, body=b"" if method == "POST" else None, headers=headers)
+            status = connection.getresponse().status
+            connection.close()
+            return status
+
+        lms_page = {"Origin": "https://lms.school.example"}
+        assert asked("/lti/launch", **lms_page) == 401  # the LMS's page may post it (its checks are its own)
+        assert asked("/api/deadline", **lms_page) == 403 and asked("/api/run", **lms_page) == 403  # nothing else
+        assert asked("/lti/jwks", "GET", Host="class.school.example") == 200  # behind the school's proxy
+        assert asked("/lti/jwks", "GET", Host="evil.example") == 403
+    finally:
+        server.stop()
+        store.close()
