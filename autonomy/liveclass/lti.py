@@ -70,6 +70,9 @@ JWKS_RETRY_S = 10.0
 STATE_COOKIE = "__Host-autonomy-lti-state"
 
 _LTI = "https://purl.imsglobal.org/spec/lti/claim/"
+_DL = "https://purl.imsglobal.org/spec/lti-dl/claim/"
+#: How long a deep link's answer may wait for the teacher's press, seconds.
+DEEP_LINK_S = 600.0
 _NRPS = "https://purl.imsglobal.org/spec/lti-nrps/claim/namesroleservice"
 _AGS = "https://purl.imsglobal.org/spec/lti-ags/claim/endpoint"
 #: The roles that open the teacher's desk: the course's instructors and content developers (full names, and the
@@ -135,6 +138,9 @@ class Launch:
         memberships_url: Where the LMS lists the course's people (its Names and Roles service); empty: none.
         lineitems_url: Where the LMS keeps the course's line items (its Assignment and Grade service); empty: none.
         lineitem_url: The link's own line item, if the LMS made one for it; empty: none.
+        deployment: The deployment it came by.
+        deep_link: Where a teacher adding the class to the course is sent back to, and what the LMS asked to be
+            given back (its ``data``), for a deep-linking request (the LMS's "add external tool"); None: a launch.
     """
 
     subject: str
@@ -147,6 +153,8 @@ class Launch:
     memberships_url: str = ""
     lineitems_url: str = ""
     lineitem_url: str = ""
+    deployment: str = ""
+    deep_link: tuple[str, str] | None = None
 
 
 def lti_folder(class_folder: Path) -> Path:
@@ -490,11 +498,11 @@ class LtiTool:
         if deployment not in self.platform.deployment_ids:
             raise LaunchRefused(f"the launch is from deployment {_said(deployment)}, not one of this class's")
         kind = claims.get(_LTI + "message_type")
-        if kind != "LtiResourceLinkRequest":
-            raise LaunchRefused(f"a {_said(kind)} message; a launch is an LtiResourceLinkRequest")
+        if kind not in ("LtiResourceLinkRequest", "LtiDeepLinkingRequest"):
+            raise LaunchRefused(f"a {_said(kind)} message; a launch is an LtiResourceLinkRequest (or deep linking)")
         if claims.get(_LTI + "version") != "1.3.0":
             raise LaunchRefused(f"LTI version {_said(claims.get(_LTI + 'version'))}; this tool speaks 1.3.0")
-        link = claims.get(_LTI + "resource_link")
+        link = claims.get(_LTI + "resource_link") if kind == "LtiResourceLinkRequest" else {"id": "-"}
         if not isinstance(link, dict) or not isinstance(link.get("id"), str) or not link["id"]:
             raise LaunchRefused("the launch names no resource link")
         roles = claims.get(_LTI + "roles")
@@ -503,6 +511,9 @@ class LtiTool:
         if not isinstance(claims["sub"], str) or not claims["sub"].strip():
             raise LaunchRefused("the id_token names nobody (its sub is empty)")
         instructor = any(role in INSTRUCTOR_ROLES for role in roles)
+        deep_link = _deep_link(claims) if kind == "LtiDeepLinkingRequest" else None
+        if deep_link is not None and not instructor:
+            raise LaunchRefused("only a teacher of the course adds the class to it (deep linking)")
         context = claims.get(_LTI + "context")
         course_id = context.get("id") if isinstance(context, dict) else None
         if not isinstance(course_id, str) or not course_id:
@@ -531,7 +542,36 @@ class LtiTool:
             _text(names.get("context_memberships_url")),
             _text(grades.get("lineitems")),
             _text(grades.get("lineitem")),
+            deployment,
+            deep_link,
         )
+
+    def deep_link_answer(self, launch: Launch, item: dict[str, Any] | None) -> str:
+        """The signed answer to a deep-linking request: the class's exercise as the link to add (an id_token's JWT).
+
+        Args:
+            launch: The deep-linking request (:meth:`check`).
+            item: The content item: an ``ltiResourceLink`` (its title, text, url and line item); None: nothing.
+        """
+        import jwt
+
+        if launch.deep_link is None:
+            raise ValueError("not a deep-linking request")
+        now_s = int(wall_time_s())
+        claims: dict[str, Any] = {
+            "iss": self.platform.client_id,
+            "aud": self.platform.issuer,
+            "iat": now_s,
+            "exp": now_s + int(DEEP_LINK_S),
+            "nonce": secrets.token_urlsafe(18),
+            _LTI + "deployment_id": launch.deployment,
+            _LTI + "message_type": "LtiDeepLinkingResponse",
+            _LTI + "version": "1.3.0",
+            _DL + "content_items": [item] if item is not None else [],
+        }
+        if launch.deep_link[1]:
+            claims[_DL + "data"] = launch.deep_link[1]
+        return jwt.encode(claims, self.key.private, algorithm="RS256", headers={"kid": self.key.kid})
 
     def _forget(self, now_s: float) -> None:
         """Lets go of nonces past their time."""
@@ -541,6 +581,20 @@ class LtiTool:
 
 class UnknownKey(LaunchRefused):
     """A token signed with a key the LMS's keys (as kept) do not hold: perhaps a new one, fetched once again."""
+
+
+def _deep_link(claims: dict[str, Any]) -> tuple[str, str]:
+    """A deep-linking request's return address and data, checked: it takes a link to the tool."""
+    settings = claims.get(_DL + "deep_linking_settings")
+    if not isinstance(settings, dict):
+        raise LaunchRefused("a deep-linking request without its settings")
+    back = settings.get("deep_link_return_url")
+    if not isinstance(back, str) or urllib.parse.urlsplit(back).scheme not in ("https", "http"):
+        raise LaunchRefused("a deep-linking request with no address to return to")
+    accepted = settings.get("accept_types")
+    if not isinstance(accepted, list) or "ltiResourceLink" not in accepted:
+        raise LaunchRefused("the LMS takes no link to a tool here (accept_types lacks ltiResourceLink)")
+    return back, _text(settings.get("data"))
 
 
 def _text(value: object) -> str:

@@ -33,6 +33,7 @@ import errno
 import functools
 import hashlib
 import hmac
+import html
 import io
 import json
 import math
@@ -221,6 +222,34 @@ FEEDBACK_POLICY = "sandbox allow-scripts; frame-ancestors 'self'"
 LTI_MOST_BYTES = 64 * 1024
 LTI_SESSION_S = 12 * 3600.0
 MAX_LTI_ID = 200
+#: The page a teacher adding the class to their course confirms on (its texts escaped; no script).
+DEEP_LINK_PAGE = """<!doctype html>
+<html lang="en">
+<head>
+<meta charset="utf-8">
+<meta name="viewport" content="width=device-width, initial-scale=1">
+<title>autonomy: add the class to your course</title>
+<link rel="icon" href="data:,">
+<link rel="stylesheet" href="/static/class.css">
+</head>
+<body>
+<header class="bar"><span class="brand">autonomy</span><span id="title">add the class to your course</span></header>
+<main class="card narrow">
+  <h1>{title}</h1>
+  <p>{text}</p>
+  <p>A student's hand-in is marked out of {points}; the mark goes to the course's gradebook.</p>
+  <form id="add" method="post" action="{back}">
+    <input type="hidden" name="JWT" value="{added}">
+    <button type="submit">Add "{title}" to the course</button>
+  </form>
+  <form id="none" method="post" action="{back}">
+    <input type="hidden" name="JWT" value="{none}">
+    <button type="submit">Add nothing</button>
+  </form>
+</main>
+</body>
+</html>
+"""
 _PAGE_NAME = re.compile(r"(\d{1,12})-([0-9a-f]{32})\.html")
 _ROBOT_PAGE_NAME = re.compile(r"(\d{1,12})-([0-9a-f]{32})(-emulated)?\.html")
 
@@ -1121,8 +1150,11 @@ class ClassServer(BoundedServer):
                     raise
                 jwks = await loop.run_in_executor(self._lti_keys, functools.partial(lti.keys, again=True))
                 launch = lti.check(given.get("id_token", ""), nonce, jwks, course)
-            if launch.instructor:
-                ties = not (lti.platform.course_id or course)
+            ties = not (lti.platform.course_id or course)
+            if launch.deep_link is not None:  # the teacher adds the class to the course: the page they confirm on
+                await loop.run_in_executor(self._chores, self._lti_teacher, launch, ties, False)
+                answer = self._deep_link_page(launch, self._public_url(request))
+            elif launch.instructor:
                 code = await loop.run_in_executor(self._chores, self._lti_teacher, launch, ties)
                 answer = web.Response(status=303, headers={"Location": f"/teacher#{code}", **NO_STORE})
             else:
@@ -1140,7 +1172,7 @@ class ClassServer(BoundedServer):
             if value and self.store.setting(key) != value:
                 self.store.set_setting(key, value)
 
-    def _lti_teacher(self, launch: Launch, ties: bool) -> str:
+    def _lti_teacher(self, launch: Launch, ties: bool, session: bool = True) -> str:
         """An instructor's session (the class tied to their course, if it was to none); the roster read anew."""
         if ties:
             self.store.set_setting(lms.COURSE, json.dumps({"id": launch.course_id, "title": launch.course_title}))
@@ -1150,7 +1182,44 @@ class ClassServer(BoundedServer):
         lms.take_roster(self.store, [lms.Member(launch.subject, launch.name, "", True, True)])
         if self.lms_link is not None:
             self.lms_link.nudge(roster=True)
-        return self.store.new_session("", LTI_SESSION_S)
+        return self.store.new_session("", LTI_SESSION_S) if session else ""
+
+    def _deep_link_page(self, launch: Launch, base_url: str) -> web.Response:
+        """The page a teacher adding the class to their course confirms on: the exercise, and two buttons.
+
+        Each button posts the signed answer to the LMS (its form's action, the one address the page's policy lets
+        a form go to): the exercise as a link with its line item, or nothing (they changed their mind).
+        """
+        if self.lti is None or launch.deep_link is None:
+            raise ValueError("not a deep-linking request")
+        back = launch.deep_link[0]
+        exercise = self.exercise
+        item = {
+            "type": "ltiResourceLink",
+            "title": exercise.title,
+            "text": exercise.description,
+            "url": tool_urls(base_url)["tool_url"],
+            "lineItem": {
+                "scoreMaximum": exercise.max_points + exercise.robot_points,
+                "label": exercise.title,
+                "resourceId": f"autonomy:{exercise.name}",
+                "tag": lms.TAG,
+            },  # fmt: skip
+        }
+        added = self.lti.deep_link_answer(launch, item)
+        none = self.lti.deep_link_answer(launch, None)
+        page = DEEP_LINK_PAGE.format(
+            title=html.escape(exercise.title),
+            text=html.escape(exercise.description),
+            points=html.escape(f"{exercise.max_points + exercise.robot_points:g}"),
+            back=html.escape(back, quote=True),
+            added=html.escape(added, quote=True),
+            none=html.escape(none, quote=True),
+        )
+        parts = urllib.parse.urlsplit(back)
+        policy = self._page_policy().replace("form-action 'none'", f"form-action {parts.scheme}://{parts.netloc}")
+        headers = {"Content-Security-Policy": policy, **NO_STORE}
+        return web.Response(text=page, content_type="text/html", headers=headers)
 
     def _lti_student(self, launch: Launch) -> str:
         """A learner's session: on the roster from now on (the LMS vouches for them), then a code of the session's.

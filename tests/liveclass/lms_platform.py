@@ -52,7 +52,10 @@ class FakeLms:
         self.items: dict[int, dict] = {}
         self.scores: dict[int, list[dict]] = {}
         self.tokens: dict[str, str] = {}  # token: its scope
-        self.names: dict[str, str] = {"t-1": "Grace Hopper"}  # the names of those who follow the course's link
+        self.names: dict[str, str] = {"t-1": "Grace Hopper"}
+        self.deep_links: list[
+            dict
+        ] = []  # the tool's deep-linking answers, checked  # the names of those who follow the course's link
         self.asked_for: list[str] = []  # each request's method and path
         self.lock = threading.Lock()
         self.http = self._serve(0)
@@ -123,6 +126,16 @@ class FakeLms:
         body = {k: v for k, v in body.items() if v is not None}
         return jwt.encode(body, key or self.key, algorithm=algorithm, headers={"kid": kid or self.kid})
 
+    def deep_linking(self) -> dict:
+        """A deep-linking request's claims (the teacher's "add external tool", in place of a link's launch)."""
+        settings = {"deep_link_return_url": f"{self.base}/deep-link-return", "accept_types": ["ltiResourceLink"],
+                    "accept_presentation_document_targets": ["iframe", "window"], "data": "lms-data-7"}  # fmt: skip
+        return {
+            LTI + "message_type": "LtiDeepLinkingRequest",
+            LTI + "resource_link": None,
+            "https://purl.imsglobal.org/spec/lti-dl/claim/deep_linking_settings": settings,
+        }
+
     def enrol(self, count: int, start: int = 0) -> None:
         """``count`` learners in the course (and its instructor)."""
         self.members = [
@@ -150,7 +163,7 @@ class FakeLms:
         query = dict(urllib.parse.parse_qsl(parts.query))
         if parts.path == "/course":  # a person follows the course's link: the tool's login, as LTI starts it
             login = {"iss": ISSUER, "login_hint": query["who"], "target_link_uri": f"{query['tool']}lti/launch",
-                     "client_id": CLIENT, "lti_message_hint": "link-garage"}  # fmt: skip
+                     "client_id": CLIENT, "lti_message_hint": query.get("hint", "link-garage")}  # fmt: skip
             return _send(handler, 302, None, {"Location": f"{query['tool']}lti/login?{urllib.parse.urlencode(login)}"})
         if parts.path == "/auth":  # the LMS's answer to the login: the browser posts the id_token to the tool
             who = query["login_hint"]
@@ -163,6 +176,8 @@ class FakeLms:
                 claims["name"] = self.names.get(who) or next(
                     (m["name"] for m in self.members if m["user_id"] == who), who
                 )
+            if query.get("lti_message_hint") == "deep":  # the teacher's "add external tool"
+                claims |= self.deep_linking()
             token = self.id_token(query["nonce"], **claims)
             page = (
                 '<!doctype html><html lang="en"><title>LMS</title><body><form method="post" action="'
@@ -176,6 +191,19 @@ class FakeLms:
             handler.send_header("Content-Length", str(len(body)))
             handler.end_headers()
             handler.wfile.write(body)
+            return None
+        if parts.path == "/deep-link-return" and method == "POST":  # the tool's answer: the link to add, checked
+            with urllib.request.urlopen(self.tool_jwks_url, timeout=10) as answer:  # noqa: S310 - loopback
+                (key,) = json.load(answer)["keys"]
+            token = dict(urllib.parse.parse_qsl(body.decode()))["JWT"]
+            self.deep_links.append(jwt.decode(token, jwt.PyJWK(key).key, algorithms=["RS256"], audience=ISSUER,
+                                              issuer=CLIENT))  # fmt: skip
+            page = b'<!doctype html><html lang="en"><title>LMS</title><h1 id="added">Added</h1></html>'
+            handler.send_response(200)
+            handler.send_header("Content-Type", "text/html; charset=utf-8")
+            handler.send_header("Content-Length", str(len(page)))
+            handler.end_headers()
+            handler.wfile.write(page)
             return None
         if parts.path == "/token" and method == "POST":
             return self._token(handler, dict(urllib.parse.parse_qsl(body.decode())))

@@ -192,3 +192,16 @@ def test_the_tool_s_assertion_is_checked_and_a_course_without_services_says_so(t
     finally:
         server.stop()
         store.close()
+
+
+def test_a_class_served_again_with_its_roster_file_keeps_the_lms_s_students(tmp_path, platform):
+    store = ClassStore(tmp_path)
+    store.enrol([("s1", "Bob")])
+    lms.take_roster(store, [lms.Member("u-1", "Ada", "1001", False, True), lms.Member("u-2", "Cy", "", False, False)])
+    assert [s.id for s in store.students()] == ["s1", "1001"]  # an inactive member is not on the roster
+    store.enrol([("s1", "Bob")])  # class serve --roster, again: the LMS's students stay
+    assert [s.id for s in store.students()] == ["s1", "1001"]
+    assert lms.admit(store, "u-1", "9999", "Ada L.") == "1001"  # who they are stays what it was first
+    with pytest.raises(lms.LaunchRefused):
+        lms.admit(store, "u-3", "1001", "Mallory")
+    store.close()

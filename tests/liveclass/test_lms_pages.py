@@ -1,6 +1,7 @@
 """The class inside an LMS, in a real headless Chromium: the teacher and a student follow the course's link (the
 LMS's login, the tool's, the LMS's signed answer posted back: LTI 1.3's whole dance, cookies and all), the
-teacher lands on the desk and a student on their page; the desk shows the course, its roster (read before anyone
+teacher lands on the desk and a student on their page; the teacher adds the class to a course's page (deep
+linking); the desk shows the course, its roster (read before anyone
 signed in) and the marks sent to its gradebook; the keyboard alone reads the roster again; axe finds nothing."""
 
 from __future__ import annotations
@@ -49,6 +50,17 @@ def test_the_teacher_and_a_student_follow_the_course_s_link_and_the_desk_shows_t
         press(teacher, "#lms-roster-read")  # the keyboard alone
         until(teacher, "document.querySelectorAll('#class-table tbody tr').length === 4")
         assert violations(teacher) == []
+
+        # the teacher adds the class to another of the course's pages: the LMS's "add external tool"
+        adding = new_page(browser, errors)
+        adding.goto(link + "t-1&hint=deep")
+        until(adding, "document.getElementById('add') !== null")
+        assert adding.text_content("h1") == GARAGE.title and violations(adding) == []
+        press(adding, "#add button")  # the keyboard alone
+        until(adding, "document.getElementById('added') !== null")
+        (added,) = platform.deep_links
+        (item,) = added["https://purl.imsglobal.org/spec/lti-dl/claim/content_items"]
+        assert item["url"] == f"{server.url}lti/launch" and item["lineItem"]["resourceId"] == "autonomy:garage"
         assert errors == []
     finally:
         server.stop()

@@ -146,7 +146,7 @@ def forged():
         ({"aud": "another-client"}, "for another tool"),
         ({"iss": "https://other.example"}, "from another LMS"),
         ({LTI + "deployment_id": "deployment-9"}, "deployment 'deployment-9'"),
-        ({LTI + "message_type": "LtiDeepLinkingRequest"}, "LtiResourceLinkRequest"),
+        ({LTI + "message_type": "LtiSubmissionReviewRequest"}, "LtiResourceLinkRequest"),
         ({LTI + "version": "1.1"}, "1.3.0"),
         ({"nonce": "not-the-login-s"}, "nonce is not the one"),
         ({"kid": "unknown-key"}, "does not publish"),
@@ -426,3 +426,32 @@ def test_the_lms_s_page_may_post_the_launch_and_nothing_else_and_the_public_name
     finally:
         server.stop()
         store.close()
+
+
+def test_a_teacher_adds_the_class_to_the_course_by_deep_linking_and_a_learner_cannot(served, lms):
+    server, _ = served
+    teacher = {LTI + "roles": [INSTRUCTOR], LTI + "lis": None, "sub": "t-1"}
+    status, headers, body = launch(server, lms, **teacher, **lms.deep_linking())
+    page = body.decode()
+    assert status == 200 and headers["content-type"].startswith("text/html")
+    assert f"form-action {lms.base}" in headers["content-security-policy"]
+    assert f"frame-ancestors {ISSUER}" in headers["content-security-policy"] and "<script" not in page
+    forms = re.findall(r'<form id="(\w+)" method="post" action="([^"]+)">\s*<input type="hidden" name="JWT" '
+                       r'value="([^"]+)">', page)  # fmt: skip
+    back = f"{lms.base}/deep-link-return"
+    assert [(name, action) for name, action, _ in forms] == [("add", back), ("none", back)]
+    key = jwt.PyJWK(ToolKey(server.folder).jwks()["keys"][0]).key
+    added, none = (
+        jwt.decode(token, key, algorithms=["RS256"], audience=ISSUER, issuer=CLIENT) for _, _, token in forms
+    )
+    dl = "https://purl.imsglobal.org/spec/lti-dl/claim/"
+    assert added[LTI + "message_type"] == "LtiDeepLinkingResponse" and added[LTI + "deployment_id"] == DEPLOYMENT
+    assert added[dl + "data"] == "lms-data-7"  # given back as the LMS gave it
+    (item,) = added[dl + "content_items"]
+    assert item["type"] == "ltiResourceLink" and item["url"].endswith("/lti/launch") and item["title"] == GARAGE.title
+    assert item["lineItem"] == {"scoreMaximum": GARAGE.max_points, "label": GARAGE.title,
+                                "resourceId": "autonomy:garage", "tag": "autonomy"}  # fmt: skip
+    assert none[dl + "content_items"] == []
+    assert "only a teacher of the course" in refusal(launch(server, lms, **lms.deep_linking()))
+    settings = "https://purl.imsglobal.org/spec/lti-dl/claim/deep_linking_settings"
+    assert "without its settings" in refusal(launch(server, lms, **teacher, **{**lms.deep_linking(), settings: None}))
