@@ -52,10 +52,9 @@ class FakeLms:
         self.items: dict[int, dict] = {}
         self.scores: dict[int, list[dict]] = {}
         self.tokens: dict[str, str] = {}  # token: its scope
-        self.names: dict[str, str] = {"t-1": "Grace Hopper"}
-        self.deep_links: list[
-            dict
-        ] = []  # the tool's deep-linking answers, checked  # the names of those who follow the course's link
+        self.names: dict[str, str] = {"t-1": "Grace Hopper"}  # the names of those who follow the course's link
+        self.deep_links: list[dict] = []  # the tool's deep-linking answers, checked
+        self.delay_s = 0.0  # how long each answer takes to begin (an LMS far away)
         self.asked_for: list[str] = []  # each request's method and path
         self.lock = threading.Lock()
         self.http = self._serve(0)
@@ -157,6 +156,8 @@ class FakeLms:
         body = handler.rfile.read(length) if length else b""
         with self.lock:
             self.asked_for.append(f"{method} {parts.path}")
+        if self.delay_s:  # an LMS far away
+            time.sleep(self.delay_s)
         if parts.path == "/keys":
             self.asked += 1
             return _send(handler, 200, self.jwks)
