@@ -98,6 +98,7 @@ bench: $(STAMP)
 	$(BIN)/python benchmarks/overview.py
 	$(BIN)/python benchmarks/blocks.py
 	$(BIN)/python benchmarks/calibration.py
+	$(BIN)/python benchmarks/lms.py
 
 ## vendor: the built browser libraries the package ships (Blockly, CodeMirror), anew from package-lock.json; needs node and npm
 vendor:

@@ -1171,6 +1171,8 @@ class ClassServer(BoundedServer):
                            (lms.LINK_LINEITEM_URL, launch.lineitem_url)):  # fmt: skip
             if value and self.store.setting(key) != value:
                 self.store.set_setting(key, value)
+                if self.lms_link is not None:  # marks that waited for where the gradebook is
+                    self.lms_link.nudge()
 
     def _lti_teacher(self, launch: Launch, ties: bool, session: bool = True) -> str:
         """An instructor's session (the class tied to their course, if it was to none); the roster read anew."""
