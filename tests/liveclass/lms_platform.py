@@ -181,7 +181,8 @@ class FakeLms:
                 claims |= self.deep_linking()
             token = self.id_token(query["nonce"], **claims)
             page = (
-                '<!doctype html><html lang="en"><title>LMS</title><body><form method="post" action="'
+                '<!doctype html><html lang="en"><title>LMS</title><link rel="icon" href="data:,"><body>'
+                '<form method="post" action="'
                 + html.escape(query["redirect_uri"]) + '"><input type="hidden" name="id_token" value="' + token
                 + '"><input type="hidden" name="state" value="' + html.escape(query["state"])
                 + '"></form><script>document.forms[0].submit()</script></body></html>'
@@ -199,7 +200,8 @@ class FakeLms:
             token = dict(urllib.parse.parse_qsl(body.decode()))["JWT"]
             self.deep_links.append(jwt.decode(token, jwt.PyJWK(key).key, algorithms=["RS256"], audience=ISSUER,
                                               issuer=CLIENT))  # fmt: skip
-            page = b'<!doctype html><html lang="en"><title>LMS</title><h1 id="added">Added</h1></html>'
+            page = b'<!doctype html><html lang="en"><title>LMS</title><link rel="icon" href="data:,">'
+            page += b'<h1 id="added">Added</h1></html>'
             handler.send_response(200)
             handler.send_header("Content-Type", "text/html; charset=utf-8")
             handler.send_header("Content-Length", str(len(page)))

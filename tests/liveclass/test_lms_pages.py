@@ -24,6 +24,7 @@ def test_the_teacher_and_a_student_follow_the_course_s_link_and_the_desk_shows_t
         link = f"{platform.base}/course?tool={urllib.parse.quote(server.url)}&who="
         teacher = new_page(browser, errors)
         teacher.goto(link + "t-1")
+        teacher.wait_for_selector("#lms-roster-read", state="attached", timeout=60_000)  # through the LMS's pages
         until(teacher, "!document.getElementById('desk').hidden && !document.getElementById('lms').hidden")
         assert urllib.parse.urlsplit(teacher.url).path == "/teacher" and "#" not in teacher.url  # no token shown
         assert "the class is course Robotics 7's. Its instructors: Grace Hopper." in teacher.text_content("#lms-course")
@@ -33,9 +34,11 @@ def test_the_teacher_and_a_student_follow_the_course_s_link_and_the_desk_shows_t
 
         student = new_page(browser, errors)
         student.goto(link + "u-1")
+        student.wait_for_selector("#sign-out", state="attached", timeout=60_000)
         until(student, "!document.getElementById('desk').hidden")
         assert "Student 1" in student.text_content("#who")
         student.goto(f"{server.url}teacher")  # a learner never has the desk
+        student.wait_for_selector("#no-token", state="attached")
         until(student, "!document.getElementById('no-token').hidden")
 
         store.add_work("00001", "handin", "mission", {}, 7.5, GARAGE.max_points)
@@ -54,10 +57,10 @@ def test_the_teacher_and_a_student_follow_the_course_s_link_and_the_desk_shows_t
         # the teacher adds the class to another of the course's pages: the LMS's "add external tool"
         adding = new_page(browser, errors)
         adding.goto(link + "t-1&hint=deep")
-        until(adding, "document.getElementById('add') !== null")
+        adding.wait_for_selector("#add", timeout=60_000)
         assert adding.text_content("h1") == GARAGE.title and violations(adding) == []
         press(adding, "#add button")  # the keyboard alone
-        until(adding, "document.getElementById('added') !== null")
+        adding.wait_for_selector("#added", timeout=60_000)  # the LMS's page, once the form took the browser there
         (added,) = platform.deep_links
         (item,) = added["https://purl.imsglobal.org/spec/lti-dl/claim/content_items"]
         assert item["url"] == f"{server.url}lti/launch" and item["lineItem"]["resourceId"] == "autonomy:garage"
