@@ -225,6 +225,10 @@ def cmd_class_lti_config(args: argparse.Namespace) -> int:
                       ("--token-url", args.token_url), ("--jwks-url", args.jwks_url)):  # fmt: skip
         if url and urllib.parse.urlsplit(url).scheme not in ("http", "https"):
             return _fail(f"{name} {url!r}: an address starting https:// (or http:// on this machine)", EXIT_USAGE)
+    for origin in args.frame_origin or []:
+        parts = urllib.parse.urlsplit(origin)
+        if parts.scheme not in ("http", "https") or not parts.netloc or f"{parts.scheme}://{parts.netloc}" != origin:
+            return _fail(f"--frame-origin {origin!r}: an origin, such as https://school.instructure.com", EXIT_USAGE)
     given = [args.issuer, args.client_id, args.auth_url, args.jwks_url, args.deployment_id]
     if any(given) and not all(given):
         return _fail(
@@ -248,11 +252,12 @@ def cmd_class_lti_config(args: argparse.Namespace) -> int:
                                 course_id=kept.course_id if kept else "")  # fmt: skip
             print(f"kept the LMS's settings in {write_platform(folder, platform)}", file=sys.stderr)
         platform = read_platform(folder)
-        if (args.public_url or args.course_id is not None) and platform is not None:
+        if (args.public_url or args.course_id is not None or args.frame_origin) and platform is not None:
             platform = dataclasses.replace(
                 platform,
                 public_url=args.public_url or platform.public_url,
                 course_id=platform.course_id if args.course_id is None else args.course_id,
+                frame_origins=tuple(dict.fromkeys((*platform.frame_origins, *(args.frame_origin or [])))),
             )
             write_platform(folder, platform)
         elif args.course_id is not None:
@@ -430,6 +435,10 @@ def add_parsers(sub: Any) -> None:
     lti.add_argument("--auth-url", metavar="URL", help="the LMS's OIDC authorisation address")
     lti.add_argument("--token-url", metavar="URL", help="the LMS's access token address")
     lti.add_argument("--jwks-url", metavar="URL", help="the LMS's public keyset address")
+    lti.add_argument(
+        "--frame-origin", action="append", metavar="ORIGIN", help="an origin whose pages may frame the class's "
+        "(the LMS's pages, where they are not its issuer's: a Canvas cloud school's own host); again for more"
+    )  # fmt: skip
     lti.add_argument(
         "--course-id", metavar="ID", help="the LMS's id of the class's course (default: the first its teacher opens it "
         "from; '' unties it)"

@@ -68,7 +68,7 @@ ROSTER_READ = "lms.roster_read"
 #: The tag of the line items the tool makes (so that the teacher sees whose they are).
 TAG = "autonomy"
 #: The longest a person's id or name is kept.
-MOST_ID_CHARS = 200
+MOST_ID_CHARS = 300
 
 _MEMBERS_TYPE = "application/vnd.ims.lti-nrps.v2.membershipcontainer+json"
 _LINEITEMS_TYPE = "application/vnd.ims.lis.v2.lineitemcontainer+json"
@@ -82,7 +82,21 @@ class LmsDown(Exception):
 
 
 class LmsRefused(Exception):
-    """The LMS refused what was asked (4xx but 429), or answered with what is not what LTI says: not tried again."""
+    """The LMS refused what was asked (4xx but 429, or a redirect), or answered with what is not what LTI says.
+
+    Attributes:
+        status: The LMS's answer's status (0: not an answer's: what it answered was not LTI's).
+    """
+
+    def __init__(self, message: str, status: int = 0) -> None:
+        super().__init__(message)
+        self.status = status
+
+
+#: A score the LMS refused for what it holds (not for the link's token or line item): kept refused, not sent again.
+SCORE_REFUSALS = (400, 409, 413, 422)
+#: The longest ``sub`` taken (OpenID Connect's: 255 ASCII characters).
+MOST_SUBJECT_CHARS = 255
 
 
 @dataclasses.dataclass(frozen=True)
@@ -137,10 +151,11 @@ def admit(store: ClassStore, subject: str, student: str, name: str) -> str:
 def _tie(db: sqlite3.Connection, subject: str, student: str, name: str, instructor: bool, active: bool) -> str | None:
     """Ties a person to the class (a learner to a student, on the roster while active); their id, None if taken."""
     row = db.execute("SELECT student FROM lms_people WHERE sub = ?", (subject,)).fetchone()
+    name = printable(name)[:MOST_ID_CHARS]
     if instructor:
         if row is None:
             db.execute(
-                "INSERT INTO lms_people (sub, student, name, instructor) VALUES (?, NULL, ?, 1)", (subject, name)
+                "INSERT INTO lms_people (sub, name, instructor, active) VALUES (?, ?, 1, ?)", (subject, name, active)
             )
         else:
             db.execute(
@@ -256,10 +271,20 @@ def scores_said(store: ClassStore, most: int = 30) -> dict[str, Any]:
 Fetch = Callable[[urllib.request.Request, float], tuple[int, dict[str, str], bytes]]
 
 
+class _NoRedirect(urllib.request.HTTPRedirectHandler):
+    """A redirect is not followed (a score posted is not a GET elsewhere, nor is the token sent there): answered."""
+
+    def redirect_request(self, *_: Any, **__: Any) -> None:
+        return None
+
+
+_OPENER = urllib.request.build_opener(_NoRedirect)
+
+
 def _fetch(request: urllib.request.Request, timeout_s: float) -> tuple[int, dict[str, str], bytes]:
-    """One request: status, headers (lower-case names), body (at most :data:`ANSWER_MOST_BYTES`)."""
+    """One request: status, headers (lower-case names), body (at most :data:`ANSWER_MOST_BYTES`); no redirect."""
     try:
-        with urllib.request.urlopen(request, timeout=timeout_s) as answer:  # noqa: S310 - the LMS's, as set
+        with _OPENER.open(request, timeout=timeout_s) as answer:
             body = answer.read(ANSWER_MOST_BYTES + 1)
             status, headers = answer.status, {k.lower(): v for k, v in answer.getheaders()}
     except urllib.error.HTTPError as err:
@@ -360,7 +385,10 @@ class LmsServices:
         url = _with_query(lineitems_url, {"resource_id": resource_id, "limit": "100"})
         for _ in range(ROSTER_MOST_PAGES):
             headers, body = self._ask("GET", url, SCOPE_LINEITEM, _LINEITEMS_TYPE)
-            items = json.loads(body) if body.strip() else []
+            try:
+                items = json.loads(body) if body.strip() else []
+            except (UnicodeDecodeError, ValueError) as err:
+                raise LmsRefused("the LMS's line items are not JSON") from err
             if not isinstance(items, list):
                 raise LmsRefused("the LMS's line items are not a list")
             for item in items:  # the LMS's filter is not trusted: each is checked
@@ -398,7 +426,7 @@ def _said_ok(status: int, body: bytes, what: str) -> None:
         raise LmsDown(f"the LMS could not answer {what} now ({status})")
     if not 200 <= status < 300:
         said = printable(body[:160].decode("utf-8", "replace")).strip()
-        raise LmsRefused(f"the LMS refused {what} ({status}{': ' + said if said else ''})")
+        raise LmsRefused(f"the LMS refused {what} ({status}{': ' + said if said else ''})", status)
 
 
 def _json_of(body: bytes, what: str) -> dict[str, Any]:
@@ -421,13 +449,15 @@ def _member(entry: object) -> Member | None:
     """A roster's entry as a member; None: not one (no user id)."""
     if not isinstance(entry, dict) or not isinstance(entry.get("user_id"), str) or not entry["user_id"].strip():
         return None
+    if len(entry["user_id"]) > MOST_SUBJECT_CHARS:
+        return None  # not OpenID Connect's: never cut to another's
     roles = entry.get("roles") if isinstance(entry.get("roles"), list) else []
     from autonomy.liveclass.lti import INSTRUCTOR_ROLES
 
     name = entry.get("name") or " ".join(str(entry.get(k) or "") for k in ("given_name", "family_name")).strip()
     sourced = entry.get("lis_person_sourcedid")
     return Member(
-        entry["user_id"][:MOST_ID_CHARS],
+        entry["user_id"],
         printable(name if isinstance(name, str) else "")[:MOST_ID_CHARS],
         sourced if isinstance(sourced, str) else "",
         any(role in INSTRUCTOR_ROLES for role in roles),
@@ -479,15 +509,37 @@ class LmsLink:
             self._thread.join(timeout=REQUEST_TIMEOUT_S + 1)
         self._pool.shutdown(wait=False, cancel_futures=True)
 
-    def nudge(self, roster: bool = False) -> None:
-        """Something to do: a score queued (and the roster to read, if ``roster``)."""
+    def nudge(self, roster: bool = False, now: bool = False) -> None:
+        """Something to do: a score queued (and the roster to read, if ``roster``; at once, if ``now``)."""
         self._roster_wanted = self._roster_wanted or roster
+        if now:
+            self._next_try_s = 0.0
         self._wake.set()
+
+    def send_again(self) -> int:
+        """The refused scores waiting again (the teacher mended what the LMS refused them for); how many."""
+        again = self.store.read("SELECT COUNT(*) FROM lms_scores WHERE refused != ''")[0][0]
+        self.store.write(
+            [
+                (
+                    "UPDATE lms_scores SET refused = '' WHERE refused != '' AND id IN (SELECT MAX(id) FROM lms_scores "
+                    "GROUP BY student)",
+                    (),
+                ),
+                ("DELETE FROM lms_scores WHERE refused != ''", ()),
+            ]
+        )  # fmt: skip - each student's newest again; older refused ones are superseded
+        self.nudge(now=True)
+        return again
 
     def _run(self) -> None:
         while not self._stop.is_set():
             self._wake.clear()
-            delay_s = self.round(self.clock.now())
+            try:
+                delay_s = self.round(self.clock.now())
+            except Exception as err:  # noqa: BLE001 - the link keeps going, and the desk says why it could not
+                self._said(f"the marks could not be sent ({type(err).__name__}: {printable(str(err))[:160]})")
+                delay_s = RETRY_MOST_S
             if delay_s > 0:
                 wait_event(self._wake, delay_s)
 
@@ -551,9 +603,16 @@ class LmsLink:
         item = self._line_item()
         outcomes = list(self._pool.map(lambda score: self._send_one(item, score), scores))
         self._changed()
-        down = [outcome for outcome in outcomes if isinstance(outcome, LmsDown)]
-        if down:
-            raise down[0]
+        for outcome in outcomes:
+            if isinstance(outcome, LmsDown):
+                raise outcome
+        for outcome in outcomes:  # the link's, not the score's: its token, its scope, its line item
+            if isinstance(outcome, LmsRefused):
+                if outcome.status in (404, 410):  # the line item is gone (the column deleted): found or made anew
+                    for key in (LINK_LINEITEM_URL, LINEITEM_URL):
+                        if self.store.setting(key) == item:
+                            self.store.set_setting(key, "")
+                raise outcome
         return len(scores) == SENDS_PER_ROUND
 
     def _send_one(self, item: str, score: Score) -> Exception | None:
@@ -562,8 +621,10 @@ class LmsLink:
         except LmsDown as err:
             return err
         except LmsRefused as err:
+            if err.status not in SCORE_REFUSALS:
+                return err  # the link's problem: the score waits
             self.store.write([("UPDATE lms_scores SET refused = ? WHERE id = ?", (str(err)[:300], score.number))])
-            return err
+            return None
         sent = datetime.datetime.fromtimestamp(wall_time_s(), datetime.UTC).isoformat(timespec="seconds")
         self.store.write([("UPDATE lms_scores SET sent = ? WHERE id = ?", (sent, score.number))])
         return None

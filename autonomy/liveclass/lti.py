@@ -110,6 +110,8 @@ class Platform:
         jwks: The LMS's keys, given here rather than fetched (a JWKS document), or None.
         public_url: The address the LMS knows the tool by (``https://class.school.example``); empty: the requests'.
         course_id: The LMS's id of the class's course (its ``context``); empty: the first instructor's launch says.
+        frame_origins: The origins whose pages may frame the class's (the LMS's pages', where not its issuer's:
+            Canvas's cloud issuer is ``https://canvas.instructure.com``, its pages the school's own host).
     """
 
     issuer: str
@@ -121,6 +123,7 @@ class Platform:
     jwks: dict[str, Any] | None = None
     public_url: str = ""
     course_id: str = ""
+    frame_origins: tuple[str, ...] = ()
 
 
 @dataclasses.dataclass(frozen=True)
@@ -189,6 +192,9 @@ def read_platform(class_folder: Path) -> Platform | None:
     jwks = data.get("jwks")
     if jwks is not None and not (isinstance(jwks, dict) and isinstance(jwks.get("keys"), list)):
         odd.append("jwks")
+    frames = data.get("frame_origins", [])
+    if not isinstance(frames, list) or not all(isinstance(f, str) and _origin(f) == f for f in frames):
+        odd.append("frame_origins")
     if odd:
         raise LtiError(f"{path}: the LMS's {', '.join(odd)} not as lti-config writes them; make them anew with it")
     return Platform(
@@ -201,6 +207,7 @@ def read_platform(class_folder: Path) -> Platform | None:
         jwks,
         data.get("public_url", ""),
         data.get("course_id", ""),
+        tuple(frames),
     )
 
 
@@ -211,11 +218,24 @@ def write_platform(class_folder: Path, platform: Platform) -> Path:
     path = folder / PLATFORM_FILE
     data = dataclasses.asdict(platform)
     data["deployment_ids"] = list(platform.deployment_ids)
+    data["frame_origins"] = list(platform.frame_origins)
     if data["jwks"] is None:
         del data["jwks"]
     path.write_text(json.dumps(data, indent=2) + "\n", encoding="utf-8")
     path.chmod(0o600)
     return path
+
+
+def _origin(url: str) -> str:
+    """A URL's origin (``https://host[:port]``); empty for what is not an http(s) URL."""
+    parts = urllib.parse.urlsplit(url)
+    return f"{parts.scheme}://{parts.netloc}" if parts.scheme in ("http", "https") and parts.netloc else ""
+
+
+def frame_origins(platform: Platform, *urls: str) -> list[str]:
+    """The origins that may frame the class's pages: the issuer's, those given, and those of the LMS's ``urls``."""
+    found = [_origin(platform.issuer), *platform.frame_origins, *(_origin(url) for url in urls)]
+    return [origin for k, origin in enumerate(found) if origin and origin not in found[:k] and " " not in origin]
 
 
 def _b64(number: int) -> str:
@@ -324,6 +344,11 @@ def _fetch_jwks(url: str) -> dict[str, Any]:
     if not isinstance(data, dict) or not isinstance(data.get("keys"), list):
         raise ValueError("not a JWKS document (an object with its keys)")
     return data
+
+
+def state_cookie(state: str) -> str:
+    """The name of the cookie that holds ``state`` (one each: two tabs' logins do not take each other's place)."""
+    return f"{STATE_COOKIE}-{hashlib.sha256(state.encode()).hexdigest()[:16]}"
 
 
 class LtiTool:
@@ -510,6 +535,8 @@ class LtiTool:
             raise LaunchRefused("the launch gives no roles")
         if not isinstance(claims["sub"], str) or not claims["sub"].strip():
             raise LaunchRefused("the id_token names nobody (its sub is empty)")
+        if len(claims["sub"]) > 255:
+            raise LaunchRefused("the id_token's sub is longer than OpenID Connect's 255 characters")
         instructor = any(role in INSTRUCTOR_ROLES for role in roles)
         deep_link = _deep_link(claims) if kind == "LtiDeepLinkingRequest" else None
         if deep_link is not None and not instructor:
@@ -651,6 +678,8 @@ __all__ = [
     "ToolKey",
     "UnknownKey",
     "canvas_config",
+    "frame_origins",
+    "state_cookie",
     "read_platform",
     "tool_urls",
     "write_platform",

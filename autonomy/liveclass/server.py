@@ -65,12 +65,13 @@ from autonomy.errors import AutonomyError
 from autonomy.liveclass import lms
 from autonomy.liveclass.lti import (
     JWKS_RETRY_S,
-    STATE_COOKIE,
     STATE_S,
     Launch,
     LaunchRefused,
     LtiTool,
     UnknownKey,
+    frame_origins,
+    state_cookie,
     tool_urls,
 )
 from autonomy.liveclass.robots import RobotDesk, run_files
@@ -376,6 +377,19 @@ def page_text(name: str) -> str:
 NO_STORE = {"Cache-Control": "no-store"}
 
 
+async def _whole(content: Any, most: int) -> bytes:
+    """A body read to its end, or to ``most`` bytes (a read gives what has come so far: a form comes in pieces)."""
+    parts: list[bytes] = []
+    size = 0
+    while size < most:
+        piece = await content.read(most - size)
+        if not piece:
+            break
+        parts.append(piece)
+        size += len(piece)
+    return b"".join(parts)
+
+
 def _points(value: float | None) -> str:
     """Points as a comment to the LMS says them: hundredths at most, a dash for none."""
     return "-" if value is None else f"{round(value, 2):g}"
@@ -524,6 +538,10 @@ class ClassServer(BoundedServer):
             self.cross_origin_paths = frozenset({"/lti/launch", "/lti/login"})
             public = urllib.parse.urlsplit(self.public_url)
             self.served_as = (public.hostname,) if public.hostname else ()
+        #: The LMS's services' addresses its teachers' launches gave (their origins may frame the pages).
+        self._lms_urls: tuple[str, ...] = tuple(
+            url for url in (store.setting(lms.MEMBERSHIPS_URL), store.setting(lms.LINEITEMS_URL)) if url
+        )
         #: The LMS's roster and gradebook, read and written in a thread of their own (an LMS with a token URL).
         self.lms_link: lms.LmsLink | None = None
         #: The LMS's keys are fetched here, off the loop (a launch waits on it; nothing else does).
@@ -622,6 +640,7 @@ class ClassServer(BoundedServer):
         app.router.add_post("/lti/launch", self._lti_launch)
         app.router.add_get("/api/lms", self._lms_desk)
         app.router.add_post("/api/lms/roster", self._lms_roster)
+        app.router.add_post("/api/lms/again", self._lms_again)
 
     @web.middleware
     async def _keeping(self, request: web.Request, handler: Callable[..., Any]) -> web.StreamResponse:
@@ -1071,14 +1090,14 @@ class ClassServer(BoundedServer):
     def _page_policy(self) -> str:
         """The pages' policy: :data:`PAGE_POLICY`, with the robots' live views framed, and the LMS framing the pages.
 
-        An LMS launches the tool in a frame of its own: its origin (its issuer's) may frame the pages.
+        An LMS launches the tool in a frame of its own: its origins (its issuer's, those lti-config was given with
+        ``--frame-origin``, and those of the services its teacher's launches named) may frame the pages.
         """
         policy = PAGE_POLICY
         if self.lti is not None:
-            parts = urllib.parse.urlsplit(self.lti.platform.issuer)
-            lms = f"{parts.scheme}://{parts.netloc}" if parts.scheme in ("http", "https") and parts.netloc else ""
-            if lms:
-                policy = policy.replace("frame-ancestors 'none'", f"frame-ancestors {lms}")
+            framing = " ".join(frame_origins(self.lti.platform, *self._lms_urls))
+            if framing:
+                policy = policy.replace("frame-ancestors 'none'", f"frame-ancestors {framing}")
         if self.robots is None:
             return policy
         views = " ".join(origin for port in self.robots.view_ports() for origin in origins(self.host, port))
@@ -1098,10 +1117,18 @@ class ClassServer(BoundedServer):
         if request.method == "POST":
             if request.content_length is not None and request.content_length > LTI_MOST_BYTES:
                 return _refusal(413, f"an LTI form is at most {LTI_MOST_BYTES:,} bytes")
+            counted = LTI_MOST_BYTES
+            if self._reading_bytes + counted > self.bodies_read_bytes:
+                return _come_back(503, "the server is reading many requests at once: send yours again in a moment", 1)
+            self._reading_bytes += counted
             try:
-                body = await asyncio.wait_for(request.content.read(LTI_MOST_BYTES + 1), self.body_deadline_s)
+                body = await asyncio.wait_for(_whole(request.content, LTI_MOST_BYTES + 1), self.body_deadline_s)
             except TimeoutError:
                 return _refusal(408, f"the form was not sent within {self.body_deadline_s:g} s")
+            except (web.RequestPayloadError, ConnectionError):
+                return _refusal(400, "the form could not be read")
+            finally:
+                self._reading_bytes -= counted
             if len(body) > LTI_MOST_BYTES:
                 return _refusal(413, f"an LTI form is at most {LTI_MOST_BYTES:,} bytes")
             try:
@@ -1124,8 +1151,8 @@ class ClassServer(BoundedServer):
             return _refusal(401, f"LTI login refused: {err}")
         answer = web.Response(status=302, headers={"Location": address, **NO_STORE})
         answer.set_cookie(
-            STATE_COOKIE, state, max_age=int(STATE_S), path="/", httponly=True, secure=True, samesite="None"
-        )  # fmt: skip - the launch is a post from the LMS's site
+            state_cookie(state), state, max_age=int(STATE_S), path="/", httponly=True, secure=True, samesite="None"
+        )  # fmt: skip - the launch is a post from the LMS's site; a cookie each, so that two tabs' logins both hold
         return answer
 
     async def _lti_launch(self, request: web.Request) -> web.StreamResponse:
@@ -1140,7 +1167,8 @@ class ClassServer(BoundedServer):
             return given
         lti, loop = self.lti, asyncio.get_running_loop()
         try:  # the state first: a launch this tool gave no login costs no fetch of the LMS's keys
-            nonce = lti.claim(given.get("state", ""), request.cookies.get(STATE_COOKIE, ""))
+            state = given.get("state", "")
+            nonce = lti.claim(state, request.cookies.get(state_cookie(state), "") if state else "")
             course = json.loads(self.store.setting(lms.COURSE, "{}")).get("id", "")
             jwks = await loop.run_in_executor(self._lti_keys, lti.keys) if lti.needs_fetch() else lti.keys()
             try:
@@ -1162,15 +1190,21 @@ class ClassServer(BoundedServer):
                 answer = web.Response(status=303, headers={"Location": f"/#code={code}", **NO_STORE})
         except LaunchRefused as err:
             return _refusal(401, f"LTI launch refused: {err}")
-        answer.del_cookie(STATE_COOKIE, path="/")
+        answer.del_cookie(state_cookie(state), path="/", secure=True, samesite="None")
         return answer
 
     def _lti_keep(self, launch: Launch) -> None:
-        """Keeps what a launch says of the course's services (where its roster and its line items are)."""
+        """Keeps what a teacher's launch says of the course's services (where its roster and its line items are).
+
+        A learner's launch changes none (another graded link of the course would send the marks to its column).
+        The link's own line item is the first one given, kept until it is gone (its column deleted).
+        """
+        kept = self.store.setting(lms.LINK_LINEITEM_URL)
         for key, value in ((lms.MEMBERSHIPS_URL, launch.memberships_url), (lms.LINEITEMS_URL, launch.lineitems_url),
-                           (lms.LINK_LINEITEM_URL, launch.lineitem_url)):  # fmt: skip
+                           (lms.LINK_LINEITEM_URL, "" if kept else launch.lineitem_url)):  # fmt: skip
             if value and self.store.setting(key) != value:
                 self.store.set_setting(key, value)
+                self._lms_urls = (*self._lms_urls, value)[-8:]
                 if self.lms_link is not None:  # marks that waited for where the gradebook is
                     self.lms_link.nudge()
 
@@ -1220,6 +1254,8 @@ class ClassServer(BoundedServer):
         )
         parts = urllib.parse.urlsplit(back)
         policy = self._page_policy().replace("form-action 'none'", f"form-action {parts.scheme}://{parts.netloc}")
+        if f"{parts.scheme}://{parts.netloc}" not in policy.split("frame-ancestors", 1)[-1]:  # the LMS framing it
+            policy = policy.replace("frame-ancestors ", f"frame-ancestors {parts.scheme}://{parts.netloc} ")
         headers = {"Content-Security-Policy": policy, **NO_STORE}
         return web.Response(text=page, content_type="text/html", headers=headers)
 
@@ -1229,7 +1265,6 @@ class ClassServer(BoundedServer):
         Raises:
             LaunchRefused: their id is another LMS person's.
         """
-        self._lti_keep(launch)
         student = lms.admit(self.store, launch.subject, lms.student_id(launch.subject, launch.roster_id), launch.name)
         self._loop.call_soon_threadsafe(self._change, student)
         self._lms_mark(student)  # a mark of theirs from before the LMS knew them
@@ -1274,13 +1309,23 @@ class ClassServer(BoundedServer):
             "scores": lms.scores_said(self.store),
         }
 
+    async def _lms_again(self, request: web.Request) -> web.Response:
+        """Sends the marks the LMS refused again (``POST /api/lms/again``), the teacher having mended why."""
+        if not self._teacher(request):
+            return _refusal(401, "the teacher's token is needed")
+        if self.lms_link is None:
+            return _refusal(409, "the class sends no marks to an LMS (docs/lms.md)")
+        again = await asyncio.get_running_loop().run_in_executor(self._chores, self.lms_link.send_again)
+        self._change()
+        return _json({"again": again})
+
     async def _lms_roster(self, request: web.Request) -> web.Response:
         """Reads the LMS's roster anew (``POST /api/lms/roster``); the teacher's alone. Answered at once (202)."""
         if not self._teacher(request):
             return _refusal(401, "the teacher's token is needed")
         if self.lms_link is None:
             return _refusal(409, "the class has no LMS with a roster: give lti-config its --token-url (docs/lms.md)")
-        self.lms_link.nudge(roster=True)
+        self.lms_link.nudge(roster=True, now=True)
         return _json({"ok": True}, 202)
 
     def _public_url(self, request: web.Request) -> str:

@@ -55,6 +55,8 @@ class FakeLms:
         self.names: dict[str, str] = {"t-1": "Grace Hopper"}  # the names of those who follow the course's link
         self.deep_links: list[dict] = []  # the tool's deep-linking answers, checked
         self.delay_s = 0.0  # how long each answer takes to begin (an LMS far away)
+        self.moved = False  # the score address answers with a redirect
+        self.broken_items = False  # the line items' address answers with what is not JSON
         self.asked_for: list[str] = []  # each request's method and path
         self.lock = threading.Lock()
         self.http = self._serve(0)
@@ -225,6 +227,8 @@ class FakeLms:
             if "lineitem" not in scope:
                 return _send(handler, 403, {"error": "scope"})
             if method == "GET":
+                if self.broken_items:  # a PHP notice, or a proxy's page, where JSON was asked for
+                    return _send(handler, 200, None, {}, b"<html>Notice: Undefined index</html>")
                 with self.lock:
                     items = list(self.items.values())
                 return _send(handler, 200, items)  # the filter left to the tool (some LMSes ignore it)
@@ -240,6 +244,10 @@ class FakeLms:
             if handler.headers.get("Content-Type") != "application/vnd.ims.lis.v1.score+json":
                 return _send(handler, 415, {"error": "type"})
             score = json.loads(body)
+            if self.moved:
+                return _send(handler, 302, None, {"Location": f"{self.base}/moved"})
+            if self.members and score["userId"] not in {m["user_id"] for m in self.members}:
+                return _send(handler, 422, {"error": "no such user in the course"})
             with self.lock:
                 if number not in self.items:
                     return _send(handler, 404, {"error": "no such line item"})
@@ -266,8 +274,9 @@ class FakeLms:
         return _send(handler, 200, {"access_token": token, "token_type": "Bearer", "expires_in": 3600})
 
 
-def _send(handler: http.server.BaseHTTPRequestHandler, status: int, data, headers: dict | None = None) -> None:
-    body = b"" if data is None else json.dumps(data).encode()
+def _send(handler: http.server.BaseHTTPRequestHandler, status: int, data, headers: dict | None = None,
+          raw: bytes = b"") -> None:  # fmt: skip
+    body = raw if data is None else json.dumps(data).encode()
     handler.send_response(status)
     handler.send_header("Content-Type", "application/json")
     handler.send_header("Content-Length", str(len(body)))

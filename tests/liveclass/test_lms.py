@@ -159,7 +159,9 @@ def test_300_scores_are_sent_each_once_and_an_lms_down_for_a_minute_gets_each_on
         store.close()
 
 
-def test_a_score_the_lms_refuses_is_kept_refused_with_its_reason_and_not_sent_again(tmp_path, platform):
+def test_a_score_the_lms_refuses_is_kept_refused_and_what_is_the_link_s_fault_keeps_the_marks_waiting(
+    tmp_path, platform
+):
     platform.enrol(2)
     server, store = open_class(tmp_path, platform)
     server.lms_link.stop()
@@ -168,14 +170,49 @@ def test_a_score_the_lms_refuses_is_kept_refused_with_its_reason_and_not_sent_ag
         link = lms.LmsLink(store, lms.LmsServices(server.lti), "autonomy:garage", "Park", 10.0, VirtualClock())
         link.nudge(roster=True)
         link.round(0.0)
-        store.set_setting(lms.LINK_LINEITEM_URL, f"{platform.base}/courses/7/lineitems/99")  # none such
-        assert lms.queue_score(store, "00000", 5, 10, "x") and not lms.queue_score(store, "nobody", 5, 10, "x")
+        lms.take_roster(store, [lms.Member("u-gone", "Gone", "", False, True)])  # the LMS does not know them now
+        assert lms.queue_score(store, "lms:u-gone", 5, 10, "x") and not lms.queue_score(store, "nobody", 5, 10, "x")
         link.round(0.0)
         said = lms.scores_said(store)
-        assert said["refused"] == 1 and "404" in said["last"][0]["refused"] and said["waiting"] == 0
+        assert said["refused"] == 1 and "422" in said["last"][0]["refused"] and said["waiting"] == 0
         asked = len(platform.asked_for)
         link.round(1000.0)
         assert len(platform.asked_for) == asked  # not sent again
+        # the link's faults are not the marks': each waits, and is sent once the link is mended
+        lms.queue_score(store, "00000", 7, 10, "y")
+        for fault, said in ((lambda: setattr(platform, "moved", True), "(302"),
+                            (lambda: setattr(platform, "broken_items", True), "not JSON")):  # fmt: skip
+            platform.moved = platform.broken_items = False
+            store.set_setting(lms.LINEITEM_URL, "")
+            fault()
+            link.round(2000.0)
+            assert said in link.problem and lms.scores_said(store)["waiting"] == 1, link.problem
+        platform.moved = platform.broken_items = False
+        assert "/moved" not in [asked.split()[1] for asked in platform.asked_for]  # no redirect followed
+        store.set_setting(lms.LINEITEM_URL, f"{platform.base}/courses/7/lineitems/99")  # the column deleted
+        link.round(3000.0)
+        assert lms.scores_said(store)["waiting"] == 1 and store.setting(lms.LINEITEM_URL) == ""
+        link.round(4000.0)  # found or made anew
+        assert [s["userId"] for s in platform.sent()] == ["u-0"] and lms.scores_said(store)["refused"] == 1
+        assert link.send_again() == 1 and lms.scores_said(store)["waiting"] == 1  # the teacher's "send again"
+    finally:
+        server.stop()
+        store.close()
+
+
+def test_a_link_whose_round_fails_unforeseen_keeps_going_and_says_why(tmp_path, platform):
+    server, store = open_class(tmp_path, platform)
+    try:
+        link = server.lms_link
+
+        def broken(now_s: float) -> float:
+            raise RuntimeError("a fault nobody foresaw")
+
+        link.round, kept = broken, link.round
+        link.nudge()
+        until(lambda: "RuntimeError: a fault nobody foresaw" in link.problem)
+        assert link._thread.is_alive()
+        link.round = kept
     finally:
         server.stop()
         store.close()
@@ -189,6 +226,16 @@ def test_the_tool_s_assertion_is_checked_and_a_course_without_services_says_so(t
         said = until(lambda: desk(server)["problem"])
         assert "refused an access token (401" in said
         assert json.loads(store.setting(lms.COURSE))["id"] == COURSE
+        # a mark meanwhile waits (the token is the link's fault, not the mark's), and goes once the LMS trusts the tool
+        platform.enrol(1)
+        lms.take_roster(store, [lms.Member("u-0", "Student 0", "00000", False, True)])
+        store.add_work("00000", "handin", "mission", {}, 6.0, GARAGE.max_points)
+        server._lms_mark("00000")
+        until(lambda: desk(server)["scores"]["waiting"] == 1)
+        assert desk(server)["scores"]["refused"] == 0
+        platform.tool_jwks_url = f"{server.url}lti/jwks"
+        assert call(server, "/api/lms/again", code="teacher-token")[0] == 200  # the desk's button tries again now
+        until(lambda: len(platform.sent()) == 1)
     finally:
         server.stop()
         store.close()

@@ -20,11 +20,11 @@ import pytest
 from cryptography.hazmat.primitives.asymmetric import rsa
 
 from autonomy.liveclass import lms as lms_module
-from autonomy.liveclass.lti import LtiTool, ToolKey
+from autonomy.liveclass.lti import LtiTool, ToolKey, state_cookie
 from autonomy.liveclass.server import TEACHER_TOKEN, ClassServer
 from autonomy.liveclass.store import ClassStore, token_digest
 from tests.cli.test_cli import autonomy
-from tests.liveclass.lms_platform import CLIENT, COURSE, DEPLOYMENT, INSTRUCTOR, ISSUER, LEARNER, LTI, FakeLms
+from tests.liveclass.lms_platform import AGS, CLIENT, COURSE, DEPLOYMENT, INSTRUCTOR, ISSUER, LEARNER, LTI, FakeLms
 from tests.liveclass.test_server import GARAGE, call
 
 
@@ -56,7 +56,8 @@ def login(server, **given: str) -> tuple[str, str, str]:
     )  # fmt: skip
     assert asked["redirect_uri"].endswith("/lti/launch")
     cookie = headers["set-cookie"].split(";")[0]
-    assert cookie == f"__Host-autonomy-lti-state={asked['state']}" and "HttpOnly" in headers["set-cookie"]
+    assert cookie == f"{state_cookie(asked['state'])}={asked['state']}" and "HttpOnly" in headers["set-cookie"]
+    assert cookie.startswith("__Host-")
     assert "Path=/;" in headers["set-cookie"] + ";" and "Secure" in headers["set-cookie"]  # a __Host- cookie's
     return asked["state"], asked["nonce"], cookie
 
@@ -323,7 +324,7 @@ def test_a_junk_launch_costs_no_fetch_and_a_flood_of_logins_pushes_out_no_real_o
         login(server)
     made_up = "x" * 20 + "." + str(int(time.time()) + 60) + "." + "0" * 32
     said = refusal(request(server, "POST", "/lti/launch", {"id_token": "junk", "state": made_up},
-                           f"__Host-autonomy-lti-state={made_up}"))  # fmt: skip
+                           f"{state_cookie(made_up)}={made_up}"))  # fmt: skip
     assert "state this tool did not give" in said and lms.asked == 0  # refused before any key was asked for
     form = {"id_token": lms.id_token(nonce), "state": state}
     assert request(server, "POST", "/lti/launch", form, cookie)[0] == 303 and lms.asked == 1
@@ -455,3 +456,54 @@ def test_a_teacher_adds_the_class_to_the_course_by_deep_linking_and_a_learner_ca
     assert "only a teacher of the course" in refusal(launch(server, lms, **lms.deep_linking()))
     settings = "https://purl.imsglobal.org/spec/lti-dl/claim/deep_linking_settings"
     assert "without its settings" in refusal(launch(server, lms, **teacher, **{**lms.deep_linking(), settings: None}))
+
+
+def test_a_form_in_pieces_two_tabs_logins_a_learner_s_other_link_and_an_overlong_sub(served, lms):
+    import socket
+
+    server, _ = served
+    state, nonce, cookie = login(server)
+    body = urllib.parse.urlencode({"id_token": lms.id_token(nonce), "state": state}).encode()
+    with socket.create_connection(("127.0.0.1", server.port), timeout=30) as sock:  # the form in two pieces
+        head = (f"POST /lti/launch HTTP/1.1\r\nHost: 127.0.0.1:{server.port}\r\nCookie: {cookie}\r\n"
+                f"Content-Type: application/x-www-form-urlencoded\r\nContent-Length: {len(body)}\r\n"
+                "Connection: close\r\n\r\n")  # fmt: skip
+        sock.sendall(head.encode() + body[:100])
+        time.sleep(0.3)
+        sock.sendall(body[100:])
+        answer = sock.makefile("rb").readline()
+    assert b" 303 " in answer, answer
+    # two tabs' logins in one browser: each keeps its cookie, and both launches hold
+    first, second = login(server), login(server)
+    both = f"{first[2]}; {second[2]}"
+    for state, nonce, _ in (second, first):
+        form = {"id_token": lms.id_token(nonce), "state": state}
+        assert request(server, "POST", "/lti/launch", form, both)[0] == 303
+    # a learner's launch of another graded link does not send the class's marks to its column
+    own = {AGS: {"lineitems": f"{lms.base}/li", "lineitem": f"{lms.base}/li/1"}}
+    launch(server, lms, sub="t-1", **{LTI + "roles": [INSTRUCTOR], LTI + "lis": None, **own})
+    launch(server, lms, **{AGS: {"lineitems": f"{lms.base}/li", "lineitem": f"{lms.base}/li/99"}})
+    assert server.store.setting(lms_module.LINK_LINEITEM_URL) == f"{lms.base}/li/1"
+    assert "255 characters" in refusal(launch(server, lms, sub="u" * 256, **{LTI + "lis": None}))
+
+
+def test_the_pages_may_be_framed_by_the_lms_s_own_pages_where_they_are_not_its_issuer_s(tmp_path, lms):
+    folder = tmp_path / "class"
+    given = ["--issuer", ISSUER, "--client-id", CLIENT, "--auth-url", f"{ISSUER}/auth", "--jwks-url", f"{ISSUER}/k",
+             "--deployment-id", DEPLOYMENT]  # fmt: skip
+    bad = autonomy("class", "lti-config", "--dir", str(folder), *given, "--frame-origin", "https://x.example/path")
+    assert bad.returncode == 2 and "an origin" in bad.stderr
+    made = autonomy("class", "lti-config", "--dir", str(folder), *given, "--frame-origin", "https://school.example")
+    assert made.returncode == 0, made.stderr
+    from autonomy.liveclass.lti import read_platform
+
+    store = ClassStore(folder)
+    server = ClassServer(GARAGE, store, folder, port=0, grader=never_graded,
+                         lti=LtiTool(read_platform(folder), ToolKey(folder)))  # fmt: skip
+    server.start()
+    try:
+        status, headers, _ = request(server, "GET", "/")
+        assert f"frame-ancestors {ISSUER} https://school.example" in headers["content-security-policy"]
+    finally:
+        server.stop()
+        store.close()

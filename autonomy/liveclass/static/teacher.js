@@ -367,6 +367,7 @@ async function drawLms() {
     const scores = lms.scores;
     $("lms-scores").textContent =
       `${scores.sent} sent, ${scores.waiting} waiting` + (scores.refused ? `, ${scores.refused} refused by the LMS` : "") + ".";
+    $("lms-again").hidden = !scores.refused;
     $("lms-problem").textContent = lms.problem;
     $("lms-problem").className = lms.problem ? "error" : "quiet";
     $("lms-table").hidden = !scores.last.length;
@@ -392,6 +393,13 @@ async function drawLms() {
       drawLms();
     }
   }
+}
+
+async function sendAgain() {
+  const answer = await api("POST", "/api/lms/again");
+  const data = await answer.json();
+  $("lms-problem").textContent = answer.status === 200 ? `${count(data.again, "refused mark")} sent again.` : data.error;
+  $("lms-problem").className = answer.status === 200 ? "quiet" : "error";
 }
 
 async function readRoster() {
@@ -450,6 +458,7 @@ $("deadline-set").addEventListener("click", () => {
 $("close-now").addEventListener("click", () => setDeadline("now")); // the server's clock, not this one's
 $("reopen").addEventListener("click", () => setDeadline(null));
 $("lms-roster-read").addEventListener("click", readRoster);
+$("lms-again").addEventListener("click", sendAgain);
 for (const id of ["export-csv", "export-gradescope", "export-feedback"]) {
   $(id).addEventListener("click", () => download($(id).dataset.file));
 }
