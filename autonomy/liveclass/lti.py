@@ -316,12 +316,13 @@ def canvas_config(base_url: str, title: str) -> dict[str, Any]:
                 "platform": "canvas.instructure.com",
                 "privacy_level": "public",
                 "settings": {
-                    "placements": [
+                    "placements": [  # the teacher adds the class by deep linking, as a module's item or an assignment
                         {
-                            "placement": "link_selection",
-                            "message_type": "LtiResourceLinkRequest",
+                            "placement": placement,
+                            "message_type": "LtiDeepLinkingRequest",
                             "target_link_uri": urls["tool_url"],
                         }
+                        for placement in ("link_selection", "assignment_selection")
                     ]
                 },  # fmt: skip
             }

@@ -219,6 +219,10 @@ def test_lti_config_prints_what_the_lms_admin_pastes_and_keeps_the_lms_s_details
     canvas = json.loads(shown.stdout[shown.stdout.index("{") :])
     assert canvas["oidc_initiation_url"] == "https://class.school.example/lti/login"
     assert canvas["public_jwk_url"] == "https://class.school.example/lti/jwks"
+    placements = canvas["extensions"][0]["settings"]["placements"]
+    assert {(p["placement"], p["message_type"]) for p in placements} == {
+        ("link_selection", "LtiDeepLinkingRequest"), ("assignment_selection", "LtiDeepLinkingRequest")
+    }  # fmt: skip
     given = ["--issuer", ISSUER, "--client-id", CLIENT, "--auth-url", f"{ISSUER}/auth", "--jwks-url", f"{ISSUER}/k"]
     partial = autonomy("class", "lti-config", "--dir", str(folder), *given)
     assert partial.returncode == 2 and len(partial.stderr.strip().splitlines()) == 1
