@@ -226,6 +226,12 @@ def queue_score(store: ClassStore, student: str, given: float, maximum: float, c
     subject = subject_of(store, student)
     if not subject:
         return False
+    last = store.read(
+        "SELECT given, maximum, comment FROM lms_scores WHERE student = ? AND refused = '' ORDER BY id DESC LIMIT 1",
+        (student,),
+    )
+    if last and tuple(last[0]) == (given, maximum, comment):
+        return True  # the LMS has it, or will: a launch or a new reading does not send it again
     at = datetime.datetime.fromtimestamp(wall_time_s(), datetime.UTC).isoformat(timespec="milliseconds")
     store.write(
         [

@@ -482,7 +482,10 @@ class ClassStore:
         return _work(rows[0]) if rows else None
 
     def summary(self, students: Collection[str] | None = None) -> list[dict[str, Any]]:
-        """The class table: per student on the roster, sign-in, runs, hand-ins, last hand-in's marks, last problem.
+        """The class table: per student on the roster, sign-in, runs, hand-ins, marks, last problem.
+
+        The marks are their last graded hand-in's, as the gradebook counts them: a hand-in refused for a
+        problem after it (its text not a mission) leaves them as they were, and the last problem says why.
 
         The last problem is their last run's or hand-in's: empty once one has none. Runs and hand-ins are those
         answered: one still grading, or that the server failed (its disk full, say), is not counted.
@@ -498,9 +501,6 @@ class ClassStore:
 
     def _summary(self, students: list[str] | None) -> list[dict[str, Any]]:
         chosen = "" if students is None else f" AND s.id IN ({', '.join('?' * len(students))})"
-        last_handin = (
-            f"FROM works w WHERE w.student = s.id AND w.kind = 'handin' AND {_ANSWERED} ORDER BY w.id DESC LIMIT 1"
-        )
         last_graded_handin = (
             "FROM works w WHERE w.student = s.id AND w.kind = 'handin' AND w.total IS NOT NULL "
             "ORDER BY w.id DESC LIMIT 1"
@@ -509,7 +509,7 @@ class ClassStore:
             "SELECT s.id, s.name, s.signed_in, "
             f"(SELECT COUNT(*) FROM works w WHERE w.student = s.id AND w.kind = 'run' AND {_ANSWERED}), "
             f"(SELECT COUNT(*) FROM works w WHERE w.student = s.id AND w.kind = 'handin' AND {_ANSWERED}), "
-            f"(SELECT w.total {last_handin}), (SELECT w.max_points {last_handin}), "  # noqa: S608 - our own text
+            f"(SELECT w.total {last_graded_handin}), (SELECT w.max_points {last_graded_handin}), "  # noqa: S608
             "(SELECT w.problem FROM works w WHERE w.student = s.id ORDER BY w.id DESC LIMIT 1), "
             "(SELECT MAX(w.id) FROM works w WHERE w.student = s.id), "
             "(SELECT MAX(w.id) FROM works w WHERE w.student = s.id AND w.total IS NOT NULL), "

@@ -17,7 +17,7 @@ from autonomy.liveclass.store import ClassStore, token_digest
 from tests.liveclass.lms_platform import COURSE, INSTRUCTOR, LTI, FakeLms
 from tests.liveclass.test_lti import code_of, launch, never_graded
 from tests.liveclass.test_robots import until
-from tests.liveclass.test_server import GARAGE, SOLUTION, call
+from tests.liveclass.test_server import GARAGE, SOLUTION, TYPO, call
 
 PUBLIC = "https://class.school.example"
 
@@ -252,3 +252,31 @@ def test_a_class_served_again_with_its_roster_file_keeps_the_lms_s_students(tmp_
     with pytest.raises(lms.LaunchRefused):
         lms.admit(store, "u-3", "1001", "Mallory")
     store.close()
+
+
+def test_the_mark_sent_and_shown_is_the_gradebook_s_though_a_hand_in_with_a_problem_came_after(tmp_path, platform):
+    import csv
+    import io
+
+    platform.enrol(1)
+    server, store = open_class(tmp_path, platform, grader=None)
+    try:
+        teacher_opens(server, platform)
+        until(lambda: desk(server)["roster"])
+        status, headers, _ = launch(server, platform, sub="u-0", **{LTI + "lis": {"person_sourcedid": "00000"}})
+        code = code_of(headers, "/#")
+        status, graded = call(server, "/api/handin", {"mission": SOLUTION}, code)
+        assert status == 200 and graded["ok"], graded
+        assert call(server, "/api/handin", {"mission": TYPO}, code)[0] == 422  # a hand-in with a problem, after
+        (row,) = store.summary(["00000"])
+        assert (row["total"], row["handins"]) == (graded["total"], 2) and "mvoe" in row["last_problem"]
+        (line,) = csv.DictReader(io.StringIO(server._gradebook()))
+        assert float(line["total"]) == graded["total"]  # the table's mark is the gradebook's
+        (sent,) = until(platform.sent)
+        assert sent["scoreGiven"] == graded["total"]
+        store.add_work("00000", "handin", "x", {}, problem="line 1, column 1: no tree")  # another, kept as it was
+        server._lms_mark("00000")  # as a robot's mark or a launch would: the same mark, not sent again, nor nothing
+        assert lms.scores_said(store)["waiting"] == 0 and len(platform.sent()) == 1
+    finally:
+        server.stop()
+        store.close()
