@@ -164,6 +164,11 @@ def _serve(
         said = f"LMS: {lti.platform.issuer} launches the class (LTI 1.3, client id {lti.platform.client_id}); "
         course = lti.platform.course_id or json.loads(store.setting("lms.course", "{}")).get("id", "")
         said += f"course {course}; " if course else "its teacher opens its link in the course first; "
+        said += (
+            "roster and marks by its token URL; " if lti.platform.token_url else "no roster or marks (no token URL); "
+        )
+        said += f"answering at {lti.platform.public_url or args.public_url}; " if (
+            lti.platform.public_url or args.public_url) else ""  # fmt: skip
         said += f"codes sign in too; the tool's addresses: autonomy class lti-config --dir {folder}"
         print(_shown(said), file=sys.stderr)
     if args.robots:
@@ -204,6 +209,31 @@ def _lti_of(folder: Path) -> Any:
         return _fail(str(err), EXIT_USAGE)
 
 
+def _address_wrong(url: str) -> str:
+    """Why ``url`` is not an address the LMS can reach the class or be reached at; empty: it is one."""
+    import ipaddress
+    import urllib.parse
+
+    try:
+        parts = urllib.parse.urlsplit(url)
+        port = parts.port
+    except ValueError:
+        return "its port is not a number from 1 to 65535"
+    if parts.scheme not in ("http", "https") or not parts.hostname:
+        return "an address starting https://"
+    if any(c.isspace() or not c.isprintable() for c in url) or parts.query or parts.fragment or port == 0:
+        return "an address with no space, query (?) or fragment (#)"
+    if parts.scheme == "http":
+        host = parts.hostname
+        try:
+            here = host == "localhost" or ipaddress.ip_address(host).is_loopback
+        except ValueError:
+            here = False
+        if not here:
+            return "https:// (http:// only on this machine: the LMS and the sign-in's cookie need HTTPS)"
+    return ""
+
+
 def cmd_class_lti_config(args: argparse.Namespace) -> int:
     """Prints what an LMS's admin pastes in to add the class as an LTI 1.3 tool; keeps the LMS's details if given."""
     import dataclasses
@@ -214,26 +244,30 @@ def cmd_class_lti_config(args: argparse.Namespace) -> int:
         Platform,
         ToolKey,
         canvas_config,
+        frame_origins,
         read_platform,
         tool_urls,
         write_platform,
     )
 
     folder = Path(args.dir)
-    base = args.public_url or f"http://{args.host}:{args.port}"
-    for name, url in (("--public-url", base), ("--issuer", args.issuer), ("--auth-url", args.auth_url),
+    for name, url in (("--public-url", args.public_url), ("--issuer", args.issuer), ("--auth-url", args.auth_url),
                       ("--token-url", args.token_url), ("--jwks-url", args.jwks_url)):  # fmt: skip
-        if url and urllib.parse.urlsplit(url).scheme not in ("http", "https"):
-            return _fail(f"{name} {url!r}: an address starting https:// (or http:// on this machine)", EXIT_USAGE)
+        why = _address_wrong(url) if url else ""
+        if why and not (name == "--issuer" and urllib.parse.urlsplit(url).scheme in ("http", "https")):
+            return _fail(f"{name} {url!r}: {why}", EXIT_USAGE)
     for origin in args.frame_origin or []:
         parts = urllib.parse.urlsplit(origin)
-        if parts.scheme not in ("http", "https") or not parts.netloc or f"{parts.scheme}://{parts.netloc}" != origin:
+        if _address_wrong(origin) or f"{parts.scheme}://{parts.netloc}" != origin:
             return _fail(f"--frame-origin {origin!r}: an origin, such as https://school.instructure.com", EXIT_USAGE)
-    given = [args.issuer, args.client_id, args.auth_url, args.jwks_url, args.deployment_id]
-    if any(given) and not all(given):
+    named = {"--issuer": args.issuer, "--client-id": args.client_id, "--auth-url": args.auth_url,
+             "--jwks-url": args.jwks_url, "--deployment-id": args.deployment_id}  # fmt: skip
+    missing = [name for name, value in named.items() if not value]
+    if len(missing) not in (0, len(named)):
         return _fail(
-            "an LMS is given with --issuer, --client-id, --auth-url, --jwks-url and --deployment-id (each from its "
-            "admin's page of this tool); --token-url too, for its roster and gradebook",
+            f"the LMS's {', '.join(missing)} missing: an LMS is given with --issuer, --client-id, --auth-url, "
+            "--jwks-url and --deployment-id (each from its admin's page of this tool); --token-url too, for its "
+            "roster and gradebook",
             EXIT_USAGE,
         )
     try:
@@ -243,16 +277,20 @@ def cmd_class_lti_config(args: argparse.Namespace) -> int:
     except LtiError as err:
         return _fail(str(err), EXIT_USAGE)
     try:
-        if all(given):  # the LMS given anew: its file made again (a broken one too), what it tied kept
+        if not missing:  # the LMS given anew: its file made again (a broken one too), what else it kept kept
             kept = None
             with contextlib.suppress(LtiError):
                 kept = read_platform(folder)
             platform = Platform(args.issuer, args.client_id, args.auth_url, args.token_url or "", args.jwks_url,
                                 tuple(args.deployment_id), public_url=kept.public_url if kept else "",
-                                course_id=kept.course_id if kept else "")  # fmt: skip
+                                course_id=kept.course_id if kept else "",
+                                frame_origins=kept.frame_origins if kept else ())  # fmt: skip
             print(f"kept the LMS's settings in {write_platform(folder, platform)}", file=sys.stderr)
         platform = read_platform(folder)
-        if (args.public_url or args.course_id is not None or args.frame_origin) and platform is not None:
+        if platform is None and (args.course_id is not None or args.frame_origin):
+            why = "--course-id and --frame-origin are kept with the class's LMS: give the LMS first (--issuer ...)"
+            return _fail(why, EXIT_USAGE)
+        if platform is not None and (args.public_url or args.course_id is not None or args.frame_origin):
             platform = dataclasses.replace(
                 platform,
                 public_url=args.public_url or platform.public_url,
@@ -260,11 +298,20 @@ def cmd_class_lti_config(args: argparse.Namespace) -> int:
                 frame_origins=tuple(dict.fromkeys((*platform.frame_origins, *(args.frame_origin or [])))),
             )
             write_platform(folder, platform)
-        elif args.course_id is not None:
-            why = "--course-id ties the class to a course of its LMS: give the LMS first (--issuer ...)"
-            return _fail(why, EXIT_USAGE)
     except LtiError as err:
         return _fail(str(err), EXIT_USAGE)
+    if args.course_id is not None:  # the course a teacher's launch tied the class to is let go: this one rules
+        from autonomy.liveclass.lms import COURSE
+        from autonomy.liveclass.store import DATABASE, ClassStore, StoreError
+
+        if (folder / DATABASE).is_file():
+            try:
+                store = ClassStore(folder)
+                store.set_setting(COURSE, "{}")
+                store.close()
+            except StoreError as err:
+                return _fail(str(err), EXIT_USAGE)
+    base = args.public_url or (platform.public_url if platform else "") or f"http://{args.host}:{args.port}"
     urls = tool_urls(base)
     print("The tool (paste these into the LMS):")
     for label, name in (("Tool URL", "tool_url"), ("Login URL (OIDC initiation)", "login_url"),
@@ -280,6 +327,8 @@ def cmd_class_lti_config(args: argparse.Namespace) -> int:
         course = f"course {platform.course_id}" if platform.course_id else "the course its teacher first opens it from"
         print(f"  the class is {course}; roster and marks {'by ' + platform.token_url if platform.token_url else 'not'}"
               f"{'' if platform.token_url else ' read or sent (no --token-url)'}")  # fmt: skip
+        print(f"  the class answers at {platform.public_url or 'the address each request names (no --public-url)'}"
+              f"; its pages may be framed by {', '.join(frame_origins(platform))}")  # fmt: skip
     print("Canvas (Developer Keys, LTI key, Method: Paste JSON):")
     print(json.dumps(canvas_config(base, args.title), indent=2))
     return EXIT_OK

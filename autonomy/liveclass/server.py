@@ -1301,7 +1301,11 @@ class ClassServer(BoundedServer):
         link = self.lms_link
         return {
             "lms": self.lti.platform.issuer if self.lti is not None else None,
-            "course": json.loads(self.store.setting(lms.COURSE, "{}")) or None,
+            "course": (
+                {"id": self.lti.platform.course_id, "title": ""}
+                if self.lti is not None and self.lti.platform.course_id
+                else json.loads(self.store.setting(lms.COURSE, "{}")) or None
+            ),
             "instructors": lms.instructors(self.store),
             "roster": json.loads(self.store.setting(lms.ROSTER_READ, "{}")) or None,
             "services": link is not None,

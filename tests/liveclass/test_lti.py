@@ -511,3 +511,35 @@ def test_the_pages_may_be_framed_by_the_lms_s_own_pages_where_they_are_not_its_i
     finally:
         server.stop()
         store.close()
+
+
+def test_lti_config_run_again_keeps_what_it_kept_unties_a_launch_s_course_and_names_what_is_missing(tmp_path, lms):
+    folder = tmp_path / "class"
+    given = ["--issuer", ISSUER, "--client-id", CLIENT, "--auth-url", f"{ISSUER}/auth", "--jwks-url", f"{ISSUER}/k",
+             "--deployment-id", DEPLOYMENT]  # fmt: skip
+    made = autonomy("class", "lti-config", "--dir", str(folder), *given, "--public-url", "https://robots.school.example",
+                    "--frame-origin", "https://school.example")  # fmt: skip
+    assert made.returncode == 0, made.stderr
+    again = autonomy("class", "lti-config", "--dir", str(folder), *given)  # the LMS given again: nothing lost
+    assert "Tool URL:                      https://robots.school.example/lti/launch" in again.stdout
+    assert "answers at https://robots.school.example; its pages may be framed by" in again.stdout
+    assert "https://school.example" in again.stdout
+    for bad, said in (
+        (["--public-url", "https://robots .school.example"], "no space"),
+        (["--public-url", "https://robots.school.example:99999"], "port"),
+        (["--public-url", "http://robots.school.example"], "HTTPS"),
+        (["--issuer", ISSUER, "--client-id", CLIENT], "--auth-url, --jwks-url, --deployment-id missing"),
+    ):
+        shown = autonomy("class", "lti-config", "--dir", str(tmp_path / "other"), *bad)  # fmt: skip
+        assert shown.returncode == 2 and said in shown.stderr and "Traceback" not in shown.stderr, shown.stderr
+        assert len(shown.stderr.strip().splitlines()) == 1
+    alone = autonomy("class", "lti-config", "--dir", str(tmp_path / "other"), "--frame-origin", "https://a.example")
+    assert alone.returncode == 2 and "give the LMS first" in alone.stderr
+    # a class a teacher's launch tied to a course is let go by --course-id ''
+    store = ClassStore(folder)
+    store.set_setting(lms_module.COURSE, json.dumps({"id": COURSE}))
+    store.close()
+    assert autonomy("class", "lti-config", "--dir", str(folder), "--course-id", "").returncode == 0
+    store = ClassStore(folder)
+    assert json.loads(store.setting(lms_module.COURSE, "{}")) == {}
+    store.close()
