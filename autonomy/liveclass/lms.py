@@ -40,7 +40,7 @@ from collections.abc import Callable
 from typing import Any
 
 from autonomy.clock import Clock, wait_event, wall_time_s
-from autonomy.liveclass.lti import LaunchRefused, LtiTool
+from autonomy.liveclass.lti import INSTRUCTOR_ROLES, LaunchRefused, LtiTool
 from autonomy.liveclass.store import ClassStore
 from autonomy.views.lines import printable
 
@@ -458,8 +458,6 @@ def _member(entry: object) -> Member | None:
     if len(entry["user_id"]) > MOST_SUBJECT_CHARS:
         return None  # not OpenID Connect's: never cut to another's
     roles = entry.get("roles") if isinstance(entry.get("roles"), list) else []
-    from autonomy.liveclass.lti import INSTRUCTOR_ROLES
-
     name = entry.get("name") or " ".join(str(entry.get(k) or "") for k in ("given_name", "family_name")).strip()
     sourced = entry.get("lis_person_sourcedid")
     return Member(

@@ -377,19 +377,6 @@ def page_text(name: str) -> str:
 NO_STORE = {"Cache-Control": "no-store"}
 
 
-async def _whole(content: Any, most: int) -> bytes:
-    """A body read to its end, or to ``most`` bytes (a read gives what has come so far: a form comes in pieces)."""
-    parts: list[bytes] = []
-    size = 0
-    while size < most:
-        piece = await content.read(most - size)
-        if not piece:
-            break
-        parts.append(piece)
-        size += len(piece)
-    return b"".join(parts)
-
-
 def _points(value: float | None) -> str:
     """Points as a comment to the LMS says them: hundredths at most, a dash for none."""
     return "-" if value is None else f"{round(value, 2):g}"
@@ -741,22 +728,27 @@ class ClassServer(BoundedServer):
             return True
         return self.lti is not None and self.store.teacher_session(token)  # an instructor's launch from the LMS
 
-    async def _body(self, request: web.Request) -> bytes | web.Response:
+    async def _body(self, request: web.Request, most: int = MAX_REQUEST_BYTES) -> bytes | web.Response:
         """A request's body, read against :attr:`body_deadline_s` within :attr:`bodies_read_bytes`; or the refusal.
 
         Read only once the student is known and has no other request under way: one student's
         requests whose bodies never end cost one connection, for the deadline.
+
+        Args:
+            request: The request.
+            most: The most bytes its body may be.
         """
         declared = request.content_length
-        if declared is not None and declared > MAX_REQUEST_BYTES:
-            return _refusal(413, f"the request is larger than {MAX_REQUEST_BYTES:,} bytes")
-        counted = MAX_REQUEST_BYTES if declared is None else declared
+        if declared is not None and declared > most:
+            return _refusal(413, f"the request is larger than {most:,} bytes")
+        counted = most if declared is None else declared
         if self._reading_bytes + counted > self.bodies_read_bytes:
             self._refused("bodies", "too many requests' bodies were being read at once; one was asked again later")
             return _come_back(503, "the server is reading many requests at once: send yours again in a moment", 1)
         self._reading_bytes += counted
         try:
-            return await asyncio.wait_for(request.read(), self.body_deadline_s)
+            body = await asyncio.wait_for(request.read(), self.body_deadline_s)
+            return body if len(body) <= most else _refusal(413, f"the request is larger than {most:,} bytes")
         except asyncio.TimeoutError:
             self._refused("slow bodies", "a request's body did not come whole in time; it was let go")
             return _refusal(408, f"the request's body did not come whole within {self.body_deadline_s:g} s")
@@ -1087,7 +1079,7 @@ class ClassServer(BoundedServer):
 
     # ------------------------------------------------------------------ pages
 
-    def _page_policy(self) -> str:
+    def _page_policy(self, *framing_urls: str) -> str:
         """The pages' policy: :data:`PAGE_POLICY`, with the robots' live views framed, and the LMS framing the pages.
 
         An LMS launches the tool in a frame of its own: its origins (its issuer's, those lti-config was given with
@@ -1095,7 +1087,7 @@ class ClassServer(BoundedServer):
         """
         policy = PAGE_POLICY
         if self.lti is not None:
-            framing = " ".join(frame_origins(self.lti.platform, *self._lms_urls))
+            framing = " ".join(frame_origins(self.lti.platform, *self._lms_urls, *framing_urls))
             if framing:
                 policy = policy.replace("frame-ancestors 'none'", f"frame-ancestors {framing}")
         if self.robots is None:
@@ -1115,22 +1107,9 @@ class ClassServer(BoundedServer):
         """A login's or launch's fields: the query's, and a form's body read against the deadline; or the refusal."""
         given = {key: value for key, value in request.query.items()}
         if request.method == "POST":
-            if request.content_length is not None and request.content_length > LTI_MOST_BYTES:
-                return _refusal(413, f"an LTI form is at most {LTI_MOST_BYTES:,} bytes")
-            counted = LTI_MOST_BYTES
-            if self._reading_bytes + counted > self.bodies_read_bytes:
-                return _come_back(503, "the server is reading many requests at once: send yours again in a moment", 1)
-            self._reading_bytes += counted
-            try:
-                body = await asyncio.wait_for(_whole(request.content, LTI_MOST_BYTES + 1), self.body_deadline_s)
-            except TimeoutError:
-                return _refusal(408, f"the form was not sent within {self.body_deadline_s:g} s")
-            except (web.RequestPayloadError, ConnectionError):
-                return _refusal(400, "the form could not be read")
-            finally:
-                self._reading_bytes -= counted
-            if len(body) > LTI_MOST_BYTES:
-                return _refusal(413, f"an LTI form is at most {LTI_MOST_BYTES:,} bytes")
+            body = await self._body(request, LTI_MOST_BYTES)
+            if isinstance(body, web.Response):
+                return body
             try:
                 given |= dict(urllib.parse.parse_qsl(body.decode("ascii"), max_num_fields=32))
             except (UnicodeDecodeError, ValueError):
@@ -1252,10 +1231,8 @@ class ClassServer(BoundedServer):
             added=html.escape(added, quote=True),
             none=html.escape(none, quote=True),
         )
-        parts = urllib.parse.urlsplit(back)
-        policy = self._page_policy().replace("form-action 'none'", f"form-action {parts.scheme}://{parts.netloc}")
-        if f"{parts.scheme}://{parts.netloc}" not in policy.split("frame-ancestors", 1)[-1]:  # the LMS framing it
-            policy = policy.replace("frame-ancestors ", f"frame-ancestors {parts.scheme}://{parts.netloc} ")
+        parts = urllib.parse.urlsplit(back)  # the LMS's page it goes back to frames it, and takes its forms
+        policy = self._page_policy(back).replace("form-action 'none'", f"form-action {parts.scheme}://{parts.netloc}")
         headers = {"Content-Security-Policy": policy, **NO_STORE}
         return web.Response(text=page, content_type="text/html", headers=headers)
 

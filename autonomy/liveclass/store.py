@@ -199,20 +199,14 @@ class ClassStore:
 
     def _write(self, statements: list[tuple[str, tuple[Any, ...]]]) -> int:
         """Runs ``statements`` in one transaction, committed before it returns; the last row id inserted."""
-        with self._lock:
-            try:
-                self._db.execute("BEGIN IMMEDIATE")
-                last = 0
-                for sql, values in statements:
-                    last = self._db.execute(sql, values).lastrowid or last
-                self._db.execute("COMMIT")
-            except BaseException as err:  # whatever it was, the next write starts on a clean transaction
-                if self._db.in_transaction:
-                    self._db.execute("ROLLBACK")
-                if isinstance(err, sqlite3.Error):
-                    raise StoreError(f"{self.folder / DATABASE}: cannot write: {err}") from err
-                raise
+
+        def run(db: sqlite3.Connection) -> int:
+            last = 0
+            for sql, values in statements:
+                last = db.execute(sql, values).lastrowid or last
             return last
+
+        return self.transact(run)
 
     def transact(self, work: Callable[[sqlite3.Connection], T]) -> T:
         """Runs ``work`` on the database in one transaction (its reads and writes, none other's between them)."""
@@ -221,7 +215,7 @@ class ClassStore:
                 self._db.execute("BEGIN IMMEDIATE")
                 done = work(self._db)
                 self._db.execute("COMMIT")
-            except BaseException as err:
+            except BaseException as err:  # whatever it was, the next write starts on a clean transaction
                 if self._db.in_transaction:
                     self._db.execute("ROLLBACK")
                 if isinstance(err, sqlite3.Error):

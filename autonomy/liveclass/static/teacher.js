@@ -75,31 +75,41 @@ async function follow() {
 
 // ------------------------------------------------------------------ the class at a glance
 
-let glancing = false; // a request for it under way
-let glanceAgain = false; // the class changed meanwhile: asked again once it is answered
-
-async function glance() {
-  if (glancing) {
-    glanceAgain = true;
-    return;
-  }
-  glancing = true;
-  try {
-    const answer = await api("GET", "/api/overview");
-    if (answer.status === 200) {
-      const data = await answer.json();
-      drawOverview($("overview"), data, (shown) => view(shown.student, shown.link, `latest run, ${shown.seed}`));
+/**
+ * `ask` made to run one at a time: asked while it runs, it runs once more when it ends (the class changed
+ * meanwhile), never twice at once. A failure is the class's own request's to say (the server cannot be reached).
+ */
+function oneAtATime(ask) {
+  let asking = false;
+  let again = false;
+  const run = async () => {
+    if (asking) {
+      again = true;
+      return;
     }
-  } catch (_) {
-    // the class's own request says when the server cannot be reached
-  } finally {
-    glancing = false;
-  }
-  if (glanceAgain) {
-    glanceAgain = false;
-    glance();
-  }
+    asking = true;
+    try {
+      await ask();
+    } catch (_) {
+      // the class's own request says when the server cannot be reached
+    } finally {
+      asking = false;
+    }
+    if (again) {
+      again = false;
+      run();
+    }
+  };
+  return run;
 }
+
+const glance = oneAtATime(async () => {
+  const answer = await api("GET", "/api/overview");
+  if (answer.status === 200) {
+    const data = await answer.json();
+    drawOverview($("overview"), data, (shown) => view(shown.student, shown.link, `latest run, ${shown.seed}`));
+  }
+});
 
 function draw(before) {
   $("no-token").hidden = true;
@@ -334,66 +344,48 @@ async function robotAction(action, name, body) {
 
 // ------------------------------------------------------------------ the school's LMS
 
-let lmsAsking = false; // a request for it under way
-let lmsAgain = false; // the class changed meanwhile: asked again once it is answered
-
 /** What the LMS was told and what waits: its course, its roster, the marks sent to its gradebook. */
-async function drawLms() {
-  if (lmsAsking) {
-    lmsAgain = true;
-    return;
-  }
-  lmsAsking = true;
-  try {
-    const answer = await api("GET", "/api/lms");
-    if (answer.status !== 200) return;
-    const lms = await answer.json();
-    $("lms").hidden = !lms.lms;
-    if (!lms.lms) return;
-    $("lms-course").textContent = lms.course
-      ? `${lms.lms}: the class is course ${lms.course.title || lms.course.id}'s.` +
-        (lms.instructors.length ? ` Its instructors: ${lms.instructors.join(", ")}.` : "")
-      : `${lms.lms}: the class is tied to no course yet. Open its link in your course once: it is tied to that course.`;
-    const roster = lms.roster;
-    $("lms-roster").textContent = !lms.services
-      ? "The roster and the gradebook are not used: the LMS's token URL is not given (autonomy class lti-config --token-url)."
-      : roster
-        ? `The roster was read at ${new Date(roster.read * 1000).toLocaleTimeString()}: ${count(roster.learners, "student")}, ` +
-          `${count(roster.instructors, "instructor")}` +
-          (roster.left ? `, ${roster.left} who left the course (taken off the class table, their work kept)` : "") +
-          (roster.clashes.length ? `; not taken, their id being another LMS person's: ${roster.clashes.join(", ")}` : "") + "."
-        : "The roster has not been read yet.";
-    $("lms-roster-read").hidden = !lms.services;
-    const scores = lms.scores;
-    $("lms-scores").textContent =
-      `${scores.sent} sent, ${scores.waiting} waiting` + (scores.refused ? `, ${scores.refused} refused by the LMS` : "") + ".";
-    $("lms-again").hidden = !scores.refused;
-    $("lms-problem").textContent = lms.problem;
-    $("lms-problem").className = lms.problem ? "error" : "quiet";
-    $("lms-table").hidden = !scores.last.length;
-    $("lms-table").tBodies[0].replaceChildren(
-      ...scores.last.map((s) => {
-        const state = s.refused ? `refused: ${s.refused}` : s.sent ? `sent at ${when(s.sent)}` : "waiting";
-        const tr = element("tr");
-        tr.append(
-          element("td", `${s.name} (${s.id})`),
-          element("td", `${number(s.given)} / ${number(s.maximum)}`),
-          element("td", when(s.marked)),
-          element("td", state),
-        );
-        return tr;
-      }),
-    );
-  } catch (_) {
-    // the server cannot be reached: the class's own loop says so, and this is asked again at its next change
-  } finally {
-    lmsAsking = false;
-    if (lmsAgain) {
-      lmsAgain = false;
-      drawLms();
-    }
-  }
-}
+const drawLms = oneAtATime(async () => {
+  const answer = await api("GET", "/api/lms");
+  if (answer.status !== 200) return;
+  const lms = await answer.json();
+  $("lms").hidden = !lms.lms;
+  if (!lms.lms) return;
+  $("lms-course").textContent = lms.course
+    ? `${lms.lms}: the class is course ${lms.course.title || lms.course.id}'s.` +
+      (lms.instructors.length ? ` Its instructors: ${lms.instructors.join(", ")}.` : "")
+    : `${lms.lms}: the class is tied to no course yet. Open its link in your course once: it is tied to that course.`;
+  const roster = lms.roster;
+  $("lms-roster").textContent = !lms.services
+    ? "The roster and the gradebook are not used: the LMS's token URL is not given (autonomy class lti-config --token-url)."
+    : roster
+      ? `The roster was read at ${new Date(roster.read * 1000).toLocaleTimeString()}: ${count(roster.learners, "student")}, ` +
+        `${count(roster.instructors, "instructor")}` +
+        (roster.left ? `, ${roster.left} who left the course (taken off the class table, their work kept)` : "") +
+        (roster.clashes.length ? `; not taken, their id being another LMS person's: ${roster.clashes.join(", ")}` : "") + "."
+      : "The roster has not been read yet.";
+  $("lms-roster-read").hidden = !lms.services;
+  const scores = lms.scores;
+  $("lms-scores").textContent =
+    `${scores.sent} sent, ${scores.waiting} waiting` + (scores.refused ? `, ${scores.refused} refused by the LMS` : "") + ".";
+  $("lms-again").hidden = !scores.refused;
+  $("lms-problem").textContent = lms.problem;
+  $("lms-problem").className = lms.problem ? "error" : "quiet";
+  $("lms-table").hidden = !scores.last.length;
+  $("lms-table").tBodies[0].replaceChildren(
+    ...scores.last.map((s) => {
+      const state = s.refused ? `refused: ${s.refused}` : s.sent ? `sent at ${when(s.sent)}` : "waiting";
+      const tr = element("tr");
+      tr.append(
+        element("td", `${s.name} (${s.id})`),
+        element("td", `${number(s.given)} / ${number(s.maximum)}`),
+        element("td", when(s.marked)),
+        element("td", state),
+      );
+      return tr;
+    }),
+  );
+});
 
 async function sendAgain() {
   const answer = await api("POST", "/api/lms/again");
