@@ -221,6 +221,8 @@ FEEDBACK_POLICY = "sandbox allow-scripts; frame-ancestors 'self'"
 #: An LTI login's or launch's form, at most (an id_token is a few kilobytes); how long a session it opens lasts (a
 #: school day); the longest id an LMS may give a student.
 LTI_MOST_BYTES = 64 * 1024
+#: The LMS's forms read at once, at most, in bytes (a sign-in's form comes in a moment: 64 at once is a crowd).
+LTI_BODIES_READ_BYTES = 64 * LTI_MOST_BYTES
 LTI_SESSION_S = 12 * 3600.0
 MAX_LTI_ID = 200
 #: The page a teacher adding the class to their course confirms on (its texts escaped; no script).
@@ -593,6 +595,8 @@ class ClassServer(BoundedServer):
         self._signed_in: set[str] = set()
         #: Bytes of the bodies being read now (see :data:`BODIES_READ_BYTES`).
         self._reading_bytes = 0
+        #: Bytes of the LMS's forms being read now, apart: anyone may post one (see :data:`LTI_BODIES_READ_BYTES`).
+        self._reading_lti_bytes = 0
         self.body_deadline_s = BODY_DEADLINE_S
         self.bodies_read_bytes = BODIES_READ_BYTES
         # a work is kept once graded, in one write; one kept as grading (by a server before that) is never finished
@@ -728,7 +732,9 @@ class ClassServer(BoundedServer):
             return True
         return self.lti is not None and self.store.teacher_session(token)  # an instructor's launch from the LMS
 
-    async def _body(self, request: web.Request, most: int = MAX_REQUEST_BYTES) -> bytes | web.Response:
+    async def _body(
+        self, request: web.Request, most: int = MAX_REQUEST_BYTES, lms_form: bool = False
+    ) -> bytes | web.Response:
         """A request's body, read against :attr:`body_deadline_s` within :attr:`bodies_read_bytes`; or the refusal.
 
         Read only once the student is known and has no other request under way: one student's
@@ -737,15 +743,24 @@ class ClassServer(BoundedServer):
         Args:
             request: The request.
             most: The most bytes its body may be.
+            lms_form: An LMS's login or launch form, posted by anyone's browser: read within a budget of its own
+                (:data:`LTI_BODIES_READ_BYTES`), so that forms that never end hold back no student's work.
         """
         declared = request.content_length
         if declared is not None and declared > most:
             return _refusal(413, f"the request is larger than {most:,} bytes")
         counted = most if declared is None else declared
-        if self._reading_bytes + counted > self.bodies_read_bytes:
+        if lms_form:
+            if self._reading_lti_bytes + counted > LTI_BODIES_READ_BYTES:
+                self._refused("lti bodies", "too many LMS forms were being read at once; one was asked again later")
+                return _come_back(503, "the class is reading many sign-ins at once: start yours again in a moment", 1)
+        elif self._reading_bytes + counted > self.bodies_read_bytes:
             self._refused("bodies", "too many requests' bodies were being read at once; one was asked again later")
             return _come_back(503, "the server is reading many requests at once: send yours again in a moment", 1)
-        self._reading_bytes += counted
+        if lms_form:
+            self._reading_lti_bytes += counted
+        else:
+            self._reading_bytes += counted
         try:
             body = await asyncio.wait_for(request.read(), self.body_deadline_s)
             return body if len(body) <= most else _refusal(413, f"the request is larger than {most:,} bytes")
@@ -757,7 +772,10 @@ class ClassServer(BoundedServer):
         except (web.RequestPayloadError, ConnectionError):  # a broken gzip, or the client went
             return _refusal(400, "the request's body could not be read (is its Content-Encoding right?)")
         finally:
-            self._reading_bytes -= counted
+            if lms_form:
+                self._reading_lti_bytes -= counted
+            else:
+                self._reading_bytes -= counted
 
     async def _mission(self, request: web.Request) -> str | web.Response:
         """The mission's text a request's body carries (``{"mission": TEXT}``), or the refusal."""
@@ -1107,7 +1125,7 @@ class ClassServer(BoundedServer):
         """A login's or launch's fields: the query's, and a form's body read against the deadline; or the refusal."""
         given = {key: value for key, value in request.query.items()}
         if request.method == "POST":
-            body = await self._body(request, LTI_MOST_BYTES)
+            body = await self._body(request, LTI_MOST_BYTES, lms_form=True)
             if isinstance(body, web.Response):
                 return body
             try:

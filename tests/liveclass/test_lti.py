@@ -543,3 +543,26 @@ def test_lti_config_run_again_keeps_what_it_kept_unties_a_launch_s_course_and_na
     store = ClassStore(folder)
     assert json.loads(store.setting(lms_module.COURSE, "{}")) == {}
     store.close()
+
+
+def test_lms_forms_that_never_end_are_read_within_a_budget_of_their_own_and_hold_back_no_student(served, lms):
+    import socket
+
+    from autonomy.liveclass.server import LTI_BODIES_READ_BYTES, LTI_MOST_BYTES
+
+    server, codes = served
+    server.bodies_read_bytes = LTI_BODIES_READ_BYTES  # the students' budget no larger than the forms' alone
+    held = []
+    try:
+        for _ in range(LTI_BODIES_READ_BYTES // LTI_MOST_BYTES):  # forms that never end, each declared at the most
+            sock = socket.create_connection(("127.0.0.1", server.port), timeout=30)
+            head = f"POST /lti/launch HTTP/1.1\r\nHost: 127.0.0.1:{server.port}\r\nContent-Length: {LTI_MOST_BYTES}\r\n"
+            sock.sendall((head + "Content-Type: application/x-www-form-urlencoded\r\n\r\nid_token=").encode())
+            held.append(sock)
+        time.sleep(0.5)  # each is being read
+        status, _, body = request(server, "POST", "/lti/launch", {"id_token": "x", "state": "y"})
+        assert status == 503 and "many sign-ins at once" in json.loads(body)["error"]
+        assert call(server, "/api/check", {"mission": "mission: m\ntree: stop\n"}, codes["s1"])[0] == 200
+    finally:
+        for sock in held:
+            sock.close()
