@@ -297,7 +297,11 @@ def _fetch(request: urllib.request.Request, timeout_s: float) -> tuple[int, dict
         body = err.read(4096) if err.fp is not None else b""
         return err.code, {k.lower(): v for k, v in err.headers.items()}, body
     except (OSError, http.client.HTTPException) as err:  # unreachable, refused, cut short, too slow
-        raise LmsDown(f"{urllib.parse.urlsplit(request.full_url).netloc}: {err}") from err
+        why = err.reason if isinstance(err, urllib.error.URLError) else err
+        why = why.strerror or why if isinstance(why, OSError) else why  # "Connection refused", not its repr
+        raise LmsDown(
+            f"{urllib.parse.urlsplit(request.full_url).netloc}: {str(why).lower() or type(err).__name__}"
+        ) from err
     if len(body) > ANSWER_MOST_BYTES:
         raise LmsRefused(f"an answer of more than {ANSWER_MOST_BYTES:,} bytes")
     return status, headers, body
