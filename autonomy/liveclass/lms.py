@@ -24,7 +24,6 @@ student tied to one ``sub`` is never taken by another (a launch that tries is re
 
 from __future__ import annotations
 
-import concurrent.futures
 import dataclasses
 import datetime
 import http.client
@@ -52,6 +51,8 @@ SCOPE_SCORE = "https://purl.imsglobal.org/spec/lti-ags/scope/score"
 REQUEST_TIMEOUT_S = 15.0
 ANSWER_MOST_BYTES = 8 * 2**20
 ROSTER_MOST_PAGES = 200
+#: The longest a class's end waits for a request to the LMS under way, seconds.
+STOP_WAIT_S = 1.0
 #: The longest wait before the LMS is tried again while it cannot be reached, seconds (from 1 s, doubling).
 RETRY_MOST_S = 30.0
 #: Scores sent at once (an LMS far away answers each in a tenth of a second or more).
@@ -502,7 +503,6 @@ class LmsLink:
         self.problem = ""
         self.roster: dict[str, Any] = {}
         self._thread: threading.Thread | None = None
-        self._pool = concurrent.futures.ThreadPoolExecutor(SENDS_AT_ONCE, thread_name_prefix="autonomy-lms")
 
     def start(self) -> None:
         """Starts the link's thread."""
@@ -510,12 +510,15 @@ class LmsLink:
         self._thread.start()
 
     def stop(self) -> None:
-        """Stops the link's thread (a request under way ends within its timeout)."""
+        """Stops the link's thread, waiting at most :data:`STOP_WAIT_S` for a request under way.
+
+        A class's end is not held up by a slow LMS: a score whose answer did not come stays waiting, and is sent
+        at the class's next start (with the same timestamp, which the LMS takes as the same score).
+        """
         self._stop.set()
         self._wake.set()
         if self._thread is not None:
-            self._thread.join(timeout=REQUEST_TIMEOUT_S + 1)
-        self._pool.shutdown(wait=False, cancel_futures=True)
+            self._thread.join(timeout=STOP_WAIT_S)
 
     def nudge(self, roster: bool = False, now: bool = False) -> None:
         """Something to do: a score queued (and the roster to read, if ``roster``; at once, if ``now``)."""
@@ -609,7 +612,7 @@ class LmsLink:
         if not scores:
             return False
         item = self._line_item()
-        outcomes = list(self._pool.map(lambda score: self._send_one(item, score), scores))
+        outcomes = _in_daemons(lambda score: self._send_one(item, score), scores, SENDS_AT_ONCE)
         self._changed()
         for outcome in outcomes:
             if isinstance(outcome, LmsDown):
@@ -636,6 +639,34 @@ class LmsLink:
         sent = datetime.datetime.fromtimestamp(wall_time_s(), datetime.UTC).isoformat(timespec="seconds")
         self.store.write([("UPDATE lms_scores SET sent = ? WHERE id = ?", (sent, score.number))])
         return None
+
+
+def _in_daemons(work: Callable[[Score], Exception | None], scores: list[Score], width: int) -> list[Exception | None]:
+    """``work`` of each score, ``width`` at once, in daemon threads: a process that ends waits for no LMS's answer.
+
+    (A thread pool's workers are joined at the interpreter's exit: a class ended by Ctrl-C would wait out a
+    request to an LMS that never answers.)
+    """
+    outcomes: list[Exception | None] = [None] * len(scores)
+    queue = iter(enumerate(scores))
+    lock = threading.Lock()
+
+    def run() -> None:
+        while True:
+            with lock:
+                taken = next(queue, None)
+            if taken is None:
+                return
+            outcomes[taken[0]] = work(taken[1])
+
+    threads = [
+        threading.Thread(target=run, name="autonomy-lms-send", daemon=True) for _ in range(min(width, len(scores)))
+    ]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    return outcomes
 
 
 __all__ = [

@@ -280,3 +280,28 @@ def test_the_mark_sent_and_shown_is_the_gradebook_s_though_a_hand_in_with_a_prob
     finally:
         server.stop()
         store.close()
+
+
+def test_a_class_ends_at_once_though_the_lms_never_answers_and_its_mark_waits_for_the_next_start(tmp_path, platform):
+    import socket
+    import time
+
+    platform.enrol(1)
+    server, store = open_class(tmp_path, platform)
+    silent = socket.socket()  # an LMS that takes the connection and never answers
+    silent.bind(("127.0.0.1", 0))
+    silent.listen(8)
+    try:
+        teacher_opens(server, platform)
+        until(lambda: desk(server)["roster"])
+        store.set_setting(lms.LINEITEM_URL, f"http://127.0.0.1:{silent.getsockname()[1]}/lineitems/1")
+        store.add_work("00000", "handin", "mission", {}, 6.0, GARAGE.max_points)
+        server._lms_mark("00000")
+        time.sleep(0.5)  # its score is being sent, and no answer comes
+        started = time.monotonic()
+        server.stop()
+        assert time.monotonic() - started < lms.STOP_WAIT_S + 2.0
+        assert len(lms.waiting(store)) == 1  # not lost: sent at the next start
+    finally:
+        silent.close()
+        store.close()
